@@ -1,0 +1,52 @@
+use thiserror::Error;
+
+/// Everything that can go wrong in a call, each with what, where, and how to fix it.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum Error {
+    #[error(
+        "no GPU adapter: {details}. Install a Vulkan driver (on Debian/Ubuntu the CPU driver is \
+         `apt-get install mesa-vulkan-drivers libvulkan1`) or use the CPU backend"
+    )]
+    NoAdapter { details: String },
+
+    #[error("GPU failure: {0}")]
+    Gpu(String),
+
+    #[error("the scene has no {what}: give at least one triangle over three vertices")]
+    EmptyScene { what: &'static str },
+
+    #[error("vertex {vertex} has a non-finite {axis} coordinate ({value}); every x, y and z must be a finite number")]
+    NonFiniteCoordinate { vertex: usize, axis: char, value: f64 },
+
+    #[error("vertex {vertex} has height {value:e}, beyond the range of the Float32 raster (±3.4e38)")]
+    HeightOutOfRange { vertex: usize, value: f64 },
+
+    #[error(
+        "triangle {triangle} refers to vertex {index} at corner {corner}, but the scene has only \
+         {vertex_count} vertices (valid indices are 0..{vertex_count})"
+    )]
+    IndexOutOfRange { triangle: usize, corner: usize, index: u64, vertex_count: usize },
+
+    #[error("raster size {width}×{height} is empty: width and height must both be at least 1")]
+    ZeroSizedRaster { width: u64, height: u64 },
+
+    #[error("invalid grid extent: {reason}")]
+    InvalidExtent { reason: String },
+
+    #[error(
+        "raster {width}×{height} is too large: {reason}; rasterise it in windows or use a coarser grid"
+    )]
+    RasterTooLarge { width: u64, height: u64, reason: String },
+
+    #[error(
+        "invalid window {x0},{y0} {width}×{height}: it must be non-empty and lie inside the \
+         {grid_width}×{grid_height} grid"
+    )]
+    InvalidWindow { x0: u64, y0: u64, width: u64, height: u64, grid_width: u64, grid_height: u64 },
+
+    #[error(
+        "triangle {triangle} spans {extent_px:.0} pixels, more than the {limit_px} pixels exact \
+         coverage supports; split it into smaller triangles or use a coarser grid"
+    )]
+    TriangleTooLarge { triangle: usize, extent_px: f64, limit_px: u64 },
+}

@@ -1,0 +1,16 @@
+//! Host side shared by both backends: the scene and grid types, typed errors, and the
+//! preparation that snaps geometry and fits height planes once per scene.
+
+mod error;
+mod grid;
+mod prepare;
+mod raster;
+mod scene;
+pub mod scenes;
+
+pub use error::Error;
+pub use grid::{Grid, Outputs, Params, MAX_GRID_DIM};
+pub use prepare::{prepare, Prepared, Window};
+pub use raster::{Difference, Raster};
+pub use scene::Scene;
+pub use tileraster_kernels as kernels;

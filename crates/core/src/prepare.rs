@@ -1,0 +1,353 @@
+//! Preparation, once per scene and grid, on the host in f64:
+//!
+//! 1. validate the scene and the grid;
+//! 2. cull triangles that cannot reach a pixel centre of the grid;
+//! 3. choose the snapping lattice (`2^-snap_bits` px) from the largest triangle, so that
+//!    every edge function of the kernels fits in `i64`;
+//! 4. snap vertices, orient triangles positively, drop the ones snapping made flat;
+//! 5. mark the mesh's outer boundary edges (pixel centres on them are covered, like gdal_grid);
+//! 6. fit each triangle's height plane through its *unsnapped* vertices and store it in
+//!    fixed point, exact over the triangle's pixel rectangle.
+//!
+//! Coverage is then decided on the snapped lattice with integers (watertight and identical on
+//! every device); values come from the unsnapped planes, so snapping only matters for which
+//! triangle owns a pixel centre lying within `2^-(snap_bits+1)` px of an edge.
+
+use crate::raster::try_zeroed;
+use crate::{Error, Grid, Params, Raster, Scene};
+use tileraster_kernels::fixed::{ceil_shr, floor_shr};
+use tileraster_kernels::stages::bin::tile_span;
+use tileraster_kernels::types::{FrameParams, PixelRect, Plane, TriangleInput};
+use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS, TILE};
+
+/// A rectangle of grid pixels: columns `x0..x0+width`, rows `y0..y0+height`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Window {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Window {
+    pub fn whole(grid: &Grid) -> Self {
+        Window { x0: 0, y0: 0, width: grid.width, height: grid.height }
+    }
+
+    pub fn pixel_count(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+
+    fn validate(&self, grid: &Grid) -> Result<(), Error> {
+        let fits = self.width > 0
+            && self.height > 0
+            && self.x0 as u64 + self.width as u64 <= grid.width as u64
+            && self.y0 as u64 + self.height as u64 <= grid.height as u64;
+        if fits {
+            Ok(())
+        } else {
+            Err(Error::InvalidWindow {
+                x0: self.x0 as u64,
+                y0: self.y0 as u64,
+                width: self.width as u64,
+                height: self.height as u64,
+                grid_width: grid.width as u64,
+                grid_height: grid.height as u64,
+            })
+        }
+    }
+}
+
+/// A scene made ready for the kernels: snapped, culled, oriented, with planes.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    pub params: Params,
+    pub window: Window,
+    pub snap_bits: u32,
+    /// The triangles that can cover a pixel centre of the grid, in scene order.
+    pub triangles: Vec<TriangleInput>,
+    /// Triangles dropped because they cannot reach a pixel centre of the grid.
+    pub culled: usize,
+    /// Triangles dropped because they have no area once snapped.
+    pub degenerate: usize,
+}
+
+/// Margin of the conservative f64 cull, in pixels: far more than snapping can move a vertex.
+const CULL_MARGIN_PX: f64 = 1.0;
+
+pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result<Prepared, Error> {
+    let grid = params.grid;
+    grid.validate()?;
+    let window = window.unwrap_or_else(|| Window::whole(&grid));
+    window.validate(&grid)?;
+    validate_scene(scene)?;
+
+    let raster: Vec<[f64; 2]> = scene
+        .vertices
+        .iter()
+        .map(|v| {
+            let (u, v) = grid.to_raster(v[0], v[1]);
+            [u, v]
+        })
+        .collect();
+
+    // 2. Conservative cull, and the largest extent among the survivors.
+    let (w, h) = (grid.width as f64, grid.height as f64);
+    let mut candidates = Vec::with_capacity(scene.triangles.len());
+    let mut max_extent = 0.0f64;
+    let mut widest = 0usize;
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let p = tri.map(|k| raster[k as usize]);
+        let (umin, umax) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
+        let (vmin, vmax) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
+        let reaches_grid = umax >= 0.5 - CULL_MARGIN_PX
+            && umin <= w - 0.5 + CULL_MARGIN_PX
+            && vmax >= 0.5 - CULL_MARGIN_PX
+            && vmin <= h - 0.5 + CULL_MARGIN_PX;
+        if !reaches_grid {
+            continue;
+        }
+        let extent = (umax - umin).max(vmax - vmin);
+        if extent > max_extent {
+            max_extent = extent;
+            widest = t;
+        }
+        candidates.push(t);
+    }
+    let mut culled = scene.triangles.len() - candidates.len();
+
+    // 3. The finest lattice on which the widest triangle's edge functions fit.
+    let snap_bits = snap_bits_for(max_extent).ok_or(Error::TriangleTooLarge {
+        triangle: widest,
+        extent_px: max_extent,
+        limit_px: (1u64 << (EXTENT_LIMIT_BITS - 1)) - 2,
+    })?;
+    let unit = (1i64 << snap_bits) as f64;
+
+    // 4. Snap, orient, rectangle.
+    let mut snapped: Vec<Snapped> = Vec::with_capacity(candidates.len());
+    let mut degenerate = 0;
+    for &t in &candidates {
+        let mut corners = scene.triangles[t].map(|k| k as usize);
+        let xy = |k: usize| ((raster[k][0] * unit).round() as i64, (raster[k][1] * unit).round() as i64);
+        let (mut x, mut y) = ([0i64; 3], [0i64; 3]);
+        for c in 0..3 {
+            (x[c], y[c]) = xy(corners[c]);
+        }
+        let area = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
+        if area == 0 {
+            degenerate += 1;
+            continue;
+        }
+        if area < 0 {
+            x.swap(1, 2);
+            y.swap(1, 2);
+            corners.swap(1, 2);
+        }
+        let rect = pixel_rect(&x, &y, snap_bits, &grid);
+        if rect.is_empty() {
+            culled += 1;
+            continue;
+        }
+        snapped.push(Snapped { index: t, corners, x, y, rect, boundary: 0 });
+    }
+
+    // 5. An edge used by exactly one triangle is on the mesh's outer boundary.
+    mark_boundary_edges(&mut snapped);
+
+    // 6. Planes.
+    let triangles = snapped
+        .iter()
+        .map(|s| {
+            let plane = fit_plane(scene, &raster, s, snap_bits);
+            TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, boundary_edges: s.boundary }
+        })
+        .collect();
+
+    Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate })
+}
+
+fn validate_scene(scene: &Scene) -> Result<(), Error> {
+    if scene.vertices.is_empty() {
+        return Err(Error::EmptyScene { what: "vertices" });
+    }
+    if scene.triangles.is_empty() {
+        return Err(Error::EmptyScene { what: "triangles" });
+    }
+    for (vertex, v) in scene.vertices.iter().enumerate() {
+        for (axis, value) in ['x', 'y', 'z'].into_iter().zip(*v) {
+            if !value.is_finite() {
+                return Err(Error::NonFiniteCoordinate { vertex, axis, value });
+            }
+        }
+        if v[2].abs() > f32::MAX as f64 {
+            return Err(Error::HeightOutOfRange { vertex, value: v[2] });
+        }
+    }
+    let n = scene.vertices.len();
+    for (triangle, tri) in scene.triangles.iter().enumerate() {
+        for (corner, &index) in tri.iter().enumerate() {
+            if index as usize >= n {
+                return Err(Error::IndexOutOfRange { triangle, corner, index: index as u64, vertex_count: n });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Largest `s <= MAX_SNAP_BITS` with `(ceil(extent) + 2) << s < 2^EXTENT_LIMIT_BITS`
+/// (one pixel of slack for snapping), or `None` if even `s = 1` does not fit.
+pub fn snap_bits_for(max_extent_px: f64) -> Option<u32> {
+    let ext = max_extent_px.ceil() + 2.0;
+    let limit = (1u64 << EXTENT_LIMIT_BITS) as f64;
+    (1..=MAX_SNAP_BITS).rev().find(|&s| ext * ((1u64 << s) as f64) < limit)
+}
+
+struct Snapped {
+    index: usize,
+    /// Scene vertex indices, in the (possibly swapped) positive orientation.
+    corners: [usize; 3],
+    x: [i64; 3],
+    y: [i64; 3],
+    rect: PixelRect,
+    boundary: u32,
+}
+
+/// Grid pixels whose centres lie in the snapped bounding box (empty if none does).
+fn pixel_rect(x: &[i64; 3], y: &[i64; 3], snap_bits: u32, grid: &Grid) -> PixelRect {
+    let half = 1i64 << (snap_bits - 1);
+    let (xmin, xmax) = (x[0].min(x[1]).min(x[2]), x[0].max(x[1]).max(x[2]));
+    let (ymin, ymax) = (y[0].min(y[1]).min(y[2]), y[0].max(y[1]).max(y[2]));
+    // First and last centre inside [min, max], clamped to the grid (an empty rectangle stays empty).
+    let first = |v: i64, n: u32| ceil_shr(v - half, snap_bits).clamp(0, n as i64) as i32;
+    let last = |v: i64, n: u32| floor_shr(v - half, snap_bits).clamp(-1, n as i64 - 1) as i32;
+    PixelRect {
+        i0: first(xmin, grid.width),
+        j0: first(ymin, grid.height),
+        i1: last(xmax, grid.width),
+        j1: last(ymax, grid.height),
+    }
+}
+
+fn mark_boundary_edges(tris: &mut [Snapped]) {
+    // (undirected snapped edge, triangle, edge number), sorted so equal edges are adjacent.
+    let mut edges: Vec<([i64; 4], u32, u8)> = Vec::with_capacity(tris.len() * 3);
+    for (t, s) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let b = (k + 1) % 3;
+            let (p, q) = ((s.x[k], s.y[k]), (s.x[b], s.y[b]));
+            let (lo, hi) = if p <= q { (p, q) } else { (q, p) };
+            edges.push(([lo.0, lo.1, hi.0, hi.1], t as u32, k as u8));
+        }
+    }
+    edges.sort_unstable();
+    let mut start = 0;
+    while start < edges.len() {
+        let mut end = start + 1;
+        while end < edges.len() && edges[end].0 == edges[start].0 {
+            end += 1;
+        }
+        if end - start == 1 {
+            let (_, t, k) = edges[start];
+            tris[t as usize].boundary |= 1 << k;
+        }
+        start = end;
+    }
+}
+
+/// The plane through the unsnapped vertices (or, where those are flat or flipped, through the
+/// snapped ones), in fixed point relative to the rectangle's corner pixel.
+fn fit_plane(scene: &Scene, raster: &[[f64; 2]], s: &Snapped, snap_bits: u32) -> Plane {
+    let z = s.corners.map(|c| scene.vertices[c][2]);
+    let unsnapped = s.corners.map(|c| raster[c]);
+    let unit = (1i64 << snap_bits) as f64;
+    let snapped = [0, 1, 2].map(|k| [s.x[k] as f64 / unit, s.y[k] as f64 / unit]);
+    let (ci, cj) = (s.rect.i0 as f64 + 0.5, s.rect.j0 as f64 + 0.5);
+    let (zr, gi, gj) = plane_through(&unsnapped, &z, ci, cj).unwrap_or_else(|| {
+        plane_through(&snapped, &z, ci, cj).expect("snapped triangles have positive area")
+    });
+    quantise_plane(zr, gi, gj, &s.rect)
+}
+
+/// Value at `(ci, cj)` and per-pixel gradients of the plane through three raster-space points,
+/// if they are positively oriented (as the snapped triangle is) and the result is finite.
+fn plane_through(p: &[[f64; 2]; 3], z: &[f64; 3], ci: f64, cj: f64) -> Option<(f64, f64, f64)> {
+    let (au, av, az) = (p[1][0] - p[0][0], p[1][1] - p[0][1], z[1] - z[0]);
+    let (bu, bv, bz) = (p[2][0] - p[0][0], p[2][1] - p[0][1], z[2] - z[0]);
+    let det = au * bv - av * bu;
+    if det.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let gi = (az * bv - av * bz) / det;
+    let gj = (au * bz - az * bu) / det;
+    let zr = z[0] + gi * (ci - p[0][0]) + gj * (cj - p[0][1]);
+    [zr, gi, gj].iter().all(|v| v.is_finite()).then_some((zr, gi, gj))
+}
+
+/// Fixed point with the most fraction bits for which `|z| + |gi|·w + |gj|·h < 2^61`, so the
+/// kernels' `z + gi·di + gj·dj` cannot overflow anywhere in the rectangle.
+fn quantise_plane(zr: f64, gi: f64, gj: f64, rect: &PixelRect) -> Plane {
+    let bound = zr.abs() + gi.abs() * (rect.i1 - rect.i0) as f64 + gj.abs() * (rect.j1 - rect.j0) as f64;
+    let frac_bits = if bound == 0.0 {
+        0
+    } else {
+        // bound < 2^(e+1) with e = floor(log2(bound)), read from the bits (exact).
+        let e = ((bound.to_bits() >> 52) & 0x7ff) as i32 - 1023;
+        (60 - e).min(200)
+    };
+    let scale = |v: f64| {
+        // v · 2^frac_bits in two exact steps (2^frac_bits alone may overflow f64).
+        let half = frac_bits / 2;
+        (v * 2f64.powi(half) * 2f64.powi(frac_bits - half)).round() as i64
+    };
+    Plane { z: scale(zr), gi: scale(gi), gj: scale(gj), frac_bits, _pad: 0 }
+}
+
+impl Prepared {
+    /// Kernel parameters for rasterising `window` (part of this preparation's window).
+    pub fn frame(&self, window: Window) -> FrameParams {
+        let tiles_x = window.width.div_ceil(TILE);
+        let tiles_y = window.height.div_ceil(TILE);
+        FrameParams {
+            grid_w: self.params.grid.width,
+            grid_h: self.params.grid.height,
+            win_x0: window.x0,
+            win_y0: window.y0,
+            win_w: window.width,
+            win_h: window.height,
+            tiles_x,
+            tiles_y,
+            triangles: self.triangles.len() as u32,
+            snap_bits: self.snap_bits,
+            nodata_bits: self.params.nodata.to_bits(),
+            outputs: self.params.output_bits(),
+            dispatch_width: 0,
+            _pad: [0; 3],
+        }
+    }
+
+    /// Exact number of (triangle, tile) entries binning will write for `frame`: the size to
+    /// allocate before the bins are filled.
+    pub fn bin_entries(&self, frame: &FrameParams) -> u64 {
+        self.triangles.iter().map(|t| tile_span(&t.rect, frame).len() as u64).sum()
+    }
+
+    /// An output raster for this preparation's window, every buffer zeroed.
+    pub fn allocate_raster(&self) -> Result<Raster, Error> {
+        let n = usize::try_from(self.window.pixel_count()).map_err(|_| Error::RasterTooLarge {
+            width: self.window.width as u64,
+            height: self.window.height as u64,
+            reason: "the pixel count does not fit this machine's address space".into(),
+        })?;
+        let outputs = self.params.outputs;
+        Ok(Raster {
+            grid: self.params.grid,
+            window: self.window,
+            nodata: self.params.nodata,
+            values: try_zeroed(n, &self.window)?,
+            owner: if outputs.owner { Some(try_zeroed(n, &self.window)?) } else { None },
+            coverage: if outputs.coverage { Some(try_zeroed(n, &self.window)?) } else { None },
+            snap_bits: self.snap_bits,
+        })
+    }
+}

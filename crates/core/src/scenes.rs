@@ -1,0 +1,161 @@
+//! Procedurally generated scenes: the demo's terrain and the test and benchmark meshes.
+//! Deterministic for a given seed, no data files needed.
+
+use crate::{Grid, Scene};
+
+/// SplitMix64: tiny, fast and good enough for test geometry.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+}
+
+/// Smooth rolling terrain heights around `base`: a few octaves of products of sines.
+pub struct Heights {
+    waves: Vec<[f64; 5]>,
+    base: f64,
+}
+
+impl Heights {
+    pub fn new(seed: u64, base: f64, relief: f64, wavelength: f64) -> Self {
+        let mut rng = Rng::new(seed ^ 0x4845_4947_4854);
+        let waves = (0..6)
+            .map(|o| {
+                let f = std::f64::consts::TAU / wavelength * 2f64.powi(o);
+                let a = relief * 0.55f64.powi(o);
+                [a, f * rng.range(0.7, 1.3), f * rng.range(0.7, 1.3), rng.range(0.0, 6.3), rng.range(0.0, 6.3)]
+            })
+            .collect();
+        Heights { waves, base }
+    }
+
+    pub fn at(&self, x: f64, y: f64) -> f64 {
+        self.base + self.waves.iter().map(|w| w[0] * (w[1] * x + w[3]).sin() * (w[2] * y + w[4]).cos()).sum::<f64>()
+    }
+}
+
+/// A terrain TIN covering `[x0, x0 + width] × [y0, y0 + height]` exactly: a lattice of
+/// `cols × rows` cells with interior vertices jittered (by at most a fifth of a cell, which
+/// keeps every cell convex), each cell split along a random diagonal.
+pub fn terrain(x0: f64, y0: f64, width: f64, height: f64, cols: u32, rows: u32, seed: u64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let heights = Heights::new(seed, 500.0, 120.0, width.max(height) / 1.5);
+    let (cw, ch) = (width / cols as f64, height / rows as f64);
+    let mut vertices = Vec::with_capacity(((cols + 1) * (rows + 1)) as usize);
+    for r in 0..=rows {
+        for c in 0..=cols {
+            let jx = if c == 0 || c == cols { 0.0 } else { rng.range(-0.2, 0.2) * cw };
+            let jy = if r == 0 || r == rows { 0.0 } else { rng.range(-0.2, 0.2) * ch };
+            let (x, y) = (x0 + c as f64 * cw + jx, y0 + r as f64 * ch + jy);
+            vertices.push([x, y, heights.at(x - x0, y - y0)]);
+        }
+    }
+    let triangles = lattice_triangles(cols, rows, |_, _| rng.next_u64() & 1 == 0);
+    Scene::new(vertices, triangles)
+}
+
+/// Triangles of a `(cols + 1) × (rows + 1)` vertex lattice (row-major), each cell split along
+/// its main diagonal when `main_diagonal(c, r)` says so, else along the other one.
+pub fn lattice_triangles(cols: u32, rows: u32, mut main_diagonal: impl FnMut(u32, u32) -> bool) -> Vec<[u32; 3]> {
+    let mut triangles = Vec::with_capacity((2 * cols * rows) as usize);
+    let at = |c: u32, r: u32| r * (cols + 1) + c;
+    for r in 0..rows {
+        for c in 0..cols {
+            let (a, b, d, e) = (at(c, r), at(c + 1, r), at(c, r + 1), at(c + 1, r + 1));
+            if main_diagonal(c, r) {
+                triangles.push([a, b, e]);
+                triangles.push([a, e, d]);
+            } else {
+                triangles.push([a, b, d]);
+                triangles.push([b, e, d]);
+            }
+        }
+    }
+    triangles
+}
+
+/// A TIN whose vertices sit exactly on pixel centres of `grid`, every `step` pixels, with
+/// random heights: edges and vertices run through pixel centres everywhere.
+pub fn centre_lattice(grid: &Grid, step: u32, seed: u64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let cols = (grid.width - 1) / step;
+    let rows = (grid.height - 1) / step;
+    let mut vertices = Vec::new();
+    for r in 0..=rows {
+        for c in 0..=cols {
+            let (x, y) = grid.cell_centre(c * step, r * step);
+            vertices.push([x, y, rng.range(100.0, 200.0)]);
+        }
+    }
+    Scene::new(vertices, lattice_triangles(cols, rows, |c, r| (c + r) % 2 == 0))
+}
+
+/// `n` thin triangles fanned all the way around the centre of pixel `(i, j)` of `grid`,
+/// closing on themselves: the centre pixel must be owned by exactly one of them.
+pub fn fan(grid: &Grid, i: u32, j: u32, n: u32, radius_px: f64, seed: u64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let (cx, cy) = grid.cell_centre(i, j);
+    let mut vertices = vec![[cx, cy, 250.0]];
+    let phase = rng.range(0.0, 1.0);
+    for k in 0..n {
+        let a = std::f64::consts::TAU * (k as f64 + phase) / n as f64;
+        let r = radius_px * rng.range(0.8, 1.2);
+        vertices.push([cx + r * a.cos() * grid.dx(), cy + r * a.sin() * grid.dy(), rng.range(200.0, 300.0)]);
+    }
+    let triangles = (0..n).map(|k| [0, 1 + k, 1 + (k + 1) % n]).collect();
+    Scene::new(vertices, triangles)
+}
+
+/// Slivers: a wedge from one apex to `n` points packed `spacing_px` apart along a far
+/// vertical line, so every triangle is long and thin, and they tile the wedge.
+pub fn sliver_wedge(grid: &Grid, n: u32, spacing_px: f64, seed: u64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let (ax, ay) = grid.cell_centre(1, grid.height / 2);
+    let far_x = grid.xmin + (grid.width as f64 - 1.3) * grid.dx();
+    let top = ay + 0.5 * n as f64 * spacing_px * grid.dy();
+    let mut vertices = vec![[ax, ay + 0.37 * grid.dy(), 300.0]];
+    for k in 0..=n {
+        vertices.push([far_x, top - k as f64 * spacing_px * grid.dy(), rng.range(250.0, 350.0)]);
+    }
+    let triangles = (0..n).map(|k| [0, 1 + k, 2 + k]).collect();
+    Scene::new(vertices, triangles)
+}
+
+/// `n` random triangles anywhere over (and a little beyond) `grid`, overlapping freely.
+pub fn triangle_soup(grid: &Grid, n: u32, max_size_px: f64, seed: u64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let mut vertices = Vec::new();
+    let mut triangles = Vec::new();
+    for t in 0..n {
+        let cx = rng.range(grid.xmin - 2.0 * grid.dx(), grid.xmax + 2.0 * grid.dx());
+        let cy = rng.range(grid.ymin - 2.0 * grid.dy(), grid.ymax + 2.0 * grid.dy());
+        for _ in 0..3 {
+            let x = cx + rng.range(-0.5, 0.5) * max_size_px * grid.dx();
+            let y = cy + rng.range(-0.5, 0.5) * max_size_px * grid.dy();
+            vertices.push([x, y, rng.range(-50.0, 50.0)]);
+        }
+        triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
+    }
+    Scene::new(vertices, triangles)
+}

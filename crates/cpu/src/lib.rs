@@ -1,0 +1,167 @@
+//! The CPU backend: a host dispatcher that runs the same stage functions as the GPU entry
+//! points, simulating workgroups. Per-triangle stages run as rayon parallel loops; fine
+//! raster runs each tile as one task that executes the workgroup's phases in turn (phase 1
+//! for all 256 invocations, then phase 2, ...), with workgroup memory as a plain struct.
+//!
+//! Each function here is the twin of the entry point of the same name in
+//! `tileraster_kernels::entry`.
+
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
+use tileraster_core::{Error, Prepared, Raster};
+use tileraster_kernels::memory::{Counters, Slots};
+use tileraster_kernels::stages::fine::{self, FineShared, PixelState};
+use tileraster_kernels::stages::{bin, scan, setup::setup_triangle};
+use tileraster_kernels::types::{Coverage, FrameParams, TriangleSetup};
+use tileraster_kernels::{BATCH, SCAN_GROUP, TILE, TILE_PIXELS};
+
+/// Host atomics standing in for a storage buffer the kernels update atomically.
+#[derive(Clone, Copy)]
+struct AtomicSlice<'a>(&'a [AtomicU32]);
+
+impl Counters for AtomicSlice<'_> {
+    fn fetch_add(&mut self, index: usize, value: u32) -> u32 {
+        self.0[index].fetch_add(value, Ordering::Relaxed)
+    }
+}
+
+impl Slots for AtomicSlice<'_> {
+    fn store(&mut self, index: usize, value: u32) {
+        self.0[index].store(value, Ordering::Relaxed)
+    }
+}
+
+fn atomic_zeroed(len: usize) -> Vec<AtomicU32> {
+    (0..len).map(|_| AtomicU32::new(0)).collect()
+}
+
+/// Rasterise a prepared scene on the CPU, over the preparation's whole window.
+pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
+    let mut raster = prepared.allocate_raster()?;
+    let frame = prepared.frame(prepared.window);
+    let entries = prepared.bin_entries(&frame);
+    if entries > u32::MAX as u64 {
+        return Err(Error::RasterTooLarge {
+            width: frame.win_w as u64,
+            height: frame.win_h as u64,
+            reason: format!("{entries} triangle–tile pairs exceed the 2^32 a window can bin"),
+        });
+    }
+    let setups = setup(prepared, &frame);
+    let counts = bin_count(&frame, &setups);
+    let offsets = bin_scan(&frame, &counts);
+    debug_assert_eq!(offsets[frame.tile_count() as usize] as u64, entries);
+    let bins = bin_fill(&frame, &setups, &offsets);
+    fine_raster(&frame, &setups, &offsets, &bins, &mut raster);
+    Ok(raster)
+}
+
+pub fn setup(prepared: &Prepared, frame: &FrameParams) -> Vec<TriangleSetup> {
+    prepared
+        .triangles
+        .par_iter()
+        .enumerate()
+        .map(|(slot, input)| setup_triangle(input, slot as u32, frame.snap_bits))
+        .collect()
+}
+
+pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup]) -> Vec<u32> {
+    let counts = atomic_zeroed(frame.tile_count() as usize);
+    let sink = AtomicSlice(&counts);
+    setups.par_iter().for_each(|s| bin::bin_count(s, frame, &mut { sink }));
+    counts.into_iter().map(AtomicU32::into_inner).collect()
+}
+
+pub fn bin_scan(frame: &FrameParams, counts: &[u32]) -> Vec<u32> {
+    let n = frame.tile_count();
+    let mut offsets = vec![0u32; n as usize + 1];
+    let mut shared: scan::ScanShared = [0; SCAN_GROUP as usize];
+    for lid in 0..SCAN_GROUP {
+        scan::scan_reduce(lid, counts, n, &mut shared);
+    }
+    for lid in 0..SCAN_GROUP {
+        scan::scan_partials(lid, &mut shared);
+    }
+    for lid in 0..SCAN_GROUP {
+        scan::scan_write(lid, counts, n, &shared, &mut offsets);
+    }
+    offsets
+}
+
+pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32]) -> Vec<u32> {
+    let cursors = atomic_zeroed(frame.tile_count() as usize);
+    let bins = atomic_zeroed(offsets[frame.tile_count() as usize] as usize);
+    let (cursors_sink, bins_sink) = (AtomicSlice(&cursors), AtomicSlice(&bins));
+    setups.par_iter().for_each(|s| bin::bin_fill(s, frame, offsets, &mut { cursors_sink }, &mut { bins_sink }));
+    bins.into_iter().map(AtomicU32::into_inner).collect()
+}
+
+/// One band of `TILE` output rows: the part of each output layer a row of tiles writes.
+struct Band<'a> {
+    ty: u32,
+    values: &'a mut [f32],
+    owner: Option<&'a mut [u32]>,
+    coverage: Option<&'a mut [u32]>,
+}
+
+pub fn fine_raster(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
+    let band_len = (TILE * frame.win_w) as usize;
+    let owner = optional_bands(raster.owner.as_mut(), band_len, frame.tiles_y);
+    let coverage = optional_bands(raster.coverage.as_mut(), band_len, frame.tiles_y);
+    let bands: Vec<Band> = raster
+        .values
+        .chunks_mut(band_len)
+        .zip(owner)
+        .zip(coverage)
+        .enumerate()
+        .map(|(ty, ((values, owner), coverage))| Band { ty: ty as u32, values, owner, coverage })
+        .collect();
+    bands.into_par_iter().for_each(|mut band| {
+        for tx in 0..frame.tiles_x {
+            fine_raster_tile(tx, frame, setups, offsets, bins, &mut band);
+        }
+    });
+}
+
+/// Bands of an optional output layer (all `None` when the layer was not asked for).
+fn optional_bands(layer: Option<&mut Vec<u32>>, band_len: usize, bands: u32) -> Vec<Option<&mut [u32]>> {
+    match layer {
+        Some(v) => v.chunks_mut(band_len).map(Some).collect(),
+        None => (0..bands).map(|_| None).collect(),
+    }
+}
+
+/// One fine-raster workgroup, phase by phase.
+fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band) {
+    let ty = band.ty;
+    let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+    let pixels: [(i32, i32, bool); TILE_PIXELS as usize] = std::array::from_fn(|lid| fine::tile_pixel(tx, ty, lid as u32, frame));
+    let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
+    let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
+    let mut batch_start = 0;
+    while batch_start < bin_len {
+        for lid in 0..TILE_PIXELS {
+            fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, &mut shared);
+        }
+        let batch_len = fine::batch_len(bin_len, batch_start);
+        for (state, &(i, j, _)) in states.iter_mut().zip(&pixels) {
+            fine::fine_test(i, j, batch_len, &shared, state);
+        }
+        batch_start += BATCH;
+    }
+    let band_start = (ty * TILE * frame.win_w) as usize;
+    for (state, &(i, j, inside)) in states.iter().zip(&pixels) {
+        if !inside {
+            continue;
+        }
+        let out = fine::fine_resolve(i, j, state, setups, frame);
+        let k = fine::window_index(i, j, frame) - band_start;
+        band.values[k] = f32::from_bits(out.value_bits);
+        if let Some(owner) = band.owner.as_deref_mut() {
+            owner[k] = out.owner;
+        }
+        if let Some(coverage) = band.coverage.as_deref_mut() {
+            coverage[k] = out.count;
+        }
+    }
+}

@@ -1,0 +1,398 @@
+use std::sync::{Mutex, OnceLock};
+use tileraster_core::{Error, Prepared, Raster, Window};
+use tileraster_kernels::types::{FrameParams, TriangleInput, TriangleSetup};
+use tileraster_kernels::{OUTPUT_COVERAGE, OUTPUT_OWNER, SCAN_GROUP, TILE, TRIANGLE_GROUP};
+
+/// Largest window the backend rasterises at once, in pixels, whatever the device allows:
+/// big enough to keep a GPU busy, small enough to bound the per-window buffers.
+const MAX_WINDOW_PIXELS: u64 = 4096 * 4096;
+
+static CONTEXT: OnceLock<Result<Mutex<GpuContext>, Error>> = OnceLock::new();
+
+fn context() -> Result<&'static Mutex<GpuContext>, Error> {
+    CONTEXT.get_or_init(|| GpuContext::new().map(Mutex::new)).as_ref().map_err(Clone::clone)
+}
+
+/// Name, driver and type of the adapter the backend uses.
+pub fn adapter_name() -> Result<String, Error> {
+    let ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+    let info = &ctx.info;
+    Ok(format!("{} ({:?}, {} {})", info.name, info.device_type, info.driver, info.driver_info))
+}
+
+/// Rasterise a prepared scene on the GPU.
+pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
+    let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+    ctx.rasterise(prepared)
+}
+
+struct Pipelines {
+    setup: wgpu::ComputePipeline,
+    bin_count: wgpu::ComputePipeline,
+    bin_scan: wgpu::ComputePipeline,
+    bin_fill: wgpu::ComputePipeline,
+    fine_raster: wgpu::ComputePipeline,
+}
+
+/// A storage buffer that grows when a call needs more and is otherwise kept.
+struct Grown {
+    buffer: Option<wgpu::Buffer>,
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+}
+
+impl Grown {
+    fn storage(label: &'static str) -> Self {
+        Grown {
+            buffer: None,
+            label,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        }
+    }
+
+    fn readback(label: &'static str) -> Self {
+        Grown { buffer: None, label, usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST }
+    }
+
+    /// At least `bytes` (and at least 16) bytes.
+    fn get(&mut self, device: &wgpu::Device, bytes: u64) -> &wgpu::Buffer {
+        let bytes = bytes.max(16).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+        if self.buffer.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.buffer = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(self.label),
+                size: bytes,
+                usage: self.usage,
+                mapped_at_creation: false,
+            }));
+        }
+        self.buffer.as_ref().expect("just created")
+    }
+}
+
+struct Buffers {
+    frame: Grown,
+    inputs: Grown,
+    setups: Grown,
+    counts: Grown,
+    offsets: Grown,
+    cursors: Grown,
+    bins: Grown,
+    values: Grown,
+    owners: Grown,
+    coverage: Grown,
+    readback: Grown,
+}
+
+struct GpuContext {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+    limits: wgpu::Limits,
+    pipelines: Pipelines,
+    buffers: Buffers,
+}
+
+/// Prefer a real GPU, then an integrated one, then a CPU implementation such as lavapipe.
+/// `TILERASTER_ADAPTER=<substring>` picks an adapter by name instead.
+fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, Error> {
+    let wanted = std::env::var("TILERASTER_ADAPTER").ok();
+    let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+    let usable = adapters.into_iter().filter(|a| a.features().contains(wgpu::Features::SHADER_INT64));
+    let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    let mut usable: Vec<_> = match &wanted {
+        Some(name) => usable.filter(|a| a.get_info().name.contains(name.as_str())).collect(),
+        None => usable.collect(),
+    };
+    usable.sort_by_key(rank);
+    usable.into_iter().next().ok_or_else(|| Error::NoAdapter {
+        details: match (&wanted, seen.is_empty()) {
+            (_, true) => "no Vulkan adapter was found".into(),
+            (Some(name), false) => format!("no adapter named like {name:?} with 64-bit integer support among {seen:?}"),
+            (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers in shaders"),
+        },
+    })
+}
+
+impl GpuContext {
+    fn new() -> Result<Self, Error> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapter = choose_adapter(pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN)))?;
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("tileraster"),
+            required_features: wgpu::Features::SHADER_INT64,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| Error::NoAdapter { details: format!("the device could not be opened: {e}") })?;
+        // Errors are collected by error scopes around each call; never panic on them.
+        device.on_uncaptured_error(std::sync::Arc::new(|e| eprintln!("tileraster: uncaptured GPU error: {e}")));
+
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let words = wgpu::util::make_spirv_raw(crate::KERNELS_SPV);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tileraster kernels"),
+            source: wgpu::ShaderSource::SpirV(words),
+        });
+        // rust-gpu names entry points by their path in the kernel crate.
+        let pipeline = |name: &str| {
+            let entry = format!("entry::{name}");
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: None,
+                module: &module,
+                entry_point: Some(&entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let pipelines = Pipelines {
+            setup: pipeline("setup"),
+            bin_count: pipeline("bin_count"),
+            bin_scan: pipeline("bin_scan"),
+            bin_fill: pipeline("bin_fill"),
+            fine_raster: pipeline("fine_raster"),
+        };
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("the kernels were rejected by the device: {e}")));
+        }
+        let buffers = Buffers {
+            frame: Grown::storage("frame"),
+            inputs: Grown::storage("triangle inputs"),
+            setups: Grown::storage("triangle setups"),
+            counts: Grown::storage("bin counts"),
+            offsets: Grown::storage("bin offsets"),
+            cursors: Grown::storage("bin cursors"),
+            bins: Grown::storage("bins"),
+            values: Grown::storage("values"),
+            owners: Grown::storage("owners"),
+            coverage: Grown::storage("coverage"),
+            readback: Grown::readback("readback"),
+        };
+        Ok(GpuContext { device, queue, info: adapter.get_info(), limits, pipelines, buffers })
+    }
+
+    /// Largest buffer a kernel may bind.
+    fn max_binding(&self) -> u64 {
+        (self.limits.max_storage_buffer_binding_size as u64).min(self.limits.max_buffer_size)
+    }
+
+    fn rasterise(&mut self, prepared: &Prepared) -> Result<Raster, Error> {
+        let too_large = |what: String| Error::RasterTooLarge {
+            width: prepared.window.width as u64,
+            height: prepared.window.height as u64,
+            reason: what,
+        };
+        let n = prepared.triangles.len() as u64;
+        let setup_bytes = n * std::mem::size_of::<TriangleSetup>() as u64;
+        if setup_bytes > self.max_binding() {
+            return Err(too_large(format!(
+                "{n} triangles need {setup_bytes} bytes of triangle setup, more than the GPU binds at once \
+                 ({} bytes); use the CPU backend",
+                self.max_binding()
+            )));
+        }
+        let mut raster = prepared.allocate_raster()?;
+        let scope_validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let scope_memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let result = self.rasterise_windows(prepared, &mut raster);
+        let memory_error = pollster::block_on(scope_memory.pop());
+        let validation_error = pollster::block_on(scope_validation.pop());
+        result?;
+        if let Some(e) = memory_error.or(validation_error) {
+            return Err(Error::Gpu(e.to_string()));
+        }
+        Ok(raster)
+    }
+
+    fn rasterise_windows(&mut self, prepared: &Prepared, raster: &mut Raster) -> Result<(), Error> {
+        let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
+        let max_pixels = (self.max_binding() / 4 / layers).min(MAX_WINDOW_PIXELS);
+        self.upload_and_setup(prepared)?;
+        let mut pending = windows(&prepared.window, max_pixels);
+        pending.reverse();
+        while let Some(window) = pending.pop() {
+            let frame = prepared.frame(window);
+            let entries = prepared.bin_entries(&frame);
+            if entries * 4 > self.max_binding() || entries > u32::MAX as u64 {
+                // Too many triangle–tile pairs for one binding: split the window in two.
+                if window.height <= TILE {
+                    return Err(Error::RasterTooLarge {
+                        width: window.width as u64,
+                        height: window.height as u64,
+                        reason: format!("one row of tiles already has {entries} triangle–tile pairs, more than the GPU binds"),
+                    });
+                }
+                let top = (window.height / 2).next_multiple_of(TILE);
+                pending.push(Window { y0: window.y0 + top, height: window.height - top, ..window });
+                pending.push(Window { height: top, ..window });
+                continue;
+            }
+            self.rasterise_window(&frame, entries, raster)?;
+        }
+        Ok(())
+    }
+
+    fn dispatch_triangles(frame: &mut FrameParams) -> (u32, u32) {
+        let groups = frame.triangles.div_ceil(TRIANGLE_GROUP).max(1);
+        let x = groups.min(65_535);
+        let y = groups.div_ceil(x);
+        frame.dispatch_width = x * TRIANGLE_GROUP;
+        (x, y)
+    }
+
+    fn upload_and_setup(&mut self, prepared: &Prepared) -> Result<(), Error> {
+        let mut frame = prepared.frame(prepared.window);
+        let (gx, gy) = Self::dispatch_triangles(&mut frame);
+        let inputs: &[TriangleInput] = &prepared.triangles;
+        let input_bytes: &[u8] = bytemuck::cast_slice(inputs);
+        let device = &self.device;
+        let b = &mut self.buffers;
+        let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
+        self.queue.write_buffer(frame_buf, 0, bytemuck::bytes_of(&frame));
+        let inputs_buf = b.inputs.get(device, input_bytes.len() as u64);
+        self.queue.write_buffer(inputs_buf, 0, input_bytes);
+        let setups_buf = b.setups.get(device, (inputs.len() * std::mem::size_of::<TriangleSetup>()) as u64);
+        let bind = bind_group(device, &self.pipelines.setup, &[frame_buf, inputs_buf, setups_buf]);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("setup"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines.setup);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        self.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    fn rasterise_window(&mut self, frame: &FrameParams, entries: u64, raster: &mut Raster) -> Result<(), Error> {
+        let mut frame = *frame;
+        let (gx, gy) = Self::dispatch_triangles(&mut frame);
+        let tiles = frame.tile_count() as u64;
+        let pixels = frame.win_w as u64 * frame.win_h as u64;
+        let device = &self.device;
+        let p = &self.pipelines;
+        let b = &mut self.buffers;
+        let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64).clone();
+        self.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
+        let setups = b.setups.get(device, 0).clone();
+        let counts = b.counts.get(device, tiles * 4).clone();
+        let cursors = b.cursors.get(device, tiles * 4).clone();
+        let offsets = b.offsets.get(device, (tiles + 1) * 4).clone();
+        let bins = b.bins.get(device, entries * 4).clone();
+        let values = b.values.get(device, pixels * 4).clone();
+        let owner_bytes = if frame.outputs & OUTPUT_OWNER != 0 { pixels * 4 } else { 0 };
+        let coverage_bytes = if frame.outputs & OUTPUT_COVERAGE != 0 { pixels * 4 } else { 0 };
+        let owners = b.owners.get(device, owner_bytes).clone();
+        let coverage = b.coverage.get(device, coverage_bytes).clone();
+        let readback = b.readback.get(device, pixels * 4 + owner_bytes + coverage_bytes).clone();
+
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.clear_buffer(&counts, 0, Some(tiles * 4));
+        encoder.clear_buffer(&cursors, 0, Some(tiles * 4));
+        let stages: [(&wgpu::ComputePipeline, Vec<&wgpu::Buffer>, (u32, u32)); 4] = [
+            (&p.bin_count, vec![&frame_buf, &setups, &counts], (gx, gy)),
+            (&p.bin_scan, vec![&frame_buf, &counts, &offsets], (1, 1)),
+            (&p.bin_fill, vec![&frame_buf, &setups, &offsets, &cursors, &bins], (gx, gy)),
+            (
+                &p.fine_raster,
+                vec![&frame_buf, &setups, &offsets, &bins, &values, &owners, &coverage],
+                (frame.tiles_x, frame.tiles_y),
+            ),
+        ];
+        debug_assert_eq!(SCAN_GROUP, 256);
+        for (pipeline, buffers, (x, y)) in &stages {
+            let bind = bind_group(device, pipeline, buffers);
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(*x, *y, 1);
+        }
+        encoder.copy_buffer_to_buffer(&values, 0, &readback, 0, pixels * 4);
+        encoder.copy_buffer_to_buffer(&owners, 0, &readback, pixels * 4, owner_bytes);
+        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, pixels * 4 + owner_bytes, coverage_bytes);
+        self.queue.submit([encoder.finish()]);
+
+        let total = pixels * 4 + owner_bytes + coverage_bytes;
+        let slice = readback.slice(..total);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+        rx.recv()
+            .map_err(|_| Error::Gpu("the readback was dropped".into()))?
+            .map_err(|e| Error::Gpu(format!("reading the raster back failed: {e}")))?;
+        {
+            let view = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("mapping the raster failed: {e}")))?;
+            let words: &[u32] = bytemuck::cast_slice(&view);
+            let (value_words, rest) = words.split_at(pixels as usize);
+            let (owner_words, coverage_words) = rest.split_at((owner_bytes / 4) as usize);
+            let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
+            copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
+            if let Some(owner) = raster.owner.as_mut() {
+                copy_rows(owner_words, &frame, width, x0, y0, owner);
+            }
+            if let Some(coverage) = raster.coverage.as_mut() {
+                copy_rows(coverage_words, &frame, width, x0, y0, coverage);
+            }
+        }
+        readback.unmap();
+        Ok(())
+    }
+}
+
+/// Copy a window's rows into the raster that holds it.
+fn copy_rows(src: &[u32], frame: &FrameParams, width: u32, x0: u32, y0: u32, dst: &mut [u32]) {
+    let w = frame.win_w as usize;
+    for (r, row) in src.chunks(w).enumerate() {
+        let y = (frame.win_y0 - y0) as usize + r;
+        let x = (frame.win_x0 - x0) as usize;
+        let start = y * width as usize + x;
+        dst[start..start + w].copy_from_slice(row);
+    }
+}
+
+fn bind_group(device: &wgpu::Device, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// Cut `area` into tile-aligned bands of full width (or tile-aligned blocks when one row of
+/// the area is already too wide), each at most `max_pixels`.
+fn windows(area: &Window, max_pixels: u64) -> Vec<Window> {
+    let max_pixels = max_pixels.max((TILE * TILE) as u64);
+    let width = (area.width as u64).min((max_pixels / TILE as u64 / TILE as u64 * TILE as u64).max(TILE as u64)) as u32;
+    let height = ((max_pixels / width as u64) / TILE as u64 * TILE as u64).max(TILE as u64).min(area.height as u64) as u32;
+    let mut out = Vec::new();
+    let mut y = 0;
+    while y < area.height {
+        let h = height.min(area.height - y);
+        let mut x = 0;
+        while x < area.width {
+            let w = width.min(area.width - x);
+            out.push(Window { x0: area.x0 + x, y0: area.y0 + y, width: w, height: h });
+            x += w;
+        }
+        y += h;
+    }
+    out
+}

@@ -1,0 +1,11 @@
+//! The GPU backend: the kernels compiled to SPIR-V by rust-gpu (see `build.rs`), dispatched
+//! through wgpu. One context per process keeps the device, the pipelines and the buffers
+//! across calls; rasters larger than the device's buffer limits are cut into windows, which
+//! changes no bit of the result (every pixel depends only on the triangles covering it).
+
+mod context;
+
+pub use context::{adapter_name, rasterise};
+
+/// The kernels as compiled by rust-gpu.
+pub const KERNELS_SPV: &[u8] = include_bytes!(env!("tileraster_kernels.spv"));

@@ -1,0 +1,47 @@
+//! File formats: OBJ meshes in; single-band Float32 GeoTIFF and PNG hillshade previews out.
+//! Writers go through a temporary file in the destination's folder and rename it into place,
+//! so a failed run never leaves a partial file behind.
+
+mod geotiff;
+mod obj;
+mod preview;
+
+pub use geotiff::write_geotiff;
+pub use obj::{parse_obj, read_obj};
+pub use preview::write_preview_png;
+
+use std::path::{Path, PathBuf};
+
+/// A file could not be read, parsed or written.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}:{line}: {message}")]
+    Parse { path: PathBuf, line: usize, message: String },
+    #[error("{path}: {message}")]
+    Format { path: PathBuf, message: String },
+}
+
+/// Write a file through `<name>.partial` beside it, renamed into place only on success.
+pub(crate) fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<(), String>,
+) -> Result<(), IoError> {
+    let io = |source| IoError::Io { path: path.to_owned(), source };
+    let mut tmp_name = path.file_name().unwrap_or_default().to_owned();
+    tmp_name.push(".partial");
+    let tmp = path.with_file_name(tmp_name);
+    let result = (|| {
+        let file = std::fs::File::create(&tmp).map_err(io)?;
+        let mut out = std::io::BufWriter::new(file);
+        write(&mut out).map_err(|message| IoError::Format { path: path.to_owned(), message })?;
+        let file = out.into_inner().map_err(|e| io(e.into_error()))?;
+        file.sync_all().map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}

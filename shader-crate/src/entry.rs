@@ -1,0 +1,114 @@
+//! Compute entry points: unpack invocation ids and buffers, call the stage functions.
+//! The host dispatcher (`tileraster-cpu`) has one twin per entry point, with the same name.
+
+use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
+use crate::stages::fine::{self, FineShared, PixelState};
+use crate::stages::scan::{self, ScanShared};
+use crate::stages::setup::setup_triangle;
+use crate::types::{FrameParams, TriangleInput, TriangleSetup};
+use crate::{BATCH, OUTPUT_COVERAGE, OUTPUT_OWNER};
+use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
+use spirv_std::glam::UVec3;
+use spirv_std::spirv;
+
+/// Per-triangle stages are dispatched in 2D when there are more than 65,535 workgroups.
+fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
+    gid.y * frame.dispatch_width + gid.x
+}
+
+#[spirv(compute(threads(64)))]
+pub fn setup(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] inputs: &[TriangleInput],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] setups: &mut [TriangleSetup],
+) {
+    let t = triangle_slot(gid, frame);
+    if t < frame.triangles {
+        setups[t as usize] = setup_triangle(&inputs[t as usize], t, frame.snap_bits);
+    }
+}
+
+#[spirv(compute(threads(64)))]
+pub fn bin_count(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] counts: &mut [u32],
+) {
+    let t = triangle_slot(gid, frame);
+    if t < frame.triangles {
+        count_tiles(&setups[t as usize], frame, counts);
+    }
+}
+
+#[spirv(compute(threads(256)))]
+pub fn bin_scan(
+    #[spirv(local_invocation_index)] lid: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &mut [u32],
+    #[spirv(workgroup)] shared: &mut ScanShared,
+) {
+    let n = frame.tile_count();
+    scan::scan_reduce(lid, counts, n, shared);
+    barrier();
+    scan::scan_partials(lid, shared);
+    barrier();
+    scan::scan_write(lid, counts, n, shared, offsets);
+}
+
+#[spirv(compute(threads(64)))]
+pub fn bin_fill(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] cursors: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] bins: &mut [u32],
+) {
+    let t = triangle_slot(gid, frame);
+    if t < frame.triangles {
+        fill_tiles(&setups[t as usize], frame, offsets, cursors, bins);
+    }
+}
+
+#[spirv(compute(threads(16, 16)))]
+#[allow(clippy::too_many_arguments)]
+pub fn fine_raster(
+    #[spirv(workgroup_id)] wg: UVec3,
+    #[spirv(local_invocation_index)] lid: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bins: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] values: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
+    #[spirv(workgroup)] shared: &mut FineShared,
+) {
+    let tile = wg.y * frame.tiles_x + wg.x;
+    let (bin_start, bin_len) = fine::bin_range(offsets, tile);
+    let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
+    let mut state = PixelState::EMPTY;
+    let mut batch_start = 0;
+    while batch_start < bin_len {
+        fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, shared);
+        barrier();
+        fine::fine_test(i, j, fine::batch_len(bin_len, batch_start), shared, &mut state);
+        barrier();
+        batch_start += BATCH;
+    }
+    if inside {
+        let out = fine::fine_resolve(i, j, &state, setups, frame);
+        let k = fine::window_index(i, j, frame);
+        values[k] = out.value_bits;
+        if frame.outputs & OUTPUT_OWNER != 0 {
+            owners[k] = out.owner;
+        }
+        if frame.outputs & OUTPUT_COVERAGE != 0 {
+            coverage[k] = out.count;
+        }
+    }
+}
+

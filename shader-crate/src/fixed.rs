@@ -1,0 +1,202 @@
+//! Exact integer helpers: floor/ceil by powers of two and the correctly rounded conversion
+//! of a fixed-point value to `f32`, done bit by bit so that no device rounding mode, flush
+//! or fused operation can change the result.
+
+/// `floor(v / 2^s)` for `0 <= s < 64`.
+pub fn floor_shr(v: i64, s: u32) -> i64 {
+    v >> s
+}
+
+/// `ceil(v / 2^s)` for `0 <= s < 64`.
+pub fn ceil_shr(v: i64, s: u32) -> i64 {
+    -((-v) >> s)
+}
+
+/// Index of the highest set bit of `v` (`v != 0`), without relying on a device `clz`.
+pub fn msb(v: u64) -> u32 {
+    let mut x = v;
+    let mut n = 0;
+    if x >> 32 != 0 {
+        x >>= 32;
+        n += 32;
+    }
+    if x >> 16 != 0 {
+        x >>= 16;
+        n += 16;
+    }
+    if x >> 8 != 0 {
+        x >>= 8;
+        n += 8;
+    }
+    if x >> 4 != 0 {
+        x >>= 4;
+        n += 4;
+    }
+    if x >> 2 != 0 {
+        x >>= 2;
+        n += 2;
+    }
+    if x >> 1 != 0 {
+        n += 1;
+    }
+    n
+}
+
+/// `round(m / 2^s)` to nearest, ties to even, for any `s` (large shifts round to 0).
+fn round_shr(m: u64, s: u32) -> u64 {
+    if s == 0 {
+        return m;
+    }
+    if s > 64 {
+        return 0;
+    }
+    if s == 64 {
+        // m / 2^64 < 1: rounds up only when strictly above one half.
+        return if m > (1u64 << 63) { 1 } else { 0 };
+    }
+    let q = m >> s;
+    let rem = m & ((1u64 << s) - 1);
+    let half = 1u64 << (s - 1);
+    if rem > half || (rem == half && (q & 1) == 1) { q + 1 } else { q }
+}
+
+/// Bits of the `f32` nearest to `n · 2^−frac_bits` (round to nearest, ties to even,
+/// subnormals kept, ±∞ on overflow; zero is +0).
+pub fn fixed_to_f32_bits(n: i64, frac_bits: i32) -> u32 {
+    if n == 0 {
+        return 0;
+    }
+    let sign: u32 = if n < 0 { 0x8000_0000 } else { 0 };
+    let mag = n.unsigned_abs();
+    let top = msb(mag) as i32;
+    // Unbiased exponent of the leading bit.
+    let exp = top - frac_bits;
+    if exp > 127 {
+        return sign | 0x7f80_0000;
+    }
+    if exp >= -126 {
+        // Normal: keep 24 significant bits.
+        let m = if top > 23 { round_shr(mag, (top - 23) as u32) } else { mag << (23 - top) as u32 };
+        // Rounding may carry into a 25th bit: that is the next binade.
+        let (m, exp) = if m == (1u64 << 24) { (m >> 1, exp + 1) } else { (m, exp) };
+        if exp > 127 {
+            return sign | 0x7f80_0000;
+        }
+        return sign | (((exp + 127) as u32) << 23) | (m as u32 & 0x007f_ffff);
+    }
+    // Subnormal: the bits are the value in units of 2^-149; a carry to 2^23 lands exactly on
+    // the smallest normal's encoding.
+    let shift = frac_bits - 149;
+    let m = if shift >= 0 { round_shr(mag, shift as u32) } else { mag << (-shift) as u32 };
+    sign | m as u32
+}
+
+#[cfg(all(test, not(target_arch = "spirv")))]
+mod tests {
+    use super::*;
+
+    /// Reference: reduce to 53 bits with a sticky bit (round to odd), then let the hardware
+    /// round f64 → f32, which is then correctly rounded.
+    fn reference(n: i64, frac_bits: i32) -> f32 {
+        if n == 0 {
+            return 0.0;
+        }
+        let mag = n.unsigned_abs();
+        let top = 63 - mag.leading_zeros() as i32;
+        let (m, shift) = if top > 52 {
+            let s = (top - 52) as u32;
+            let sticky = u64::from(mag & ((1u64 << s) - 1) != 0);
+            ((mag >> s) | sticky, s as i32)
+        } else {
+            (mag, 0)
+        };
+        let exp = shift - frac_bits;
+        // m·2^exp with exp split in two steps so the intermediate never under/overflows.
+        let v = (m as f64) * 2f64.powi(exp / 2) * 2f64.powi(exp - exp / 2);
+        let v = if n < 0 { -v } else { v };
+        v as f32
+    }
+
+    fn check(n: i64, f: i32) {
+        let got = f32::from_bits(fixed_to_f32_bits(n, f));
+        let want = reference(n, f);
+        assert_eq!(got.to_bits(), want.to_bits(), "n={n} f={f}: got {got:e}, want {want:e}");
+    }
+
+    #[test]
+    fn msb_matches_leading_zeros() {
+        for s in 0..64 {
+            let v = 1u64 << s;
+            assert_eq!(msb(v), s);
+            assert_eq!(msb(v | 1), s);
+            assert_eq!(msb(v | (v >> 1)), s);
+        }
+        assert_eq!(msb(u64::MAX), 63);
+    }
+
+    #[test]
+    fn shifts_floor_and_ceil() {
+        for v in -70i64..70 {
+            for s in 0..5 {
+                let d = (1i64 << s) as f64;
+                assert_eq!(floor_shr(v, s), (v as f64 / d).floor() as i64);
+                assert_eq!(ceil_shr(v, s), (v as f64 / d).ceil() as i64);
+            }
+        }
+    }
+
+    #[test]
+    fn exact_small_values() {
+        check(1, 0);
+        check(-1, 0);
+        check(3, 1);
+        check(1 << 40, 40);
+        check(123_456_789, 10);
+    }
+
+    #[test]
+    fn ties_round_to_even() {
+        // 2^24 + 1 and 2^24 + 3 are ties in f32.
+        check((1 << 24) + 1, 0);
+        check((1 << 24) + 3, 0);
+        check(-((1 << 24) + 1), 0);
+        check((1 << 25) + 2, 0);
+        check((1 << 25) + 6, 0);
+    }
+
+    #[test]
+    fn carry_into_next_binade_and_overflow() {
+        check((1 << 25) - 1, 0);
+        check(i64::MAX, 0);
+        check(i64::MIN, 0);
+        check(i64::MAX, -64); // 2^127 rounds up to 2^127
+        check(i64::MAX, -65); // overflows to infinity
+        check(-i64::MAX, -80);
+        check(1, -127);
+        check(1, -128);
+    }
+
+    #[test]
+    fn subnormals_and_underflow() {
+        for f in [140, 149, 150, 151, 170, 200, 212, 213, 214, 300] {
+            for n in [1i64, 2, 3, 5, 7, (1 << 23) - 1, 1 << 23, (1 << 24) - 1, 123_456_789_012, i64::MAX, -9] {
+                check(n, f);
+            }
+        }
+    }
+
+    #[test]
+    fn random_values_match_reference() {
+        // xorshift: deterministic, no dependency.
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..200_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let bits = (s % 64) as u32;
+            let n = (s as i64) >> (63 - bits.min(63));
+            let f = ((s >> 20) % 400) as i32 - 130;
+            check(n, f);
+        }
+    }
+}

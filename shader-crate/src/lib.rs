@@ -1,0 +1,46 @@
+//! tileraster's kernels: the types shared with the host, one pure function per pipeline
+//! stage, and thin `#[spirv(compute)]` entry points.
+//!
+//! The same source is compiled twice: to SPIR-V by rust-gpu (run through wgpu) and natively
+//! (linked into the rayon host dispatcher). Every decision a stage makes is integer
+//! arithmetic, so both compilations produce the same bits on every device.
+//!
+//! Pipeline, per raster window:
+//!
+//! ```text
+//! setup ─▶ bin_count ─▶ bin_scan ─▶ bin_fill ─▶ fine_raster
+//! (per      (per          (one        (per         (one workgroup per tile,
+//! triangle)  triangle)    workgroup)  triangle)    one invocation per pixel)
+//! ```
+#![cfg_attr(target_arch = "spirv", no_std)]
+
+pub mod fixed;
+pub mod memory;
+pub mod stages;
+pub mod types;
+
+#[cfg(target_arch = "spirv")]
+pub mod entry;
+
+/// Screen tiles are `TILE` × `TILE` pixels; one workgroup rasterises one tile.
+pub const TILE: u32 = 16;
+/// Invocations in a fine-raster workgroup: one per pixel of a tile.
+pub const TILE_PIXELS: u32 = TILE * TILE;
+/// Triangles staged in workgroup memory per fine-raster batch.
+pub const BATCH: u32 = 64;
+/// Invocations per workgroup of the per-triangle stages.
+pub const TRIANGLE_GROUP: u32 = 64;
+/// Invocations of the single-workgroup prefix sum.
+pub const SCAN_GROUP: u32 = 256;
+/// Most sub-pixel bits the snapping uses; fewer only for enormous triangles.
+pub const MAX_SNAP_BITS: u32 = 16;
+/// Snapped triangles must satisfy `(extent_px + 1) << snap_bits < 2^EXTENT_LIMIT_BITS`, which
+/// keeps every edge function and plane step inside `i64` (see `stages::setup`).
+pub const EXTENT_LIMIT_BITS: u32 = 29;
+
+/// `FrameParams::outputs` bit: write the owning triangle's index per pixel.
+pub const OUTPUT_OWNER: u32 = 1;
+/// `FrameParams::outputs` bit: write how many triangles cover each pixel centre.
+pub const OUTPUT_COVERAGE: u32 = 2;
+/// Owner value of a pixel no triangle covers.
+pub const NO_OWNER: u32 = u32::MAX;

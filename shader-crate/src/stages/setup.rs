@@ -1,0 +1,39 @@
+//! Triangle setup: integer edge functions stepped from the corner pixel of the triangle's
+//! rectangle, with the fill rule folded in.
+//!
+//! Range: the host guarantees `(extent_px + 1) << snap_bits < 2^29` for every triangle
+//! (`EXTENT_LIMIT_BITS`), so coordinate differences stay below 2^29 and every product here,
+//! and every edge value inside the rectangle, stays below 2^60.
+
+use crate::types::{Coverage, EdgeEq, TriangleInput, TriangleSetup};
+
+/// Top-left rule for a positively oriented triangle in raster space (x right, y down): an
+/// edge going right along the top (`dy == 0, dx > 0`) or going up on the left (`dy < 0`)
+/// owns the pixel centres exactly on it.
+pub fn is_top_left(dx: i64, dy: i64) -> bool {
+    (dy == 0 && dx > 0) || dy < 0
+}
+
+pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> TriangleSetup {
+    let unit = 1i64 << snap_bits;
+    // Centre of the rectangle's corner pixel, in snapped units.
+    let px = input.rect.i0 as i64 * unit + (unit >> 1);
+    let py = input.rect.j0 as i64 * unit + (unit >> 1);
+    let mut edges = [EdgeEq::default(); 3];
+    let mut k = 0;
+    while k < 3 {
+        let b = if k == 2 { 0 } else { k + 1 };
+        let dx = input.x[b] - input.x[k];
+        let dy = input.y[b] - input.y[k];
+        // Positive inside: e(p) = dx·(p.y − a.y) − dy·(p.x − a.x).
+        let e0 = dx * (py - input.y[k]) - dy * (px - input.x[k]);
+        let on_boundary = (input.boundary_edges >> k) & 1 == 1;
+        let bias = if on_boundary || is_top_left(dx, dy) { 0 } else { 1 };
+        edges[k] = EdgeEq { e0: e0 - bias, step_i: -dy * unit, step_j: dx * unit };
+        k += 1;
+    }
+    TriangleSetup {
+        coverage: Coverage { edges, rect: input.rect, index: input.index, slot },
+        plane: input.plane,
+    }
+}

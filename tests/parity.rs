@@ -1,0 +1,68 @@
+//! CPU vs GPU, byte for byte, on every scene family the rasteriser promises to handle.
+
+mod common;
+
+use common::assert_parity;
+use tileraster::{scenes, Grid, Outputs, Params, Scene};
+
+fn params(grid: Grid) -> Params {
+    Params::new(grid).with_nodata(-9999.0).with_outputs(Outputs { owner: true, coverage: true })
+}
+
+#[test]
+fn random_terrain_tins() {
+    for (seed, cells) in [(1u64, 12u32), (2, 40), (3, 97)] {
+        let scene = scenes::terrain(0.0, 0.0, 1000.0, 800.0, cells, cells * 4 / 5, seed);
+        let grid = Grid::new(-20.0, 1010.0, -15.0, 790.0, 301, 233);
+        assert_parity(&format!("terrain seed {seed}"), &scene, &params(grid));
+    }
+}
+
+#[test]
+fn lattice_on_pixel_centres() {
+    let grid = Grid::new(0.0, 64.0, 0.0, 48.0, 64, 48);
+    for step in [1, 3, 8] {
+        let scene = scenes::centre_lattice(&grid, step, step as u64);
+        assert_parity(&format!("centre lattice step {step}"), &scene, &params(grid));
+    }
+}
+
+#[test]
+fn fans_of_thin_triangles_around_a_pixel_centre() {
+    let grid = Grid::new(0.0, 40.0, 0.0, 40.0, 40, 40);
+    for n in [7u32, 64, 360] {
+        let scene = scenes::fan(&grid, 20, 20, n, 15.0, n as u64);
+        assert_parity(&format!("fan of {n}"), &scene, &params(grid));
+    }
+}
+
+#[test]
+fn slivers() {
+    let grid = Grid::new(0.0, 200.0, 0.0, 50.0, 400, 100);
+    for (n, spacing) in [(50u32, 0.01), (400, 0.05), (20, 1e-4)] {
+        let scene = scenes::sliver_wedge(&grid, n, spacing, n as u64);
+        assert_parity(&format!("sliver wedge {n} × {spacing} px"), &scene, &params(grid));
+    }
+}
+
+#[test]
+fn overlapping_triangle_soup() {
+    let grid = Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129);
+    let scene = scenes::triangle_soup(&grid, 3000, 30.0, 9);
+    assert_parity("triangle soup", &scene, &params(grid));
+}
+
+#[test]
+fn utm_scale_offsets() {
+    let (x0, y0) = (500_000.0, 5_000_000.0);
+    let scene = scenes::terrain(x0, y0, 2000.0, 2000.0, 60, 60, 11);
+    let grid = Grid::new(x0, x0 + 2000.0, y0, y0 + 2000.0, 517, 517);
+    assert_parity("utm terrain", &scene, &params(grid));
+}
+
+#[test]
+fn nan_nodata_and_huge_triangles() {
+    let grid = Grid::new(0.0, 10.0, 0.0, 10.0, 333, 333);
+    let scene = Scene::new(vec![[-1e6, -1e6, 1.0], [1e6, -1e6, 2.0], [0.0, 1e6, 3.0], [2.0, 2.0, 5.0], [8.0, 3.0, 6.0], [5.0, 9.0, 7.0]], vec![[3, 4, 5], [0, 1, 2]]);
+    assert_parity("huge triangle under a small one", &scene, &Params::new(grid));
+}

@@ -52,13 +52,11 @@ pub struct TriangleInput {
     pub plane: Plane,
     /// Index of the triangle in the scene: the lowest index owns overlapping pixels.
     pub index: u32,
-    /// Bit `k` set: edge `k → k+1` lies on the mesh's outer boundary, so pixel centres
-    /// exactly on it are covered (interior edges follow the top-left rule instead).
-    pub boundary_edges: u32,
+    pub _pad: u32,
 }
 
-/// One edge function stepped over pixels: `e(i, j) = e0 + step_i·(i − i0) + step_j·(j − j0)`.
-/// The fill-rule bias is folded into `e0`, so a pixel centre is inside iff `e >= 0`.
+/// One edge function stepped over pixels: `e(i, j) = e0 + step_i·(i − i0) + step_j·(j − j0)`,
+/// positive on the triangle's side of the edge.
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
@@ -78,6 +76,10 @@ pub struct Coverage {
     pub index: u32,
     /// Position of the triangle in the setup buffer, to fetch its plane once it wins.
     pub slot: u32,
+    /// Bit `k` set: edge `k` is not top-left, so by the fill rule it does not own the pixel
+    /// centres exactly on it.
+    pub excluded_edges: u32,
+    pub _pad: u32,
 }
 
 /// Output of the setup stage, one per prepared triangle.

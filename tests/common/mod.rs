@@ -46,3 +46,5 @@ pub fn expect_err(result: Result<Raster, Error>) -> Error {
         Err(e) => e,
     }
 }
+
+pub mod reference;

@@ -5,8 +5,7 @@
 //! 3. choose the snapping lattice (`2^-snap_bits` px) from the largest triangle, so that
 //!    every edge function of the kernels fits in `i64`;
 //! 4. snap vertices, orient triangles positively, drop the ones snapping made flat;
-//! 5. mark the mesh's outer boundary edges (pixel centres on them are covered, like gdal_grid);
-//! 6. fit each triangle's height plane through its *unsnapped* vertices and store it in
+//! 5. fit each triangle's height plane through its *unsnapped* vertices and store it in
 //!    fixed point, exact over the triangle's pixel rectangle.
 //!
 //! Coverage is then decided on the snapped lattice with integers (watertight and identical on
@@ -149,18 +148,15 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
             culled += 1;
             continue;
         }
-        snapped.push(Snapped { index: t, corners, x, y, rect, boundary: 0 });
+        snapped.push(Snapped { index: t, corners, x, y, rect });
     }
 
-    // 5. An edge used by exactly one triangle is on the mesh's outer boundary.
-    mark_boundary_edges(&mut snapped);
-
-    // 6. Planes.
+    // 5. Planes.
     let triangles = snapped
         .iter()
         .map(|s| {
             let plane = fit_plane(scene, &raster, s, snap_bits);
-            TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, boundary_edges: s.boundary }
+            TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0 }
         })
         .collect();
 
@@ -210,7 +206,6 @@ struct Snapped {
     x: [i64; 3],
     y: [i64; 3],
     rect: PixelRect,
-    boundary: u32,
 }
 
 /// Grid pixels whose centres lie in the snapped bounding box (empty if none does).
@@ -226,32 +221,6 @@ fn pixel_rect(x: &[i64; 3], y: &[i64; 3], snap_bits: u32, grid: &Grid) -> PixelR
         j0: first(ymin, grid.height),
         i1: last(xmax, grid.width),
         j1: last(ymax, grid.height),
-    }
-}
-
-fn mark_boundary_edges(tris: &mut [Snapped]) {
-    // (undirected snapped edge, triangle, edge number), sorted so equal edges are adjacent.
-    let mut edges: Vec<([i64; 4], u32, u8)> = Vec::with_capacity(tris.len() * 3);
-    for (t, s) in tris.iter().enumerate() {
-        for k in 0..3 {
-            let b = (k + 1) % 3;
-            let (p, q) = ((s.x[k], s.y[k]), (s.x[b], s.y[b]));
-            let (lo, hi) = if p <= q { (p, q) } else { (q, p) };
-            edges.push(([lo.0, lo.1, hi.0, hi.1], t as u32, k as u8));
-        }
-    }
-    edges.sort_unstable();
-    let mut start = 0;
-    while start < edges.len() {
-        let mut end = start + 1;
-        while end < edges.len() && edges[end].0 == edges[start].0 {
-            end += 1;
-        }
-        if end - start == 1 {
-            let (_, t, k) = edges[start];
-            tris[t as usize].boundary |= 1 << k;
-        }
-        start = end;
     }
 }
 

@@ -3,9 +3,15 @@
 //! (`fine_load`), barrier, every invocation tests its pixel centre against the whole batch
 //! (`fine_test`), barrier. Finally each invocation resolves its pixel (`fine_resolve`).
 //!
-//! Ownership is the minimum triangle index over all covering triangles, which does not
-//! depend on the order of the bin; the coverage count is a plain count. Both are therefore
-//! deterministic whatever the scheduling of the binning atomics.
+//! Fill rule: a pixel centre strictly inside a triangle, or on one of its top-left edges, is
+//! *inside* it; in a mesh that tiles a region every centre of the region's interior is inside
+//! exactly one triangle. A centre that is inside no triangle but lies exactly on the edge of
+//! one (an edge no triangle continues beyond: the mesh's outer boundary) is still covered, by
+//! the lowest-index triangle it touches, as gdal_grid covers hull points.
+//!
+//! Ownership is the minimum triangle index over the triangles a centre is inside, which does
+//! not depend on the order of the bin; the coverage count is a plain count. Both are
+//! therefore deterministic whatever the scheduling of the binning atomics.
 
 use crate::fixed::fixed_to_f32_bits;
 use crate::types::{Coverage, FrameParams, Plane, PixelRect, TriangleSetup};
@@ -21,16 +27,31 @@ pub struct FineShared {
 /// What one invocation carries across the batches of its tile.
 #[derive(Copy, Clone)]
 pub struct PixelState {
-    /// Lowest covering triangle index so far (`NO_OWNER` if none).
+    /// Lowest index of a triangle the centre is inside (`NO_OWNER` if none).
     pub owner: u32,
     /// Setup slot of that triangle.
     pub slot: u32,
-    /// Number of covering triangles.
+    /// Number of triangles the centre is inside.
     pub count: u32,
+    /// Lowest index of a triangle whose excluded edge the centre lies on.
+    pub edge_owner: u32,
+    /// Setup slot of that triangle.
+    pub edge_slot: u32,
 }
 
 impl PixelState {
-    pub const EMPTY: PixelState = PixelState { owner: NO_OWNER, slot: 0, count: 0 };
+    pub const EMPTY: PixelState = PixelState { owner: NO_OWNER, slot: 0, count: 0, edge_owner: NO_OWNER, edge_slot: 0 };
+}
+
+/// Where a pixel centre lies relative to a triangle. (`u32`: SPIR-V has no 8-bit integers
+/// without an extra capability.)
+#[repr(u32)]
+#[derive(Copy, Clone, PartialEq, Eq)]
+pub enum Side {
+    Outside,
+    /// On an edge the fill rule gives to the neighbour across it (if there is one).
+    OnExcludedEdge,
+    Inside,
 }
 
 /// The resolved pixel: its value bits, owner and coverage count.
@@ -74,10 +95,10 @@ pub fn fine_load(
     }
 }
 
-/// Whether pixel centre `(i, j)` is inside the triangle (fill rule included).
-pub fn covers(c: &Coverage, i: i32, j: i32) -> bool {
+/// Where pixel centre `(i, j)` lies relative to the triangle.
+pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
     if !c.rect.contains(i, j) {
-        return false;
+        return Side::Outside;
     }
     let di = (i - c.rect.i0) as i64;
     let dj = (j - c.rect.j0) as i64;
@@ -85,7 +106,11 @@ pub fn covers(c: &Coverage, i: i32, j: i32) -> bool {
     let w0 = e[0].e0 + e[0].step_i * di + e[0].step_j * dj;
     let w1 = e[1].e0 + e[1].step_i * di + e[1].step_j * dj;
     let w2 = e[2].e0 + e[2].step_i * di + e[2].step_j * dj;
-    (w0 | w1 | w2) >= 0
+    if (w0 | w1 | w2) < 0 {
+        return Side::Outside;
+    }
+    let on_edges = (w0 == 0) as u32 | ((w1 == 0) as u32) << 1 | ((w2 == 0) as u32) << 2;
+    if on_edges & c.excluded_edges != 0 { Side::OnExcludedEdge } else { Side::Inside }
 }
 
 /// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles.
@@ -93,12 +118,21 @@ pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, state: &mu
     let mut k = 0;
     while k < batch_len {
         let c = &shared.batch[k as usize];
-        if covers(c, i, j) {
-            state.count += 1;
-            if c.index < state.owner {
-                state.owner = c.index;
-                state.slot = c.slot;
+        match side(c, i, j) {
+            Side::Inside => {
+                state.count += 1;
+                if c.index < state.owner {
+                    state.owner = c.index;
+                    state.slot = c.slot;
+                }
             }
+            Side::OnExcludedEdge => {
+                if c.index < state.edge_owner {
+                    state.edge_owner = c.index;
+                    state.edge_slot = c.slot;
+                }
+            }
+            Side::Outside => {}
         }
         k += 1;
     }
@@ -111,15 +145,18 @@ pub fn plane_value_bits(plane: &Plane, rect: &PixelRect, i: i32, j: i32) -> u32 
     fixed_to_f32_bits(plane.z + plane.gi * di + plane.gj * dj, plane.frac_bits)
 }
 
-/// Phase 3: the pixel's outputs.
+/// Phase 3: the pixel's outputs. A centre inside no triangle falls back to a triangle whose
+/// excluded edge it lies on: nobody continues across that edge.
 pub fn fine_resolve(i: i32, j: i32, state: &PixelState, setups: &[TriangleSetup], frame: &FrameParams) -> PixelOut {
-    let value_bits = if state.owner == NO_OWNER {
-        frame.nodata_bits
+    let (owner, slot, count) = if state.owner != NO_OWNER {
+        (state.owner, state.slot, state.count)
+    } else if state.edge_owner != NO_OWNER {
+        (state.edge_owner, state.edge_slot, 1)
     } else {
-        let s = &setups[state.slot as usize];
-        plane_value_bits(&s.plane, &s.coverage.rect, i, j)
+        return PixelOut { value_bits: frame.nodata_bits, owner: NO_OWNER, count: 0 };
     };
-    PixelOut { value_bits, owner: state.owner, count: state.count }
+    let s = &setups[slot as usize];
+    PixelOut { value_bits: plane_value_bits(&s.plane, &s.coverage.rect, i, j), owner, count }
 }
 
 /// Number of bin entries in the batch starting at `batch_start`.

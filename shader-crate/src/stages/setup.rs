@@ -1,5 +1,5 @@
 //! Triangle setup: integer edge functions stepped from the corner pixel of the triangle's
-//! rectangle, with the fill rule folded in.
+//! rectangle, and which edges the fill rule excludes.
 //!
 //! Range: the host guarantees `(extent_px + 1) << snap_bits < 2^29` for every triangle
 //! (`EXTENT_LIMIT_BITS`), so coordinate differences stay below 2^29 and every product here,
@@ -20,6 +20,7 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
     let px = input.rect.i0 as i64 * unit + (unit >> 1);
     let py = input.rect.j0 as i64 * unit + (unit >> 1);
     let mut edges = [EdgeEq::default(); 3];
+    let mut excluded_edges = 0;
     let mut k = 0;
     while k < 3 {
         let b = if k == 2 { 0 } else { k + 1 };
@@ -27,13 +28,14 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
         let dy = input.y[b] - input.y[k];
         // Positive inside: e(p) = dx·(p.y − a.y) − dy·(p.x − a.x).
         let e0 = dx * (py - input.y[k]) - dy * (px - input.x[k]);
-        let on_boundary = (input.boundary_edges >> k) & 1 == 1;
-        let bias = if on_boundary || is_top_left(dx, dy) { 0 } else { 1 };
-        edges[k] = EdgeEq { e0: e0 - bias, step_i: -dy * unit, step_j: dx * unit };
+        if !is_top_left(dx, dy) {
+            excluded_edges |= 1 << k;
+        }
+        edges[k] = EdgeEq { e0, step_i: -dy * unit, step_j: dx * unit };
         k += 1;
     }
     TriangleSetup {
-        coverage: Coverage { edges, rect: input.rect, index: input.index, slot },
+        coverage: Coverage { edges, rect: input.rect, index: input.index, slot, excluded_edges, _pad: 0 },
         plane: input.plane,
     }
 }

@@ -57,7 +57,9 @@ pub fn rasterise_prepared(prepared: &Prepared, backend: Backend) -> Result<Raste
     }
 }
 
-/// Description of the GPU adapter [`Backend::Gpu`] uses.
-pub fn gpu_adapter() -> Result<String, Error> {
-    tileraster_gpu::adapter_name()
+pub use tileraster_gpu::{set_window_limit as set_gpu_window_limit, Adapter};
+
+/// The Vulkan adapter [`Backend::Gpu`] uses, or why there is none.
+pub fn gpu_adapter() -> Result<Adapter, Error> {
+    tileraster_gpu::adapter()
 }

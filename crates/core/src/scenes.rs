@@ -31,27 +31,32 @@ impl Rng {
     }
 }
 
-/// Smooth rolling terrain heights around `base`: a few octaves of products of sines.
+/// Smooth rolling terrain heights around `base`: octaves of plane waves in random
+/// directions, each octave half the wavelength and a little under half the amplitude.
 pub struct Heights {
-    waves: Vec<[f64; 5]>,
+    /// `[amplitude, kx, ky, phase]` per wave.
+    waves: Vec<[f64; 4]>,
     base: f64,
 }
 
 impl Heights {
     pub fn new(seed: u64, base: f64, relief: f64, wavelength: f64) -> Self {
         let mut rng = Rng::new(seed ^ 0x4845_4947_4854);
-        let waves = (0..6)
-            .map(|o| {
-                let f = std::f64::consts::TAU / wavelength * 2f64.powi(o);
-                let a = relief * 0.55f64.powi(o);
-                [a, f * rng.range(0.7, 1.3), f * rng.range(0.7, 1.3), rng.range(0.0, 6.3), rng.range(0.0, 6.3)]
-            })
-            .collect();
+        let mut waves = Vec::new();
+        for octave in 0..5 {
+            let k = std::f64::consts::TAU / wavelength * 2f64.powi(octave);
+            let a = relief * 0.35f64.powi(octave) / 2.0;
+            for _ in 0..3 {
+                let dir = rng.range(0.0, std::f64::consts::TAU);
+                let k = k * rng.range(0.8, 1.25);
+                waves.push([a * rng.range(0.6, 1.0), k * dir.cos(), k * dir.sin(), rng.range(0.0, std::f64::consts::TAU)]);
+            }
+        }
         Heights { waves, base }
     }
 
     pub fn at(&self, x: f64, y: f64) -> f64 {
-        self.base + self.waves.iter().map(|w| w[0] * (w[1] * x + w[3]).sin() * (w[2] * y + w[4]).cos()).sum::<f64>()
+        self.base + self.waves.iter().map(|w| w[0] * (w[1] * x + w[2] * y + w[3]).sin()).sum::<f64>()
     }
 }
 

@@ -1,3 +1,4 @@
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Prepared, Raster, Window};
 use tileraster_kernels::types::{FrameParams, TriangleInput, TriangleSetup};
@@ -5,7 +6,13 @@ use tileraster_kernels::{OUTPUT_COVERAGE, OUTPUT_OWNER, SCAN_GROUP, TILE, TRIANG
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
 /// big enough to keep a GPU busy, small enough to bound the per-window buffers.
-const MAX_WINDOW_PIXELS: u64 = 4096 * 4096;
+static WINDOW_LIMIT: AtomicU64 = AtomicU64::new(4096 * 4096);
+
+/// Cap the pixels the GPU rasterises per window (at least one tile). Windows never change a
+/// result; this trades memory for dispatch overhead, and lets tests exercise many windows.
+pub fn set_window_limit(pixels: u64) {
+    WINDOW_LIMIT.store(pixels.max((TILE * TILE) as u64), Ordering::Relaxed);
+}
 
 static CONTEXT: OnceLock<Result<Mutex<GpuContext>, Error>> = OnceLock::new();
 
@@ -13,11 +20,32 @@ fn context() -> Result<&'static Mutex<GpuContext>, Error> {
     CONTEXT.get_or_init(|| GpuContext::new().map(Mutex::new)).as_ref().map_err(Clone::clone)
 }
 
-/// Name, driver and type of the adapter the backend uses.
-pub fn adapter_name() -> Result<String, Error> {
+/// The adapter the GPU backend uses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Adapter {
+    pub name: String,
+    pub device_type: String,
+    pub driver: String,
+    /// A CPU implementation of Vulkan (such as lavapipe) rather than a GPU.
+    pub software: bool,
+}
+
+impl std::fmt::Display for Adapter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({}, {})", self.name, self.device_type, self.driver)
+    }
+}
+
+/// The adapter the GPU backend uses (opening it on first use).
+pub fn adapter() -> Result<Adapter, Error> {
     let ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     let info = &ctx.info;
-    Ok(format!("{} ({:?}, {} {})", info.name, info.device_type, info.driver, info.driver_info))
+    Ok(Adapter {
+        name: info.name.clone(),
+        device_type: format!("{:?}", info.device_type),
+        driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
+        software: info.device_type == wgpu::DeviceType::Cpu,
+    })
 }
 
 /// Rasterise a prepared scene on the GPU.
@@ -215,7 +243,7 @@ impl GpuContext {
 
     fn rasterise_windows(&mut self, prepared: &Prepared, raster: &mut Raster) -> Result<(), Error> {
         let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
-        let max_pixels = (self.max_binding() / 4 / layers).min(MAX_WINDOW_PIXELS);
+        let max_pixels = (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed));
         self.upload_and_setup(prepared)?;
         let mut pending = windows(&prepared.window, max_pixels);
         pending.reverse();

@@ -39,26 +39,31 @@ pub fn write_preview_png(raster: &Raster, path: &Path) -> Result<(), IoError> {
         }
     }
     let span = if hi > lo { hi - lo } else { 1.0 };
-    // Horizontal distance per cell in the same units as heights only matters for contrast;
-    // scale the slope so the preview reads well whatever the units.
-    let z_scale = 4.0 * (w.max(h) as f32) / span;
-    let (sx, sy, sz) = (-0.5f32, -0.5f32, 0.7071f32); // light from the north-west, 45° up
+    // Slopes in height units per ground unit, exaggerated so gentle terrain still reads.
+    const EXAGGERATION: f32 = 2.0;
+    let (dx, dy) = (raster.grid.dx() as f32, raster.grid.dy() as f32);
+    // Light from the north-west (up and left in the image), 45° above the horizon.
+    let light = [-0.5f32, -0.5, std::f32::consts::FRAC_1_SQRT_2];
     let mut rgba = vec![0u8; w * h * 4];
     for j in 0..h {
         for i in 0..w {
             if !valid(i, j) {
                 continue;
             }
-            let at = |ii: usize, jj: usize| if valid(ii, jj) { raster.value(ii as u32, jj as u32) } else { raster.value(i as u32, j as u32) };
-            let dzdx = (at((i + 1).min(w - 1), j) - at(i.saturating_sub(1), j)) / (2.0 * w as f32) * z_scale;
-            let dzdy = (at(i, (j + 1).min(h - 1)) - at(i, j.saturating_sub(1))) / (2.0 * h as f32) * z_scale;
-            let n = [-dzdx, dzdy, 1.0];
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            let shade = ((n[0] * sx + n[1] * -sy + n[2] * sz) / len).clamp(0.0, 1.0);
-            let c = ramp((raster.value(i as u32, j as u32) - lo) / span);
+            let here = raster.value(i as u32, j as u32);
+            let at = |ii: usize, jj: usize| if valid(ii, jj) { raster.value(ii as u32, jj as u32) } else { here };
+            let (il, ir) = (i.saturating_sub(1), (i + 1).min(w - 1));
+            let (ju, jd) = (j.saturating_sub(1), (j + 1).min(h - 1));
+            // Image axes: x to the right, y down (south).
+            let dzdx = EXAGGERATION * (at(ir, j) - at(il, j)) / (((ir - il).max(1)) as f32 * dx);
+            let dzdy = EXAGGERATION * (at(i, jd) - at(i, ju)) / (((jd - ju).max(1)) as f32 * dy);
+            let normal = [-dzdx, -dzdy, 1.0];
+            let len = (normal[0] * normal[0] + normal[1] * normal[1] + 1.0).sqrt();
+            let shade = ((normal[0] * light[0] + normal[1] * light[1] + normal[2] * light[2]) / len).clamp(0.0, 1.0);
+            let c = ramp((here - lo) / span);
             let k = (j * w + i) * 4;
             for ch in 0..3 {
-                rgba[k + ch] = (c[ch] * (0.35 + 0.65 * shade)).clamp(0.0, 255.0) as u8;
+                rgba[k + ch] = (c[ch] * (0.25 + 0.9 * shade)).clamp(0.0, 255.0) as u8;
             }
             rgba[k + 3] = 255;
         }

@@ -1,0 +1,63 @@
+//! Windows: a window's cells are bit for bit the cells the whole grid has there, whatever
+//! the backend and however the GPU cuts its work.
+
+mod common;
+
+use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Outputs, Params, Raster, Window};
+
+fn assert_window_matches(name: &str, whole: &Raster, part: &Raster) {
+    let w = part.window;
+    for j in 0..w.height {
+        for i in 0..w.width {
+            let (gi, gj) = (w.x0 + i, w.y0 + j);
+            let a = whole.value(gi, gj).to_bits();
+            let b = part.value(i, j).to_bits();
+            assert_eq!(a, b, "{name}: window {w:?} pixel ({i}, {j}) = grid ({gi}, {gj}): {b:#x} vs whole {a:#x}");
+            let k = (gj * whole.width() + gi) as usize;
+            let kp = (j * w.width + i) as usize;
+            assert_eq!(whole.owner.as_ref().unwrap()[k], part.owner.as_ref().unwrap()[kp], "{name}: owner at ({gi}, {gj})");
+        }
+    }
+}
+
+#[test]
+fn windows_equal_the_whole_grid() {
+    let scene = scenes::terrain(500_000.0, 5_000_000.0, 900.0, 700.0, 45, 35, 8);
+    let grid = Grid::new(500_000.0, 500_900.0, 5_000_000.0, 5_000_700.0, 450, 350);
+    let params = Params::new(grid).with_nodata(-1.0).with_outputs(Outputs { owner: true, coverage: false });
+    let mut backends = vec![Backend::Cpu];
+    if common::gpu_or_skip("windows_equal_the_whole_grid") {
+        backends.push(Backend::Gpu);
+    }
+    let whole = rasterise(&scene, &params, Backend::Cpu).unwrap();
+    for backend in backends {
+        for window in [
+            Window { x0: 0, y0: 0, width: 450, height: 350 },
+            Window { x0: 17, y0: 5, width: 1, height: 1 },
+            Window { x0: 100, y0: 200, width: 333, height: 150 },
+            Window { x0: 449, y0: 0, width: 1, height: 350 },
+            Window { x0: 3, y0: 333, width: 447, height: 17 },
+        ] {
+            let part = rasterise_window(&scene, &params, Some(window), backend).unwrap();
+            assert_window_matches(backend.name(), &whole, &part);
+        }
+    }
+}
+
+#[test]
+fn gpu_results_do_not_depend_on_its_windowing() {
+    if !common::gpu_or_skip("gpu_results_do_not_depend_on_its_windowing") {
+        return;
+    }
+    let scene = scenes::terrain(0.0, 0.0, 1000.0, 1000.0, 50, 50, 2);
+    let grid = Grid::new(0.0, 1000.0, 0.0, 1000.0, 300, 290);
+    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true });
+    let cpu = rasterise(&scene, &params, Backend::Cpu).unwrap();
+    for limit in [256, 1000, 16 * 300, 40_000] {
+        tileraster::set_gpu_window_limit(limit);
+        let gpu = rasterise(&scene, &params, Backend::Gpu).unwrap();
+        let (count, first) = cpu.compare_bits(&gpu, 5);
+        assert_eq!(count, 0, "window limit {limit}: {first:?}");
+    }
+    tileraster::set_gpu_window_limit(4096 * 4096);
+}

@@ -1,1 +1,75 @@
-fn main() {}
+//! Project tasks. `cargo xtask kernels`: what the rust-gpu build of `shader-crate` produced —
+//! size, capabilities, entry points with their workgroup sizes — as a quick check that the
+//! module is what the GPU backend expects.
+
+use std::process::ExitCode;
+
+const OP_CAPABILITY: u32 = 17;
+const OP_ENTRY_POINT: u32 = 15;
+const OP_EXECUTION_MODE: u32 = 16;
+const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
+const SPIRV_MAGIC: u32 = 0x0723_0203;
+
+fn usage() -> ExitCode {
+    eprintln!("usage: cargo xtask kernels");
+    ExitCode::from(2)
+}
+
+/// A literal string operand: UTF-8, NUL-terminated, packed into words.
+fn literal_string(words: &[u32]) -> String {
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).take_while(|&b| b != 0).collect();
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+fn kernels() -> Result<(), String> {
+    let bytes = tileraster_gpu::KERNELS_SPV;
+    if bytes.len() % 4 != 0 {
+        return Err(format!("SPIR-V module is {} bytes, not a whole number of words", bytes.len()));
+    }
+    let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    if words.first() != Some(&SPIRV_MAGIC) {
+        return Err("not a SPIR-V module (bad magic number)".into());
+    }
+    let version = words[1];
+    println!("SPIR-V {}.{}, {} bytes, bound {}", (version >> 16) & 0xff, (version >> 8) & 0xff, bytes.len(), words[3]);
+    let mut capabilities = Vec::new();
+    let mut entries = Vec::new(); // (function id, name)
+    let mut sizes = std::collections::HashMap::new();
+    let mut at = 5;
+    while at < words.len() {
+        let (count, opcode) = ((words[at] >> 16) as usize, words[at] & 0xffff);
+        if count == 0 || at + count > words.len() {
+            return Err(format!("malformed instruction at word {at}"));
+        }
+        let operands = &words[at + 1..at + count];
+        match opcode {
+            OP_CAPABILITY => capabilities.push(operands[0]),
+            OP_ENTRY_POINT => entries.push((operands[1], literal_string(&operands[2..]))),
+            OP_EXECUTION_MODE if operands[1] == EXECUTION_MODE_LOCAL_SIZE => {
+                sizes.insert(operands[0], (operands[2], operands[3], operands[4]));
+            }
+            _ => {}
+        }
+        at += count;
+    }
+    println!("capabilities (SPIR-V enumerants): {capabilities:?}");
+    for (id, name) in &entries {
+        let (x, y, z) = sizes.get(id).copied().unwrap_or_default();
+        println!("entry point {name:<24} workgroup {x}×{y}×{z}");
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+        ["kernels"] => match kernels() {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("xtask: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        _ => usage(),
+    }
+}

@@ -320,3 +320,61 @@ impl Prepared {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tileraster_kernels::fixed::fixed_to_f32_bits;
+
+    #[test]
+    fn snapping_is_finest_unless_a_triangle_is_huge() {
+        assert_eq!(snap_bits_for(0.0), Some(16));
+        assert_eq!(snap_bits_for(8189.0), Some(16));
+        assert_eq!(snap_bits_for(8190.0), Some(15));
+        assert_eq!(snap_bits_for(65_000.0), Some(13));
+        assert_eq!(snap_bits_for(((1u64 << 28) - 3) as f64), Some(1));
+        assert_eq!(snap_bits_for(((1u64 << 28) - 2) as f64), None);
+    }
+
+    #[test]
+    fn pixel_rect_takes_centres_inside_the_box_and_clips_to_the_grid() {
+        let grid = Grid::new(0.0, 10.0, 0.0, 10.0, 10, 10);
+        let s = 4; // 16 units per pixel, centres at 8 + 16·i
+        let r = pixel_rect(&[8, 40, 8], &[8, 8, 41], s, &grid);
+        assert_eq!(r, PixelRect { i0: 0, j0: 0, i1: 2, j1: 2 });
+        let r = pixel_rect(&[9, 39, 9], &[9, 9, 39], s, &grid);
+        assert_eq!(r, PixelRect { i0: 1, j0: 1, i1: 1, j1: 1 });
+        let r = pixel_rect(&[-1000, 1000, 0], &[-5, -5, 5000], s, &grid);
+        assert_eq!(r, PixelRect { i0: 0, j0: 0, i1: 9, j1: 9 });
+        assert!(pixel_rect(&[200, 300, 250], &[0, 0, 50], s, &grid).is_empty());
+    }
+
+    #[test]
+    fn plane_is_exact_at_its_reference_and_bounded_everywhere() {
+        let rect = PixelRect { i0: 3, j0: 4, i1: 1000, j1: 700 };
+        let (zr, gi, gj) = (1234.567_891_234, -0.731_234_567, 2.5e-3);
+        let plane = quantise_plane(zr, gi, gj, &rect);
+        assert!(plane.frac_bits > 40);
+        let at = |di: i64, dj: i64| plane.z + plane.gi * di + plane.gj * dj;
+        assert_eq!(f32::from_bits(fixed_to_f32_bits(at(0, 0), plane.frac_bits)), zr as f32);
+        let far = at(997, 696) as f64 * 2f64.powi(-plane.frac_bits);
+        assert!((far - (zr + gi * 997.0 + gj * 696.0)).abs() < 1e-9);
+        assert!(at(997, 696).unsigned_abs() < 1 << 61);
+    }
+
+    #[test]
+    fn culls_outside_drops_flat_and_orients_positively() {
+        let grid = Grid::new(0.0, 4.0, 0.0, 4.0, 4, 4);
+        let scene = Scene::new(
+            vec![[1.0, 1.0, 0.0], [3.0, 1.0, 0.0], [1.0, 3.0, 0.0], [2.0, 2.0, 0.0], [50.0, 50.0, 0.0], [51.0, 50.0, 0.0], [50.0, 51.0, 0.0]],
+            vec![[0, 1, 2], [0, 2, 1], [0, 3, 0], [4, 5, 6], [0, 3, 1]],
+        );
+        let p = prepare(&scene, &Params::new(grid), None).unwrap();
+        assert_eq!(p.triangles.iter().map(|t| t.index).collect::<Vec<_>>(), vec![0, 1, 4]);
+        assert_eq!((p.culled, p.degenerate), (1, 1));
+        for t in &p.triangles {
+            let area = (t.x[1] - t.x[0]) as i128 * (t.y[2] - t.y[0]) as i128 - (t.y[1] - t.y[0]) as i128 * (t.x[2] - t.x[0]) as i128;
+            assert!(area > 0);
+        }
+    }
+}

@@ -1,0 +1,95 @@
+//! The `tileraster` command line, end to end: OBJ in, GeoTIFF out, as gdal_grid would write it.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tiff::decoder::{Decoder, DecodingResult};
+use tiff::tags::Tag;
+use tileraster::{rasterise, scenes, Backend, Grid, Params, Scene};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_tileraster"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tileraster-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write_obj(scene: &Scene, path: &Path) {
+    let mut text = String::from("# test mesh\n");
+    for v in &scene.vertices {
+        text += &format!("v {:?} {:?} {:?}\n", v[0], v[1], v[2]);
+    }
+    for t in &scene.triangles {
+        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn rasterise_writes_a_gdal_grid_compatible_geotiff() {
+    let dir = scratch("geotiff");
+    let (x0, y0) = (500_000.0, 5_000_000.0);
+    let scene = scenes::terrain(x0, y0, 600.0, 400.0, 20, 14, 4);
+    let (obj, tif) = (dir.join("mesh.obj"), dir.join("out.tif"));
+    write_obj(&scene, &obj);
+    let out = bin()
+        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu", "--nodata", "-32768"])
+        .args(["--txe", "499990", "500590", "--tye", "4999980", "5000410", "--outsize", "120", "86"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(&tif).unwrap())).unwrap();
+    assert_eq!(decoder.dimensions().unwrap(), (120, 86));
+    let scale = decoder.get_tag_f64_vec(Tag::ModelPixelScaleTag).unwrap();
+    let tie = decoder.get_tag_f64_vec(Tag::ModelTiepointTag).unwrap();
+    // gdal_grid's geotransform for these flags: (xmin, (xmax-xmin)/w, 0, ymax, 0, -(ymax-ymin)/h).
+    assert_eq!(scale[..2], [600.0 / 120.0, 430.0 / 86.0]);
+    assert_eq!(tie, vec![0.0, 0.0, 0.0, 499_990.0, 5_000_410.0, 0.0]);
+    assert_eq!(decoder.get_tag_ascii_string(Tag::GdalNodata).unwrap().trim_end_matches('\0'), "-32768");
+    let DecodingResult::F32(values) = decoder.read_image().unwrap() else { panic!("not Float32") };
+
+    let grid = Grid::new(499_990.0, 500_590.0, 4_999_980.0, 5_000_410.0, 120, 86);
+    let expected = rasterise(&scene, &Params::new(grid).with_nodata(-32768.0), Backend::Cpu).unwrap();
+    let same = values.iter().zip(&expected.values).all(|(a, b)| a.to_bits() == b.to_bits());
+    assert!(same && values.len() == expected.values.len(), "file differs from the library's raster");
+    assert!(values.contains(&-32768.0), "cells outside the mesh are nodata");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn bad_input_is_reported_with_file_and_line_and_leaves_no_output() {
+    let dir = scratch("bad");
+    let (obj, tif) = (dir.join("bad.obj"), dir.join("out.tif"));
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
+    let out = bin()
+        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu"])
+        .args(["--txe", "0", "1", "--tye", "0", "1", "--outsize", "4", "4"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.obj:4:") && err.contains("out of range"), "{err}");
+    assert!(!tif.exists(), "no output file after a failure");
+
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn zero_sized_grid_is_a_clear_error() {
+    let dir = scratch("zero");
+    let (obj, tif) = (dir.join("m.obj"), dir.join("out.tif"));
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let out = bin()
+        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu"])
+        .args(["--txe", "0", "1", "--tye", "0", "1", "--outsize", "0", "4"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("width and height must both be at least 1"), "{err}");
+    assert!(!tif.exists());
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -67,3 +67,16 @@ fn steep_slivers() {
     let scene = scenes::sliver_wedge(&grid, 300, 0.02, 4);
     check("sliver wedge", &scene, grid, Backend::Cpu);
 }
+
+#[test]
+fn rough_tin_with_cliffs_at_utm_scale() {
+    // Random heights per vertex: neighbouring planes differ by up to ~100 m per m, so a centre
+    // given to the wrong side of an edge would show at once.
+    let (x0, y0) = (500_000.0, 5_000_000.0);
+    let mut scene = scenes::terrain(x0, y0, 800.0, 800.0, 100, 100, 13);
+    let mut rng = scenes::Rng::new(13);
+    for v in &mut scene.vertices {
+        v[2] = rng.range(0.0, 1000.0);
+    }
+    check("rough utm tin", &scene, Grid::new(x0, x0 + 800.0, y0, y0 + 800.0, 1600, 1600), Backend::Cpu);
+}

@@ -16,6 +16,15 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// `tileraster rasterise MESH -o OUT --backend cpu` plus `args`.
+fn rasterise_cli(obj: &Path, tif: &Path, args: &[&str]) -> std::process::Output {
+    bin()
+        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu"])
+        .args(args)
+        .output()
+        .unwrap()
+}
+
 fn write_obj(scene: &Scene, path: &Path) {
     let mut text = String::from("# test mesh\n");
     for v in &scene.vertices {
@@ -34,11 +43,11 @@ fn rasterise_writes_a_gdal_grid_compatible_geotiff() {
     let scene = scenes::terrain(x0, y0, 600.0, 400.0, 20, 14, 4);
     let (obj, tif) = (dir.join("mesh.obj"), dir.join("out.tif"));
     write_obj(&scene, &obj);
-    let out = bin()
-        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu", "--nodata", "-32768"])
-        .args(["--txe", "499990", "500590", "--tye", "4999980", "5000410", "--outsize", "120", "86"])
-        .output()
-        .unwrap();
+    let out = rasterise_cli(
+        &obj,
+        &tif,
+        &["--nodata", "-32768", "--txe", "499990", "500590", "--tye", "4999980", "5000410", "--outsize", "120", "86"],
+    );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 
     let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(&tif).unwrap())).unwrap();
@@ -64,11 +73,7 @@ fn bad_input_is_reported_with_file_and_line_and_leaves_no_output() {
     let dir = scratch("bad");
     let (obj, tif) = (dir.join("bad.obj"), dir.join("out.tif"));
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
-    let out = bin()
-        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu"])
-        .args(["--txe", "0", "1", "--tye", "0", "1", "--outsize", "4", "4"])
-        .output()
-        .unwrap();
+    let out = rasterise_cli(&obj, &tif, &["--txe", "0", "1", "--tye", "0", "1", "--outsize", "4", "4"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.obj:4:") && err.contains("out of range"), "{err}");
@@ -82,11 +87,7 @@ fn zero_sized_grid_is_a_clear_error() {
     let dir = scratch("zero");
     let (obj, tif) = (dir.join("m.obj"), dir.join("out.tif"));
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
-    let out = bin()
-        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu"])
-        .args(["--txe", "0", "1", "--tye", "0", "1", "--outsize", "0", "4"])
-        .output()
-        .unwrap();
+    let out = rasterise_cli(&obj, &tif, &["--txe", "0", "1", "--tye", "0", "1", "--outsize", "0", "4"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("width and height must both be at least 1"), "{err}");

@@ -45,8 +45,8 @@ pub fn tile_span(rect: &PixelRect, frame: &FrameParams) -> TileSpan {
     }
 }
 
-/// Count pass: one increment per touched tile.
-pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParams, counts: &mut C) {
+/// Calls `visit` with the index of every window tile the triangle's rectangle touches.
+fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, mut visit: impl FnMut(usize)) {
     let span = tile_span(&setup.coverage.rect, frame);
     if span.empty {
         return;
@@ -55,11 +55,18 @@ pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParam
     while ty <= span.ty1 {
         let mut tx = span.tx0;
         while tx <= span.tx1 {
-            counts.fetch_add((ty * frame.tiles_x + tx) as usize, 1);
+            visit((ty * frame.tiles_x + tx) as usize);
             tx += 1;
         }
         ty += 1;
     }
+}
+
+/// Count pass: one increment per touched tile.
+pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParams, counts: &mut C) {
+    for_each_tile(setup, frame, |tile| {
+        counts.fetch_add(tile, 1);
+    });
 }
 
 /// Fill pass: claim a slot in each touched tile's bin and write the triangle's setup slot.
@@ -70,19 +77,8 @@ pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized>(
     cursors: &mut C,
     bins: &mut S,
 ) {
-    let span = tile_span(&setup.coverage.rect, frame);
-    if span.empty {
-        return;
-    }
-    let mut ty = span.ty0;
-    while ty <= span.ty1 {
-        let mut tx = span.tx0;
-        while tx <= span.tx1 {
-            let tile = (ty * frame.tiles_x + tx) as usize;
-            let k = cursors.fetch_add(tile, 1);
-            bins.store((offsets[tile] + k) as usize, setup.coverage.slot);
-            tx += 1;
-        }
-        ty += 1;
-    }
+    for_each_tile(setup, frame, |tile| {
+        let k = cursors.fetch_add(tile, 1);
+        bins.store((offsets[tile] + k) as usize, setup.coverage.slot);
+    });
 }

@@ -23,10 +23,10 @@ fn literal_string(words: &[u32]) -> String {
 
 fn kernels() -> Result<(), String> {
     let bytes = tileraster_gpu::KERNELS_SPV;
-    if bytes.len() % 4 != 0 {
+    if !bytes.len().is_multiple_of(4) {
         return Err(format!("SPIR-V module is {} bytes, not a whole number of words", bytes.len()));
     }
-    let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let words: Vec<u32> = bytes.as_chunks::<4>().0.iter().map(|&c| u32::from_le_bytes(c)).collect();
     if words.first() != Some(&SPIRV_MAGIC) {
         return Err("not a SPIR-V module (bad magic number)".into());
     }

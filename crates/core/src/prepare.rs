@@ -298,7 +298,7 @@ impl Prepared {
     /// Exact number of (triangle, tile) entries binning will write for `frame`: the size to
     /// allocate before the bins are filled.
     pub fn bin_entries(&self, frame: &FrameParams) -> u64 {
-        self.triangles.iter().map(|t| tile_span(&t.rect, frame).len() as u64).sum()
+        self.triangles.iter().map(|t| tile_span(&t.rect, frame).tile_count() as u64).sum()
     }
 
     /// An output raster for this preparation's window, every buffer zeroed.
@@ -352,7 +352,7 @@ mod tests {
     #[test]
     fn plane_is_exact_at_its_reference_and_bounded_everywhere() {
         let rect = PixelRect { i0: 3, j0: 4, i1: 1000, j1: 700 };
-        let (zr, gi, gj) = (1234.567_891_234, -0.731_234_567, 2.5e-3);
+        let (zr, gi, gj) = (1_234.567_891_234, -0.731_234_567, 2.5e-3);
         let plane = quantise_plane(zr, gi, gj, &rect);
         assert!(plane.frac_bits > 40);
         let at = |di: i64, dj: i64| plane.z + plane.gi * di + plane.gj * dj;

@@ -210,7 +210,7 @@ impl GpuContext {
 
     /// Largest buffer a kernel may bind.
     fn max_binding(&self) -> u64 {
-        (self.limits.max_storage_buffer_binding_size as u64).min(self.limits.max_buffer_size)
+        self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
     }
 
     fn rasterise(&mut self, prepared: &Prepared) -> Result<Raster, Error> {

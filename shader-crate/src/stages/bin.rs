@@ -18,7 +18,7 @@ pub struct TileSpan {
 }
 
 impl TileSpan {
-    pub fn len(&self) -> u32 {
+    pub fn tile_count(&self) -> u32 {
         if self.empty { 0 } else { (self.tx1 - self.tx0 + 1) * (self.ty1 - self.ty0 + 1) }
     }
 }

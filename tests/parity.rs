@@ -66,3 +66,17 @@ fn nan_nodata_and_huge_triangles() {
     let scene = Scene::new(vec![[-1e6, -1e6, 1.0], [1e6, -1e6, 2.0], [0.0, 1e6, 3.0], [2.0, 2.0, 5.0], [8.0, 3.0, 6.0], [5.0, 9.0, 7.0]], vec![[3, 4, 5], [0, 1, 2]]);
     assert_parity("huge triangle under a small one", &scene, &Params::new(grid));
 }
+
+#[test]
+fn everything_culled_or_flat_gives_nodata_everywhere() {
+    let grid = Grid::new(0.0, 10.0, 0.0, 10.0, 37, 20);
+    // One triangle far off the grid, one with no area.
+    let scene = Scene::new(
+        vec![[100.0, 100.0, 1.0], [101.0, 100.0, 1.0], [100.0, 101.0, 1.0], [1.0, 1.0, 2.0], [5.0, 5.0, 2.0], [9.0, 9.0, 2.0]],
+        vec![[0, 1, 2], [3, 4, 5]],
+    );
+    if let Some((cpu, _)) = assert_parity("nothing to draw", &scene, &params(grid)) {
+        assert!(cpu.values.iter().all(|v| *v == -9999.0));
+        assert!(cpu.coverage.unwrap().iter().all(|&c| c == 0));
+    }
+}

@@ -286,9 +286,11 @@ impl GpuContext {
         let b = &mut self.buffers;
         let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
         self.queue.write_buffer(frame_buf, 0, bytemuck::bytes_of(&frame));
-        let inputs_buf = b.inputs.get(device, input_bytes.len() as u64);
+        // Bindings must hold at least one element, even when every triangle was culled.
+        let slots = inputs.len().max(1) as u64;
+        let inputs_buf = b.inputs.get(device, slots * std::mem::size_of::<TriangleInput>() as u64);
         self.queue.write_buffer(inputs_buf, 0, input_bytes);
-        let setups_buf = b.setups.get(device, (inputs.len() * std::mem::size_of::<TriangleSetup>()) as u64);
+        let setups_buf = b.setups.get(device, slots * std::mem::size_of::<TriangleSetup>() as u64);
         let bind = bind_group(device, &self.pipelines.setup, &[frame_buf, inputs_buf, setups_buf]);
         let mut encoder = device.create_command_encoder(&Default::default());
         {

@@ -38,6 +38,9 @@ pub const MAX_SNAP_BITS: u32 = 16;
 /// keeps every edge function and plane step inside `i64` (see `stages::setup`).
 pub const EXTENT_LIMIT_BITS: u32 = 29;
 
+// `#[spirv(compute(threads(..)))]` takes literals: keep `entry.rs` and these in step.
+const _: () = assert!(TILE == 16 && TRIANGLE_GROUP == 64 && SCAN_GROUP == 256);
+
 /// `FrameParams::outputs` bit: write the owning triangle's index per pixel.
 pub const OUTPUT_OWNER: u32 = 1;
 /// `FrameParams::outputs` bit: write how many triangles cover each pixel centre.

@@ -27,16 +27,6 @@ impl Counters for [u32] {
     }
 }
 
-/// Natively a plain slice is a counter array for one thread at a time (tests, reference).
-#[cfg(not(target_arch = "spirv"))]
-impl Counters for [u32] {
-    fn fetch_add(&mut self, index: usize, value: u32) -> u32 {
-        let old = self[index];
-        self[index] = old.wrapping_add(value);
-        old
-    }
-}
-
 impl Slots for [u32] {
     fn store(&mut self, index: usize, value: u32) {
         self[index] = value;

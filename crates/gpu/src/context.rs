@@ -2,7 +2,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Prepared, Raster, Window};
 use tileraster_kernels::types::{FrameParams, TriangleInput, TriangleSetup};
-use tileraster_kernels::{OUTPUT_COVERAGE, OUTPUT_OWNER, SCAN_GROUP, TILE, TRIANGLE_GROUP};
+use tileraster_kernels::{OUTPUT_COVERAGE, OUTPUT_OWNER, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
 /// big enough to keep a GPU busy, small enough to bound the per-window buffers.
@@ -338,7 +338,6 @@ impl GpuContext {
                 (frame.tiles_x, frame.tiles_y),
             ),
         ];
-        debug_assert_eq!(SCAN_GROUP, 256);
         for (pipeline, buffers, (x, y)) in &stages {
             let bind = bind_group(device, pipeline, buffers);
             let mut pass = encoder.begin_compute_pass(&Default::default());

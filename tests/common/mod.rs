@@ -9,7 +9,10 @@ pub fn gpu_or_skip(test: &str) -> bool {
     match tileraster::gpu_adapter() {
         Ok(_) => true,
         Err(e) if std::env::var("TILERASTER_SKIP_GPU").as_deref() == Ok("1") => {
-            eprintln!("SKIPPED (TILERASTER_SKIP_GPU=1): {test}: {e}");
+            // Straight to the process's stderr: the test harness would swallow `eprintln!`
+            // of a passing test, and a skip must be seen.
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "SKIPPED (TILERASTER_SKIP_GPU=1): {test}: {e}");
             false
         }
         Err(e) => panic!(

@@ -68,29 +68,28 @@ fn rasterise_writes_a_gdal_grid_compatible_geotiff() {
     std::fs::remove_dir_all(dir).ok();
 }
 
-#[test]
-fn bad_input_is_reported_with_file_and_line_and_leaves_no_output() {
-    let dir = scratch("bad");
-    let (obj, tif) = (dir.join("bad.obj"), dir.join("out.tif"));
-    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
-    let out = rasterise_cli(&obj, &tif, &["--txe", "0", "1", "--tye", "0", "1", "--outsize", "4", "4"]);
-    assert!(!out.status.success());
+/// Run `rasterise` on `obj_text` and expect a failure whose message has every piece of
+/// `expected`, with no output file left behind.
+fn expect_failure(name: &str, obj_text: &str, outsize: [&str; 2], expected: &[&str]) {
+    let dir = scratch(name);
+    let (obj, tif) = (dir.join(format!("{name}.obj")), dir.join("out.tif"));
+    std::fs::write(&obj, obj_text).unwrap();
+    let out = rasterise_cli(&obj, &tif, &["--txe", "0", "1", "--tye", "0", "1", "--outsize", outsize[0], outsize[1]]);
+    assert!(!out.status.success(), "{name}: expected a failure");
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("bad.obj:4:") && err.contains("out of range"), "{err}");
-    assert!(!tif.exists(), "no output file after a failure");
-
+    for piece in expected {
+        assert!(err.contains(piece), "{name}: {piece:?} missing from {err}");
+    }
+    assert!(!tif.exists(), "{name}: no output file after a failure");
     std::fs::remove_dir_all(dir).ok();
 }
 
 #[test]
+fn bad_input_is_reported_with_file_and_line_and_leaves_no_output() {
+    expect_failure("bad", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", ["4", "4"], &["bad.obj:4:", "out of range"]);
+}
+
+#[test]
 fn zero_sized_grid_is_a_clear_error() {
-    let dir = scratch("zero");
-    let (obj, tif) = (dir.join("m.obj"), dir.join("out.tif"));
-    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
-    let out = rasterise_cli(&obj, &tif, &["--txe", "0", "1", "--tye", "0", "1", "--outsize", "0", "4"]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("width and height must both be at least 1"), "{err}");
-    assert!(!tif.exists());
-    std::fs::remove_dir_all(dir).ok();
+    expect_failure("zero", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", ["0", "4"], &["width and height must both be at least 1"]);
 }

@@ -91,14 +91,11 @@ pub struct TriangleSetup {
     pub plane: Plane,
 }
 
-/// Everything a dispatch needs to know about the grid and the window it rasterises.
-/// Windows start on tile boundaries of the global grid.
+/// Everything a dispatch needs to know about the window of the grid it rasterises.
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
 pub struct FrameParams {
-    pub grid_w: u32,
-    pub grid_h: u32,
     pub win_x0: u32,
     pub win_y0: u32,
     pub win_w: u32,
@@ -112,7 +109,7 @@ pub struct FrameParams {
     pub outputs: u32,
     /// Invocations per row of a 2D dispatch that stands for a 1D one (per-triangle stages).
     pub dispatch_width: u32,
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 5],
 }
 
 impl FrameParams {

@@ -278,8 +278,6 @@ impl Prepared {
         let tiles_x = window.width.div_ceil(TILE);
         let tiles_y = window.height.div_ceil(TILE);
         FrameParams {
-            grid_w: self.params.grid.width,
-            grid_h: self.params.grid.height,
             win_x0: window.x0,
             win_y0: window.y0,
             win_w: window.width,
@@ -291,7 +289,7 @@ impl Prepared {
             nodata_bits: self.params.nodata.to_bits(),
             outputs: self.params.output_bits(),
             dispatch_width: 0,
-            _pad: [0; 3],
+            _pad: [0; 5],
         }
     }
 

@@ -17,7 +17,7 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 
-pub use tileraster_core::{scenes, Error, Grid, Outputs, Params, Prepared, Raster, Scene, Window};
+pub use tileraster_core::{scenes, Error, Grid, Mode, Outputs, Params, Prepared, Raster, Scene, Window};
 
 /// Where the kernels run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

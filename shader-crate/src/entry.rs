@@ -91,13 +91,16 @@ pub fn fine_raster(
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
     let mut state = PixelState::EMPTY;
-    let mut batch_start = 0;
-    while batch_start < bin_len {
-        fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, shared);
-        barrier();
-        fine::fine_test(i, j, fine::batch_len(bin_len, batch_start), shared, &mut state);
-        barrier();
-        batch_start += BATCH;
+    // Uniform per workgroup: the whole tile takes the same branch, barriers included.
+    if !fine::full_tile(bins, bin_start, bin_len, setups, &mut state) {
+        let mut batch_start = 0;
+        while batch_start < bin_len {
+            fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, shared);
+            barrier();
+            fine::fine_test(i, j, fine::batch_len(bin_len, batch_start), shared, &mut state);
+            barrier();
+            batch_start += BATCH;
+        }
     }
     if inside {
         let out = fine::fine_resolve(i, j, &state, setups, frame);

@@ -62,7 +62,24 @@ fn round_shr(m: u64, s: u32) -> u64 {
 
 /// Bits of the `f32` nearest to `n · 2^−frac_bits` (round to nearest, ties to even,
 /// subnormals kept, ±∞ on overflow; zero is +0).
+///
+/// Natively the CPU's own conversion gives the same bits faster: `n as f32` is correctly
+/// rounded (Rust guarantees it), and scaling by a normal power of two is then exact unless the
+/// product overflows (to the same ±∞) or is subnormal, which needs `|n| · 2^−frac_bits <
+/// 2^−126`, impossible for `n ≠ 0` when `frac_bits <= 126`. Vulkan leaves the rounding of its
+/// integer conversion to the implementation, so the SPIR-V build always rounds by hand.
+#[inline]
 pub fn fixed_to_f32_bits(n: i64, frac_bits: i32) -> u32 {
+    #[cfg(not(target_arch = "spirv"))]
+    if (-127..=126).contains(&frac_bits) {
+        let scale = f32::from_bits(((127 - frac_bits) as u32) << 23);
+        return ((n as f32) * scale).to_bits();
+    }
+    fixed_to_f32_bits_by_hand(n, frac_bits)
+}
+
+/// [`fixed_to_f32_bits`] with integer operations only.
+pub fn fixed_to_f32_bits_by_hand(n: i64, frac_bits: i32) -> u32 {
     if n == 0 {
         return 0;
     }
@@ -117,10 +134,13 @@ mod tests {
         v as f32
     }
 
+    /// Both the native path and the integer-only path the GPU runs must give the reference.
     fn check(n: i64, f: i32) {
-        let got = f32::from_bits(fixed_to_f32_bits(n, f));
         let want = reference(n, f);
-        assert_eq!(got.to_bits(), want.to_bits(), "n={n} f={f}: got {got:e}, want {want:e}");
+        for (path, got) in [("native", fixed_to_f32_bits(n, f)), ("by hand", fixed_to_f32_bits_by_hand(n, f))] {
+            let got = f32::from_bits(got);
+            assert_eq!(got.to_bits(), want.to_bits(), "{path}: n={n} f={f}: got {got:e}, want {want:e}");
+        }
     }
 
     #[test]

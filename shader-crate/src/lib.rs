@@ -47,3 +47,14 @@ pub const OUTPUT_OWNER: u32 = 1;
 pub const OUTPUT_COVERAGE: u32 = 2;
 /// Owner value of a pixel no triangle covers.
 pub const NO_OWNER: u32 = u32::MAX;
+
+/// `FrameParams::mode`: the correctly rounded `f32` of the fixed-point plane (the default).
+pub const MODE_EXACT: u32 = 0;
+/// `FrameParams::mode`: the plane evaluated in `f32` arithmetic.
+pub const MODE_PLANE_F32: u32 = 1;
+/// `FrameParams::mode`: `f32` barycentric interpolation of the vertex heights.
+pub const MODE_BARYCENTRIC: u32 = 2;
+
+/// Bit of a bin entry: the triangle covers every pixel centre of the tile (in the window), so
+/// the tile needs no edge tests if it is the only entry.
+pub const FULL_TILE_BIT: u32 = 1 << 31;

@@ -44,7 +44,7 @@ pub struct Plane {
 /// rectangle clipped to the grid, and its height plane.
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
-#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
 pub struct TriangleInput {
     pub x: [i64; 3],
     pub y: [i64; 3],
@@ -53,6 +53,20 @@ pub struct TriangleInput {
     /// Index of the triangle in the scene: the lowest index owns overlapping pixels.
     pub index: u32,
     pub _pad: u32,
+    /// The cheaper modes' `f32` coefficients (see [`FloatCoeffs`]); zero in exact mode.
+    pub coeffs: FloatCoeffs,
+}
+
+/// What the cheaper value modes interpolate with, in `f32`:
+/// - `MODE_PLANE_F32`: `c = [z, gi, gj, 0]`, the plane relative to the rectangle's corner
+///   pixel, evaluated as `(z + gi·Δi) + gj·Δj`;
+/// - `MODE_BARYCENTRIC`: `c = [h0, h1, h2, 1/Σw]`, `hk` the height of the vertex opposite
+///   edge `k`, so the value is `Σ (wk · c3) · hk` with `wk` the edge functions.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct FloatCoeffs {
+    pub c: [f32; 4],
 }
 
 /// One edge function stepped over pixels: `e(i, j) = e0 + step_i·(i − i0) + step_j·(j − j0)`,
@@ -85,10 +99,11 @@ pub struct Coverage {
 /// Output of the setup stage, one per prepared triangle.
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
-#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
 pub struct TriangleSetup {
     pub coverage: Coverage,
     pub plane: Plane,
+    pub coeffs: FloatCoeffs,
 }
 
 /// Everything a dispatch needs to know about the window of the grid it rasterises.
@@ -109,7 +124,9 @@ pub struct FrameParams {
     pub outputs: u32,
     /// Invocations per row of a 2D dispatch that stands for a 1D one (per-triangle stages).
     pub dispatch_width: u32,
-    pub _pad: [u32; 5],
+    /// How covered values are computed: `MODE_EXACT`, `MODE_PLANE_F32` or `MODE_BARYCENTRIC`.
+    pub mode: u32,
+    pub _pad: [u32; 4],
 }
 
 impl FrameParams {

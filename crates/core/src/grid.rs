@@ -95,17 +95,73 @@ pub struct Outputs {
     pub coverage: bool,
 }
 
-/// What to rasterise onto: the grid, the value of uncovered cells, and the extra outputs.
+/// How covered cells get their values. Each mode's accuracy bound, and on which adapters its
+/// bits match the CPU's, is in `docs/numeric-contract.md`; the tests check exactly that.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// The correctly rounded `f32` of the plane through the unsnapped vertices, evaluated
+    /// exactly in fixed point: within 0.5 ulp (plus the plane's 2^-60 quantisation) and
+    /// bit-identical on every backend.
+    #[default]
+    Exact,
+    /// The same plane evaluated in `f32` arithmetic: cheaper on GPUs without fast `i64`.
+    PlaneF32,
+    /// `f32` barycentric interpolation of the vertex heights on the snapped triangle, as a
+    /// hardware rasteriser does it.
+    Barycentric,
+}
+
+impl Mode {
+    pub const ALL: [Mode; 3] = [Mode::Exact, Mode::PlaneF32, Mode::Barycentric];
+
+    /// The name the command line and the reports use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Exact => "exact",
+            Mode::PlaneF32 => "plane-f32",
+            Mode::Barycentric => "barycentric",
+        }
+    }
+
+    pub(crate) fn kernel_code(self) -> u32 {
+        use tileraster_kernels::{MODE_BARYCENTRIC, MODE_EXACT, MODE_PLANE_F32};
+        match self {
+            Mode::Exact => MODE_EXACT,
+            Mode::PlaneF32 => MODE_PLANE_F32,
+            Mode::Barycentric => MODE_BARYCENTRIC,
+        }
+    }
+}
+
+impl std::str::FromStr for Mode {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Mode::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
+            let names: Vec<_> = Mode::ALL.iter().map(|m| m.name()).collect();
+            format!("unknown mode '{s}'; choose one of {}", names.join(", "))
+        })
+    }
+}
+
+/// What to rasterise onto: the grid, the value of uncovered cells, the extra outputs and how
+/// values are computed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Params {
     pub grid: Grid,
     pub nodata: f32,
     pub outputs: Outputs,
+    pub mode: Mode,
 }
 
 impl Params {
     pub fn new(grid: Grid) -> Self {
-        Params { grid, nodata: f32::NAN, outputs: Outputs::default() }
+        Params { grid, nodata: f32::NAN, outputs: Outputs::default(), mode: Mode::Exact }
+    }
+
+    pub fn with_mode(mut self, mode: Mode) -> Self {
+        self.mode = mode;
+        self
     }
 
     pub fn with_nodata(mut self, nodata: f32) -> Self {

@@ -9,7 +9,7 @@ mod scene;
 pub mod scenes;
 
 pub use error::Error;
-pub use grid::{Grid, Outputs, Params, MAX_GRID_DIM};
+pub use grid::{Grid, Mode, Outputs, Params, MAX_GRID_DIM};
 pub use prepare::{prepare, Prepared, Window};
 pub use raster::{Difference, Raster};
 pub use scene::Scene;

@@ -13,10 +13,10 @@
 //! triangle owns a pixel centre lying within `2^-(snap_bits+1)` px of an edge.
 
 use crate::raster::try_zeroed;
-use crate::{Error, Grid, Params, Raster, Scene};
+use crate::{Error, Grid, Mode, Params, Raster, Scene};
 use tileraster_kernels::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::stages::bin::tile_span;
-use tileraster_kernels::types::{FrameParams, PixelRect, Plane, TriangleInput};
+use tileraster_kernels::types::{FloatCoeffs, FrameParams, PixelRect, Plane, TriangleInput};
 use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS, TILE};
 
 /// A rectangle of grid pixels: columns `x0..x0+width`, rows `y0..y0+height`.
@@ -151,12 +151,13 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         snapped.push(Snapped { index: t, corners, x, y, rect });
     }
 
-    // 5. Planes.
+    // 5. Planes, and the cheaper modes' coefficients.
     let triangles = snapped
         .iter()
         .map(|s| {
-            let plane = fit_plane(scene, &raster, s, snap_bits);
-            TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0 }
+            let (plane, f64_plane) = fit_plane(scene, &raster, s, snap_bits);
+            let coeffs = float_coeffs(params.mode, scene, s, f64_plane);
+            TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0, coeffs }
         })
         .collect();
 
@@ -225,8 +226,9 @@ fn pixel_rect(x: &[i64; 3], y: &[i64; 3], snap_bits: u32, grid: &Grid) -> PixelR
 }
 
 /// The plane through the unsnapped vertices (or, where those are flat or flipped, through the
-/// snapped ones), in fixed point relative to the rectangle's corner pixel.
-fn fit_plane(scene: &Scene, raster: &[[f64; 2]], s: &Snapped, snap_bits: u32) -> Plane {
+/// snapped ones), relative to the rectangle's corner pixel: in fixed point, and as
+/// `(value, gi, gj)` in `f64`.
+fn fit_plane(scene: &Scene, raster: &[[f64; 2]], s: &Snapped, snap_bits: u32) -> (Plane, [f64; 3]) {
     let z = s.corners.map(|c| scene.vertices[c][2]);
     let unsnapped = s.corners.map(|c| raster[c]);
     let unit = (1i64 << snap_bits) as f64;
@@ -235,7 +237,24 @@ fn fit_plane(scene: &Scene, raster: &[[f64; 2]], s: &Snapped, snap_bits: u32) ->
     let (zr, gi, gj) = plane_through(&unsnapped, &z, ci, cj).unwrap_or_else(|| {
         plane_through(&snapped, &z, ci, cj).expect("snapped triangles have positive area")
     });
-    quantise_plane(zr, gi, gj, &s.rect)
+    (quantise_plane(zr, gi, gj, &s.rect), [zr, gi, gj])
+}
+
+/// The `f32` coefficients `mode` interpolates with (see `FloatCoeffs`).
+fn float_coeffs(mode: Mode, scene: &Scene, s: &Snapped, plane: [f64; 3]) -> FloatCoeffs {
+    let c = match mode {
+        Mode::Exact => [0.0; 4],
+        Mode::PlaneF32 => [plane[0] as f32, plane[1] as f32, plane[2] as f32, 0.0],
+        Mode::Barycentric => {
+            // Edge k runs from vertex k to k+1; its weight belongs to the vertex opposite.
+            let z = |k: usize| scene.vertices[s.corners[k]][2] as f32;
+            let (x, y) = (&s.x, &s.y);
+            // Σw is twice the snapped area in lattice units² at every pixel.
+            let area2 = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
+            [z(2), z(0), z(1), (1.0 / area2 as f64) as f32]
+        }
+    };
+    FloatCoeffs { c }
 }
 
 /// Value at `(ci, cj)` and per-pixel gradients of the plane through three raster-space points,
@@ -289,13 +308,15 @@ impl Prepared {
             nodata_bits: self.params.nodata.to_bits(),
             outputs: self.params.output_bits(),
             dispatch_width: 0,
-            _pad: [0; 5],
+            mode: self.params.mode.kernel_code(),
+            _pad: [0; 4],
         }
     }
 
-    /// Exact number of (triangle, tile) entries binning will write for `frame`: the size to
-    /// allocate before the bins are filled.
-    pub fn bin_entries(&self, frame: &FrameParams) -> u64 {
+    /// Most (triangle, tile) entries binning can write for `frame` (every tile of every
+    /// rectangle; binning leaves out the tiles a triangle cannot reach): the size to allocate
+    /// before the bins are filled.
+    pub fn bin_capacity(&self, frame: &FrameParams) -> u64 {
         self.triangles.iter().map(|t| tile_span(&t.rect, frame).tile_count() as u64).sum()
     }
 

@@ -39,7 +39,7 @@ fn atomic_zeroed(len: usize) -> Vec<AtomicU32> {
 pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
     let mut raster = prepared.allocate_raster()?;
     let frame = prepared.frame(prepared.window);
-    let entries = prepared.bin_entries(&frame);
+    let entries = prepared.bin_capacity(&frame);
     if entries > u32::MAX as u64 {
         return Err(Error::RasterTooLarge {
             width: frame.win_w as u64,
@@ -50,7 +50,7 @@ pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
     let setups = setup(prepared, &frame);
     let counts = bin_count(&frame, &setups);
     let offsets = bin_scan(&frame, &counts);
-    debug_assert_eq!(offsets[frame.tile_count() as usize] as u64, entries);
+    debug_assert!(offsets[frame.tile_count() as usize] as u64 <= entries);
     let bins = bin_fill(&frame, &setups, &offsets);
     fine_raster(&frame, &setups, &offsets, &bins, &mut raster);
     Ok(raster)
@@ -135,6 +135,10 @@ fn optional_bands(layer: Option<&mut Vec<u32>>, band_len: usize, bands: u32) -> 
 fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band) {
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+    let mut full = PixelState::EMPTY;
+    if fine::full_tile(bins, bin_start, bin_len, setups, &mut full) {
+        return fine_resolve_tile(tx, frame, setups, band, |_| full);
+    }
     let pixels: [(i32, i32, bool); TILE_PIXELS as usize] = std::array::from_fn(|lid| fine::tile_pixel(tx, ty, lid as u32, frame));
     let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
     let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
@@ -149,19 +153,30 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
         }
         batch_start += BATCH;
     }
-    let band_start = (ty * TILE * frame.win_w) as usize;
-    for (state, &(i, j, inside)) in states.iter().zip(&pixels) {
-        if !inside {
-            continue;
+    fine_resolve_tile(tx, frame, setups, band, |lid| states[lid as usize]);
+}
+
+/// The last phase of a fine-raster workgroup: every invocation resolves and writes its pixel,
+/// taken row by row so that the stores run along the band's rows.
+#[inline(always)]
+fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, state: impl Fn(u32) -> PixelState) {
+    let band_start = (band.ty * TILE * frame.win_w) as usize;
+    for ly in 0..TILE {
+        let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
+        if !row_inside {
+            break;
         }
-        let out = fine::fine_resolve(i, j, state, setups, frame);
-        let k = fine::window_index(i, j, frame) - band_start;
-        band.values[k] = f32::from_bits(out.value_bits);
-        if let Some(owner) = band.owner.as_deref_mut() {
-            owner[k] = out.owner;
-        }
-        if let Some(coverage) = band.coverage.as_deref_mut() {
-            coverage[k] = out.count;
+        let row = fine::window_index(i0, j, frame) - band_start;
+        let width = (frame.win_w - tx * TILE).min(TILE) as usize;
+        for lx in 0..width {
+            let out = fine::fine_resolve(i0 + lx as i32, j, &state(ly * TILE + lx as u32), setups, frame);
+            band.values[row + lx] = f32::from_bits(out.value_bits);
+            if let Some(owner) = band.owner.as_deref_mut() {
+                owner[row + lx] = out.owner;
+            }
+            if let Some(coverage) = band.coverage.as_deref_mut() {
+                coverage[row + lx] = out.count;
+            }
         }
     }
 }

@@ -249,7 +249,7 @@ impl GpuContext {
         pending.reverse();
         while let Some(window) = pending.pop() {
             let frame = prepared.frame(window);
-            let entries = prepared.bin_entries(&frame);
+            let entries = prepared.bin_capacity(&frame);
             if entries * 4 > self.max_binding() || entries > u32::MAX as u64 {
                 // Too many triangle–tile pairs for one binding: split the window in two.
                 if window.height <= TILE {

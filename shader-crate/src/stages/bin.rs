@@ -1,11 +1,16 @@
-//! Binning: every triangle is listed in each tile its pixel rectangle touches. Counted first
-//! (`bin_count`), offsets by prefix sum (`scan`), then written (`bin_fill`): no bin has a fixed
-//! capacity, so no triangle is ever dropped from a crowded tile. The order inside a bin
+//! Binning: every triangle is listed in each tile where it can cover a pixel centre. Counted
+//! first (`bin_count`), offsets by prefix sum (`scan`), then written (`bin_fill`): no bin has a
+//! fixed capacity, so no triangle is ever dropped from a crowded tile. The order inside a bin
 //! depends on scheduling; fine raster is written so that it does not matter.
+//!
+//! Each (triangle, tile) pair of the triangle's rectangle is classified with the exact edge
+//! functions at the corners of the tile (`tile_cover`): tiles it cannot reach are left out of
+//! its bins, and tiles it covers entirely are marked with `FULL_TILE_BIT`. Both passes run the
+//! same classification, so the counts and the entries agree.
 
-use crate::TILE;
+use crate::{FULL_TILE_BIT, TILE};
 use crate::memory::{Counters, Slots};
-use crate::types::{FrameParams, PixelRect, TriangleSetup};
+use crate::types::{Coverage, FrameParams, PixelRect, TriangleSetup};
 
 /// Tiles `tx0..=tx1` × `ty0..=ty1` of the window (empty when `tx0 > tx1` or `ty0 > ty1`).
 #[derive(Copy, Clone)]
@@ -45,8 +50,76 @@ pub fn tile_span(rect: &PixelRect, frame: &FrameParams) -> TileSpan {
     }
 }
 
-/// Calls `visit` with the index of every window tile the triangle's rectangle touches.
-fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, mut visit: impl FnMut(usize)) {
+/// How a triangle meets the pixel centres of a tile that lie in the window.
+#[repr(u32)]
+#[derive(Copy, Clone, PartialEq, Eq)]
+pub enum TileCover {
+    /// No centre is inside the triangle or on its edges.
+    Outside,
+    /// Some centres may be inside; fine raster tests each one.
+    Partial,
+    /// Every centre is inside (by the fill rule).
+    Full,
+}
+
+/// Classify window tile `(tx, ty)` against a triangle. Edge functions are linear, so their
+/// extremes over a rectangle of pixel centres are at its corners: an edge negative at all four
+/// excludes every centre; edges all positive at all four (or zero on an edge that owns its
+/// centres) include every centre. The corners lie inside the triangle's rectangle, where the
+/// edge values fit in `i64` (see `stages::setup`).
+pub fn tile_cover(c: &Coverage, tx: u32, ty: u32, frame: &FrameParams) -> TileCover {
+    // The tile's centres in the window...
+    let ti0 = (frame.win_x0 + tx * TILE) as i32;
+    let tj0 = (frame.win_y0 + ty * TILE) as i32;
+    let ti1 = min_i32(ti0 + TILE as i32 - 1, (frame.win_x0 + frame.win_w) as i32 - 1);
+    let tj1 = min_i32(tj0 + TILE as i32 - 1, (frame.win_y0 + frame.win_h) as i32 - 1);
+    // ...and the part of them in the triangle's rectangle.
+    let r = &c.rect;
+    let (i0, j0) = (max_i32(ti0, r.i0), max_i32(tj0, r.j0));
+    let (i1, j1) = (min_i32(ti1, r.i1), min_i32(tj1, r.j1));
+    if i0 > i1 || j0 > j1 {
+        return TileCover::Outside;
+    }
+    let mut full = i0 == ti0 && i1 == ti1 && j0 == tj0 && j1 == tj1;
+    let mut k = 0;
+    while k < 3 {
+        let e = &c.edges[k];
+        let at_corner = e.e0 + e.step_i * (i0 - r.i0) as i64 + e.step_j * (j0 - r.j0) as i64;
+        let across_i = e.step_i * (i1 - i0) as i64;
+        let across_j = e.step_j * (j1 - j0) as i64;
+        let lo = at_corner + min_i64(across_i, 0) + min_i64(across_j, 0);
+        let hi = at_corner + max_i64(across_i, 0) + max_i64(across_j, 0);
+        if hi < 0 {
+            return TileCover::Outside;
+        }
+        let excluded = (c.excluded_edges >> k) & 1 != 0;
+        if lo < 0 || (lo == 0 && excluded) {
+            full = false;
+        }
+        k += 1;
+    }
+    if full { TileCover::Full } else { TileCover::Partial }
+}
+
+fn min_i32(a: i32, b: i32) -> i32 {
+    if a < b { a } else { b }
+}
+
+fn max_i32(a: i32, b: i32) -> i32 {
+    if a > b { a } else { b }
+}
+
+fn min_i64(a: i64, b: i64) -> i64 {
+    if a < b { a } else { b }
+}
+
+fn max_i64(a: i64, b: i64) -> i64 {
+    if a > b { a } else { b }
+}
+
+/// Calls `visit(tile, cover)` for every window tile the triangle's rectangle touches and can
+/// cover a centre of.
+fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, mut visit: impl FnMut(usize, TileCover)) {
     let span = tile_span(&setup.coverage.rect, frame);
     if span.empty {
         return;
@@ -55,21 +128,25 @@ fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, mut visit: impl FnM
     while ty <= span.ty1 {
         let mut tx = span.tx0;
         while tx <= span.tx1 {
-            visit((ty * frame.tiles_x + tx) as usize);
+            let cover = tile_cover(&setup.coverage, tx, ty, frame);
+            if cover != TileCover::Outside {
+                visit((ty * frame.tiles_x + tx) as usize, cover);
+            }
             tx += 1;
         }
         ty += 1;
     }
 }
 
-/// Count pass: one increment per touched tile.
+/// Count pass: one increment per tile the triangle can cover a centre of.
 pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParams, counts: &mut C) {
-    for_each_tile(setup, frame, |tile| {
+    for_each_tile(setup, frame, |tile, _| {
         counts.fetch_add(tile, 1);
     });
 }
 
-/// Fill pass: claim a slot in each touched tile's bin and write the triangle's setup slot.
+/// Fill pass: claim a slot in each of those tiles' bins and write the triangle's setup slot,
+/// with `FULL_TILE_BIT` where it covers the whole tile.
 pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized>(
     setup: &TriangleSetup,
     frame: &FrameParams,
@@ -77,8 +154,9 @@ pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized>(
     cursors: &mut C,
     bins: &mut S,
 ) {
-    for_each_tile(setup, frame, |tile| {
+    for_each_tile(setup, frame, |tile, cover| {
         let k = cursors.fetch_add(tile, 1);
-        bins.store((offsets[tile] + k) as usize, setup.coverage.slot);
+        let full = if cover == TileCover::Full { FULL_TILE_BIT } else { 0 };
+        bins.store((offsets[tile] + k) as usize, setup.coverage.slot | full);
     });
 }

@@ -9,13 +9,16 @@
 //! one (an edge no triangle continues beyond: the mesh's outer boundary) is still covered, by
 //! the lowest-index triangle it touches, as gdal_grid covers hull points.
 //!
+//! A tile whose bin holds a single triangle that covers all of it (binning marks such entries
+//! with `FULL_TILE_BIT`) skips the batches: every pixel is inside that triangle.
+//!
 //! Ownership is the minimum triangle index over the triangles a centre is inside, which does
 //! not depend on the order of the bin; the coverage count is a plain count. Both are
 //! therefore deterministic whatever the scheduling of the binning atomics.
 
 use crate::fixed::fixed_to_f32_bits;
-use crate::types::{Coverage, FrameParams, Plane, PixelRect, TriangleSetup};
-use crate::{BATCH, NO_OWNER, TILE};
+use crate::types::{Coverage, FloatCoeffs, FrameParams, Plane, PixelRect, TriangleSetup};
+use crate::{BATCH, FULL_TILE_BIT, MODE_BARYCENTRIC, MODE_PLANE_F32, NO_OWNER, TILE};
 
 /// Workgroup memory of fine raster.
 #[repr(C)]
@@ -64,6 +67,7 @@ pub struct PixelOut {
 
 /// Grid pixel `(i, j)` of invocation `lid` in window tile `(tx, ty)`, and whether it lies in
 /// the window (edge tiles overhang it).
+#[inline]
 pub fn tile_pixel(tx: u32, ty: u32, lid: u32, frame: &FrameParams) -> (i32, i32, bool) {
     let lx = lid % TILE;
     let ly = lid / TILE;
@@ -74,11 +78,13 @@ pub fn tile_pixel(tx: u32, ty: u32, lid: u32, frame: &FrameParams) -> (i32, i32,
 }
 
 /// Index of grid pixel `(i, j)` in the window's row-major output buffers.
+#[inline]
 pub fn window_index(i: i32, j: i32, frame: &FrameParams) -> usize {
     ((j as u32 - frame.win_y0) * frame.win_w + (i as u32 - frame.win_x0)) as usize
 }
 
 /// Phase 1: invocation `lid` stages entry `batch_start + lid` of the tile's bin.
+#[inline]
 pub fn fine_load(
     lid: u32,
     bin: &[u32],
@@ -90,12 +96,13 @@ pub fn fine_load(
 ) {
     let k = batch_start + lid;
     if lid < BATCH && k < bin_len {
-        let slot = bin[(bin_start + k) as usize];
+        let slot = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
         shared.batch[lid as usize] = setups[slot as usize].coverage;
     }
 }
 
 /// Where pixel centre `(i, j)` lies relative to the triangle.
+#[inline]
 pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
     if !c.rect.contains(i, j) {
         return Side::Outside;
@@ -114,6 +121,7 @@ pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
 }
 
 /// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles.
+#[inline]
 pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, state: &mut PixelState) {
     let mut k = 0;
     while k < batch_len {
@@ -138,15 +146,65 @@ pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, state: &mu
     }
 }
 
+/// Whether the tile's bin is a single triangle covering the whole tile; if so, `state` becomes
+/// every pixel's state, with no edge test.
+#[inline]
+pub fn full_tile(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[TriangleSetup], state: &mut PixelState) -> bool {
+    if bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
+        return false;
+    }
+    let slot = bin[bin_start as usize] & !FULL_TILE_BIT;
+    *state = PixelState { owner: setups[slot as usize].coverage.index, slot, count: 1, edge_owner: NO_OWNER, edge_slot: 0 };
+    true
+}
+
 /// The owner's plane at pixel `(i, j)`, correctly rounded to `f32`.
+#[inline]
 pub fn plane_value_bits(plane: &Plane, rect: &PixelRect, i: i32, j: i32) -> u32 {
     let di = (i - rect.i0) as i64;
     let dj = (j - rect.j0) as i64;
     fixed_to_f32_bits(plane.z + plane.gi * di + plane.gj * dj, plane.frac_bits)
 }
 
+/// `MODE_PLANE_F32`: `(z + gi·Δi) + gj·Δj` in `f32`. `Δi`, `Δj` convert exactly (they are below
+/// 2^24); each product and sum rounds once, unless a device contracts `a·b + c`.
+#[inline]
+pub fn plane_f32_bits(coeffs: &FloatCoeffs, rect: &PixelRect, i: i32, j: i32) -> u32 {
+    let c = &coeffs.c;
+    let di = (i - rect.i0) as f32;
+    let dj = (j - rect.j0) as f32;
+    (c[0] + c[1] * di + c[2] * dj).to_bits()
+}
+
+/// `MODE_BARYCENTRIC`: the barycentric weights `wk / Σw` of the snapped triangle in `f32`, as a
+/// hardware rasteriser computes them, times the vertex heights. The edge functions are
+/// converted with the exact integer conversion so that only the products and sums round.
+#[inline]
+pub fn barycentric_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
+    let c = &s.coeffs.c;
+    let rect = &s.coverage.rect;
+    let di = (i - rect.i0) as i64;
+    let dj = (j - rect.j0) as i64;
+    let e = &s.coverage.edges;
+    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].e0 + e[k].step_i * di + e[k].step_j * dj, 0)) * c[3];
+    (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
+}
+
+/// The value bits of pixel `(i, j)` on the triangle in setup slot `slot`, in the frame's mode.
+#[inline]
+pub fn pixel_value_bits(s: &TriangleSetup, i: i32, j: i32, mode: u32) -> u32 {
+    if mode == MODE_PLANE_F32 {
+        plane_f32_bits(&s.coeffs, &s.coverage.rect, i, j)
+    } else if mode == MODE_BARYCENTRIC {
+        barycentric_bits(s, i, j)
+    } else {
+        plane_value_bits(&s.plane, &s.coverage.rect, i, j)
+    }
+}
+
 /// Phase 3: the pixel's outputs. A centre inside no triangle falls back to a triangle whose
 /// excluded edge it lies on: nobody continues across that edge.
+#[inline]
 pub fn fine_resolve(i: i32, j: i32, state: &PixelState, setups: &[TriangleSetup], frame: &FrameParams) -> PixelOut {
     let (owner, slot, count) = if state.owner != NO_OWNER {
         (state.owner, state.slot, state.count)
@@ -156,7 +214,7 @@ pub fn fine_resolve(i: i32, j: i32, state: &PixelState, setups: &[TriangleSetup]
         return PixelOut { value_bits: frame.nodata_bits, owner: NO_OWNER, count: 0 };
     };
     let s = &setups[slot as usize];
-    PixelOut { value_bits: plane_value_bits(&s.plane, &s.coverage.rect, i, j), owner, count }
+    PixelOut { value_bits: pixel_value_bits(s, i, j, frame.mode), owner, count }
 }
 
 /// Number of bin entries in the batch starting at `batch_start`.

@@ -37,5 +37,6 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
     TriangleSetup {
         coverage: Coverage { edges, rect: input.rect, index: input.index, slot, excluded_edges, _pad: 0 },
         plane: input.plane,
+        coeffs: input.coeffs,
     }
 }

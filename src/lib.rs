@@ -17,7 +17,7 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 
-pub use tileraster_core::{scenes, Error, Grid, Mode, Outputs, Params, Prepared, Raster, Scene, Window};
+pub use tileraster_core::{reference, scenes, Error, Grid, Mode, Outputs, Params, Prepared, Raster, Scene, Window};
 
 /// Where the kernels run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,6 +48,9 @@ pub fn rasterise_window(scene: &Scene, params: &Params, window: Option<Window>, 
     let prepared = tileraster_core::prepare(scene, params, window)?;
     rasterise_prepared(&prepared, backend)
 }
+
+/// Snap, cull and fit planes once; rasterise the result with [`rasterise_prepared`].
+pub use tileraster_core::prepare;
 
 /// Rasterise an already prepared scene.
 pub fn rasterise_prepared(prepared: &Prepared, backend: Backend) -> Result<Raster, Error> {

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::reference::{accuracy, Reference};
+use tileraster::reference::{accuracy, Reference};
 use tileraster::{rasterise, scenes, Backend, Grid, Params, Scene};
 
 fn check(name: &str, scene: &Scene, grid: Grid, backend: Backend) {

@@ -50,4 +50,3 @@ pub fn expect_err(result: Result<Raster, Error>) -> Error {
     }
 }
 
-pub mod reference;

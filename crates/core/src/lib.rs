@@ -5,6 +5,7 @@ mod error;
 mod grid;
 mod prepare;
 mod raster;
+pub mod reference;
 mod scene;
 pub mod scenes;
 

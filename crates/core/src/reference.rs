@@ -1,15 +1,17 @@
-//! An independent f64 reference: for every cell centre, the lowest-index triangle of the
-//! *unsnapped* mesh containing it (edges inclusive), and the height of that triangle's plane
-//! there, evaluated in world coordinates.
+//! An independent f64 reference for measuring accuracy: for every cell centre, the
+//! lowest-index triangle of the *unsnapped* mesh containing it (edges inclusive), and the
+//! height of that triangle's plane there, evaluated in world coordinates. It shares no code
+//! with the preparation or the kernels.
 
-use tileraster::{Grid, Scene};
+use crate::{Grid, Raster, Scene};
 
 pub struct Reference {
     /// Per cell: `(triangle, height)` or `None` outside the mesh.
     pub cells: Vec<Option<(u32, f64)>>,
 }
 
-fn plane_at(scene: &Scene, t: [u32; 3], x: f64, y: f64) -> f64 {
+/// Height at `(x, y)` of the plane through triangle `t`'s vertices (world coordinates).
+pub fn plane_at(scene: &Scene, t: [u32; 3], x: f64, y: f64) -> f64 {
     let [p0, p1, p2] = t.map(|k| scene.vertices[k as usize]);
     let (ax, ay, az) = (p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]);
     let (bx, by, bz) = (p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]);
@@ -27,7 +29,8 @@ fn contains(scene: &Scene, t: [u32; 3], x: f64, y: f64) -> bool {
     (s0 >= 0.0 && s1 >= 0.0 && s2 >= 0.0) || (s0 <= 0.0 && s1 <= 0.0 && s2 <= 0.0)
 }
 
-fn degenerate(scene: &Scene, t: [u32; 3]) -> bool {
+/// Whether triangle `t` has no area in f64.
+pub fn degenerate(scene: &Scene, t: [u32; 3]) -> bool {
     let p = t.map(|k| scene.vertices[k as usize]);
     (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]) == 0.0
 }
@@ -74,6 +77,8 @@ pub struct Accuracy {
     pub compared: u64,
     pub within_half_ulp: u64,
     pub within_one_ulp: u64,
+    /// Cells equal to the reference rounded to the nearest `f32`.
+    pub exact: u64,
     pub max_ulps: f64,
     pub rms_ulps: f64,
     /// Cells covered by exactly one of raster and reference.
@@ -84,9 +89,13 @@ impl Accuracy {
     pub fn share_within_one_ulp(&self) -> f64 {
         self.within_one_ulp as f64 / self.compared.max(1) as f64
     }
+
+    pub fn share_exact(&self) -> f64 {
+        self.exact as f64 / self.compared.max(1) as f64
+    }
 }
 
-pub fn accuracy(raster: &tileraster::Raster, reference: &Reference) -> Accuracy {
+pub fn accuracy(raster: &Raster, reference: &Reference) -> Accuracy {
     let mut a = Accuracy::default();
     let mut sum_sq = 0.0;
     for (k, cell) in reference.cells.iter().enumerate() {
@@ -98,6 +107,7 @@ pub fn accuracy(raster: &tileraster::Raster, reference: &Reference) -> Accuracy 
                 a.compared += 1;
                 a.within_half_ulp += (e <= 0.5) as u64;
                 a.within_one_ulp += (e <= 1.0) as u64;
+                a.exact += (v == *z as f32) as u64;
                 a.max_ulps = a.max_ulps.max(e);
                 sum_sq += e * e;
             }

@@ -1,16 +1,11 @@
-//! Rasterisation time per backend, side by side in one run: the demo's terrain TIN and the
-//! two-triangle sloping plane. The GPU rows need a Vulkan adapter (lavapipe counts); without
-//! one they are left out and the reason is printed.
+//! Rasterisation time per backend and mode, side by side in one run: the seed design's
+//! two-triangle plane at 512² to 4096², a 100k-point terrain TIN onto 4096², micro-triangles
+//! of 0.25, 1 and 4 px, slivers and a rough TIN at UTM coordinates. The GPU rows need a Vulkan
+//! adapter (lavapipe counts); without one they are left out and the reason is printed.
+//! `cargo xtask bench-report` runs a reduced set with errors and peers and writes the report.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use tileraster::{rasterise, scenes, Backend, Grid, Params, Scene};
-
-fn plane() -> Scene {
-    Scene::new(
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 10.0], [1.0, 1.0, 30.0], [0.0, 1.0, 20.0]],
-        vec![[0, 1, 2], [0, 2, 3]],
-    )
-}
+use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Scene};
 
 fn backends() -> Vec<Backend> {
     match tileraster::gpu_adapter() {
@@ -25,21 +20,39 @@ fn backends() -> Vec<Backend> {
     }
 }
 
+fn cases() -> Vec<(String, Scene, Grid, &'static [Mode])> {
+    let all: &'static [Mode] = &Mode::ALL;
+    let exact: &'static [Mode] = &[Mode::Exact];
+    let mut cases = Vec::new();
+    for n in [512, 1024, 2048, 4096] {
+        cases.push((format!("plane {n}²"), scenes::sloping_plane(), Grid::new(0.0, 1.0, 0.0, 1.0, n, n), if n == 4096 { all } else { exact }));
+    }
+    let (x0, y0) = (500_000.0, 5_000_000.0);
+    let tin = scenes::delaunay_terrain(x0, y0, 10_000.0, 10_000.0, 315, 315, 2026);
+    cases.push(("terrain TIN 100k points 4096²".into(), tin, Grid::new(x0, x0 + 10_000.0, y0, y0 + 10_000.0, 4096, 4096), all));
+    for px in [0.25, 1.0, 4.0] {
+        let (scene, grid) = scenes::micro_triangles(512, px, 7);
+        cases.push((format!("micro-triangles {px} px 512²"), scene, grid, exact));
+    }
+    let sliver_grid = Grid::new(0.0, 1024.0, 0.0, 256.0, 1024, 256);
+    cases.push(("slivers 0.1 px".into(), scenes::sliver_wedge(&sliver_grid, 2000, 0.1, 4), sliver_grid, exact));
+    let utm = scenes::delaunay_terrain(x0, y0, 2000.0, 2000.0, 200, 200, 13);
+    cases.push(("UTM TIN 2048²".into(), utm, Grid::new(x0, x0 + 2000.0, y0, y0 + 2000.0, 2048, 2048), exact));
+    cases
+}
+
 fn bench(c: &mut Criterion) {
-    let terrain = scenes::terrain(500_000.0, 5_000_000.0, 10_000.0, 10_000.0, 200, 200, 2026);
-    let cases = [
-        ("terrain 80k triangles", terrain, Grid::new(500_000.0, 510_000.0, 5_000_000.0, 5_010_000.0, 1024, 1024)),
-        ("plane 2 triangles", plane(), Grid::new(0.0, 1.0, 0.0, 1.0, 2048, 2048)),
-    ];
     let backends = backends();
-    for (name, scene, grid) in &cases {
-        let mut group = c.benchmark_group(*name);
+    for (name, scene, grid, modes) in cases() {
+        let mut group = c.benchmark_group(&name);
         group.sample_size(10).throughput(Throughput::Elements(grid.pixel_count()));
-        let params = Params::new(*grid);
-        for &backend in &backends {
-            group.bench_with_input(BenchmarkId::new(backend.name(), format!("{}²", grid.width)), &backend, |b, &backend| {
-                b.iter(|| rasterise(scene, &params, backend).expect("rasterise"))
-            });
+        for &mode in modes {
+            let params = Params::new(grid).with_mode(mode);
+            for &backend in &backends {
+                group.bench_with_input(BenchmarkId::new(backend.name(), mode.name()), &backend, |b, &backend| {
+                    b.iter(|| rasterise(&scene, &params, backend).expect("rasterise"))
+                });
+            }
         }
         group.finish();
     }

@@ -1,6 +1,14 @@
-//! Project tasks. `cargo xtask kernels`: what the rust-gpu build of `shader-crate` produced —
-//! size, capabilities, entry points with their workgroup sizes — as a quick check that the
-//! module is what the GPU backend expects.
+//! Project tasks.
+//!
+//! - `cargo xtask kernels`: what the rust-gpu build of `shader-crate` produced — size,
+//!   capabilities, entry points with their workgroup sizes — as a quick check that the module
+//!   is what the GPU backend expects.
+//! - `cargo xtask bench-report [--quick] [--out DIR]`: run time against error for every
+//!   backend × mode × scene beside the peers; writes `DIR/benchmarks.md` and
+//!   `DIR/time-vs-error.svg` (`DIR` defaults to `docs`).
+
+mod bench_report;
+mod svg;
 
 use std::process::ExitCode;
 
@@ -11,7 +19,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]");
     ExitCode::from(2)
 }
 
@@ -70,6 +78,43 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        ["bench-report", rest @ ..] => {
+            let mut options = bench_report::Options { quick: false, out_dir: "docs".into() };
+            let mut rest = rest.iter();
+            while let Some(arg) = rest.next() {
+                match *arg {
+                    "--quick" => options.quick = true,
+                    "--out" => match rest.next() {
+                        Some(dir) => options.out_dir = dir.into(),
+                        None => return usage(),
+                    },
+                    _ => return usage(),
+                }
+            }
+            match bench_report::run(&options).and_then(|report| bench_report::write(&report, &options)) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("xtask bench-report: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         _ => usage(),
     }
+}
+
+/// Today's date (UTC) as `YYYY-MM-DD`, from the system clock.
+fn today() -> String {
+    let days = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs() / 86_400).unwrap_or(0) as i64;
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}-{m:02}-{d:02}")
 }

@@ -16,16 +16,26 @@ pub struct Raster {
     pub snap_bits: u32,
 }
 
-/// A zeroed `Vec`, or a clear error instead of an abort when memory runs out.
-pub(crate) fn try_zeroed<T: Copy + Default>(len: usize, window: &Window) -> Result<Vec<T>, Error> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(len).map_err(|e| Error::RasterTooLarge {
-        width: window.width as u64,
-        height: window.height as u64,
-        reason: format!("allocating {} bytes failed ({e})", len as u128 * std::mem::size_of::<T>() as u128),
-    })?;
-    v.resize(len, T::default());
-    Ok(v)
+/// A zeroed `Vec`, or a clear error instead of an abort when memory runs out. Zeroed memory
+/// comes straight from the allocator (as for `vec![0; n]`), so large rasters are not written
+/// twice: the pages are zero until the kernels' first store.
+pub(crate) fn try_zeroed<T: bytemuck::Zeroable>(len: usize, window: &Window) -> Result<Vec<T>, Error> {
+    let too_large = |reason: String| Error::RasterTooLarge { width: window.width as u64, height: window.height as u64, reason };
+    let bytes = len as u128 * std::mem::size_of::<T>() as u128;
+    let layout = std::alloc::Layout::array::<T>(len).map_err(|e| too_large(format!("{bytes} bytes ({e})")))?;
+    if layout.size() == 0 {
+        return Ok(Vec::new());
+    }
+    // SAFETY: the layout has a non-zero size; `T: Zeroable` makes all-zero bytes a valid `T`;
+    // the pointer comes from the global allocator with `T`'s layout for `len` elements, as
+    // `Vec::from_raw_parts` requires.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout).cast::<T>();
+        if ptr.is_null() {
+            return Err(too_large(format!("allocating {bytes} bytes failed")));
+        }
+        Ok(Vec::from_raw_parts(ptr, len, len))
+    }
 }
 
 impl Raster {

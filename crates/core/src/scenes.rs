@@ -80,6 +80,33 @@ pub fn terrain(x0: f64, y0: f64, width: f64, height: f64, cols: u32, rows: u32, 
     Scene::new(vertices, triangles)
 }
 
+/// [`terrain`]'s points triangulated as Delaunay would: every cell split along the diagonal
+/// that keeps the fourth corner out of the other triangle's circumcircle. With jitter this
+/// small the lattice edges are Delaunay edges too, so a Delaunay triangulator given the same
+/// points (gdal_grid's, for one) builds this very mesh, ties aside.
+pub fn delaunay_terrain(x0: f64, y0: f64, width: f64, height: f64, cols: u32, rows: u32, seed: u64) -> Scene {
+    let mut scene = terrain(x0, y0, width, height, cols, rows, seed);
+    let v = &scene.vertices;
+    let at = |c: u32, r: u32| v[(r * (cols + 1) + c) as usize];
+    scene.triangles = lattice_triangles(cols, rows, |c, r| {
+        // Diagonal a–e is Delaunay when d lies outside the circumcircle of (a, b, e).
+        let (a, b, d, e) = (at(c, r), at(c + 1, r), at(c, r + 1), at(c + 1, r + 1));
+        !in_circle(a, b, e, d)
+    });
+    scene
+}
+
+/// Whether `p` lies strictly inside the circumcircle of the counter-clockwise or clockwise
+/// triangle `(a, b, c)` (relative coordinates keep the f64 determinant accurate).
+fn in_circle(a: [f64; 3], b: [f64; 3], c: [f64; 3], p: [f64; 3]) -> bool {
+    let d = |q: [f64; 3]| (q[0] - p[0], q[1] - p[1]);
+    let ((ax, ay), (bx, by), (cx, cy)) = (d(a), d(b), d(c));
+    let det = (ax * ax + ay * ay) * (bx * cy - cx * by) - (bx * bx + by * by) * (ax * cy - cx * ay)
+        + (cx * cx + cy * cy) * (ax * by - bx * ay);
+    let orientation = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    det * orientation.signum() > 0.0
+}
+
 /// Triangles of a `(cols + 1) × (rows + 1)` vertex lattice (row-major), each cell split along
 /// its main diagonal when `main_diagonal(c, r)` says so, else along the other one.
 pub fn lattice_triangles(cols: u32, rows: u32, mut main_diagonal: impl FnMut(u32, u32) -> bool) -> Vec<[u32; 3]> {
@@ -163,4 +190,18 @@ pub fn triangle_soup(grid: &Grid, n: u32, max_size_px: f64, seed: u64) -> Scene 
         triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
     }
     Scene::new(vertices, triangles)
+}
+
+/// The seed design's benchmark: two triangles forming a sloping plane over the unit square
+/// (grid it with `Grid::new(0.0, 1.0, 0.0, 1.0, n, n)`).
+pub fn sloping_plane() -> Scene {
+    Scene::new(vec![[0.0, 0.0, 0.0], [1.0, 0.0, 10.0], [1.0, 1.0, 30.0], [0.0, 1.0, 20.0]], vec![[0, 1, 2], [0, 2, 3]])
+}
+
+/// A terrain TIN over `[0, size]²` whose triangles cover `triangle_px` pixels each on a
+/// `size`² grid of unit cells (two per lattice cell), with that grid.
+pub fn micro_triangles(size: u32, triangle_px: f64, seed: u64) -> (Scene, Grid) {
+    let cols = (size as f64 / (2.0 * triangle_px).sqrt()).round() as u32;
+    let extent = size as f64;
+    (terrain(0.0, 0.0, extent, extent, cols, cols, seed), Grid::new(0.0, extent, 0.0, extent, size, size))
 }

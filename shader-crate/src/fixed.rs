@@ -71,11 +71,18 @@ fn round_shr(m: u64, s: u32) -> u64 {
 #[inline]
 pub fn fixed_to_f32_bits(n: i64, frac_bits: i32) -> u32 {
     #[cfg(not(target_arch = "spirv"))]
-    if (-127..=126).contains(&frac_bits) {
+    if converts_natively(frac_bits) {
         let scale = f32::from_bits(((127 - frac_bits) as u32) << 23);
         return ((n as f32) * scale).to_bits();
     }
     fixed_to_f32_bits_by_hand(n, frac_bits)
+}
+
+/// Whether [`fixed_to_f32_bits`] takes the native path for `frac_bits` (`2^−frac_bits` is a
+/// normal `f32`). Loops that test it once outside let the compiler vectorise the conversion.
+#[inline]
+pub fn converts_natively(frac_bits: i32) -> bool {
+    (-127..=126).contains(&frac_bits)
 }
 
 /// [`fixed_to_f32_bits`] with integer operations only.

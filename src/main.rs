@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use tileraster::{rasterise, scenes, Backend, Grid, Params, Raster};
+use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster};
 
 #[derive(Parser)]
 #[command(name = "tileraster", version, about = "Deterministic triangle rasteriser: bit-identical heightfields on CPU and GPU")]
@@ -47,6 +47,10 @@ enum Command {
         /// Also write a hillshaded PNG preview.
         #[arg(long)]
         preview: Option<PathBuf>,
+        /// How values are computed: exact (correctly rounded, the default), plane-f32 or
+        /// barycentric (cheaper f32 arithmetic; bounds in docs/numeric-contract.md).
+        #[arg(long, default_value = "exact")]
+        mode: Mode,
     },
     /// Rasterise a built-in procedural terrain TIN on both backends, time them, compare them
     /// bit for bit, and write a GeoTIFF and a PNG preview.
@@ -75,23 +79,25 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { mesh, output, txe, tye, outsize, backend, nodata, preview } => {
+        Command::Rasterise { mesh, output, txe, tye, outsize, backend, nodata, preview, mode } => {
             let scene = tileraster_io::read_obj(&mesh).map_err(|e| e.to_string())?;
             let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], outsize[0], outsize[1]);
             let backend = choose_backend(backend)?;
             let start = Instant::now();
-            let raster = rasterise(&scene, &Params::new(grid).with_nodata(nodata), backend).map_err(|e| e.to_string())?;
+            let params = Params::new(grid).with_nodata(nodata).with_mode(mode);
+            let raster = rasterise(&scene, &params, backend).map_err(|e| e.to_string())?;
             let took = start.elapsed();
             tileraster_io::write_geotiff(&raster, &output).map_err(|e| e.to_string())?;
             if let Some(preview) = preview {
                 tileraster_io::write_preview_png(&raster, &preview).map_err(|e| e.to_string())?;
             }
             eprintln!(
-                "tileraster: {} triangles onto {}×{} cells with the {} backend in {} (snapping step 2^-{} px) → {}",
+                "tileraster: {} triangles onto {}×{} cells with the {} backend, {} mode, in {} (snapping step 2^-{} px) → {}",
                 scene.triangles.len(),
                 grid.width,
                 grid.height,
                 backend.name(),
+                mode.name(),
                 ms(took),
                 raster.snap_bits,
                 output.display()

@@ -93,3 +93,27 @@ fn bad_input_is_reported_with_file_and_line_and_leaves_no_output() {
 fn zero_sized_grid_is_a_clear_error() {
     expect_failure("zero", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", ["0", "4"], &["width and height must both be at least 1"]);
 }
+
+#[test]
+fn mode_flag_selects_the_value_mode_and_rejects_unknown_ones() {
+    let dir = scratch("mode");
+    let grid = Grid::new(0.0, 600.0, 0.0, 400.0, 90, 60);
+    let scene = scenes::terrain(0.0, 0.0, 600.0, 400.0, 12, 8, 6);
+    let (obj, tif) = (dir.join("mesh.obj"), dir.join("out.tif"));
+    write_obj(&scene, &obj);
+    let grid_args = ["--txe", "0", "600", "--tye", "0", "400", "--outsize", "90", "60"];
+    let out = rasterise_cli(&obj, &tif, &[&grid_args[..], &["--mode", "barycentric"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(&tif).unwrap())).unwrap();
+    let DecodingResult::F32(values) = decoder.read_image().unwrap() else { panic!("not Float32") };
+    let params = Params::new(grid).with_nodata(-9999.0).with_mode(tileraster::Mode::Barycentric);
+    let expected = rasterise(&scene, &params, Backend::Cpu).unwrap();
+    assert!(values.iter().zip(&expected.values).all(|(a, b)| a.to_bits() == b.to_bits()), "file differs from the barycentric raster");
+
+    let out = rasterise_cli(&obj, &dir.join("never.tif"), &[&grid_args[..], &["--mode", "cubic"]].concat());
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("unknown mode 'cubic'") && err.contains("exact, plane-f32, barycentric"), "{err}");
+    assert!(!dir.join("never.tif").exists());
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -45,8 +45,15 @@ pub enum Error {
     InvalidWindow { x0: u64, y0: u64, width: u64, height: u64, grid_width: u64, grid_height: u64 },
 
     #[error(
-        "triangle {triangle} spans {extent_px:.0} pixels, more than the {limit_px} pixels exact \
+        "triangle {triangle} spans {extent_px} pixels, more than the {limit_px} pixels exact \
          coverage supports; split it into smaller triangles or use a coarser grid"
     )]
     TriangleTooLarge { triangle: usize, extent_px: f64, limit_px: u64 },
+
+    #[error(
+        "triangle {triangle}: the {mode} mode computes values in f32, and over the triangle's \
+         pixels they reach {reach:e}, beyond what its f32 arithmetic keeps finite (< 2^127 ≈ 1.7e38); \
+         use the exact mode, or scale the heights"
+    )]
+    OutsideModeRange { triangle: usize, mode: &'static str, reach: f64 },
 }

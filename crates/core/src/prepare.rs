@@ -119,7 +119,8 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
     let snap_bits = snap_bits_for(max_extent).ok_or(Error::TriangleTooLarge {
         triangle: widest,
         extent_px: max_extent,
-        limit_px: (1u64 << (EXTENT_LIMIT_BITS - 1)) - 2,
+        // ceil(extent) + 2 < 2^28 at one snap bit: extents up to 2^28 − 3 px.
+        limit_px: (1u64 << (EXTENT_LIMIT_BITS - 1)) - 3,
     })?;
     let unit = (1i64 << snap_bits) as f64;
 
@@ -157,9 +158,13 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         .map(|s| {
             let (plane, f64_plane) = fit_plane(scene, &raster, s, snap_bits);
             let coeffs = float_coeffs(params.mode, scene, s, f64_plane);
-            TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0, coeffs }
+            let reach = float_reach(params.mode, &coeffs, &s.rect);
+            if !(reach < FLOAT_REACH_LIMIT) {
+                return Err(Error::OutsideModeRange { triangle: s.index, mode: params.mode.name(), reach });
+            }
+            Ok(TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0, coeffs })
         })
-        .collect();
+        .collect::<Result<_, _>>()?;
 
     Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate })
 }
@@ -255,6 +260,27 @@ fn float_coeffs(mode: Mode, scene: &Scene, s: &Snapped, plane: [f64; 3]) -> Floa
         }
     };
     FloatCoeffs { c }
+}
+
+/// The `f32` modes' partial sums must stay below `2^127`: then no rounding step can carry a
+/// value past `f32::MAX` (`≈ 2^128`), so every covered cell is finite.
+const FLOAT_REACH_LIMIT: f64 = 1.7014118346046923e38; // 2^127
+
+/// The largest magnitude `mode`'s `f32` arithmetic meets over `rect` before rounding: `S`
+/// for `plane-f32` (`|z| + |gi|·Δi + |gj|·Δj`, with the rounded coefficients), the largest
+/// `|h|` for `barycentric` (its weights lie in `[0, 1]` on covered pixels); zero in exact mode.
+fn float_reach(mode: Mode, coeffs: &FloatCoeffs, rect: &PixelRect) -> f64 {
+    let c = coeffs.c.map(f64::from);
+    match mode {
+        Mode::Exact => 0.0,
+        // A coefficient beyond f32 (infinite) is out of range even where it multiplies zero.
+        _ if c.iter().any(|v| !v.is_finite()) => f64::INFINITY,
+        Mode::PlaneF32 => {
+            let (w, h) = ((rect.i1 - rect.i0).max(0) as f64, (rect.j1 - rect.j0).max(0) as f64);
+            c[0].abs() + c[1].abs() * w + c[2].abs() * h
+        }
+        Mode::Barycentric => c[0].abs().max(c[1].abs()).max(c[2].abs()),
+    }
 }
 
 /// Value at `(ci, cj)` and per-pixel gradients of the plane through three raster-space points,
@@ -395,5 +421,31 @@ mod tests {
             let area = (t.x[1] - t.x[0]) as i128 * (t.y[2] - t.y[0]) as i128 - (t.y[1] - t.y[0]) as i128 * (t.x[2] - t.x[0]) as i128;
             assert!(area > 0);
         }
+    }
+
+    #[test]
+    fn float_modes_refuse_planes_their_f32_arithmetic_would_overflow() {
+        let grid = Grid::new(0.0, 8.0, 0.0, 8.0, 8, 8);
+        let near_max = f32::MAX as f64 * 0.75; // within the raster's range, beyond 2^127
+        let scene = |z: f64| Scene::new(vec![[0.0, 0.0, 1.0], [8.0, 0.0, z], [0.0, 8.0, 1.0]], vec![[0, 1, 2]]);
+        for mode in Mode::ALL {
+            let params = Params::new(grid).with_mode(mode);
+            assert!(prepare(&scene(1e38), &params, None).is_ok(), "{mode:?}");
+            match prepare(&scene(near_max), &params, None) {
+                Ok(_) => assert_eq!(mode, Mode::Exact),
+                Err(Error::OutsideModeRange { triangle: 0, mode: name, reach }) => {
+                    assert_eq!(name, mode.name());
+                    assert!(reach >= FLOAT_REACH_LIMIT, "{reach:e}");
+                }
+                Err(e) => panic!("{mode:?}: {e}"),
+            }
+        }
+        // A plane that stays in range at the vertices but not at the rectangle's corner pixel,
+        // where plane-f32 starts: a steep sliver.
+        let sliver = Scene::new(vec![[0.0, 0.0, 0.0], [8.0, 8.0, 0.0], [0.0, 0.01, 1e36]], vec![[0, 1, 2]]);
+        assert!(prepare(&sliver, &Params::new(grid), None).is_ok());
+        let err = prepare(&sliver, &Params::new(grid).with_mode(Mode::PlaneF32), None).unwrap_err();
+        assert!(matches!(err, Error::OutsideModeRange { .. }), "{err}");
+        assert!(err.to_string().contains("use the exact mode"), "{err}");
     }
 }

@@ -158,12 +158,20 @@ pub fn full_tile(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[TriangleSe
     true
 }
 
-/// The owner's plane at pixel `(i, j)`, correctly rounded to `f32`.
+/// The owner's plane at pixel `(i, j)`, correctly rounded to `f32`, or `±f32::MAX` where it
+/// lies beyond the `f32` range. Inside a triangle the plane lies between the vertex heights;
+/// only a centre that snapping lets it cover from just outside can be beyond them.
 #[inline]
 pub fn plane_value_bits(plane: &Plane, rect: &PixelRect, i: i32, j: i32) -> u32 {
     let di = (i - rect.i0) as i64;
     let dj = (j - rect.j0) as i64;
-    fixed_to_f32_bits(plane.z + plane.gi * di + plane.gj * dj, plane.frac_bits)
+    saturate_infinity(fixed_to_f32_bits(plane.z + plane.gi * di + plane.gj * dj, plane.frac_bits))
+}
+
+/// `±∞` becomes `±f32::MAX` (the bits just below); every other value stays.
+#[inline]
+pub fn saturate_infinity(bits: u32) -> u32 {
+    if bits & 0x7fff_ffff == 0x7f80_0000 { bits - 1 } else { bits }
 }
 
 /// `MODE_PLANE_F32`: `(z + gi·Δi) + gj·Δj` in `f32`. `Δi`, `Δj` convert exactly (they are below

@@ -12,6 +12,6 @@ pub mod scenes;
 pub use error::Error;
 pub use grid::{Grid, Mode, Outputs, Params, MAX_GRID_DIM};
 pub use prepare::{prepare, Prepared, Window};
-pub use raster::{Difference, Raster};
+pub use raster::{zeroed_cells, Difference, Raster};
 pub use scene::Scene;
 pub use tileraster_kernels as kernels;

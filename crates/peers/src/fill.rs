@@ -7,13 +7,14 @@ use rayon::prelude::*;
 /// Cells each rayon task fills: large enough to amortise scheduling, small enough to balance.
 const CPU_CHUNK: usize = 1 << 16;
 
-/// Store-bandwidth roofline on the CPU: allocate a zeroed `Vec<f32>` of `cells` and fill it
+/// Store-bandwidth roofline on the CPU: allocate `cells` zeroed cells and fill them
 /// with `value` on all cores. The buffer is returned so the caller can keep the optimiser from
 /// removing the stores.
 pub fn fill_cpu(cells: usize, value: f32) -> Vec<f32> {
-    // Zeroed allocation is lazily mapped, so the page faults land in the parallel fill, as they
-    // do when a rasteriser writes its freshly allocated output.
-    let mut out = vec![0.0f32; cells];
+    // Allocated as tileraster allocates its rasters (zeroed, lazily mapped, huge pages where
+    // the system gives them), so the page faults land in the parallel fill, as they do when
+    // the rasteriser writes its freshly allocated output.
+    let mut out: Vec<f32> = tileraster_core::zeroed_cells(cells).expect("memory for the roofline raster");
     out.par_chunks_mut(CPU_CHUNK).for_each(|chunk| chunk.fill(value));
     out
 }

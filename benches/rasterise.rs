@@ -1,5 +1,5 @@
 //! Rasterisation time per backend and mode, side by side in one run: the seed design's
-//! two-triangle plane at 512² to 4096², a 100k-point terrain TIN onto 4096², micro-triangles
+//! two-triangle plane at 512² to 8192², a 100k-point terrain TIN onto 4096², micro-triangles
 //! of 0.25, 1 and 4 px, slivers and a rough TIN at UTM coordinates. The GPU rows need a Vulkan
 //! adapter (lavapipe counts); without one they are left out and the reason is printed.
 //! `cargo xtask bench-report` runs a reduced set with errors and peers and writes the report.
@@ -24,7 +24,7 @@ fn cases() -> Vec<(String, Scene, Grid, &'static [Mode])> {
     let all: &'static [Mode] = &Mode::ALL;
     let exact: &'static [Mode] = &[Mode::Exact];
     let mut cases = Vec::new();
-    for n in [512, 1024, 2048, 4096] {
+    for n in [512, 1024, 2048, 4096, 8192] {
         cases.push((format!("plane {n}²"), scenes::sloping_plane(), Grid::new(0.0, 1.0, 0.0, 1.0, n, n), if n == 4096 { all } else { exact }));
     }
     let (x0, y0) = (500_000.0, 5_000_000.0);

@@ -80,3 +80,21 @@ fn everything_culled_or_flat_gives_nodata_everywhere() {
         assert!(cpu.coverage.unwrap().iter().all(|&c| c == 0));
     }
 }
+
+/// Two triangles covering 2048² cells each reach 8,000+ tiles: more than one binning
+/// invocation may loop over on drivers that end long loops silently (llvmpipe), so the
+/// binning is split into bands of tile rows. Checked coverage too: every cell is covered.
+#[test]
+fn triangles_spanning_thousands_of_tiles() {
+    for (n, window_limit) in [(2048u32, None), (2048, Some(1024 * 1024))] {
+        if let Some(limit) = window_limit {
+            tileraster::set_gpu_window_limit(limit);
+        }
+        let grid = Grid::new(0.0, 1.0, 0.0, 1.0, n, n);
+        let result = assert_parity(&format!("plane {n}², GPU windows of {window_limit:?} px"), &scenes::sloping_plane(), &params(grid));
+        tileraster::set_gpu_window_limit(4096 * 4096);
+        if let Some((cpu, _)) = result {
+            assert!(cpu.coverage.as_ref().unwrap().iter().all(|&c| c >= 1), "the plane covers every cell");
+        }
+    }
+}

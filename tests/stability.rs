@@ -1060,6 +1060,59 @@ fn heights_up_to_f32_max_work_and_beyond_are_out_of_range() {
     }
 }
 
+/// `plane-f32` converts pixel offsets to `f32`, exactly up to `2^24`: a triangle whose pixel
+/// centres span `2^24 + 1` columns works on both backends, within the mode's bound at its far
+/// end; one column more is refused in that mode (and only in that mode).
+#[test]
+fn plane_f32_takes_triangles_up_to_2_pow_24_plus_1_columns() {
+    let limit = (1u32 << 24) + 1;
+    let n = limit + 8;
+    let grid = Grid::new(0.0, n as f64, 0.0, 8.0, n, 8);
+    // Top edge along row 0, right edge vertical: centres in columns 0 ..= columns - 1.
+    let triangle = |columns: u32| {
+        let right = columns as f64 - 0.25;
+        Scene::new(vec![[0.25, 8.0, 1.0], [right, 8.0, 2.0], [right, 0.0, 3.0]], vec![[0, 1, 2]])
+    };
+    let window = |columns: u32| Some(Window { x0: columns - 32, y0: 0, width: 32, height: 8 });
+
+    let scene = triangle(limit);
+    let exact = rasterise_window(&scene, &params(grid, Mode::Exact), window(limit), Backend::Cpu).expect("exact mode");
+    let mut backends = vec![Backend::Cpu];
+    if common::gpu_or_skip("plane-f32 at 2^24 + 1 columns") {
+        backends.push(Backend::Gpu);
+    }
+    let mut rasters = vec![];
+    for backend in backends {
+        let raster = rasterise_window(&scene, &params(grid, Mode::PlaneF32), window(limit), backend)
+            .unwrap_or_else(|e| panic!("{}: {limit} columns must be accepted: {e}", backend.name()));
+        check_consistent("plane-f32 at the offset limit", &raster).unwrap();
+        let coverage = raster.coverage.as_ref().unwrap();
+        assert!(coverage.iter().any(|&c| c == 1), "the window shows none of the triangle");
+        // S ≤ 3 + 1 + 2: the heights and the plane's rise across the rectangle.
+        for (k, (&v, &e)) in raster.values.iter().zip(&exact.values).enumerate() {
+            if coverage[k] > 0 {
+                assert!((v as f64 - e as f64).abs() <= 6.0 * 2f64.powi(-21), "{}: cell {k}: {v} against exact {e}", backend.name());
+            }
+        }
+        rasters.push(raster);
+    }
+    if let [cpu, gpu] = &rasters[..] {
+        assert_eq!(cpu.compare_bits(gpu, 4).0, 0, "plane-f32 at {limit} columns: CPU and GPU differ");
+    }
+
+    let wider = triangle(limit + 1);
+    let e = expect_err("plane-f32 beyond the offset limit", rasterise_window(&wider, &params(grid, Mode::PlaneF32), window(limit + 1), Backend::Cpu));
+    assert!(
+        matches!(e, Error::TooWideForMode { triangle: 0, extent_px, limit_px, .. } if extent_px == limit as u64 + 1 && limit_px == limit as u64),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("use the exact mode"), "{e}");
+    for mode in [Mode::Exact, Mode::Barycentric] {
+        rasterise_window(&wider, &params(grid, mode), window(limit + 1), Backend::Cpu)
+            .unwrap_or_else(|e| panic!("[{}] has no offset limit: {e}", mode.name()));
+    }
+}
+
 #[test]
 fn non_finite_coordinates_are_named() {
     let grid = Grid::new(0.0, 16.0, 0.0, 16.0, 16, 16);

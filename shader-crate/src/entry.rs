@@ -36,9 +36,10 @@ pub fn bin_count(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] counts: &mut [u32],
 ) {
-    let t = triangle_slot(gid, frame);
+    let id = triangle_slot(gid, frame);
+    let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
-        count_tiles(&setups[t as usize], frame, counts);
+        count_tiles(&setups[t as usize], frame, part, counts);
     }
 }
 
@@ -67,9 +68,10 @@ pub fn bin_fill(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] cursors: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] bins: &mut [u32],
 ) {
-    let t = triangle_slot(gid, frame);
+    let id = triangle_slot(gid, frame);
+    let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
-        fill_tiles(&setups[t as usize], frame, offsets, cursors, bins);
+        fill_tiles(&setups[t as usize], frame, part, offsets, cursors, bins);
     }
 }
 

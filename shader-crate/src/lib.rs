@@ -32,6 +32,11 @@ pub const BATCH: u32 = 64;
 pub const TRIANGLE_GROUP: u32 = 64;
 /// Invocations of the single-workgroup prefix sum.
 pub const SCAN_GROUP: u32 = 256;
+/// Most tiles one binning invocation visits. A triangle larger than that is binned by several
+/// invocations, each taking a band of its tile rows: some drivers end an invocation after a
+/// fixed number of loop iterations (llvmpipe: 65,535 over all its loops, about 10,900 tiles),
+/// silently, so no invocation may loop long.
+pub const BIN_PART_TILES: u32 = 4096;
 /// Most sub-pixel bits the snapping uses; fewer only for enormous triangles.
 pub const MAX_SNAP_BITS: u32 = 16;
 /// Snapped triangles must satisfy `(extent_px + 1) << snap_bits < 2^EXTENT_LIMIT_BITS`, which

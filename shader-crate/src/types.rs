@@ -126,7 +126,11 @@ pub struct FrameParams {
     pub dispatch_width: u32,
     /// How covered values are computed: `MODE_EXACT`, `MODE_PLANE_F32` or `MODE_BARYCENTRIC`.
     pub mode: u32,
-    pub _pad: [u32; 4],
+    /// Tile rows each binning invocation takes of its triangle (see `BIN_PART_TILES`)...
+    pub bin_part_rows: u32,
+    /// ... and invocations per triangle, enough for the tallest triangle of the window.
+    pub bin_parts: u32,
+    pub _pad: [u32; 2],
 }
 
 impl FrameParams {

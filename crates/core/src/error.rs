@@ -56,4 +56,11 @@ pub enum Error {
          use the exact mode, or scale the heights"
     )]
     OutsideModeRange { triangle: usize, mode: &'static str, reach: f64 },
+
+    #[error(
+        "triangle {triangle} covers pixel centres across {extent_px} columns or rows of the grid, \
+         more than the {limit_px} over which the {mode} mode's f32 pixel offsets are exact; use \
+         the exact mode, or split the triangle"
+    )]
+    TooWideForMode { triangle: usize, mode: &'static str, extent_px: u64, limit_px: u64 },
 }

@@ -17,7 +17,7 @@ use crate::{Error, Grid, Mode, Params, Raster, Scene};
 use tileraster_kernels::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::types::{FloatCoeffs, FrameParams, PixelRect, Plane, TriangleInput};
-use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS, TILE};
+use tileraster_kernels::{BIN_PART_TILES, EXTENT_LIMIT_BITS, MAX_SNAP_BITS, TILE};
 
 /// A rectangle of grid pixels: columns `x0..x0+width`, rows `y0..y0+height`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -162,6 +162,10 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
             if !(reach < FLOAT_REACH_LIMIT) {
                 return Err(Error::OutsideModeRange { triangle: s.index, mode: params.mode.name(), reach });
             }
+            let extent_px = (s.rect.i1 - s.rect.i0).max(s.rect.j1 - s.rect.j0) as u64 + 1;
+            if params.mode == Mode::PlaneF32 && extent_px > FLOAT_OFFSET_LIMIT + 1 {
+                return Err(Error::TooWideForMode { triangle: s.index, mode: params.mode.name(), extent_px, limit_px: FLOAT_OFFSET_LIMIT + 1 });
+            }
             Ok(TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0, coeffs })
         })
         .collect::<Result<_, _>>()?;
@@ -266,6 +270,10 @@ fn float_coeffs(mode: Mode, scene: &Scene, s: &Snapped, plane: [f64; 3]) -> Floa
 /// value past `f32::MAX` (`≈ 2^128`), so every covered cell is finite.
 const FLOAT_REACH_LIMIT: f64 = 1.7014118346046923e38; // 2^127
 
+/// `plane-f32` converts pixel offsets from the triangle's corner pixel to `f32`; up to `2^24`
+/// that is exact on every device (Vulkan leaves the rounding of larger ones open).
+const FLOAT_OFFSET_LIMIT: u64 = 1 << 24;
+
 /// The largest magnitude `mode`'s `f32` arithmetic meets over `rect` before rounding: `S`
 /// for `plane-f32` (`|z| + |gi|·Δi + |gj|·Δj`, with the rounded coefficients), the largest
 /// `|h|` for `barycentric` (its weights lie in `[0, 1]` on covered pixels); zero in exact mode.
@@ -322,7 +330,7 @@ impl Prepared {
     pub fn frame(&self, window: Window) -> FrameParams {
         let tiles_x = window.width.div_ceil(TILE);
         let tiles_y = window.height.div_ceil(TILE);
-        FrameParams {
+        let mut frame = FrameParams {
             win_x0: window.x0,
             win_y0: window.y0,
             win_w: window.width,
@@ -335,8 +343,14 @@ impl Prepared {
             outputs: self.params.output_bits(),
             dispatch_width: 0,
             mode: self.params.mode.kernel_code(),
-            _pad: [0; 4],
-        }
+            bin_part_rows: (BIN_PART_TILES / tiles_x.max(1)).max(1),
+            bin_parts: 1,
+            _pad: [0; 2],
+        };
+        // Enough bands for the tallest triangle in the window.
+        let rows = self.triangles.iter().map(|t| tile_span(&t.rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
+        frame.bin_parts = rows.unwrap_or(1).div_ceil(frame.bin_part_rows).max(1);
+        frame
     }
 
     /// Most (triangle, tile) entries binning can write for `frame` (every tile of every

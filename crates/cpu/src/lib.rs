@@ -69,7 +69,8 @@ pub fn setup(prepared: &Prepared, frame: &FrameParams) -> Vec<TriangleSetup> {
 pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup]) -> Vec<u32> {
     let counts = atomic_zeroed(frame.tile_count() as usize);
     let sink = AtomicSlice(&counts);
-    setups.par_iter().for_each(|s| bin::bin_count(s, frame, &mut { sink }));
+    // The GPU's invocations, (triangle, band of tile rows) pairs, grouped by triangle.
+    setups.par_iter().for_each(|s| (0..frame.bin_parts).for_each(|part| bin::bin_count(s, frame, part, &mut { sink })));
     counts.into_iter().map(AtomicU32::into_inner).collect()
 }
 
@@ -93,7 +94,7 @@ pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32]) 
     let cursors = atomic_zeroed(frame.tile_count() as usize);
     let bins = atomic_zeroed(offsets[frame.tile_count() as usize] as usize);
     let (cursors_sink, bins_sink) = (AtomicSlice(&cursors), AtomicSlice(&bins));
-    setups.par_iter().for_each(|s| bin::bin_fill(s, frame, offsets, &mut { cursors_sink }, &mut { bins_sink }));
+    setups.par_iter().for_each(|s| (0..frame.bin_parts).for_each(|part| bin::bin_fill(s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink })));
     bins.into_iter().map(AtomicU32::into_inner).collect()
 }
 

@@ -2,7 +2,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Prepared, Raster, Window};
 use tileraster_kernels::types::{FrameParams, TriangleInput, TriangleSetup};
-use tileraster_kernels::{OUTPUT_COVERAGE, OUTPUT_OWNER, TILE, TRIANGLE_GROUP};
+use tileraster_kernels::{BIN_PART_TILES, OUTPUT_COVERAGE, OUTPUT_OWNER, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
 /// big enough to keep a GPU busy, small enough to bound the per-window buffers.
@@ -269,8 +269,9 @@ impl GpuContext {
         Ok(())
     }
 
-    fn dispatch_triangles(frame: &mut FrameParams) -> (u32, u32) {
-        let groups = frame.triangles.div_ceil(TRIANGLE_GROUP).max(1);
+    /// Workgroups for `items` invocations of a per-triangle stage, in 2D past 65,535.
+    fn dispatch_triangles(frame: &mut FrameParams, items: u32) -> (u32, u32) {
+        let groups = items.div_ceil(TRIANGLE_GROUP).max(1);
         let x = groups.min(65_535);
         let y = groups.div_ceil(x);
         frame.dispatch_width = x * TRIANGLE_GROUP;
@@ -279,7 +280,8 @@ impl GpuContext {
 
     fn upload_and_setup(&mut self, prepared: &Prepared) -> Result<(), Error> {
         let mut frame = prepared.frame(prepared.window);
-        let (gx, gy) = Self::dispatch_triangles(&mut frame);
+        let triangles = frame.triangles;
+        let (gx, gy) = Self::dispatch_triangles(&mut frame, triangles);
         let inputs: &[TriangleInput] = &prepared.triangles;
         let input_bytes: &[u8] = bytemuck::cast_slice(inputs);
         let device = &self.device;
@@ -305,7 +307,14 @@ impl GpuContext {
 
     fn rasterise_window(&mut self, frame: &FrameParams, entries: u64, raster: &mut Raster) -> Result<(), Error> {
         let mut frame = *frame;
-        let (gx, gy) = Self::dispatch_triangles(&mut frame);
+        // Binning runs one invocation per triangle and band of its tile rows.
+        let items = frame.triangles as u64 * frame.bin_parts as u64;
+        let items = u32::try_from(items).map_err(|_| Error::RasterTooLarge {
+            width: frame.win_w as u64,
+            height: frame.win_h as u64,
+            reason: format!("binning needs {items} invocations, more than one dispatch holds"),
+        })?;
+        let (gx, gy) = Self::dispatch_triangles(&mut frame, items);
         let tiles = frame.tile_count() as u64;
         let pixels = frame.win_w as u64 * frame.win_h as u64;
         let device = &self.device;
@@ -409,7 +418,9 @@ fn bind_group(device: &wgpu::Device, pipeline: &wgpu::ComputePipeline, buffers: 
 /// the area is already too wide), each at most `max_pixels`.
 fn windows(area: &Window, max_pixels: u64) -> Vec<Window> {
     let max_pixels = max_pixels.max((TILE * TILE) as u64);
-    let width = (area.width as u64).min((max_pixels / TILE as u64 / TILE as u64 * TILE as u64).max(TILE as u64)) as u32;
+    // At most `BIN_PART_TILES` tiles a row, so that one band of tile rows is short enough.
+    let widest = (max_pixels / TILE as u64 / TILE as u64 * TILE as u64).clamp(TILE as u64, (BIN_PART_TILES * TILE) as u64);
+    let width = (area.width as u64).min(widest) as u32;
     let height = ((max_pixels / width as u64) / TILE as u64 * TILE as u64).max(TILE as u64).min(area.height as u64) as u32;
     let mut out = Vec::new();
     let mut y = 0;

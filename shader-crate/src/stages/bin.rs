@@ -118,14 +118,17 @@ fn max_i64(a: i64, b: i64) -> i64 {
 }
 
 /// Calls `visit(tile, cover)` for every window tile the triangle's rectangle touches and can
-/// cover a centre of.
-fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, mut visit: impl FnMut(usize, TileCover)) {
+/// cover a centre of, in band `part` of its tile rows (`frame.bin_part_rows` rows a band).
+fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, part: u32, mut visit: impl FnMut(usize, TileCover)) {
     let span = tile_span(&setup.coverage.rect, frame);
-    if span.empty {
+    let first = span.ty0 + part * frame.bin_part_rows;
+    if span.empty || first > span.ty1 {
         return;
     }
-    let mut ty = span.ty0;
-    while ty <= span.ty1 {
+    let last = first + frame.bin_part_rows - 1;
+    let last = if last < span.ty1 { last } else { span.ty1 };
+    let mut ty = first;
+    while ty <= last {
         let mut tx = span.tx0;
         while tx <= span.tx1 {
             let cover = tile_cover(&setup.coverage, tx, ty, frame);
@@ -138,9 +141,9 @@ fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, mut visit: impl FnM
     }
 }
 
-/// Count pass: one increment per tile the triangle can cover a centre of.
-pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParams, counts: &mut C) {
-    for_each_tile(setup, frame, |tile, _| {
+/// Count pass: one increment per tile the triangle can cover a centre of, in band `part`.
+pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParams, part: u32, counts: &mut C) {
+    for_each_tile(setup, frame, part, |tile, _| {
         counts.fetch_add(tile, 1);
     });
 }
@@ -150,11 +153,12 @@ pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParam
 pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized>(
     setup: &TriangleSetup,
     frame: &FrameParams,
+    part: u32,
     offsets: &[u32],
     cursors: &mut C,
     bins: &mut S,
 ) {
-    for_each_tile(setup, frame, |tile, cover| {
+    for_each_tile(setup, frame, part, |tile, cover| {
         let k = cursors.fetch_add(tile, 1);
         let full = if cover == TileCover::Full { FULL_TILE_BIT } else { 0 };
         bins.store((offsets[tile] + k) as usize, setup.coverage.slot | full);

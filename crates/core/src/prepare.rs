@@ -159,7 +159,7 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
             let (plane, f64_plane) = fit_plane(scene, &raster, s, snap_bits);
             let coeffs = float_coeffs(params.mode, scene, s, f64_plane);
             let reach = float_reach(params.mode, &coeffs, &s.rect);
-            if !(reach < FLOAT_REACH_LIMIT) {
+            if reach.is_nan() || reach >= FLOAT_REACH_LIMIT {
                 return Err(Error::OutsideModeRange { triangle: s.index, mode: params.mode.name(), reach });
             }
             let extent_px = (s.rect.i1 - s.rect.i0).max(s.rect.j1 - s.rect.j0) as u64 + 1;

@@ -78,25 +78,15 @@ impl Gpu {
     }
 }
 
+/// The adapter tileraster's GPU backend uses (its choice, `TILERASTER_ADAPTER` included), so
+/// that the peers run on the same device as the kernels they are compared with.
 fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String> {
-    let wanted = std::env::var("TILERASTER_ADAPTER").ok().map(|s| s.to_lowercase());
+    let name = tileraster_gpu::adapter().map_err(|e| e.to_string())?.name;
     let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
-    let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
-        wgpu::DeviceType::DiscreteGpu => 0,
-        wgpu::DeviceType::IntegratedGpu => 1,
-        wgpu::DeviceType::VirtualGpu => 2,
-        wgpu::DeviceType::Cpu => 3,
-        wgpu::DeviceType::Other => 4,
-    };
-    let mut usable: Vec<_> = match &wanted {
-        Some(name) => adapters.into_iter().filter(|a| a.get_info().name.to_lowercase().contains(name)).collect(),
-        None => adapters,
-    };
-    usable.sort_by_key(rank);
-    usable.into_iter().next().ok_or_else(|| match wanted {
-        Some(name) if !seen.is_empty() => format!("no adapter named like {name:?} (TILERASTER_ADAPTER) among {seen:?}"),
-        _ => "no Vulkan adapter was found (install a Vulkan driver, e.g. mesa-vulkan-drivers)".to_string(),
-    })
+    adapters
+        .into_iter()
+        .find(|a| a.get_info().name == name)
+        .ok_or_else(|| format!("tileraster's adapter {name:?} is not among {seen:?}"))
 }
 
 /// A buffer that grows when a call needs more and is otherwise kept across calls.

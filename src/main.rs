@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster};
+use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Skips};
 
 #[derive(Parser)]
 #[command(name = "tileraster", version, about = "Deterministic triangle rasteriser: bit-identical heightfields on CPU and GPU")]
@@ -51,6 +51,14 @@ enum Command {
         /// barycentric (cheaper f32 arithmetic; bounds in docs/numeric-contract.md).
         #[arg(long, default_value = "exact")]
         mode: Mode,
+        /// Print what the call did and skipped as one JSON object on stderr (tiles_total,
+        /// tiles_empty_skipped, tiles_full, triangles_culled, passes, bytes_uploaded, ...).
+        #[arg(long)]
+        stats: bool,
+        /// Turn one of the pipeline's skips off (repeatable), to measure its gain; results do
+        /// not change. Names: cull_window, empty_tiles, full_tiles, overlap_free.
+        #[arg(long = "no-skip", value_name = "SKIP", value_parser = skip_name)]
+        no_skip: Vec<String>,
     },
     /// Rasterise a built-in procedural terrain TIN on both backends, time them, compare them
     /// bit for bit, and write a GeoTIFF and a PNG preview.
@@ -79,12 +87,16 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { mesh, output, txe, tye, outsize, backend, nodata, preview, mode } => {
+        Command::Rasterise { mesh, output, txe, tye, outsize, backend, nodata, preview, mode, stats, no_skip } => {
             let scene = tileraster_io::read_obj(&mesh).map_err(|e| e.to_string())?;
             let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], outsize[0], outsize[1]);
             let backend = choose_backend(backend)?;
             let start = Instant::now();
-            let params = Params::new(grid).with_nodata(nodata).with_mode(mode);
+            let mut skips = Skips::ALL;
+            for name in &no_skip {
+                skips = skips.without(name);
+            }
+            let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips);
             let raster = rasterise(&scene, &params, backend).map_err(|e| e.to_string())?;
             let took = start.elapsed();
             tileraster_io::write_geotiff(&raster, &output).map_err(|e| e.to_string())?;
@@ -102,9 +114,19 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 raster.snap_bits,
                 output.display()
             );
+            if stats {
+                eprintln!("{}", raster.stats.to_json());
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Demo { output, size, cells } => demo(&output, size, cells),
+    }
+}
+
+fn skip_name(name: &str) -> Result<String, String> {
+    match Skips::NAMES.contains(&name) {
+        true => Ok(name.to_string()),
+        false => Err(format!("no skip named '{name}'; the skips are {}", Skips::NAMES.join(", "))),
     }
 }
 
@@ -180,6 +202,11 @@ fn demo(dir: &Path, size: u32, cells: u32) -> Result<ExitCode, String> {
         return Ok(ExitCode::FAILURE);
     };
     let (count, first) = cpu.compare_bits(&gpu, 5);
+    if cpu.stats != gpu.stats {
+        println!("  statistics: NOT equal:\n    cpu {}\n    gpu {}", cpu.stats.to_json(), gpu.stats.to_json());
+        return Ok(ExitCode::FAILURE);
+    }
+    println!("  statistics, equal on both: {}", cpu.stats.to_json());
     if count == 0 {
         println!("  bit-identical: yes ({} cells, values compared bit for bit)", cpu.values.len());
         Ok(ExitCode::SUCCESS)

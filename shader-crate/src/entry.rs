@@ -6,7 +6,7 @@ use crate::stages::fine::{self, FineShared, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
 use crate::types::{FrameParams, TriangleInput, TriangleSetup};
-use crate::{BATCH, OUTPUT_COVERAGE, OUTPUT_OWNER};
+use crate::{BATCH, OUTPUT_COVERAGE, OUTPUT_OWNER, STAT_TILES_EMPTY, STAT_TILES_FULL, STAT_TILES_PARTIAL};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
@@ -34,12 +34,13 @@ pub fn bin_count(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] counts: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] listed: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] counts: &mut [u32],
 ) {
     let id = triangle_slot(gid, frame);
     let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
-        count_tiles(&setups[t as usize], frame, part, counts);
+        count_tiles(&setups[listed[t as usize] as usize], frame, part, counts);
     }
 }
 
@@ -64,14 +65,15 @@ pub fn bin_fill(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] cursors: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] bins: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] listed: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] cursors: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] bins: &mut [u32],
 ) {
     let id = triangle_slot(gid, frame);
     let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
-        fill_tiles(&setups[t as usize], frame, part, offsets, cursors, bins);
+        fill_tiles(&setups[listed[t as usize] as usize], frame, part, offsets, cursors, bins);
     }
 }
 
@@ -87,6 +89,7 @@ pub fn fine_raster(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] values: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
     #[spirv(workgroup)] shared: &mut FineShared,
 ) {
     let tile = wg.y * frame.tiles_x + wg.x;
@@ -94,18 +97,27 @@ pub fn fine_raster(
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
     let mut state = PixelState::EMPTY;
     // Uniform per workgroup: the whole tile takes the same branch, barriers included.
-    if !fine::full_tile(bins, bin_start, bin_len, setups, &mut state) {
-        let mut batch_start = 0;
-        while batch_start < bin_len {
-            fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, shared);
-            barrier();
-            fine::fine_test(i, j, fine::batch_len(bin_len, batch_start), shared, &mut state);
-            barrier();
-            batch_start += BATCH;
+    let out = if fine::empty_tile(bin_len, frame) {
+        fine::count_tile(lid, STAT_TILES_EMPTY, stats);
+        fine::nodata_pixel(frame)
+    } else {
+        if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut state) {
+            fine::count_tile(lid, STAT_TILES_FULL, stats);
+        } else {
+            fine::count_tile(lid, STAT_TILES_PARTIAL, stats);
+            let overlap_free = fine::overlap_free(frame);
+            let mut batch_start = 0;
+            while batch_start < bin_len {
+                fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, shared);
+                barrier();
+                fine::fine_test(i, j, fine::batch_len(bin_len, batch_start), shared, overlap_free, &mut state);
+                barrier();
+                batch_start += BATCH;
+            }
         }
-    }
+        fine::fine_resolve(i, j, &state, setups, frame)
+    };
     if inside {
-        let out = fine::fine_resolve(i, j, &state, setups, frame);
         let k = fine::window_index(i, j, frame);
         values[k] = out.value_bits;
         if frame.outputs & OUTPUT_OWNER != 0 {
@@ -116,4 +128,3 @@ pub fn fine_raster(
         }
     }
 }
-

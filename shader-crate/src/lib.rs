@@ -60,6 +60,23 @@ pub const MODE_PLANE_F32: u32 = 1;
 /// `FrameParams::mode`: `f32` barycentric interpolation of the vertex heights.
 pub const MODE_BARYCENTRIC: u32 = 2;
 
+/// `FrameParams::flags`: a tile with an empty bin writes nodata without the per-pixel state.
+pub const FLAG_EMPTY_TILES: u32 = 1;
+/// `FrameParams::flags`: a tile one triangle covers whole skips the edge tests.
+pub const FLAG_FULL_TILES: u32 = 2;
+/// `FrameParams::flags`: the host proved that no pixel centre is inside two triangles, so a
+/// pixel stops testing at the first triangle it is inside (no ownership resolution).
+pub const FLAG_OVERLAP_FREE: u32 = 4;
+
+/// Counters fine raster adds to, one increment per tile: tiles that took the empty path...
+pub const STAT_TILES_EMPTY: usize = 0;
+/// ... the full-tile path...
+pub const STAT_TILES_FULL: usize = 1;
+/// ... or tested their pixels against their bin.
+pub const STAT_TILES_PARTIAL: usize = 2;
+/// Length of the statistics buffer.
+pub const STAT_COUNTERS: usize = 4;
+
 /// Bit of a bin entry: the triangle covers every pixel centre of the tile (in the window), so
 /// the tile needs no edge tests if it is the only entry.
 pub const FULL_TILE_BIT: u32 = 1 << 31;

@@ -117,6 +117,7 @@ pub struct FrameParams {
     pub win_h: u32,
     pub tiles_x: u32,
     pub tiles_y: u32,
+    /// Triangles the binning stages take: entries of the frame's list of setup slots.
     pub triangles: u32,
     pub snap_bits: u32,
     pub nodata_bits: u32,
@@ -130,7 +131,10 @@ pub struct FrameParams {
     pub bin_part_rows: u32,
     /// ... and invocations per triangle, enough for the tallest triangle of the window.
     pub bin_parts: u32,
-    pub _pad: [u32; 2],
+    /// The specialisations this frame may use: `FLAG_EMPTY_TILES | FLAG_FULL_TILES |
+    /// FLAG_OVERLAP_FREE` bits. None changes a result; each only skips work.
+    pub flags: u32,
+    pub _pad: u32,
 }
 
 impl FrameParams {

@@ -144,19 +144,76 @@ impl std::str::FromStr for Mode {
     }
 }
 
-/// What to rasterise onto: the grid, the value of uncovered cells, the extra outputs and how
-/// values are computed.
+/// The work the pipeline may skip when the scene does not need it. Every skip is exact: it
+/// changes no bit of any output, and the tests check each one by turning it off. All are on
+/// by default; turning one off is for measuring its gain and for testing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Skips {
+    /// Triangles that cannot reach the called window are dropped before binning.
+    pub cull_window: bool,
+    /// Tiles no triangle reaches get no fine-raster work: the part of the window around all
+    /// triangles is filled with nodata on the host, and empty tiles inside it write nodata
+    /// without per-pixel state.
+    pub empty_tiles: bool,
+    /// A tile one triangle covers whole skips the per-pixel edge tests.
+    pub full_tiles: bool,
+    /// When the scene analysis proves that no pixel centre lies inside two triangles (every
+    /// TIN, every heightfield), pixels stop at the first triangle they are inside: no
+    /// ownership resolution.
+    pub overlap_free: bool,
+}
+
+impl Skips {
+    pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true };
+    pub const NONE: Skips = Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false };
+
+    /// Each skip by its name, as the command line and the benchmarks use them.
+    pub const NAMES: [&'static str; 4] = ["cull_window", "empty_tiles", "full_tiles", "overlap_free"];
+
+    /// All skips but the one named `name` (one of [`Skips::NAMES`]).
+    pub fn all_but(name: &str) -> Skips {
+        Skips::ALL.without(name)
+    }
+
+    /// These skips without the one named `name` (one of [`Skips::NAMES`]).
+    pub fn without(self, name: &str) -> Skips {
+        let mut s = self;
+        match name {
+            "cull_window" => s.cull_window = false,
+            "empty_tiles" => s.empty_tiles = false,
+            "full_tiles" => s.full_tiles = false,
+            "overlap_free" => s.overlap_free = false,
+            _ => panic!("no skip named {name:?}; the skips are {:?}", Skips::NAMES),
+        }
+        s
+    }
+}
+
+impl Default for Skips {
+    fn default() -> Self {
+        Skips::ALL
+    }
+}
+
+/// What to rasterise onto: the grid, the value of uncovered cells, the extra outputs, how
+/// values are computed and which work may be skipped.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Params {
     pub grid: Grid,
     pub nodata: f32,
     pub outputs: Outputs,
     pub mode: Mode,
+    pub skips: Skips,
 }
 
 impl Params {
     pub fn new(grid: Grid) -> Self {
-        Params { grid, nodata: f32::NAN, outputs: Outputs::default(), mode: Mode::Exact }
+        Params { grid, nodata: f32::NAN, outputs: Outputs::default(), mode: Mode::Exact, skips: Skips::ALL }
+    }
+
+    pub fn with_skips(mut self, skips: Skips) -> Self {
+        self.skips = skips;
+        self
     }
 
     pub fn with_mode(mut self, mode: Mode) -> Self {

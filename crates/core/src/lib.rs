@@ -3,6 +3,8 @@
 
 mod error;
 mod grid;
+mod overlap;
+mod plan;
 mod prepare;
 mod raster;
 pub mod reference;
@@ -10,7 +12,9 @@ mod scene;
 pub mod scenes;
 
 pub use error::Error;
-pub use grid::{Grid, Mode, Outputs, Params, MAX_GRID_DIM};
+pub use grid::{Grid, Mode, Outputs, Params, Skips, MAX_GRID_DIM};
+pub use overlap::overlap_free;
+pub use plan::{Plan, Stats};
 pub use prepare::{prepare, Prepared, Window};
 pub use raster::{zeroed_cells, Difference, Raster};
 pub use scene::Scene;

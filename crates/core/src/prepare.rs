@@ -12,12 +12,10 @@
 //! every device); values come from the unsnapped planes, so snapping only matters for which
 //! triangle owns a pixel centre lying within `2^-(snap_bits+1)` px of an edge.
 
-use crate::raster::try_zeroed;
-use crate::{Error, Grid, Mode, Params, Raster, Scene};
+use crate::{Error, Grid, Mode, Params, Scene};
 use tileraster_kernels::fixed::{ceil_shr, floor_shr};
-use tileraster_kernels::stages::bin::tile_span;
-use tileraster_kernels::types::{FloatCoeffs, FrameParams, PixelRect, Plane, TriangleInput};
-use tileraster_kernels::{BIN_PART_TILES, EXTENT_LIMIT_BITS, MAX_SNAP_BITS, TILE};
+use tileraster_kernels::types::{FloatCoeffs, PixelRect, Plane, TriangleInput};
+use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS};
 
 /// A rectangle of grid pixels: columns `x0..x0+width`, rows `y0..y0+height`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -37,7 +35,7 @@ impl Window {
         self.width as u64 * self.height as u64
     }
 
-    fn validate(&self, grid: &Grid) -> Result<(), Error> {
+    pub(crate) fn validate(&self, grid: &Grid) -> Result<(), Error> {
         let fits = self.width > 0
             && self.height > 0
             && self.x0 as u64 + self.width as u64 <= grid.width as u64
@@ -57,7 +55,9 @@ impl Window {
     }
 }
 
-/// A scene made ready for the kernels: snapped, culled, oriented, with planes.
+/// A scene made ready for the kernels on one grid: snapped, culled, oriented, with planes, and
+/// analysed for overlaps. It serves any window of the grid ([`Prepared::plan`]); `window` is
+/// the one it was prepared for, the default.
 #[derive(Debug, Clone)]
 pub struct Prepared {
     pub params: Params,
@@ -69,6 +69,9 @@ pub struct Prepared {
     pub culled: usize,
     /// Triangles dropped because they have no area once snapped.
     pub degenerate: usize,
+    /// Whether the scene analysis proved that no pixel centre of the grid is inside two of
+    /// `triangles` (see `overlap`); only looked for when `Skips::overlap_free` is on.
+    pub overlap_free: bool,
 }
 
 /// Margin of the conservative f64 cull, in pixels: far more than snapping can move a vertex.
@@ -153,7 +156,7 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
     }
 
     // 5. Planes, and the cheaper modes' coefficients.
-    let triangles = snapped
+    let triangles: Vec<TriangleInput> = snapped
         .iter()
         .map(|s| {
             let (plane, f64_plane) = fit_plane(scene, &raster, s, snap_bits);
@@ -170,7 +173,8 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         })
         .collect::<Result<_, _>>()?;
 
-    Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate })
+    let overlap_free = params.skips.overlap_free && crate::overlap::overlap_free(&triangles, snap_bits, grid.height);
+    Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate, overlap_free })
 }
 
 fn validate_scene(scene: &Scene) -> Result<(), Error> {
@@ -323,61 +327,6 @@ fn quantise_plane(zr: f64, gi: f64, gj: f64, rect: &PixelRect) -> Plane {
         (v * 2f64.powi(half) * 2f64.powi(frac_bits - half)).round() as i64
     };
     Plane { z: scale(zr), gi: scale(gi), gj: scale(gj), frac_bits, _pad: 0 }
-}
-
-impl Prepared {
-    /// Kernel parameters for rasterising `window` (part of this preparation's window).
-    pub fn frame(&self, window: Window) -> FrameParams {
-        let tiles_x = window.width.div_ceil(TILE);
-        let tiles_y = window.height.div_ceil(TILE);
-        let mut frame = FrameParams {
-            win_x0: window.x0,
-            win_y0: window.y0,
-            win_w: window.width,
-            win_h: window.height,
-            tiles_x,
-            tiles_y,
-            triangles: self.triangles.len() as u32,
-            snap_bits: self.snap_bits,
-            nodata_bits: self.params.nodata.to_bits(),
-            outputs: self.params.output_bits(),
-            dispatch_width: 0,
-            mode: self.params.mode.kernel_code(),
-            bin_part_rows: (BIN_PART_TILES / tiles_x.max(1)).max(1),
-            bin_parts: 1,
-            _pad: [0; 2],
-        };
-        // Enough bands for the tallest triangle in the window.
-        let rows = self.triangles.iter().map(|t| tile_span(&t.rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
-        frame.bin_parts = rows.unwrap_or(1).div_ceil(frame.bin_part_rows).max(1);
-        frame
-    }
-
-    /// Most (triangle, tile) entries binning can write for `frame` (every tile of every
-    /// rectangle; binning leaves out the tiles a triangle cannot reach): the size to allocate
-    /// before the bins are filled.
-    pub fn bin_capacity(&self, frame: &FrameParams) -> u64 {
-        self.triangles.iter().map(|t| tile_span(&t.rect, frame).tile_count() as u64).sum()
-    }
-
-    /// An output raster for this preparation's window, every buffer zeroed.
-    pub fn allocate_raster(&self) -> Result<Raster, Error> {
-        let n = usize::try_from(self.window.pixel_count()).map_err(|_| Error::RasterTooLarge {
-            width: self.window.width as u64,
-            height: self.window.height as u64,
-            reason: "the pixel count does not fit this machine's address space".into(),
-        })?;
-        let outputs = self.params.outputs;
-        Ok(Raster {
-            grid: self.params.grid,
-            window: self.window,
-            nodata: self.params.nodata,
-            values: try_zeroed(n, &self.window)?,
-            owner: if outputs.owner { Some(try_zeroed(n, &self.window)?) } else { None },
-            coverage: if outputs.coverage { Some(try_zeroed(n, &self.window)?) } else { None },
-            snap_bits: self.snap_bits,
-        })
-    }
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-use crate::{Error, Grid, Window};
+use crate::{Error, Grid, Stats, Window};
 
 /// The result of a call: Float32 heights for a window of the grid (the whole grid unless a
 /// window was asked for), row-major, row 0 at the window's top (north).
@@ -14,6 +14,8 @@ pub struct Raster {
     pub coverage: Option<Vec<u32>>,
     /// Sub-pixel bits of the snapping lattice used (the step is `2^-snap_bits` pixels).
     pub snap_bits: u32,
+    /// What the call did and skipped.
+    pub stats: Stats,
 }
 
 /// A zeroed `Vec`, or a clear error instead of an abort when memory runs out. Zeroed memory

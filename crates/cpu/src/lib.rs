@@ -8,13 +8,16 @@
 
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
-use tileraster_core::{Error, Prepared, Raster};
+use tileraster_core::{Error, Plan, Prepared, Raster};
 use tileraster_kernels::fixed::converts_natively;
 use tileraster_kernels::memory::{Counters, Slots};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelState};
 use tileraster_kernels::stages::{bin, scan, setup::setup_triangle};
 use tileraster_kernels::types::{Coverage, FrameParams, TriangleSetup};
-use tileraster_kernels::{BATCH, MODE_BARYCENTRIC, MODE_EXACT, MODE_PLANE_F32, SCAN_GROUP, TILE, TILE_PIXELS};
+use tileraster_kernels::{
+    BATCH, MODE_BARYCENTRIC, MODE_EXACT, MODE_PLANE_F32, NO_OWNER, SCAN_GROUP, STAT_COUNTERS, STAT_TILES_EMPTY, STAT_TILES_FULL,
+    STAT_TILES_PARTIAL, TILE, TILE_PIXELS,
+};
 
 /// Host atomics standing in for a storage buffer the kernels update atomically.
 #[derive(Clone, Copy)]
@@ -36,24 +39,40 @@ fn atomic_zeroed(len: usize) -> Vec<AtomicU32> {
     (0..len).map(|_| AtomicU32::new(0)).collect()
 }
 
-/// Rasterise a prepared scene on the CPU, over the preparation's whole window.
+/// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
+/// twin of the GPU backend's resident buffers).
+pub struct Resident {
+    setups: Vec<TriangleSetup>,
+}
+
+/// Rasterise a prepared scene on the CPU, over the preparation's window.
 pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
-    let mut raster = prepared.allocate_raster()?;
-    let frame = prepared.frame(prepared.window);
-    let entries = prepared.bin_capacity(&frame);
-    if entries > u32::MAX as u64 {
-        return Err(Error::RasterTooLarge {
-            width: frame.win_w as u64,
-            height: frame.win_h as u64,
-            reason: format!("{entries} triangle–tile pairs exceed the 2^32 a window can bin"),
-        });
+    rasterise_planned(prepared, &prepared.plan(prepared.window, false)?, &mut None)
+}
+
+/// Run `plan`, setting the scene up first unless `resident` already holds it.
+pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
+    let mut raster = plan.allocate_raster(prepared)?;
+    let mut counters = [0u64; STAT_COUNTERS];
+    if let Some(active) = plan.active {
+        let frame = plan.frame(prepared, active);
+        let entries = plan.bin_capacity(prepared, &frame);
+        if entries > u32::MAX as u64 {
+            return Err(Error::RasterTooLarge {
+                width: frame.win_w as u64,
+                height: frame.win_h as u64,
+                reason: format!("{entries} triangle–tile pairs exceed the 2^32 a window can bin"),
+            });
+        }
+        let setups = &resident.get_or_insert_with(|| Resident { setups: setup(prepared, &frame) }).setups;
+        let counts = bin_count(&frame, setups, &plan.listed);
+        let offsets = bin_scan(&frame, &counts);
+        debug_assert!(offsets[frame.tile_count() as usize] as u64 <= entries);
+        let bins = bin_fill(&frame, setups, &plan.listed, &offsets);
+        let stats = fine_raster(&frame, setups, &offsets, &bins, &mut raster);
+        counters = stats.map(|c| c.into_inner() as u64);
     }
-    let setups = setup(prepared, &frame);
-    let counts = bin_count(&frame, &setups);
-    let offsets = bin_scan(&frame, &counts);
-    debug_assert!(offsets[frame.tile_count() as usize] as u64 <= entries);
-    let bins = bin_fill(&frame, &setups, &offsets);
-    fine_raster(&frame, &setups, &offsets, &bins, &mut raster);
+    raster.stats = plan.stats(&counters);
     Ok(raster)
 }
 
@@ -66,11 +85,11 @@ pub fn setup(prepared: &Prepared, frame: &FrameParams) -> Vec<TriangleSetup> {
         .collect()
 }
 
-pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup]) -> Vec<u32> {
+pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32]) -> Vec<u32> {
     let counts = atomic_zeroed(frame.tile_count() as usize);
     let sink = AtomicSlice(&counts);
-    // The GPU's invocations, (triangle, band of tile rows) pairs, grouped by triangle.
-    setups.par_iter().for_each(|s| (0..frame.bin_parts).for_each(|part| bin::bin_count(s, frame, part, &mut { sink })));
+    // The GPU's invocations, (listed triangle, band of tile rows) pairs, grouped by triangle.
+    listed.par_iter().for_each(|&t| (0..frame.bin_parts).for_each(|part| bin::bin_count(&setups[t as usize], frame, part, &mut { sink })));
     counts.into_iter().map(AtomicU32::into_inner).collect()
 }
 
@@ -90,47 +109,83 @@ pub fn bin_scan(frame: &FrameParams, counts: &[u32]) -> Vec<u32> {
     offsets
 }
 
-pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32]) -> Vec<u32> {
+pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32], offsets: &[u32]) -> Vec<u32> {
     let cursors = atomic_zeroed(frame.tile_count() as usize);
     let bins = atomic_zeroed(offsets[frame.tile_count() as usize] as usize);
     let (cursors_sink, bins_sink) = (AtomicSlice(&cursors), AtomicSlice(&bins));
-    setups.par_iter().for_each(|s| (0..frame.bin_parts).for_each(|part| bin::bin_fill(s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink })));
+    listed.par_iter().for_each(|&t| {
+        let s = &setups[t as usize];
+        (0..frame.bin_parts).for_each(|part| bin::bin_fill(s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink }))
+    });
     bins.into_iter().map(AtomicU32::into_inner).collect()
 }
 
-/// One band of `TILE` output rows: the part of each output layer a row of tiles writes.
+/// One band of `TILE` raster rows: the part of each output layer a row of the frame's tiles
+/// writes. The frame may be part of the raster's window (the rest is already nodata).
 struct Band<'a> {
     ty: u32,
+    /// Grid row of the band's first row, grid column of the raster's first column.
+    row0: i32,
+    col0: i32,
+    /// Raster row length.
+    stride: usize,
     values: &'a mut [f32],
     owner: Option<&'a mut [u32]>,
     coverage: Option<&'a mut [u32]>,
 }
 
-pub fn fine_raster(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
+impl Band<'_> {
+    /// Index in the band's layers of grid pixel `(i, j)`.
+    fn index(&self, i: i32, j: i32) -> usize {
+        (j - self.row0) as usize * self.stride + (i - self.col0) as usize
+    }
+}
+
+/// Statistics counters, as the GPU's atomics in its statistics buffer.
+type StatCounters = [AtomicU32; STAT_COUNTERS];
+
+pub fn fine_raster(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
     fine_raster_using(wide_vectors(), frame, setups, offsets, bins, raster)
 }
 
 /// [`fine_raster`], with or without the wide-vector build (`wide` only where the CPU has it).
-fn fine_raster_using(wide: bool, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
-    let band_len = (TILE * frame.win_w) as usize;
-    let owner = optional_bands(raster.owner.as_mut(), band_len, frame.tiles_y);
-    let coverage = optional_bands(raster.coverage.as_mut(), band_len, frame.tiles_y);
+fn fine_raster_using(wide: bool, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+    let stride = raster.window.width as usize;
+    let band_len = TILE as usize * stride;
+    // The frame's rows start a whole number of bands into the raster (plans align it to tiles).
+    let skip = ((frame.win_y0 - raster.window.y0) / TILE) as usize;
+    let take = frame.tiles_y as usize;
+    let (row0, col0) = (raster.window.y0 as i32, raster.window.x0 as i32);
+    let owner = optional_bands(raster.owner.as_mut(), band_len, skip, take);
+    let coverage = optional_bands(raster.coverage.as_mut(), band_len, skip, take);
     let bands: Vec<Band> = raster
         .values
         .chunks_mut(band_len)
+        .skip(skip)
+        .take(take)
         .zip(owner)
         .zip(coverage)
         .enumerate()
-        .map(|(ty, ((values, owner), coverage))| Band { ty: ty as u32, values, owner, coverage })
+        .map(|(ty, ((values, owner), coverage))| Band {
+            ty: ty as u32,
+            row0: row0 + ((skip + ty) as u32 * TILE) as i32,
+            col0,
+            stride,
+            values,
+            owner,
+            coverage,
+        })
         .collect();
+    let stats: StatCounters = std::array::from_fn(|_| AtomicU32::new(0));
     bands.into_par_iter().for_each(|mut band| {
         if wide {
             // SAFETY: callers pass `wide` only when `wide_vectors` found the features.
-            unsafe { fine_raster_band_wide(frame, setups, offsets, bins, &mut band) }
+            unsafe { fine_raster_band_wide(frame, setups, offsets, bins, &mut band, &stats) }
         } else {
-            fine_raster_band(frame, setups, offsets, bins, &mut band)
+            fine_raster_band(frame, setups, offsets, bins, &mut band, &stats)
         }
     });
+    stats
 }
 
 /// Whether the CPU has the vector instructions that turn a row of fixed-point values into
@@ -150,43 +205,53 @@ fn wide_vectors() -> bool {
 /// correctly rounded conversion instructions only), vectorised by the compiler.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-fn fine_raster_band_wide(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band) {
-    fine_raster_band(frame, setups, offsets, bins, band)
+fn fine_raster_band_wide(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+    fine_raster_band(frame, setups, offsets, bins, band, stats)
 }
 
 #[cfg(not(target_arch = "x86_64"))]
-unsafe fn fine_raster_band_wide(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band) {
-    fine_raster_band(frame, setups, offsets, bins, band)
+unsafe fn fine_raster_band_wide(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+    fine_raster_band(frame, setups, offsets, bins, band, stats)
 }
 
 /// Every fine-raster workgroup of one row of tiles.
 #[inline(always)]
-fn fine_raster_band(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band) {
+fn fine_raster_band(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
     for tx in 0..frame.tiles_x {
-        fine_raster_tile(tx, frame, setups, offsets, bins, band);
+        fine_raster_tile(tx, frame, setups, offsets, bins, band, &mut AtomicSlice(stats));
     }
 }
 
-/// Bands of an optional output layer (all `None` when the layer was not asked for).
-fn optional_bands(layer: Option<&mut Vec<u32>>, band_len: usize, bands: u32) -> Vec<Option<&mut [u32]>> {
+/// `take` bands of an optional output layer, after the first `skip` (all `None` when the layer
+/// was not asked for).
+fn optional_bands(layer: Option<&mut Vec<u32>>, band_len: usize, skip: usize, take: usize) -> Vec<Option<&mut [u32]>> {
     match layer {
-        Some(v) => v.chunks_mut(band_len).map(Some).collect(),
-        None => (0..bands).map(|_| None).collect(),
+        Some(v) => v.chunks_mut(band_len).skip(skip).take(take).map(Some).collect(),
+        None => (0..take).map(|_| None).collect(),
     }
 }
 
 /// One fine-raster workgroup, phase by phase.
 #[inline(always)]
-fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band) {
+fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut AtomicSlice) {
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
-    let mut full = PixelState::EMPTY;
-    if fine::full_tile(bins, bin_start, bin_len, setups, &mut full) {
-        return fine_resolve_full_tile(tx, frame, &setups[full.slot as usize], &full, band);
+    if fine::empty_tile(bin_len, frame) {
+        fine::count_tile(0, STAT_TILES_EMPTY, stats);
+        return fine_resolve_uniform_tile(tx, frame, band, fine::nodata_pixel(frame), |values, _, _| values.fill(f32::from_bits(frame.nodata_bits)));
     }
+    let mut full = PixelState::EMPTY;
+    if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut full) {
+        fine::count_tile(0, STAT_TILES_FULL, stats);
+        let setup = &setups[full.slot as usize];
+        let out = fine::PixelOut { value_bits: 0, owner: full.owner, count: full.count };
+        return fine_resolve_uniform_tile(tx, frame, band, out, |values, i0, j| write_plane_row(values, setup, i0, j, frame.mode));
+    }
+    fine::count_tile(0, STAT_TILES_PARTIAL, stats);
     let pixels: [(i32, i32, bool); TILE_PIXELS as usize] = std::array::from_fn(|lid| fine::tile_pixel(tx, ty, lid as u32, frame));
     let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
     let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
+    let overlap_free = fine::overlap_free(frame);
     let mut batch_start = 0;
     while batch_start < bin_len {
         for lid in 0..TILE_PIXELS {
@@ -194,46 +259,54 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
         }
         let batch_len = fine::batch_len(bin_len, batch_start);
         for (state, &(i, j, _)) in states.iter_mut().zip(&pixels) {
-            fine::fine_test(i, j, batch_len, &shared, state);
+            fine::fine_test(i, j, batch_len, &shared, overlap_free, state);
         }
         batch_start += BATCH;
+        // What the GPU's pixels do one by one, the whole tile here: once every pixel is inside
+        // a triangle of an overlap-free scene, the later batches cannot change a state.
+        if overlap_free && states.iter().zip(&pixels).all(|(s, &(_, _, inside))| !inside || s.owner != NO_OWNER) {
+            break;
+        }
     }
     fine_resolve_tile(tx, frame, setups, band, |lid| states[lid as usize]);
 }
 
-/// The last phase for a tile one triangle covers whole: `fine_resolve` of the full state is
-/// that triangle's value, owner and a count of one at every pixel, so rows are written in
-/// straight loops the compiler can vectorise.
+/// One row of a triangle's values, in straight loops the compiler can vectorise.
 #[inline(always)]
-fn fine_resolve_full_tile(tx: u32, frame: &FrameParams, setup: &TriangleSetup, full: &PixelState, band: &mut Band) {
-    let band_start = (band.ty * TILE * frame.win_w) as usize;
+fn write_plane_row(values: &mut [f32], setup: &TriangleSetup, i0: i32, j: i32, mode: u32) {
+    let write_row = |values: &mut [f32]| {
+        for (lx, value) in values.iter_mut().enumerate() {
+            *value = f32::from_bits(fine::pixel_value_bits(setup, i0 + lx as i32, j, mode));
+        }
+    };
+    // The same loop in every arm: with the mode and the conversion's range test answered
+    // outside, the compiler drops both from the loop and vectorises the rest.
+    match (mode, converts_natively(setup.plane.frac_bits)) {
+        (MODE_EXACT, true) => write_row(values),
+        (MODE_PLANE_F32, _) => write_row(values),
+        (MODE_BARYCENTRIC, _) => write_row(values),
+        _ => write_row(values),
+    }
+}
+
+/// The last phase for a tile whose pixels all share an owner and a count (`out`): an empty
+/// tile (nodata) or one a triangle covers whole. `write_values(row, i0, j)` writes one row of
+/// values starting at pixel `(i0, j)`; owner and coverage rows are fills.
+#[inline(always)]
+fn fine_resolve_uniform_tile(tx: u32, frame: &FrameParams, band: &mut Band, out: fine::PixelOut, write_values: impl Fn(&mut [f32], i32, i32)) {
     let width = (frame.win_w - tx * TILE).min(TILE) as usize;
     for ly in 0..TILE {
         let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
         if !row_inside {
             break;
         }
-        let row = fine::window_index(i0, j, frame) - band_start;
-        let values = &mut band.values[row..row + width];
-        let mode = frame.mode;
-        let write_row = |values: &mut [f32]| {
-            for (lx, value) in values.iter_mut().enumerate() {
-                *value = f32::from_bits(fine::pixel_value_bits(setup, i0 + lx as i32, j, mode));
-            }
-        };
-        // The same loop in every arm: with the mode and the conversion's range test answered
-        // outside, the compiler drops both from the loop and vectorises the rest.
-        match (mode, converts_natively(setup.plane.frac_bits)) {
-            (MODE_EXACT, true) => write_row(values),
-            (MODE_PLANE_F32, _) => write_row(values),
-            (MODE_BARYCENTRIC, _) => write_row(values),
-            _ => write_row(values),
-        }
+        let row = band.index(i0, j);
+        write_values(&mut band.values[row..row + width], i0, j);
         if let Some(owner) = band.owner.as_deref_mut() {
-            owner[row..row + width].fill(full.owner);
+            owner[row..row + width].fill(out.owner);
         }
         if let Some(coverage) = band.coverage.as_deref_mut() {
-            coverage[row..row + width].fill(full.count);
+            coverage[row..row + width].fill(out.count);
         }
     }
 }
@@ -242,13 +315,12 @@ fn fine_resolve_full_tile(tx: u32, frame: &FrameParams, setup: &TriangleSetup, f
 /// taken row by row so that the stores run along the band's rows.
 #[inline(always)]
 fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, state: impl Fn(u32) -> PixelState) {
-    let band_start = (band.ty * TILE * frame.win_w) as usize;
     for ly in 0..TILE {
         let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
         if !row_inside {
             break;
         }
-        let row = fine::window_index(i0, j, frame) - band_start;
+        let row = band.index(i0, j);
         let width = (frame.win_w - tx * TILE).min(TILE) as usize;
         for lx in 0..width {
             let out = fine::fine_resolve(i0 + lx as i32, j, &state(ly * TILE + lx as u32), setups, frame);
@@ -277,18 +349,22 @@ mod tests {
             let _ = writeln!(std::io::stderr(), "SKIPPED wide_vectors_change_no_bit: this CPU lacks AVX-512 F/DQ/VL");
             return;
         }
-        let grid = Grid::new(0.0, 1000.0, 0.0, 800.0, 331, 277);
-        let scenes = [scenes::terrain(0.0, 0.0, 1000.0, 800.0, 30, 20, 3), scenes::sloping_plane()];
-        for scene in &scenes {
+        let scenes = [
+            (scenes::terrain(0.0, 0.0, 1000.0, 800.0, 30, 20, 3), Grid::new(0.0, 1000.0, 0.0, 800.0, 331, 277)),
+            (scenes::sloping_plane(), Grid::new(0.0, 1.0, 0.0, 1.0, 331, 277)),
+        ];
+        for (scene, grid) in &scenes {
+            let grid = *grid;
             for mode in Mode::ALL {
                 let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true });
                 let prepared = prepare(scene, &params, None).unwrap();
-                let frame = prepared.frame(prepared.window);
+                let plan = prepared.plan(prepared.window, false).unwrap();
+                let frame = plan.frame(&prepared, plan.active.unwrap());
                 let setups = setup(&prepared, &frame);
-                let offsets = bin_scan(&frame, &bin_count(&frame, &setups));
-                let bins = bin_fill(&frame, &setups, &offsets);
+                let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
+                let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
                 let run = |wide| {
-                    let mut raster = prepared.allocate_raster().unwrap();
+                    let mut raster = plan.allocate_raster(&prepared).unwrap();
                     fine_raster_using(wide, &frame, &setups, &offsets, &bins, &mut raster);
                     raster
                 };

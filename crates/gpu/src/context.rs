@@ -1,8 +1,8 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
-use tileraster_core::{Error, Prepared, Raster, Window};
+use tileraster_core::{Error, Plan, Prepared, Raster, Window};
 use tileraster_kernels::types::{FrameParams, TriangleInput, TriangleSetup};
-use tileraster_kernels::{BIN_PART_TILES, OUTPUT_COVERAGE, OUTPUT_OWNER, TILE, TRIANGLE_GROUP};
+use tileraster_kernels::{BIN_PART_TILES, OUTPUT_COVERAGE, OUTPUT_OWNER, STAT_COUNTERS, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
 /// big enough to keep a GPU busy, small enough to bound the per-window buffers.
@@ -48,10 +48,22 @@ pub fn adapter() -> Result<Adapter, Error> {
     })
 }
 
-/// Rasterise a prepared scene on the GPU.
+/// A prepared scene's triangles on the device, set up: kept for later calls, so that
+/// rasterising more windows of the grid uploads and sets up nothing again. Dropping it frees
+/// the device memory.
+pub struct Resident {
+    setups: wgpu::Buffer,
+}
+
+/// Rasterise a prepared scene on the GPU, over the preparation's window.
 pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
+    rasterise_planned(prepared, &prepared.plan(prepared.window, false)?, &mut None)
+}
+
+/// Run `plan`, uploading and setting the scene up first unless `resident` already holds it.
+pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
-    ctx.rasterise(prepared)
+    ctx.rasterise(prepared, plan, resident)
 }
 
 struct Pipelines {
@@ -99,8 +111,7 @@ impl Grown {
 
 struct Buffers {
     frame: Grown,
-    inputs: Grown,
-    setups: Grown,
+    listed: Grown,
     counts: Grown,
     offsets: Grown,
     cursors: Grown,
@@ -108,6 +119,7 @@ struct Buffers {
     values: Grown,
     owners: Grown,
     coverage: Grown,
+    stats: Grown,
     readback: Grown,
 }
 
@@ -194,8 +206,7 @@ impl GpuContext {
         }
         let buffers = Buffers {
             frame: Grown::storage("frame"),
-            inputs: Grown::storage("triangle inputs"),
-            setups: Grown::storage("triangle setups"),
+            listed: Grown::storage("listed triangles"),
             counts: Grown::storage("bin counts"),
             offsets: Grown::storage("bin offsets"),
             cursors: Grown::storage("bin cursors"),
@@ -203,6 +214,7 @@ impl GpuContext {
             values: Grown::storage("values"),
             owners: Grown::storage("owners"),
             coverage: Grown::storage("coverage"),
+            stats: Grown::storage("statistics"),
             readback: Grown::readback("readback"),
         };
         Ok(GpuContext { device, queue, info: adapter.get_info(), limits, pipelines, buffers })
@@ -213,43 +225,48 @@ impl GpuContext {
         self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
     }
 
-    fn rasterise(&mut self, prepared: &Prepared) -> Result<Raster, Error> {
-        let too_large = |what: String| Error::RasterTooLarge {
-            width: prepared.window.width as u64,
-            height: prepared.window.height as u64,
-            reason: what,
-        };
-        let n = prepared.triangles.len() as u64;
-        let setup_bytes = n * std::mem::size_of::<TriangleSetup>() as u64;
-        if setup_bytes > self.max_binding() {
-            return Err(too_large(format!(
-                "{n} triangles need {setup_bytes} bytes of triangle setup, more than the GPU binds at once \
-                 ({} bytes); use the CPU backend",
-                self.max_binding()
-            )));
+    fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
+        let mut raster = plan.allocate_raster(prepared)?;
+        let mut counters = [0u64; STAT_COUNTERS];
+        if let Some(active) = plan.active {
+            let scope_validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+            let scope_memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let result = self.rasterise_windows(prepared, plan, active, resident, &mut raster, &mut counters);
+            let memory_error = pollster::block_on(scope_memory.pop());
+            let validation_error = pollster::block_on(scope_validation.pop());
+            result?;
+            if let Some(e) = memory_error.or(validation_error) {
+                return Err(Error::Gpu(e.to_string()));
+            }
         }
-        let mut raster = prepared.allocate_raster()?;
-        let scope_validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let scope_memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let result = self.rasterise_windows(prepared, &mut raster);
-        let memory_error = pollster::block_on(scope_memory.pop());
-        let validation_error = pollster::block_on(scope_validation.pop());
-        result?;
-        if let Some(e) = memory_error.or(validation_error) {
-            return Err(Error::Gpu(e.to_string()));
-        }
+        raster.stats = plan.stats(&counters);
         Ok(raster)
     }
 
-    fn rasterise_windows(&mut self, prepared: &Prepared, raster: &mut Raster) -> Result<(), Error> {
+    fn rasterise_windows(
+        &mut self,
+        prepared: &Prepared,
+        plan: &Plan,
+        active: Window,
+        resident: &mut Option<Resident>,
+        raster: &mut Raster,
+        counters: &mut [u64; STAT_COUNTERS],
+    ) -> Result<(), Error> {
         let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
         let max_pixels = (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed));
-        self.upload_and_setup(prepared)?;
-        let mut pending = windows(&prepared.window, max_pixels);
+        if resident.is_none() {
+            *resident = Some(self.upload_and_setup(prepared)?);
+        }
+        let setups = resident.as_ref().expect("just set up").setups.clone();
+        // The window's list of triangles, once for all its dispatches.
+        let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
+        let listed_buf = self.buffers.listed.get(&self.device, listed.len() as u64).clone();
+        self.queue.write_buffer(&listed_buf, 0, listed);
+        let mut pending = windows(&active, max_pixels);
         pending.reverse();
         while let Some(window) = pending.pop() {
-            let frame = prepared.frame(window);
-            let entries = prepared.bin_capacity(&frame);
+            let frame = plan.frame(prepared, window);
+            let entries = plan.bin_capacity(prepared, &frame);
             if entries * 4 > self.max_binding() || entries > u32::MAX as u64 {
                 // Too many triangle–tile pairs for one binding: split the window in two.
                 if window.height <= TILE {
@@ -264,7 +281,10 @@ impl GpuContext {
                 pending.push(Window { height: top, ..window });
                 continue;
             }
-            self.rasterise_window(&frame, entries, raster)?;
+            let window_counters = self.rasterise_window(&frame, entries, &setups, &listed_buf, raster)?;
+            for (total, c) in counters.iter_mut().zip(window_counters) {
+                *total += c as u64;
+            }
         }
         Ok(())
     }
@@ -278,22 +298,40 @@ impl GpuContext {
         (x, y)
     }
 
-    fn upload_and_setup(&mut self, prepared: &Prepared) -> Result<(), Error> {
-        let mut frame = prepared.frame(prepared.window);
-        let triangles = frame.triangles;
-        let (gx, gy) = Self::dispatch_triangles(&mut frame, triangles);
-        let inputs: &[TriangleInput] = &prepared.triangles;
-        let input_bytes: &[u8] = bytemuck::cast_slice(inputs);
+    /// Upload the prepared triangles and run setup over them: the setups stay on the device.
+    fn upload_and_setup(&mut self, prepared: &Prepared) -> Result<Resident, Error> {
+        let n = prepared.triangles.len() as u64;
+        let setup_bytes = n * std::mem::size_of::<TriangleSetup>() as u64;
+        if setup_bytes > self.max_binding() {
+            return Err(Error::RasterTooLarge {
+                width: prepared.window.width as u64,
+                height: prepared.window.height as u64,
+                reason: format!(
+                    "{n} triangles need {setup_bytes} bytes of triangle setup, more than the GPU binds at once \
+                     ({} bytes); use the CPU backend",
+                    self.max_binding()
+                ),
+            });
+        }
+        let mut frame = FrameParams { triangles: n as u32, snap_bits: prepared.snap_bits, ..Default::default() };
+        let (gx, gy) = Self::dispatch_triangles(&mut frame, n as u32);
         let device = &self.device;
-        let b = &mut self.buffers;
-        let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
+        let frame_buf = self.buffers.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
         self.queue.write_buffer(frame_buf, 0, bytemuck::bytes_of(&frame));
-        // Bindings must hold at least one element, even when every triangle was culled.
-        let slots = inputs.len().max(1) as u64;
-        let inputs_buf = b.inputs.get(device, slots * std::mem::size_of::<TriangleInput>() as u64);
-        self.queue.write_buffer(inputs_buf, 0, input_bytes);
-        let setups_buf = b.setups.get(device, slots * std::mem::size_of::<TriangleSetup>() as u64);
-        let bind = bind_group(device, &self.pipelines.setup, &[frame_buf, inputs_buf, setups_buf]);
+        // Bindings must hold at least one element. The inputs are dropped once set up.
+        let slots = n.max(1);
+        let storage = |label, bytes| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let inputs_buf = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
+        self.queue.write_buffer(&inputs_buf, 0, bytemuck::cast_slice(&prepared.triangles));
+        let setups = storage("triangle setups", slots * std::mem::size_of::<TriangleSetup>() as u64);
+        let bind = bind_group(device, &self.pipelines.setup, &[frame_buf, &inputs_buf, &setups]);
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("setup"), timestamp_writes: None });
@@ -302,10 +340,18 @@ impl GpuContext {
             pass.dispatch_workgroups(gx, gy, 1);
         }
         self.queue.submit([encoder.finish()]);
-        Ok(())
+        Ok(Resident { setups })
     }
 
-    fn rasterise_window(&mut self, frame: &FrameParams, entries: u64, raster: &mut Raster) -> Result<(), Error> {
+    /// One window's dispatches and readback; returns its statistics counters.
+    fn rasterise_window(
+        &mut self,
+        frame: &FrameParams,
+        entries: u64,
+        setups: &wgpu::Buffer,
+        listed: &wgpu::Buffer,
+        raster: &mut Raster,
+    ) -> Result<[u32; STAT_COUNTERS], Error> {
         let mut frame = *frame;
         // Binning runs one invocation per triangle and band of its tile rows.
         let items = frame.triangles as u64 * frame.bin_parts as u64;
@@ -322,7 +368,6 @@ impl GpuContext {
         let b = &mut self.buffers;
         let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64).clone();
         self.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
-        let setups = b.setups.get(device, 0).clone();
         let counts = b.counts.get(device, tiles * 4).clone();
         let cursors = b.cursors.get(device, tiles * 4).clone();
         let offsets = b.offsets.get(device, (tiles + 1) * 4).clone();
@@ -332,18 +377,22 @@ impl GpuContext {
         let coverage_bytes = if frame.outputs & OUTPUT_COVERAGE != 0 { pixels * 4 } else { 0 };
         let owners = b.owners.get(device, owner_bytes).clone();
         let coverage = b.coverage.get(device, coverage_bytes).clone();
-        let readback = b.readback.get(device, pixels * 4 + owner_bytes + coverage_bytes).clone();
+        let stats_bytes = (STAT_COUNTERS * 4) as u64;
+        let stats = b.stats.get(device, stats_bytes).clone();
+        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes).clone();
 
+        let mut counters = [0u32; STAT_COUNTERS];
         let mut encoder = device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&counts, 0, Some(tiles * 4));
         encoder.clear_buffer(&cursors, 0, Some(tiles * 4));
+        encoder.clear_buffer(&stats, 0, Some(stats_bytes));
         let stages: [(&wgpu::ComputePipeline, Vec<&wgpu::Buffer>, (u32, u32)); 4] = [
-            (&p.bin_count, vec![&frame_buf, &setups, &counts], (gx, gy)),
+            (&p.bin_count, vec![&frame_buf, setups, listed, &counts], (gx, gy)),
             (&p.bin_scan, vec![&frame_buf, &counts, &offsets], (1, 1)),
-            (&p.bin_fill, vec![&frame_buf, &setups, &offsets, &cursors, &bins], (gx, gy)),
+            (&p.bin_fill, vec![&frame_buf, setups, listed, &offsets, &cursors, &bins], (gx, gy)),
             (
                 &p.fine_raster,
-                vec![&frame_buf, &setups, &offsets, &bins, &values, &owners, &coverage],
+                vec![&frame_buf, setups, &offsets, &bins, &values, &owners, &coverage, &stats],
                 (frame.tiles_x, frame.tiles_y),
             ),
         ];
@@ -354,12 +403,13 @@ impl GpuContext {
             pass.set_bind_group(0, &bind, &[]);
             pass.dispatch_workgroups(*x, *y, 1);
         }
-        encoder.copy_buffer_to_buffer(&values, 0, &readback, 0, pixels * 4);
-        encoder.copy_buffer_to_buffer(&owners, 0, &readback, pixels * 4, owner_bytes);
-        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, pixels * 4 + owner_bytes, coverage_bytes);
+        encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
+        encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
+        encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_bytes);
+        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + pixels * 4 + owner_bytes, coverage_bytes);
         self.queue.submit([encoder.finish()]);
 
-        let total = pixels * 4 + owner_bytes + coverage_bytes;
+        let total = stats_bytes + pixels * 4 + owner_bytes + coverage_bytes;
         let slice = readback.slice(..total);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
@@ -374,6 +424,8 @@ impl GpuContext {
         {
             let view = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("mapping the raster failed: {e}")))?;
             let words: &[u32] = bytemuck::cast_slice(&view);
+            let (stat_words, words) = words.split_at(STAT_COUNTERS);
+            counters.copy_from_slice(stat_words);
             let (value_words, rest) = words.split_at(pixels as usize);
             let (owner_words, coverage_words) = rest.split_at((owner_bytes / 4) as usize);
             let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
@@ -386,7 +438,7 @@ impl GpuContext {
             }
         }
         readback.unmap();
-        Ok(())
+        Ok(counters)
     }
 }
 

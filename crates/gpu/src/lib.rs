@@ -5,7 +5,7 @@
 
 mod context;
 
-pub use context::{adapter, rasterise, set_window_limit, Adapter};
+pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, Adapter, Resident};
 
 /// The kernels as compiled by rust-gpu.
 pub const KERNELS_SPV: &[u8] = include_bytes!(env!("tileraster_kernels.spv"));

@@ -9,8 +9,14 @@
 //! one (an edge no triangle continues beyond: the mesh's outer boundary) is still covered, by
 //! the lowest-index triangle it touches, as gdal_grid covers hull points.
 //!
-//! A tile whose bin holds a single triangle that covers all of it (binning marks such entries
-//! with `FULL_TILE_BIT`) skips the batches: every pixel is inside that triangle.
+//! Specialisations, each allowed by a bit of `FrameParams::flags`; none changes a bit of the
+//! output:
+//! - a tile with an empty bin writes nodata straight away (`empty_tile`);
+//! - a tile whose bin holds a single triangle that covers all of it (binning marks such
+//!   entries with `FULL_TILE_BIT`) skips the batches: every pixel is inside that triangle
+//!   (`full_tile`);
+//! - where the host proved that no pixel centre is inside two triangles (`overlap_free`), a
+//!   pixel stops testing at the first triangle it is inside: that one owns it, the count is 1.
 //!
 //! Ownership is the minimum triangle index over the triangles a centre is inside, which does
 //! not depend on the order of the bin; the coverage count is a plain count. Both are
@@ -18,7 +24,8 @@
 
 use crate::fixed::fixed_to_f32_bits;
 use crate::types::{Coverage, FloatCoeffs, FrameParams, Plane, PixelRect, TriangleSetup};
-use crate::{BATCH, FULL_TILE_BIT, MODE_BARYCENTRIC, MODE_PLANE_F32, NO_OWNER, TILE};
+use crate::memory::Counters;
+use crate::{BATCH, FLAG_EMPTY_TILES, FLAG_FULL_TILES, FLAG_OVERLAP_FREE, FULL_TILE_BIT, MODE_BARYCENTRIC, MODE_PLANE_F32, NO_OWNER, TILE};
 
 /// Workgroup memory of fine raster.
 #[repr(C)]
@@ -120,11 +127,21 @@ pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
     if on_edges & c.excluded_edges != 0 { Side::OnExcludedEdge } else { Side::Inside }
 }
 
-/// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles.
+/// Whether the frame lets a pixel stop at the first triangle it is inside.
 #[inline]
-pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, state: &mut PixelState) {
+pub fn overlap_free(frame: &FrameParams) -> bool {
+    frame.flags & FLAG_OVERLAP_FREE != 0
+}
+
+/// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles (with `overlap_free`,
+/// only until it is inside one: no other can contain it).
+#[inline]
+pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, overlap_free: bool, state: &mut PixelState) {
     let mut k = 0;
     while k < batch_len {
+        if overlap_free && state.owner != NO_OWNER {
+            return;
+        }
         let c = &shared.batch[k as usize];
         match side(c, i, j) {
             Side::Inside => {
@@ -146,11 +163,17 @@ pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, state: &mu
     }
 }
 
-/// Whether the tile's bin is a single triangle covering the whole tile; if so, `state` becomes
-/// every pixel's state, with no edge test.
+/// Whether the tile takes the empty path: nothing in its bin, so every pixel is nodata.
 #[inline]
-pub fn full_tile(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[TriangleSetup], state: &mut PixelState) -> bool {
-    if bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
+pub fn empty_tile(bin_len: u32, frame: &FrameParams) -> bool {
+    bin_len == 0 && frame.flags & FLAG_EMPTY_TILES != 0
+}
+
+/// Whether the tile takes the full path: its bin is a single triangle covering the whole tile.
+/// If so, `state` becomes every pixel's state, with no edge test.
+#[inline]
+pub fn full_tile(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[TriangleSetup], frame: &FrameParams, state: &mut PixelState) -> bool {
+    if frame.flags & FLAG_FULL_TILES == 0 || bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
         return false;
     }
     let slot = bin[bin_start as usize] & !FULL_TILE_BIT;
@@ -219,10 +242,23 @@ pub fn fine_resolve(i: i32, j: i32, state: &PixelState, setups: &[TriangleSetup]
     } else if state.edge_owner != NO_OWNER {
         (state.edge_owner, state.edge_slot, 1)
     } else {
-        return PixelOut { value_bits: frame.nodata_bits, owner: NO_OWNER, count: 0 };
+        return nodata_pixel(frame);
     };
     let s = &setups[slot as usize];
     PixelOut { value_bits: pixel_value_bits(s, i, j, frame.mode), owner, count }
+}
+
+/// Invocation 0 adds the tile to statistics counter `counter` (a `STAT_*` index).
+#[inline]
+pub fn count_tile<C: Counters + ?Sized>(lid: u32, counter: usize, stats: &mut C) {
+    if lid == 0 {
+        stats.fetch_add(counter, 1);
+    }
+}
+
+/// The outputs of a pixel no triangle covers.
+pub fn nodata_pixel(frame: &FrameParams) -> PixelOut {
+    PixelOut { value_bits: frame.nodata_bits, owner: NO_OWNER, count: 0 }
 }
 
 /// Number of bin entries in the batch starting at `batch_start`.

@@ -1,0 +1,232 @@
+//! Scene analysis: does any pixel centre lie inside two triangles?
+//!
+//! Fine raster resolves ownership (lowest index wins) because triangles may overlap. Most
+//! scenes — every TIN, every heightfield — never do, and then a pixel can stop at the first
+//! triangle it is inside. This module proves that, exactly, on the snapped lattice the
+//! kernels decide coverage on; when it cannot prove it, ownership is resolved as usual.
+//!
+//! The argument. The fill rule puts pixel centre `p` inside a triangle exactly when the
+//! perturbed point `p* = p + (ε, ε²)` (ε infinitesimal) is strictly inside it: an edge through
+//! `p` then decides by the sign of `−dy`, or of `dx` when it is horizontal, which is the
+//! top-left rule of `stages::setup`. Every prepared triangle is positively oriented, so the
+//! number of triangles `p*` is inside equals the winding number around `p*` of all their
+//! directed edges together; edges that cancel (`a→b` against `b→a`, shared inside a mesh)
+//! drop out. What is left is a short chain (a TIN's hull), and its winding number along the
+//! row of `p` is a running sum over the chain's crossings of that row to the right of `p*`.
+//! The scene is overlap-free when that sum never exceeds one on any pixel row of the grid.
+
+use tileraster_kernels::types::TriangleInput;
+
+/// Crossings the analysis may sort before it gives up (and ownership is resolved): bounds its
+/// memory and time on scenes of many large overlapping triangles, which are not overlap-free
+/// anyway.
+const CROSSING_BUDGET: usize = 1 << 22;
+
+/// Whether no pixel centre of rows `0..rows` is inside two of `triangles` (snapped, positive,
+/// `1 px = 2^snap_bits` units). `false` means "not proven".
+pub fn overlap_free(triangles: &[TriangleInput], snap_bits: u32, rows: u32) -> bool {
+    let Some(crossings) = residual_crossings(triangles, snap_bits, rows) else {
+        return false;
+    };
+    max_winding(crossings) <= 1
+}
+
+/// A lattice point.
+type Point = (i64, i64);
+
+/// Where a directed edge crosses the centre line of pixel row `row`: at `x = num / den`
+/// (`den > 0`), adding `winding` to every point to its left.
+struct Crossing {
+    row: u32,
+    num: i128,
+    den: i128,
+    winding: i32,
+}
+
+/// The crossings of pixel-centre rows by the directed edges that do not cancel, or `None` past
+/// the budget.
+fn residual_crossings(triangles: &[TriangleInput], snap_bits: u32, rows: u32) -> Option<Vec<Crossing>> {
+    // Each edge once, as (smaller endpoint, larger endpoint) with +1 for the direction
+    // smaller → larger and −1 for the other; sorting brings an edge's uses together.
+    let mut edges: Vec<(Point, Point, i32)> = Vec::with_capacity(triangles.len() * 3);
+    for t in triangles {
+        for k in 0..3 {
+            let b = (k + 1) % 3;
+            let (p, q) = ((t.x[k], t.y[k]), (t.x[b], t.y[b]));
+            if p.1 == q.1 {
+                continue; // horizontal: crosses no row line (the perturbation lifts p* off it)
+            }
+            edges.push(if p < q { (p, q, 1) } else { (q, p, -1) });
+        }
+    }
+    edges.sort_unstable_by_key(|&(p, q, _)| (p, q));
+
+    let unit = 1i64 << snap_bits;
+    let half = unit >> 1;
+    let mut crossings = Vec::new();
+    let mut k = 0;
+    while k < edges.len() {
+        let (p, q, _) = edges[k];
+        let mut multiplicity = 0;
+        while k < edges.len() && (edges[k].0, edges[k].1) == (p, q) {
+            multiplicity += edges[k].2;
+            k += 1;
+        }
+        if multiplicity == 0 {
+            continue;
+        }
+        // The directed edge a → b, `multiplicity` times (negative: b → a).
+        let (a, b, m) = if multiplicity > 0 { (p, q, multiplicity) } else { (q, p, -multiplicity) };
+        // Row j's centre line is y = j·unit + half; p* lies just above it... by ε², so the
+        // edge crosses p*'s line when ymin <= j·unit + half < ymax.
+        let (ymin, ymax) = (a.1.min(b.1), a.1.max(b.1));
+        let first = (ymin - half).div_euclid(unit) + i64::from((ymin - half).rem_euclid(unit) != 0);
+        let first = first.max(0);
+        let last = (ymax - half - 1).div_euclid(unit).min(rows as i64 - 1);
+        if first > last {
+            continue;
+        }
+        if crossings.len() + (last - first + 1) as usize > CROSSING_BUDGET {
+            return None;
+        }
+        // Edges going down the raster (y grows) wind positively around points on their left.
+        let winding = if b.1 > a.1 { m } else { -m };
+        let (dx, dy) = ((b.0 - a.0) as i128, (b.1 - a.1) as i128);
+        for row in first..=last {
+            let yc = (row * unit + half) as i128;
+            // x = a.x + dx·(yc − a.y)/dy, as a fraction with a positive denominator.
+            let (num, den) = (a.0 as i128 * dy + dx * (yc - a.1 as i128), dy);
+            let (num, den) = if den < 0 { (-num, -den) } else { (num, den) };
+            crossings.push(Crossing { row: row as u32, num, den, winding });
+        }
+    }
+    Some(crossings)
+}
+
+/// The largest winding number over the points of every row: the crossings strictly to the
+/// right of a point count (a crossing at the point's own x passes left of `p* = p + ε`).
+fn max_winding(mut crossings: Vec<Crossing>) -> i32 {
+    // Exact order by (row, x): both fractions have positive denominators below 2^30 and
+    // numerators below 2^60, so the cross products fit in i128.
+    crossings.sort_unstable_by(|a, b| a.row.cmp(&b.row).then_with(|| (a.num * b.den).cmp(&(b.num * a.den))));
+    let mut max = 0;
+    let mut end = crossings.len();
+    while end > 0 {
+        // One row, walked from the right; crossings at the same x are added together, so a
+        // vertex where the chain turns back adds its net change only.
+        let row = crossings[end - 1].row;
+        let mut running = 0;
+        while end > 0 && crossings[end - 1].row == row {
+            let c = &crossings[end - 1];
+            let mut sum = 0;
+            while end > 0 && crossings[end - 1].row == row && crossings[end - 1].num * c.den == c.num * crossings[end - 1].den {
+                sum += crossings[end - 1].winding;
+                end -= 1;
+            }
+            running += sum;
+            max = max.max(running);
+        }
+    }
+    max
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tileraster_kernels::types::TriangleInput;
+
+    const S: u32 = 4; // 16 units a pixel; centres at 8 + 16·k
+
+    /// A positively oriented triangle from lattice points (given in any order).
+    fn tri(p: [(i64, i64); 3]) -> TriangleInput {
+        let area = (p[1].0 - p[0].0) * (p[2].1 - p[0].1) - (p[1].1 - p[0].1) * (p[2].0 - p[0].0);
+        assert_ne!(area, 0);
+        let p = if area > 0 { p } else { [p[0], p[2], p[1]] };
+        TriangleInput { x: p.map(|v| v.0), y: p.map(|v| v.1), ..Default::default() }
+    }
+
+    /// Two triangles per cell of an `n × n` lattice with `step` units between points.
+    fn mesh(n: i64, step: i64, origin: (i64, i64)) -> Vec<TriangleInput> {
+        let mut out = Vec::new();
+        for r in 0..n {
+            for c in 0..n {
+                let p = |dc: i64, dr: i64| (origin.0 + (c + dc) * step, origin.1 + (r + dr) * step);
+                out.push(tri([p(0, 0), p(1, 0), p(1, 1)]));
+                out.push(tri([p(0, 0), p(1, 1), p(0, 1)]));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_mesh_is_overlap_free_even_with_vertices_and_edges_on_centres() {
+        assert!(overlap_free(&mesh(6, 37, (3, 5)), S, 40));
+        // Vertices exactly on pixel centres, edges along centre rows and columns.
+        assert!(overlap_free(&mesh(5, 16, (8, 8)), S, 10));
+        assert!(overlap_free(&[tri([(0, 0), (100, 0), (0, 100)])], S, 10));
+    }
+
+    #[test]
+    fn overlaps_are_found() {
+        let one = tri([(0, 0), (160, 0), (0, 160)]);
+        let nudged = tri([(10, 10), (170, 10), (10, 170)]);
+        assert!(!overlap_free(&[one, nudged], S, 20));
+        // The same triangle twice, with either orientation given.
+        assert!(!overlap_free(&[one, tri([(0, 0), (0, 160), (160, 0)])], S, 20));
+        // A small island lying wholly inside a mesh: no edge crosses another.
+        let mut scene = mesh(4, 64, (0, 0));
+        scene.push(tri([(100, 100), (140, 100), (100, 140)]));
+        assert!(!overlap_free(&scene, S, 20));
+        // A mesh folded back over itself along a shared edge.
+        let folded = [tri([(0, 0), (160, 0), (80, 160)]), tri([(0, 0), (160, 0), (80, 100)])];
+        assert!(!overlap_free(&folded, S, 20));
+    }
+
+    #[test]
+    fn separate_and_touching_pieces_are_overlap_free() {
+        let mut scene = mesh(2, 48, (0, 0));
+        scene.extend(mesh(2, 48, (96, 0))); // shares a vertical boundary, other vertices
+        scene.extend(mesh(3, 20, (300, 300)));
+        // Two triangles touching at a single vertex that is a pixel centre.
+        scene.push(tri([(600, 600), (664, 568), (664, 632)]));
+        scene.push(tri([(600, 600), (536, 568), (536, 632)]));
+        assert!(overlap_free(&scene, S, 60));
+    }
+
+    /// The analysis against a brute-force count with the kernels' own coverage test: a proof
+    /// must hold at every pixel centre, and meshes must be proven.
+    #[test]
+    fn agrees_with_counting_every_pixel_centre() {
+        use crate::{prepare, scenes, Grid, Params};
+        use tileraster_kernels::stages::fine::{side, Side};
+        use tileraster_kernels::stages::setup::setup_triangle;
+        let grid = Grid::new(0.0, 64.0, 0.0, 48.0, 64, 48);
+        let cases = [
+            (scenes::terrain(0.0, 0.0, 64.0, 48.0, 9, 7, 1), true),
+            (scenes::terrain(-10.0, -10.0, 90.0, 70.0, 23, 17, 2), true), // cut by the grid
+            (scenes::centre_lattice(&grid, 1, 3), true),
+            (scenes::centre_lattice(&grid, 8, 4), true),
+            (scenes::fan(&grid, 20, 20, 64, 15.0, 5), true),
+            (scenes::sliver_wedge(&grid, 50, 0.01, 6), true),
+            (scenes::triangle_soup(&grid, 40, 10.0, 7), false),
+        ];
+        for (k, (scene, mesh)) in cases.iter().enumerate() {
+            let prepared = prepare(scene, &Params::new(grid), None).unwrap();
+            let setups: Vec<_> = prepared.triangles.iter().map(|t| setup_triangle(t, 0, prepared.snap_bits)).collect();
+            let most = (0..grid.height as i32)
+                .flat_map(|j| (0..grid.width as i32).map(move |i| (i, j)))
+                .map(|(i, j)| setups.iter().filter(|s| side(&s.coverage, i, j) == Side::Inside).count())
+                .max()
+                .unwrap();
+            assert_eq!(prepared.overlap_free, most <= 1, "case {k}: proof {} but a centre is inside {most}", prepared.overlap_free);
+            assert_eq!(prepared.overlap_free, *mesh, "case {k}");
+        }
+    }
+
+    #[test]
+    fn overlap_outside_the_rows_asked_about_does_not_count() {
+        let low = [tri([(0, 400), (160, 400), (0, 560)]), tri([(10, 410), (170, 410), (10, 570)])];
+        assert!(overlap_free(&low, S, 20)); // rows 0..20 end at y = 320
+        assert!(!overlap_free(&low, S, 40));
+    }
+}

@@ -1,0 +1,278 @@
+//! One call's plan, decided on the host and identical for both backends: which prepared
+//! triangles reach the window (the rest are culled before binning), which tile-aligned part
+//! of the window they can cover (the rest is nodata with no kernel work), the specialisations
+//! the kernels may use, and the statistics the host already knows.
+
+use crate::raster::try_zeroed;
+use crate::{Error, Prepared, Raster, Window};
+use tileraster_kernels::stages::bin::tile_span;
+use tileraster_kernels::types::{FrameParams, PixelRect, TriangleInput};
+use tileraster_kernels::{
+    BIN_PART_TILES, FLAG_EMPTY_TILES, FLAG_FULL_TILES, FLAG_OVERLAP_FREE, NO_OWNER, STAT_COUNTERS, STAT_TILES_EMPTY,
+    STAT_TILES_FULL, STAT_TILES_PARTIAL, TILE,
+};
+
+/// What a call did, from the host's plan and the kernels' counters: equal on both backends
+/// for the same input.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// `TILE × TILE` tiles of the called window.
+    pub tiles_total: u64,
+    /// Tiles no triangle reaches, which got no per-pixel work: those outside the part of the
+    /// window the triangles can cover, filled with nodata on the host, and those inside it
+    /// whose bin was empty.
+    pub tiles_empty_skipped: u64,
+    /// Tiles covered whole by one triangle, written with no edge test.
+    pub tiles_full: u64,
+    /// Tiles whose pixels were tested against their bin.
+    pub tiles_partial: u64,
+    /// Triangles dropped before binning because they cannot reach a pixel centre of the grid
+    /// (at preparation) or of the called window.
+    pub triangles_culled: u64,
+    /// Triangles dropped at preparation because snapping left them no area.
+    pub triangles_flat: u64,
+    /// Triangles the binning stages took.
+    pub triangles_binned: u64,
+    /// Whether the scene analysis proved that no pixel centre is inside two triangles, and
+    /// fine raster used it.
+    pub overlap_free: bool,
+    /// The passes that ran, in order (see [`Plan`]).
+    pub passes: Vec<&'static str>,
+    /// Bytes of scene data moved to the backend for this call: the prepared triangles the first
+    /// time a prepared scene is rasterised, and the list of the window's triangles.
+    pub bytes_uploaded: u64,
+}
+
+impl Stats {
+    /// One JSON object, with the field names above.
+    pub fn to_json(&self) -> String {
+        let passes: Vec<String> = self.passes.iter().map(|p| format!("\"{p}\"")).collect();
+        format!(
+            "{{\"tiles_total\":{},\"tiles_empty_skipped\":{},\"tiles_full\":{},\"tiles_partial\":{},\
+             \"triangles_culled\":{},\"triangles_flat\":{},\"triangles_binned\":{},\"overlap_free\":{},\
+             \"passes\":[{}],\"bytes_uploaded\":{}}}",
+            self.tiles_total,
+            self.tiles_empty_skipped,
+            self.tiles_full,
+            self.tiles_partial,
+            self.triangles_culled,
+            self.triangles_flat,
+            self.triangles_binned,
+            self.overlap_free,
+            passes.join(","),
+            self.bytes_uploaded
+        )
+    }
+}
+
+/// One call's plan. Its passes, in the order they run:
+///
+/// | pass | runs when |
+/// | --- | --- |
+/// | `upload` | the first call that rasterises anything with a prepared scene: its triangles go to the backend |
+/// | `setup` | the same call: edge functions and planes, kept with the triangles for later calls |
+/// | `cull` | `Skips::cull_window`: the window's triangles are listed, the others left out |
+/// | `fill_nodata` | part of the window lies outside every listed triangle's tiles |
+/// | `bin_count`, `bin_scan`, `bin_fill`, `fine_raster` | some triangle reaches the window |
+/// | `ownership` | fine raster resolves overlaps (the scene was not proven overlap-free) |
+/// | `write_owner`, `write_coverage` | those outputs were asked for |
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The called window: the raster the call returns.
+    pub window: Window,
+    /// Setup slots of the triangles the binning stages take.
+    pub listed: Vec<u32>,
+    /// The part of `window` the kernels rasterise, aligned to the window's tiles; `None` when
+    /// no triangle reaches the window.
+    pub active: Option<Window>,
+    /// `FrameParams::flags`.
+    pub flags: u32,
+    /// What the host knows of the statistics before the kernels run.
+    pub stats: Stats,
+}
+
+impl Prepared {
+    /// Plan a call over `window` (any window of the grid). `resident`: the backend already holds
+    /// this preparation's triangles and their setup.
+    pub fn plan(&self, window: Window, resident: bool) -> Result<Plan, Error> {
+        window.validate(&self.params.grid)?;
+        let skips = self.params.skips;
+        let area = PixelRect {
+            i0: window.x0 as i32,
+            j0: window.y0 as i32,
+            i1: (window.x0 + window.width - 1) as i32,
+            j1: (window.y0 + window.height - 1) as i32,
+        };
+        let reaches = |t: &TriangleInput| !intersect(&t.rect, &area).is_empty();
+        let listed: Vec<u32> = if skips.cull_window {
+            (0..self.triangles.len() as u32).filter(|&s| reaches(&self.triangles[s as usize])).collect()
+        } else {
+            (0..self.triangles.len() as u32).collect()
+        };
+        let active = if skips.empty_tiles {
+            let reached = listed.iter().map(|&s| intersect(&self.triangles[s as usize].rect, &area)).filter(|r| !r.is_empty());
+            reached.reduce(|a, b| PixelRect { i0: a.i0.min(b.i0), j0: a.j0.min(b.j0), i1: a.i1.max(b.i1), j1: a.j1.max(b.j1) }).map(|r| tile_aligned(&r, &window))
+        } else {
+            Some(window)
+        };
+        let overlap_free = skips.overlap_free && self.overlap_free;
+        let flags = (if skips.empty_tiles { FLAG_EMPTY_TILES } else { 0 })
+            | (if skips.full_tiles { FLAG_FULL_TILES } else { 0 })
+            | (if overlap_free { FLAG_OVERLAP_FREE } else { 0 });
+
+        let tiles = |w: &Window| w.width.div_ceil(TILE) as u64 * w.height.div_ceil(TILE) as u64;
+        let tiles_total = tiles(&window);
+        let mut passes = Vec::new();
+        let mut bytes_uploaded = 0;
+        if active.is_some() && !resident {
+            passes.extend(["upload", "setup"]);
+            bytes_uploaded += std::mem::size_of_val(self.triangles.as_slice()) as u64;
+        }
+        if skips.cull_window {
+            passes.push("cull");
+        }
+        if active != Some(window) {
+            passes.push("fill_nodata");
+        }
+        if active.is_some() {
+            passes.extend(["bin_count", "bin_scan", "bin_fill", "fine_raster"]);
+            if !overlap_free {
+                passes.push("ownership");
+            }
+            bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64;
+        }
+        if self.params.outputs.owner {
+            passes.push("write_owner");
+        }
+        if self.params.outputs.coverage {
+            passes.push("write_coverage");
+        }
+        let stats = Stats {
+            tiles_total,
+            tiles_empty_skipped: tiles_total - active.as_ref().map_or(0, tiles),
+            triangles_culled: (self.culled + self.triangles.len() - listed.len()) as u64,
+            triangles_flat: self.degenerate as u64,
+            triangles_binned: if active.is_some() { listed.len() as u64 } else { 0 },
+            overlap_free,
+            passes,
+            bytes_uploaded,
+            ..Stats::default()
+        };
+        Ok(Plan { window, listed, active, flags, stats })
+    }
+}
+
+/// The part two pixel rectangles share (empty if none).
+fn intersect(a: &PixelRect, b: &PixelRect) -> PixelRect {
+    PixelRect { i0: a.i0.max(b.i0), j0: a.j0.max(b.j0), i1: a.i1.min(b.i1), j1: a.j1.min(b.j1) }
+}
+
+/// The tiles of `window` that `r` (inside it) touches, as a window.
+fn tile_aligned(r: &PixelRect, window: &Window) -> Window {
+    let down = |v: i32, origin: u32| origin + (v as u32 - origin) / TILE * TILE;
+    let (x0, y0) = (down(r.i0, window.x0), down(r.j0, window.y0));
+    let x1 = (down(r.i1, window.x0) + TILE).min(window.x0 + window.width);
+    let y1 = (down(r.j1, window.y0) + TILE).min(window.y0 + window.height);
+    Window { x0, y0, width: x1 - x0, height: y1 - y0 }
+}
+
+impl Plan {
+    /// Kernel parameters for rasterising `part` of the active window.
+    pub fn frame(&self, prepared: &Prepared, part: Window) -> FrameParams {
+        let tiles_x = part.width.div_ceil(TILE);
+        let tiles_y = part.height.div_ceil(TILE);
+        let mut frame = FrameParams {
+            win_x0: part.x0,
+            win_y0: part.y0,
+            win_w: part.width,
+            win_h: part.height,
+            tiles_x,
+            tiles_y,
+            triangles: self.listed.len() as u32,
+            snap_bits: prepared.snap_bits,
+            nodata_bits: prepared.params.nodata.to_bits(),
+            outputs: prepared.params.output_bits(),
+            dispatch_width: 0,
+            mode: prepared.params.mode.kernel_code(),
+            bin_part_rows: (BIN_PART_TILES / tiles_x.max(1)).max(1),
+            bin_parts: 1,
+            flags: self.flags,
+            _pad: 0,
+        };
+        // Enough bands for the tallest listed triangle in the part.
+        let rows = self.listed_triangles(prepared).map(|t| tile_span(&t.rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
+        frame.bin_parts = rows.unwrap_or(1).div_ceil(frame.bin_part_rows).max(1);
+        frame
+    }
+
+    fn listed_triangles<'a>(&'a self, prepared: &'a Prepared) -> impl Iterator<Item = &'a TriangleInput> + 'a {
+        self.listed.iter().map(|&s| &prepared.triangles[s as usize])
+    }
+
+    /// Most (triangle, tile) entries binning can write for `frame` (every tile of every listed
+    /// rectangle; binning leaves out the tiles a triangle cannot reach): the size to allocate
+    /// before the bins are filled.
+    pub fn bin_capacity(&self, prepared: &Prepared, frame: &FrameParams) -> u64 {
+        self.listed_triangles(prepared).map(|t| tile_span(&t.rect, frame).tile_count() as u64).sum()
+    }
+
+    /// The call's raster: zeroed, with nodata (and no owner) already written outside the
+    /// active window.
+    pub fn allocate_raster(&self, prepared: &Prepared) -> Result<Raster, Error> {
+        let window = self.window;
+        let n = usize::try_from(window.pixel_count()).map_err(|_| Error::RasterTooLarge {
+            width: window.width as u64,
+            height: window.height as u64,
+            reason: "the pixel count does not fit this machine's address space".into(),
+        })?;
+        let outputs = prepared.params.outputs;
+        let mut raster = Raster {
+            grid: prepared.params.grid,
+            window,
+            nodata: prepared.params.nodata,
+            values: try_zeroed(n, &window)?,
+            owner: if outputs.owner { Some(try_zeroed(n, &window)?) } else { None },
+            coverage: if outputs.coverage { Some(try_zeroed(n, &window)?) } else { None },
+            snap_bits: prepared.snap_bits,
+            stats: Stats::default(),
+        };
+        self.fill_inactive(&mut raster);
+        Ok(raster)
+    }
+
+    /// Nodata outside the active window (the coverage count there is the zero it starts with).
+    fn fill_inactive(&self, raster: &mut Raster) {
+        let w = self.window;
+        let a = self.active.unwrap_or(Window { x0: w.x0, y0: w.y0, width: 0, height: 0 });
+        if a == w {
+            return;
+        }
+        let (ax0, ax1) = ((a.x0 - w.x0) as usize, (a.x0 - w.x0 + a.width) as usize);
+        let (ay0, ay1) = ((a.y0 - w.y0) as usize, (a.y0 - w.y0 + a.height) as usize);
+        let nodata = raster.nodata;
+        let width = w.width as usize;
+        let fill = |layer: &mut [u32], value: u32| {
+            for (y, row) in layer.chunks_mut(width).enumerate() {
+                if (ay0..ay1).contains(&y) {
+                    row[..ax0].fill(value);
+                    row[ax1..].fill(value);
+                } else {
+                    row.fill(value);
+                }
+            }
+        };
+        fill(bytemuck::cast_slice_mut(&mut raster.values), nodata.to_bits());
+        if let Some(owner) = raster.owner.as_mut() {
+            fill(owner, NO_OWNER);
+        }
+    }
+
+    /// The statistics, given the kernels' counters (summed over the call's dispatches).
+    pub fn stats(&self, counters: &[u64; STAT_COUNTERS]) -> Stats {
+        let mut stats = self.stats.clone();
+        stats.tiles_empty_skipped += counters[STAT_TILES_EMPTY];
+        stats.tiles_full = counters[STAT_TILES_FULL];
+        stats.tiles_partial = counters[STAT_TILES_PARTIAL];
+        stats
+    }
+}

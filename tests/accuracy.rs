@@ -6,13 +6,20 @@
 mod common;
 
 use tileraster::reference::{accuracy, Reference};
-use tileraster::{rasterise, scenes, Backend, Grid, Params, Scene};
+use tileraster::{rasterise, scenes, Backend, Grid, Params, Raster, Scene};
 
+/// The accuracy bounds, with every skip variant (each raster is checked on its own).
 fn check(name: &str, scene: &Scene, grid: Grid, backend: Backend) {
-    let raster = rasterise(scene, &Params::new(grid).with_nodata(-9999.0), backend)
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
     let reference = Reference::new(scene, &grid);
-    let a = accuracy(&raster, &reference);
+    for (variant, skips) in common::skip_variants() {
+        let params = Params::new(grid).with_nodata(-9999.0).with_skips(skips);
+        let raster = rasterise(scene, &params, backend).unwrap_or_else(|e| panic!("{name}, {variant}: {e}"));
+        check_raster(&format!("{name}, {variant}"), &raster, &reference, backend);
+    }
+}
+
+fn check_raster(name: &str, raster: &Raster, reference: &Reference, backend: Backend) {
+    let a = accuracy(raster, reference);
     eprintln!(
         "{name} [{}]: {} cells, {:.5}% within 0.5 ulp, {:.5}% within 1 ulp, max {:.3} ulp, rms {:.4} ulp, {} coverage mismatches",
         backend.name(),

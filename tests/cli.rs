@@ -98,7 +98,7 @@ fn zero_sized_grid_is_a_clear_error() {
 fn mode_flag_selects_the_value_mode_and_rejects_unknown_ones() {
     let dir = scratch("mode");
     let grid = Grid::new(0.0, 600.0, 0.0, 400.0, 90, 60);
-    let scene = scenes::terrain(0.0, 0.0, 600.0, 400.0, 12, 8, 6);
+    let scene = scenes::terrain(0.0, 0.0, 600.0, 400.0, 3, 2, 6);
     let (obj, tif) = (dir.join("mesh.obj"), dir.join("out.tif"));
     write_obj(&scene, &obj);
     let grid_args = ["--txe", "0", "600", "--tye", "0", "400", "--outsize", "90", "60"];
@@ -116,4 +116,38 @@ fn mode_flag_selects_the_value_mode_and_rejects_unknown_ones() {
     assert!(err.contains("unknown mode 'cubic'") && err.contains("exact, plane-f32, barycentric"), "{err}");
     assert!(!dir.join("never.tif").exists());
     std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn stats_flag_prints_one_json_object_on_stderr() {
+    let dir = scratch("stats");
+    let scene = scenes::terrain(0.0, 0.0, 600.0, 400.0, 3, 2, 6);
+    let (obj, tif) = (dir.join("mesh.obj"), dir.join("out.tif"));
+    write_obj(&scene, &obj);
+    let grid = ["--txe", "-100", "700", "--tye", "-50", "450", "--outsize", "160", "100"];
+    let out = rasterise_cli(&obj, &tif, &[&grid[..], &["--stats"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    let line = stderr.lines().last().unwrap();
+    let stats: serde_json::Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("not JSON ({e}): {line}"));
+    let expected = rasterise(&scene, &Params::new(Grid::new(-100.0, 700.0, -50.0, 450.0, 160, 100)).with_nodata(-9999.0), Backend::Cpu).unwrap().stats;
+    assert_eq!(stats["tiles_total"], expected.tiles_total, "{line}");
+    assert_eq!(stats["tiles_empty_skipped"], expected.tiles_empty_skipped, "{line}");
+    assert_eq!(stats["tiles_full"], expected.tiles_full, "{line}");
+    assert_eq!(stats["triangles_culled"], expected.triangles_culled, "{line}");
+    assert_eq!(stats["bytes_uploaded"], expected.bytes_uploaded, "{line}");
+    assert_eq!(stats["passes"], serde_json::json!(expected.passes), "{line}");
+    assert!(expected.tiles_empty_skipped > 0 && expected.tiles_full > 0, "{line}");
+
+    // Turning a skip off changes the statistics, not the raster; an unknown name is refused.
+    let tif_off = dir.join("off.tif");
+    let out = rasterise_cli(&obj, &tif_off, &[&grid[..], &["--stats", "--no-skip", "empty_tiles"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("\"tiles_empty_skipped\":0,"));
+    assert_eq!(std::fs::read(&tif).unwrap(), std::fs::read(&tif_off).unwrap());
+    let out = rasterise_cli(&obj, &dir.join("never.tif"), &[&grid[..], &["--no-skip", "everything"]].concat());
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cull_window, empty_tiles, full_tiles, overlap_free"));
+    assert!(!dir.join("never.tif").exists());
+    std::fs::remove_dir_all(&dir).ok();
 }

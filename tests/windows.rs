@@ -58,6 +58,7 @@ fn gpu_results_do_not_depend_on_its_windowing() {
         let gpu = rasterise(&scene, &params, Backend::Gpu).unwrap();
         let (count, first) = cpu.compare_bits(&gpu, 5);
         assert_eq!(count, 0, "window limit {limit}: {first:?}");
+        assert_eq!(cpu.stats, gpu.stats, "window limit {limit}: the statistics depend on the GPU's windows");
     }
     tileraster::set_gpu_window_limit(4096 * 4096);
 }

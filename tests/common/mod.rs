@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use tileraster::{rasterise, Backend, Error, Params, Raster, Scene};
+use tileraster::{rasterise, Backend, Error, Params, Raster, Scene, Skips};
 
 /// Whether GPU tests should run. Without an adapter they fail loudly, unless the user asked
 /// to skip them with `TILERASTER_SKIP_GPU=1`, in which case the skip is printed.
@@ -22,20 +22,43 @@ pub fn gpu_or_skip(test: &str) -> bool {
     }
 }
 
-/// Rasterise on both backends and require bit-identical results; print the first differing
-/// pixels with both values if they are not.
+/// Every way the tests run the pipeline: with all of its skips, with none, and with each
+/// one turned off alone. No skip may change a bit.
+pub fn skip_variants() -> Vec<(String, Skips)> {
+    let mut out = vec![("all skips".to_string(), Skips::ALL), ("no skips".to_string(), Skips::NONE)];
+    out.extend(Skips::NAMES.iter().map(|name| (format!("all skips but {name}"), Skips::all_but(name))));
+    out
+}
+
+/// Panic with the first differing pixels unless `a` and `b` are bit-identical.
+pub fn assert_same_bits(what: &str, a: &Raster, b: &Raster) {
+    let (count, first) = a.compare_bits(b, 12);
+    if count > 0 {
+        let list: Vec<String> = first.iter().map(|d| format!("  {d}")).collect();
+        panic!("{what}: rasters differ in {count} cells; first ones:\n{}", list.join("\n"));
+    }
+}
+
+/// Rasterise on both backends, with every skip variant, and require bit-identical results
+/// everywhere and equal statistics on both backends; print the first differing pixels with
+/// both values if they are not. Returns the rasters with all skips.
 pub fn assert_parity(name: &str, scene: &Scene, params: &Params) -> Option<(Raster, Raster)> {
     if !gpu_or_skip(name) {
         return None;
     }
-    let cpu = rasterise(scene, params, Backend::Cpu).unwrap_or_else(|e| panic!("{name}: CPU backend failed: {e}"));
-    let gpu = rasterise(scene, params, Backend::Gpu).unwrap_or_else(|e| panic!("{name}: GPU backend failed: {e}"));
-    let (count, first) = cpu.compare_bits(&gpu, 12);
-    if count > 0 {
-        let list: Vec<String> = first.iter().map(|d| format!("  {d} (cpu vs gpu)")).collect();
-        panic!("{name}: CPU and GPU rasters differ in {count} cells; first ones:\n{}", list.join("\n"));
+    let mut first: Option<(Raster, Raster)> = None;
+    for (variant, skips) in skip_variants() {
+        let params = params.with_skips(skips);
+        let cpu = rasterise(scene, &params, Backend::Cpu).unwrap_or_else(|e| panic!("{name}, {variant}: CPU backend failed: {e}"));
+        let gpu = rasterise(scene, &params, Backend::Gpu).unwrap_or_else(|e| panic!("{name}, {variant}: GPU backend failed: {e}"));
+        assert_same_bits(&format!("{name}, {variant}, cpu vs gpu"), &cpu, &gpu);
+        assert_eq!(cpu.stats, gpu.stats, "{name}, {variant}: the backends' statistics differ");
+        match &first {
+            None => first = Some((cpu, gpu)),
+            Some((reference, _)) => assert_same_bits(&format!("{name}, all skips vs {variant}"), reference, &cpu),
+        }
     }
-    Some((cpu, gpu))
+    first
 }
 
 /// Run on the CPU, expecting success.

@@ -15,6 +15,7 @@
 //! row of `p` is a running sum over the chain's crossings of that row to the right of `p*`.
 //! The scene is overlap-free when that sum never exceeds one on any pixel row of the grid.
 
+use std::ops::Range;
 use tileraster_kernels::types::TriangleInput;
 
 /// Crossings the analysis may sort before it gives up (and ownership is resolved): bounds its
@@ -22,9 +23,9 @@ use tileraster_kernels::types::TriangleInput;
 /// anyway.
 const CROSSING_BUDGET: usize = 1 << 22;
 
-/// Whether no pixel centre of rows `0..rows` is inside two of `triangles` (snapped, positive,
-/// `1 px = 2^snap_bits` units). `false` means "not proven".
-pub fn overlap_free(triangles: &[TriangleInput], snap_bits: u32, rows: u32) -> bool {
+/// Whether no pixel centre of pixel rows `rows` is inside two of `triangles` (snapped,
+/// positive, `1 px = 2^snap_bits` units). `false` means "not proven".
+pub fn overlap_free(triangles: &[TriangleInput], snap_bits: u32, rows: Range<u32>) -> bool {
     let Some(crossings) = residual_crossings(triangles, snap_bits, rows) else {
         return false;
     };
@@ -45,7 +46,7 @@ struct Crossing {
 
 /// The crossings of pixel-centre rows by the directed edges that do not cancel, or `None` past
 /// the budget.
-fn residual_crossings(triangles: &[TriangleInput], snap_bits: u32, rows: u32) -> Option<Vec<Crossing>> {
+fn residual_crossings(triangles: &[TriangleInput], snap_bits: u32, rows: Range<u32>) -> Option<Vec<Crossing>> {
     // Each edge once, as (smaller endpoint, larger endpoint) with +1 for the direction
     // smaller → larger and −1 for the other; sorting brings an edge's uses together.
     let mut edges: Vec<(Point, Point, i32)> = Vec::with_capacity(triangles.len() * 3);
@@ -81,8 +82,8 @@ fn residual_crossings(triangles: &[TriangleInput], snap_bits: u32, rows: u32) ->
         // edge crosses p*'s line when ymin <= j·unit + half < ymax.
         let (ymin, ymax) = (a.1.min(b.1), a.1.max(b.1));
         let first = (ymin - half).div_euclid(unit) + i64::from((ymin - half).rem_euclid(unit) != 0);
-        let first = first.max(0);
-        let last = (ymax - half - 1).div_euclid(unit).min(rows as i64 - 1);
+        let first = first.max(rows.start as i64);
+        let last = (ymax - half - 1).div_euclid(unit).min(rows.end as i64 - 1);
         if first > last {
             continue;
         }
@@ -160,26 +161,26 @@ mod tests {
 
     #[test]
     fn a_mesh_is_overlap_free_even_with_vertices_and_edges_on_centres() {
-        assert!(overlap_free(&mesh(6, 37, (3, 5)), S, 40));
+        assert!(overlap_free(&mesh(6, 37, (3, 5)), S, 0..40));
         // Vertices exactly on pixel centres, edges along centre rows and columns.
-        assert!(overlap_free(&mesh(5, 16, (8, 8)), S, 10));
-        assert!(overlap_free(&[tri([(0, 0), (100, 0), (0, 100)])], S, 10));
+        assert!(overlap_free(&mesh(5, 16, (8, 8)), S, 0..10));
+        assert!(overlap_free(&[tri([(0, 0), (100, 0), (0, 100)])], S, 0..10));
     }
 
     #[test]
     fn overlaps_are_found() {
         let one = tri([(0, 0), (160, 0), (0, 160)]);
         let nudged = tri([(10, 10), (170, 10), (10, 170)]);
-        assert!(!overlap_free(&[one, nudged], S, 20));
+        assert!(!overlap_free(&[one, nudged], S, 0..20));
         // The same triangle twice, with either orientation given.
-        assert!(!overlap_free(&[one, tri([(0, 0), (0, 160), (160, 0)])], S, 20));
+        assert!(!overlap_free(&[one, tri([(0, 0), (0, 160), (160, 0)])], S, 0..20));
         // A small island lying wholly inside a mesh: no edge crosses another.
         let mut scene = mesh(4, 64, (0, 0));
         scene.push(tri([(100, 100), (140, 100), (100, 140)]));
-        assert!(!overlap_free(&scene, S, 20));
+        assert!(!overlap_free(&scene, S, 0..20));
         // A mesh folded back over itself along a shared edge.
         let folded = [tri([(0, 0), (160, 0), (80, 160)]), tri([(0, 0), (160, 0), (80, 100)])];
-        assert!(!overlap_free(&folded, S, 20));
+        assert!(!overlap_free(&folded, S, 0..20));
     }
 
     #[test]
@@ -190,7 +191,7 @@ mod tests {
         // Two triangles touching at a single vertex that is a pixel centre.
         scene.push(tri([(600, 600), (664, 568), (664, 632)]));
         scene.push(tri([(600, 600), (536, 568), (536, 632)]));
-        assert!(overlap_free(&scene, S, 60));
+        assert!(overlap_free(&scene, S, 0..60));
     }
 
     /// The analysis against a brute-force count with the kernels' own coverage test: a proof
@@ -218,15 +219,18 @@ mod tests {
                 .map(|(i, j)| setups.iter().filter(|s| side(&s.coverage, i, j) == Side::Inside).count())
                 .max()
                 .unwrap();
-            assert_eq!(prepared.overlap_free, most <= 1, "case {k}: proof {} but a centre is inside {most}", prepared.overlap_free);
-            assert_eq!(prepared.overlap_free, *mesh, "case {k}");
+            let proven = prepared.overlap_free_rows.is_some();
+            assert_eq!(proven, most <= 1, "case {k}: proof {proven} but a centre is inside {most}");
+            assert_eq!(proven, *mesh, "case {k}");
         }
     }
 
     #[test]
     fn overlap_outside_the_rows_asked_about_does_not_count() {
         let low = [tri([(0, 400), (160, 400), (0, 560)]), tri([(10, 410), (170, 410), (10, 570)])];
-        assert!(overlap_free(&low, S, 20)); // rows 0..20 end at y = 320
-        assert!(!overlap_free(&low, S, 40));
+        assert!(overlap_free(&low, S, 0..20)); // rows 0..20 end at y = 320
+        assert!(!overlap_free(&low, S, 0..40));
+        assert!(!overlap_free(&low, S, 30..31));
+        assert!(overlap_free(&low, S, 40..100));
     }
 }

@@ -115,7 +115,8 @@ impl Prepared {
         } else {
             Some(window)
         };
-        let overlap_free = skips.overlap_free && self.overlap_free;
+        let rows = self.overlap_free_rows.as_ref();
+        let overlap_free = skips.overlap_free && rows.is_some_and(|r| r.start <= window.y0 && window.y0 + window.height <= r.end);
         let flags = (if skips.empty_tiles { FLAG_EMPTY_TILES } else { 0 })
             | (if skips.full_tiles { FLAG_FULL_TILES } else { 0 })
             | (if overlap_free { FLAG_OVERLAP_FREE } else { 0 });

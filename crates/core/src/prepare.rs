@@ -69,9 +69,10 @@ pub struct Prepared {
     pub culled: usize,
     /// Triangles dropped because they have no area once snapped.
     pub degenerate: usize,
-    /// Whether the scene analysis proved that no pixel centre of the grid is inside two of
-    /// `triangles` (see `overlap`); only looked for when `Skips::overlap_free` is on.
-    pub overlap_free: bool,
+    /// The grid rows (those of `window`) on which the scene analysis proved that no pixel
+    /// centre is inside two of `triangles` (see `overlap`); `None` when not proven, or not
+    /// looked for (`Skips::overlap_free` off).
+    pub overlap_free_rows: Option<std::ops::Range<u32>>,
 }
 
 /// Margin of the conservative f64 cull, in pixels: far more than snapping can move a vertex.
@@ -173,8 +174,10 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         })
         .collect::<Result<_, _>>()?;
 
-    let overlap_free = params.skips.overlap_free && crate::overlap::overlap_free(&triangles, snap_bits, grid.height);
-    Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate, overlap_free })
+    let rows = window.y0..window.y0 + window.height;
+    let overlap_free = params.skips.overlap_free && crate::overlap::overlap_free(&triangles, snap_bits, rows.clone());
+    let overlap_free_rows = overlap_free.then_some(rows);
+    Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate, overlap_free_rows })
 }
 
 fn validate_scene(scene: &Scene) -> Result<(), Error> {

@@ -125,6 +125,8 @@ pub struct Report {
     pub adapter: Option<String>,
     pub gdal: Option<String>,
     pub notes: Vec<String>,
+    /// The skips section (`skip_report`).
+    pub skips: String,
 }
 
 pub fn run(options: &Options) -> Result<Report, String> {
@@ -228,7 +230,8 @@ pub fn run(options: &Options) -> Result<Report, String> {
         }
     }
     let _ = std::fs::remove_dir_all(&workdir);
-    Ok(Report { rows, adapter, gdal, notes })
+    let skips = crate::skip_report::run(options.quick)?;
+    Ok(Report { rows, adapter, gdal, notes, skips })
 }
 
 /// Writes the tables and the plot.
@@ -281,6 +284,8 @@ fn markdown(report: &Report) -> String {
     );
     let _ = writeln!(s, "![time against error](time-vs-error.svg)\n");
     let _ = writeln!(s, "{}", goals(report));
+    let _ = writeln!(s, "{}", report.skips);
+    let _ = writeln!(s, "## Run time against error\n");
     let mut case = String::new();
     for r in &report.rows {
         if r.case != case {

@@ -5,9 +5,12 @@
 //!   is what the GPU backend expects.
 //! - `cargo xtask bench-report [--quick] [--out DIR]`: run time against error for every
 //!   backend × mode × scene beside the peers; writes `DIR/benchmarks.md` and
-//!   `DIR/time-vs-error.svg` (`DIR` defaults to `docs`).
+//!   `DIR/time-vs-error.svg` (`DIR` defaults to `docs`), with the skips section.
+//! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
+//!   once, a sparse scene), printed as markdown.
 
 mod bench_report;
+mod skip_report;
 mod svg;
 
 use std::process::ExitCode;
@@ -19,7 +22,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]");
     ExitCode::from(2)
 }
 
@@ -95,6 +98,23 @@ fn main() -> ExitCode {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(e) => {
                     eprintln!("xtask bench-report: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        ["skip-report", rest @ ..] => {
+            let quick = match rest {
+                [] => false,
+                ["--quick"] => true,
+                _ => return usage(),
+            };
+            match skip_report::run(quick) {
+                Ok(markdown) => {
+                    println!("{markdown}");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("xtask skip-report: {e}");
                     ExitCode::FAILURE
                 }
             }

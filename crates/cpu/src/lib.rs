@@ -1,7 +1,9 @@
 //! The CPU backend: a host dispatcher that runs the same stage functions as the GPU entry
 //! points, simulating workgroups. Per-triangle stages run as rayon parallel loops; fine
-//! raster runs each tile as one task that executes the workgroup's phases in turn (phase 1
-//! for all 256 invocations, then phase 2, ...), with workgroup memory as a plain struct.
+//! raster runs each row of tiles as one task and each tile as one workgroup. A tile's phases
+//! are taken the CPU's way round where the result cannot tell: phase 2 tests each triangle
+//! against a row of pixels (the GPU's pixels test triangles in turn; the states are equal,
+//! and a test checks that against the GPU's batches), and whole tiles are written row by row.
 //!
 //! Each function here is the twin of the entry point of the same name in
 //! `tileraster_kernels::entry`.
@@ -11,11 +13,11 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::{Error, Plan, Prepared, Raster};
 use tileraster_kernels::fixed::converts_natively;
 use tileraster_kernels::memory::{Counters, Slots};
-use tileraster_kernels::stages::fine::{self, FineShared, PixelState};
+use tileraster_kernels::stages::fine::{self, PixelState, Side};
 use tileraster_kernels::stages::{bin, scan, setup::setup_triangle};
-use tileraster_kernels::types::{Coverage, FrameParams, TriangleSetup};
+use tileraster_kernels::types::{FrameParams, TriangleSetup};
 use tileraster_kernels::{
-    BATCH, MODE_BARYCENTRIC, MODE_EXACT, MODE_PLANE_F32, NO_OWNER, SCAN_GROUP, STAT_COUNTERS, STAT_TILES_EMPTY, STAT_TILES_FULL,
+    FULL_TILE_BIT, MODE_BARYCENTRIC, MODE_EXACT, MODE_PLANE_F32, NO_OWNER, SCAN_GROUP, STAT_COUNTERS, STAT_TILES_EMPTY, STAT_TILES_FULL,
     STAT_TILES_PARTIAL, TILE, TILE_PIXELS,
 };
 
@@ -248,27 +250,95 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
         return fine_resolve_uniform_tile(tx, frame, band, out, |values, i0, j| write_plane_row(values, setup, i0, j, frame.mode));
     }
     fine::count_tile(0, STAT_TILES_PARTIAL, stats);
-    let pixels: [(i32, i32, bool); TILE_PIXELS as usize] = std::array::from_fn(|lid| fine::tile_pixel(tx, ty, lid as u32, frame));
-    let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
+    if fine::overlap_free(frame) {
+        return fine_raster_tile_overlap_free(tx, frame, setups, &bins[bin_start as usize..][..bin_len as usize], band);
+    }
     let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
-    let overlap_free = fine::overlap_free(frame);
-    let mut batch_start = 0;
-    while batch_start < bin_len {
-        for lid in 0..TILE_PIXELS {
-            fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, &mut shared);
+    for_each_row_span(tx, ty, frame, setups, &bins[bin_start as usize..][..bin_len as usize], |s, first, sides| {
+        for (state, side) in states[first..].iter_mut().zip(sides) {
+            fine::accumulate(side, &s.coverage, state);
         }
-        let batch_len = fine::batch_len(bin_len, batch_start);
-        for (state, &(i, j, _)) in states.iter_mut().zip(&pixels) {
-            fine::fine_test(i, j, batch_len, &shared, overlap_free, state);
+    });
+    fine_resolve_tile(tx, frame, setups, band, |lid| states[lid as usize]);
+}
+
+/// Phase 2 of a tile, the CPU's way round: each triangle of the bin against the pixels of its
+/// rectangle in the tile, row by row, where the GPU's pixels take the triangles in turn. The
+/// pixels' states come out the same, as `fine::accumulate` does not depend on the order.
+/// Calls `visit(setup, first pixel, sides)` for each row of each triangle.
+#[inline(always)]
+fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], mut visit: impl FnMut(&TriangleSetup, usize, &mut dyn Iterator<Item = Side>)) {
+    let (ti0, tj0, _) = fine::tile_pixel(tx, ty, 0, frame);
+    // The tile's last pixels in the window (edge tiles overhang it).
+    let ti1 = (ti0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
+    let tj1 = (tj0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
+    for &entry in bin {
+        let s = &setups[(entry & !FULL_TILE_BIT) as usize];
+        let c = &s.coverage;
+        let (i0, i1) = (ti0.max(c.rect.i0), ti1.min(c.rect.i1));
+        let (j0, j1) = (tj0.max(c.rect.j0), tj1.min(c.rect.j1));
+        if i0 > i1 {
+            continue;
         }
-        batch_start += BATCH;
-        // What the GPU's pixels do one by one, the whole tile here: once every pixel is inside
-        // a triangle of an overlap-free scene, the later batches cannot change a state.
-        if overlap_free && states.iter().zip(&pixels).all(|(s, &(_, _, inside))| !inside || s.owner != NO_OWNER) {
-            break;
+        let e = &c.edges;
+        for j in j0..=j1 {
+            let (di, dj) = ((i0 - c.rect.i0) as i64, (j - c.rect.j0) as i64);
+            let start = [0, 1, 2].map(|k| e[k].e0 + e[k].step_i * di + e[k].step_j * dj);
+            let first = (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize;
+            let mut sides = (0..=(i1 - i0) as i64).map(|d| fine::side_of(start[0] + e[0].step_i * d, start[1] + e[1].step_i * d, start[2] + e[2].step_i * d, c.excluded_edges));
+            visit(s, first, &mut sides);
         }
     }
-    fine_resolve_tile(tx, frame, setups, band, |lid| states[lid as usize]);
+}
+
+/// A partial tile of a scene proven overlap-free: a pixel centre is inside at most one
+/// triangle, so that triangle writes the pixel's value as soon as it finds it, a row at a
+/// time, and no ownership is resolved. Only centres inside no triangle are resolved after the
+/// bin: nodata, or the lowest triangle whose excluded edge they lie on.
+#[inline(always)]
+fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
+    let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
+    let (ti0, tj0, _) = fine::tile_pixel(tx, band.ty, 0, frame);
+    let mode = frame.mode;
+    let values = &mut *band.values;
+    let (row0, col0, stride) = (band.row0, band.col0, band.stride);
+    for_each_row_span(tx, band.ty, frame, setups, bin, |s, first, sides| {
+        let (i0, j) = (ti0 + (first % TILE as usize) as i32, tj0 + (first / TILE as usize) as i32);
+        let out = (j - row0) as usize * stride + (i0 - col0) as usize;
+        for (n, side) in sides.enumerate() {
+            let state = &mut states[first + n];
+            if side == Side::Inside {
+                values[out + n] = f32::from_bits(fine::pixel_value_bits(s, i0 + n as i32, j, mode));
+                *state = PixelState { owner: s.coverage.index, slot: s.coverage.slot, count: 1, ..*state };
+            } else {
+                fine::accumulate(side, &s.coverage, state);
+            }
+        }
+    });
+    let width = (frame.win_w - tx * TILE).min(TILE) as usize;
+    for ly in 0..TILE {
+        let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
+        if !row_inside {
+            break;
+        }
+        let row = band.index(i0, j);
+        for lx in 0..width {
+            let state = &states[(ly * TILE) as usize + lx];
+            let (owner, count) = if state.owner != NO_OWNER {
+                (state.owner, 1)
+            } else {
+                let out = fine::fine_resolve(i0 + lx as i32, j, state, setups, frame);
+                band.values[row + lx] = f32::from_bits(out.value_bits);
+                (out.owner, out.count)
+            };
+            if let Some(layer) = band.owner.as_deref_mut() {
+                layer[row + lx] = owner;
+            }
+            if let Some(layer) = band.coverage.as_deref_mut() {
+                layer[row + lx] = count;
+            }
+        }
+    }
 }
 
 /// One row of a triangle's values, in straight loops the compiler can vectorise.
@@ -339,6 +409,57 @@ fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], ban
 mod tests {
     use super::*;
     use tileraster_core::{prepare, scenes, Grid, Mode, Outputs, Params};
+
+    /// The CPU's row-by-row phase 2 leaves every pixel in the state the GPU's batches leave
+    /// it in (checked natively, so it holds without an adapter too), on scenes with overlaps.
+    #[test]
+    fn rows_of_triangles_give_the_states_of_the_gpus_batches() {
+        use tileraster_kernels::stages::fine::FineShared;
+        use tileraster_kernels::types::Coverage;
+        use tileraster_kernels::BATCH;
+        let grid = Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129);
+        let scenes = [scenes::triangle_soup(&grid, 700, 30.0, 9), scenes::fan(&grid, 60, 60, 90, 40.0, 3), scenes::sliver_wedge(&grid, 80, 0.02, 4)];
+        for (k, scene) in scenes.iter().enumerate() {
+            let prepared = prepare(scene, &Params::new(grid).with_skips(tileraster_core::Skips::NONE), None).unwrap();
+            let plan = prepared.plan(prepared.window, false).unwrap();
+            let frame = plan.frame(&prepared, plan.active.unwrap());
+            let setups = setup(&prepared, &frame);
+            let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
+            let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+            for ty in 0..frame.tiles_y {
+                for tx in 0..frame.tiles_x {
+                    let (start, len) = fine::bin_range(&offsets, ty * frame.tiles_x + tx);
+                    let mut by_rows = [PixelState::EMPTY; TILE_PIXELS as usize];
+                    for_each_row_span(tx, ty, &frame, &setups, &bins[start as usize..][..len as usize], |s, first, sides| {
+                        for (state, side) in by_rows[first..].iter_mut().zip(sides) {
+                            fine::accumulate(side, &s.coverage, state);
+                        }
+                    });
+                    let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
+                    let mut by_batches = [PixelState::EMPTY; TILE_PIXELS as usize];
+                    let mut batch = 0;
+                    while batch < len {
+                        for lid in 0..TILE_PIXELS {
+                            fine::fine_load(lid, &bins, start, len, batch, &setups, &mut shared);
+                        }
+                        for (lid, state) in by_batches.iter_mut().enumerate() {
+                            let (i, j, _) = fine::tile_pixel(tx, ty, lid as u32, &frame);
+                            fine::fine_test(i, j, fine::batch_len(len, batch), &shared, false, state);
+                        }
+                        batch += BATCH;
+                    }
+                    for lid in 0..TILE_PIXELS as usize {
+                        if !fine::tile_pixel(tx, ty, lid as u32, &frame).2 {
+                            continue; // outside the window: never written
+                        }
+                        let (a, b) = (by_rows[lid], by_batches[lid]);
+                        let key = |s: PixelState| (s.owner, s.slot, s.count, s.edge_owner, s.edge_slot);
+                        assert_eq!(key(a), key(b), "scene {k}, tile ({tx}, {ty}), pixel {lid}");
+                    }
+                }
+            }
+        }
+    }
 
     /// The wide-vector build of fine raster gives the same bits as the plain one.
     #[test]

@@ -120,11 +120,41 @@ pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
     let w0 = e[0].e0 + e[0].step_i * di + e[0].step_j * dj;
     let w1 = e[1].e0 + e[1].step_i * di + e[1].step_j * dj;
     let w2 = e[2].e0 + e[2].step_i * di + e[2].step_j * dj;
+    side_of(w0, w1, w2, c.excluded_edges)
+}
+
+/// Where a pixel centre lies, from the three edge functions there and the triangle's
+/// excluded edges (the fill rule).
+#[inline(always)]
+pub fn side_of(w0: i64, w1: i64, w2: i64, excluded_edges: u32) -> Side {
     if (w0 | w1 | w2) < 0 {
         return Side::Outside;
     }
     let on_edges = (w0 == 0) as u32 | ((w1 == 0) as u32) << 1 | ((w2 == 0) as u32) << 2;
-    if on_edges & c.excluded_edges != 0 { Side::OnExcludedEdge } else { Side::Inside }
+    if on_edges & excluded_edges != 0 { Side::OnExcludedEdge } else { Side::Inside }
+}
+
+/// What a pixel state keeps of one triangle test: a count, and the lowest index (with its
+/// setup slot) among the triangles it is inside, or on an excluded edge of. Minimum and sum
+/// do not depend on the order of the tests.
+#[inline(always)]
+pub fn accumulate(side: Side, c: &Coverage, state: &mut PixelState) {
+    match side {
+        Side::Inside => {
+            state.count += 1;
+            if c.index < state.owner {
+                state.owner = c.index;
+                state.slot = c.slot;
+            }
+        }
+        Side::OnExcludedEdge => {
+            if c.index < state.edge_owner {
+                state.edge_owner = c.index;
+                state.edge_slot = c.slot;
+            }
+        }
+        Side::Outside => {}
+    }
 }
 
 /// Whether the frame lets a pixel stop at the first triangle it is inside.
@@ -143,22 +173,7 @@ pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, overlap_fr
             return;
         }
         let c = &shared.batch[k as usize];
-        match side(c, i, j) {
-            Side::Inside => {
-                state.count += 1;
-                if c.index < state.owner {
-                    state.owner = c.index;
-                    state.slot = c.slot;
-                }
-            }
-            Side::OnExcludedEdge => {
-                if c.index < state.edge_owner {
-                    state.edge_owner = c.index;
-                    state.edge_slot = c.slot;
-                }
-            }
-            Side::Outside => {}
-        }
+        accumulate(side(c, i, j), c, state);
         k += 1;
     }
 }

@@ -82,6 +82,7 @@ pub fn run(quick: bool) -> Result<String, String> {
             Every call is a whole `rasterise` (preparation, the scene analysis, upload and read-back included) \
             unless it says otherwise. *Same bits* compares the two results bit for bit; every skip is exact.\n\n";
     out += &each_skip(&s, runs)?;
+    out += &preparation(&s, runs)?;
     out += &prepare_once(&s, runs)?;
     out += &sparse_series(quick, runs)?;
     Ok(out)
@@ -96,7 +97,9 @@ fn each_skip(s: &Scenes, runs: usize) -> Result<String, String> {
     // A window a quarter of the TIN's grid across, from a prepared scene (only the window differs).
     let window = Window { x0: n / 2 - n / 8, y0: n / 2 - n / 8, width: n / 4, height: n / 4 };
     let plane = scenes::sloping_plane();
-    let cases: Vec<(&str, String, &Scene, Grid, Option<Window>, Skips)> = vec![
+    // (skip, scene name, scene, grid, window of a prepared scene, the skips without it)
+    type SkipCase<'a> = (&'static str, String, &'a Scene, Grid, Option<Window>, Skips);
+    let cases: Vec<SkipCase> = vec![
         ("cull_window", format!("{}² window of the {tin_name} (prepared once)", n / 4), &s.tin, s.tin_grid, Some(window), Skips::all_but("cull_window")),
         ("empty_tiles", sparse_name.clone(), &s.sparse, s.sparse_grid, None, Skips::all_but("empty_tiles")),
         ("full_tiles", format!("plane, 2 triangles, {n}²"), &plane, s.plane_grid, None, Skips::all_but("full_tiles")),
@@ -128,10 +131,41 @@ fn each_skip(s: &Scenes, runs: usize) -> Result<String, String> {
                 ms(with_s),
                 ms(without_s),
                 without_s / with_s,
-                same_bits(&[a.clone()], &[b]),
+                same_bits(std::slice::from_ref(&a), &[b]),
                 brief(&a.stats)
             );
         }
+    }
+    Ok(t + "\n")
+}
+
+/// What the scene analysis costs: preparation (validation, culling, snapping, planes) with the
+/// overlap analysis and without it.
+fn preparation(s: &Scenes, runs: usize) -> Result<String, String> {
+    let mut t = String::from(
+        "### What the scene analysis costs\n\n`tileraster::prepare` alone (host, once per scene and grid), with the overlap \
+         analysis (`overlap_free` on) and without it.\n\n| scene | with the analysis | without | analysis share | proven overlap-free |\n| --- | ---: | ---: | ---: | :---: |\n",
+    );
+    let plane = scenes::sloping_plane();
+    let soup_grid = Grid::new(0.0, 1000.0, 0.0, 1000.0, 1024, 1024);
+    let soup = scenes::triangle_soup(&soup_grid, 100_000, 20.0, 5);
+    let cases = [
+        (format!("TIN, {} points, {}²", s.tin.vertices.len(), s.tin_grid.width), &s.tin, s.tin_grid),
+        (format!("plane, 2 triangles, {}²", s.plane_grid.width), &plane, s.plane_grid),
+        ("soup of 100000 overlapping triangles, 1024²".to_string(), &soup, soup_grid),
+    ];
+    for (name, scene, grid) in cases {
+        eprintln!("skips: preparation, {name} ...");
+        let prep = |skips| tileraster::prepare(scene, &Params::new(grid).with_skips(skips), None).map_err(|e| e.to_string());
+        let (with_s, without_s, a, _) = interleaved(runs, || prep(Skips::ALL), || prep(Skips::all_but("overlap_free")))?;
+        let _ = writeln!(
+            t,
+            "| {name} | {} | {} | {:.0} % | {} |",
+            ms(with_s),
+            ms(without_s),
+            100.0 * (with_s - without_s).max(0.0) / with_s,
+            if a.overlap_free_rows.is_some() { "yes" } else { "no" }
+        );
     }
     Ok(t + "\n")
 }
@@ -201,26 +235,33 @@ fn sparse_series(quick: bool, runs: usize) -> Result<String, String> {
     for &n in sizes {
         let (scene, grid) = sparse(n);
         let cells = grid.pixel_count() as usize;
-        let fill = median(
-            (0..runs.max(3))
-                .map(|_| {
-                    let start = Instant::now();
-                    let mut v = tileraster_core::zeroed_cells::<f32>(cells).expect("memory for the fill");
-                    v.fill(NODATA);
-                    std::hint::black_box(&v);
-                    start.elapsed().as_secs_f64()
-                })
-                .collect(),
-        );
+        let fill_once = || -> Result<(), String> {
+            let mut v = tileraster_core::zeroed_cells::<f32>(cells)?;
+            v.fill(NODATA);
+            std::hint::black_box(&v);
+            Ok(())
+        };
         for backend in backends() {
             eprintln!("skips: sparse {n}², {} ...", backend.name());
             let params = |skips| Params::new(grid).with_nodata(NODATA).with_skips(skips);
             let runs = if n >= 4096 { runs.min(3) } else { runs };
-            let (on_s, off_s, a, b) = interleaved(
-                runs,
-                || rasterise(&scene, &params(Skips::ALL), backend).map_err(|e| e.to_string()),
-                || rasterise(&scene, &params(Skips::NONE), backend).map_err(|e| e.to_string()),
-            )?;
+            // The fill and the two calls in turn, so that the same noise falls on all three.
+            let on = || rasterise(&scene, &params(Skips::ALL), backend).map_err(|e| e.to_string());
+            let off = || rasterise(&scene, &params(Skips::NONE), backend).map_err(|e| e.to_string());
+            let (mut a, mut b) = (on()?, off()?);
+            let (mut fills, mut ons, mut offs) = (Vec::new(), Vec::new(), Vec::new());
+            for _ in 0..runs {
+                let start = Instant::now();
+                fill_once()?;
+                fills.push(start.elapsed().as_secs_f64());
+                let start = Instant::now();
+                a = on()?;
+                ons.push(start.elapsed().as_secs_f64());
+                let start = Instant::now();
+                b = off()?;
+                offs.push(start.elapsed().as_secs_f64());
+            }
+            let (fill, on_s, off_s) = (median(fills), median(ons), median(offs));
             let _ = writeln!(
                 t,
                 "| {n}² | {} | {} of {} | {} | {} | {} | {} | {} | {} |",
@@ -232,7 +273,7 @@ fn sparse_series(quick: bool, runs: usize) -> Result<String, String> {
                 ms(on_s - fill),
                 ms(off_s),
                 ms(off_s - fill),
-                same_bits(&[a.clone()], &[b])
+                same_bits(std::slice::from_ref(&a), &[b])
             );
         }
     }

@@ -18,22 +18,45 @@
 use std::ops::Range;
 use tileraster_kernels::types::TriangleInput;
 
-/// Crossings the analysis may sort before it gives up (and ownership is resolved): bounds its
-/// memory and time on scenes of many large overlapping triangles, which are not overlap-free
-/// anyway.
-const CROSSING_BUDGET: usize = 1 << 22;
+/// Crossings the analysis may sort per triangle and per pixel row before it gives up (and
+/// ownership is resolved): bounds its time and memory on scenes of many large triangles whose
+/// edges do not cancel, which are rarely overlap-free anyway.
+const CROSSINGS_PER_ITEM: usize = 8;
 
 /// Whether no pixel centre of pixel rows `rows` is inside two of `triangles` (snapped,
-/// positive, `1 px = 2^snap_bits` units). `false` means "not proven".
-pub fn overlap_free(triangles: &[TriangleInput], snap_bits: u32, rows: Range<u32>) -> bool {
-    let Some(crossings) = residual_crossings(triangles, snap_bits, rows) else {
+/// positive, `1 px = 2^snap_bits` units; `corners[t]` the scene vertex indices of triangle `t`
+/// in the same order). `false` means "not proven".
+pub fn overlap_free(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bits: u32, rows: Range<u32>) -> bool {
+    let budget = CROSSINGS_PER_ITEM * (triangles.len() + rows.len());
+    prove(triangles, corners, snap_bits, rows, budget)
+}
+
+/// [`overlap_free`], giving up past `budget` crossings.
+fn prove(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bits: u32, rows: Range<u32>, budget: usize) -> bool {
+    if more_area_than_room(triangles) {
+        return false;
+    }
+    let Some(crossings) = residual_crossings(triangles, corners, snap_bits, rows, budget) else {
         return false;
     };
     max_winding(crossings) <= 1
 }
 
-/// A lattice point.
-type Point = (i64, i64);
+/// Twice the triangles' total area exceeds twice the area of their bounding box: they must
+/// overlap (exact, in `i128`). Rejects dense soups before any sorting.
+fn more_area_than_room(triangles: &[TriangleInput]) -> bool {
+    let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
+    let mut area2: i128 = 0;
+    for t in triangles {
+        let (x, y) = (&t.x, &t.y);
+        area2 += (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
+        x0 = x0.min(x[0]).min(x[1]).min(x[2]);
+        x1 = x1.max(x[0]).max(x[1]).max(x[2]);
+        y0 = y0.min(y[0]).min(y[1]).min(y[2]);
+        y1 = y1.max(y[0]).max(y[1]).max(y[2]);
+    }
+    !triangles.is_empty() && area2 > 2 * (x1 - x0) as i128 * (y1 - y0) as i128
+}
 
 /// Where a directed edge crosses the centre line of pixel row `row`: at `x = num / den`
 /// (`den > 0`), adding `winding` to every point to its left.
@@ -46,40 +69,66 @@ struct Crossing {
 
 /// The crossings of pixel-centre rows by the directed edges that do not cancel, or `None` past
 /// the budget.
-fn residual_crossings(triangles: &[TriangleInput], snap_bits: u32, rows: Range<u32>) -> Option<Vec<Crossing>> {
-    // Each edge once, as (smaller endpoint, larger endpoint) with +1 for the direction
-    // smaller → larger and −1 for the other; sorting brings an edge's uses together.
-    let mut edges: Vec<(Point, Point, i32)> = Vec::with_capacity(triangles.len() * 3);
-    for t in triangles {
-        for k in 0..3 {
-            let b = (k + 1) % 3;
-            let (p, q) = ((t.x[k], t.y[k]), (t.x[b], t.y[b]));
-            if p.1 == q.1 {
-                continue; // horizontal: crosses no row line (the perturbation lifts p* off it)
+fn residual_crossings(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bits: u32, rows: Range<u32>, budget: usize) -> Option<Vec<Crossing>> {
+    // Each edge by its two vertex indices, bucketed by the smaller one (a counting sort: a
+    // vertex has a handful of edges), with the triangle and corner it starts at and whether it
+    // runs from the smaller index; sorting each small bucket by the larger index brings an
+    // edge's uses together. (Edges that meet only in coordinates, through duplicate vertices,
+    // stay; their crossings coincide and cancel in the sweep.)
+    let vertices = corners.iter().flatten().max().map_or(0, |&v| v as usize + 1);
+    let mut starts = vec![0u32; vertices + 1];
+    let edges_of = |mut visit: Box<dyn FnMut(u32, u32, u32) + '_>| {
+        for (t, (tri, ids)) in triangles.iter().zip(corners).enumerate() {
+            for k in 0..3 {
+                let b = (k + 1) % 3;
+                if tri.y[k] != tri.y[b] {
+                    // Horizontal edges cross no row line (the perturbation lifts p* off them).
+                    let (p, q) = (ids[k], ids[b]);
+                    visit(p.min(q), p.max(q), (t as u32 * 3 + k as u32) << 1 | (p < q) as u32);
+                }
             }
-            edges.push(if p < q { (p, q, 1) } else { (q, p, -1) });
         }
+    };
+    edges_of(Box::new(|low, _, _| starts[low as usize + 1] += 1));
+    for v in 0..vertices {
+        starts[v + 1] += starts[v];
     }
-    edges.sort_unstable_by_key(|&(p, q, _)| (p, q));
+    let mut fill = starts.clone();
+    let mut edges = vec![(0u32, 0u32); starts[vertices] as usize];
+    edges_of(Box::new(|low, high, code| {
+        edges[fill[low as usize] as usize] = (high, code);
+        fill[low as usize] += 1;
+    }));
+    for v in 0..vertices {
+        edges[starts[v] as usize..starts[v + 1] as usize].sort_unstable();
+    }
 
     let unit = 1i64 << snap_bits;
     let half = unit >> 1;
     let mut crossings = Vec::new();
     let mut k = 0;
+    let mut low = 0;
     while k < edges.len() {
-        let (p, q, _) = edges[k];
-        let mut multiplicity = 0;
-        while k < edges.len() && (edges[k].0, edges[k].1) == (p, q) {
-            multiplicity += edges[k].2;
+        while starts[low + 1] as usize <= k {
+            low += 1;
+        }
+        let key = (low, edges[k].0);
+        let mut multiplicity = 0i32;
+        let sample = edges[k].1;
+        while k < edges.len() && (k as u32) < starts[low + 1] && edges[k].0 == key.1 {
+            multiplicity += if edges[k].1 & 1 == (sample & 1) { 1 } else { -1 };
             k += 1;
         }
         if multiplicity == 0 {
             continue;
         }
-        // The directed edge a → b, `multiplicity` times (negative: b → a).
-        let (a, b, m) = if multiplicity > 0 { (p, q, multiplicity) } else { (q, p, -multiplicity) };
-        // Row j's centre line is y = j·unit + half; p* lies just above it... by ε², so the
-        // edge crosses p*'s line when ymin <= j·unit + half < ymax.
+        // The sample's directed edge a → b, `multiplicity` times (negative: b → a).
+        let (t, c) = ((sample >> 1) as usize / 3, (sample >> 1) as usize % 3);
+        let tri = &triangles[t];
+        let (a, b) = ((tri.x[c], tri.y[c]), (tri.x[(c + 1) % 3], tri.y[(c + 1) % 3]));
+        let (a, b, m) = if multiplicity > 0 { (a, b, multiplicity) } else { (b, a, -multiplicity) };
+        // Row j's centre line is y = j·unit + half; p* lies below it by ε², so the edge
+        // crosses p*'s line when ymin <= j·unit + half < ymax.
         let (ymin, ymax) = (a.1.min(b.1), a.1.max(b.1));
         let first = (ymin - half).div_euclid(unit) + i64::from((ymin - half).rem_euclid(unit) != 0);
         let first = first.max(rows.start as i64);
@@ -87,7 +136,7 @@ fn residual_crossings(triangles: &[TriangleInput], snap_bits: u32, rows: Range<u
         if first > last {
             continue;
         }
-        if crossings.len() + (last - first + 1) as usize > CROSSING_BUDGET {
+        if crossings.len() + (last - first + 1) as usize > budget {
             return None;
         }
         // Edges going down the raster (y grows) wind positively around points on their left.
@@ -135,8 +184,22 @@ fn max_winding(mut crossings: Vec<Crossing>) -> i32 {
 mod tests {
     use super::*;
     use tileraster_kernels::types::TriangleInput;
+    use std::ops::Range;
 
     const S: u32 = 4; // 16 units a pixel; centres at 8 + 16·k
+
+    /// [`super::overlap_free`] with vertex indices given by position (equal points, one vertex).
+    fn overlap_free(triangles: &[TriangleInput], snap_bits: u32, rows: Range<u32>) -> bool {
+        let mut ids = std::collections::HashMap::new();
+        let corners: Vec<[u32; 3]> = triangles
+            .iter()
+            .map(|t| [0, 1, 2].map(|k| {
+                let n = ids.len() as u32;
+                *ids.entry((t.x[k], t.y[k])).or_insert(n)
+            }))
+            .collect();
+        super::overlap_free(triangles, &corners, snap_bits, rows)
+    }
 
     /// A positively oriented triangle from lattice points (given in any order).
     fn tri(p: [(i64, i64); 3]) -> TriangleInput {
@@ -220,6 +283,12 @@ mod tests {
                 .max()
                 .unwrap();
             let proven = prepared.overlap_free_rows.is_some();
+            if *mesh {
+                // Without the index keys' help too: every edge distinct, all cancelling in the sweep.
+                let distinct: Vec<[u32; 3]> = (0..prepared.triangles.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+                let rows = 0..grid.height;
+                assert!(prove(&prepared.triangles, &distinct, prepared.snap_bits, rows, usize::MAX), "case {k}, distinct vertices");
+            }
             assert_eq!(proven, most <= 1, "case {k}: proof {proven} but a centre is inside {most}");
             assert_eq!(proven, *mesh, "case {k}");
         }

@@ -175,7 +175,10 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         .collect::<Result<_, _>>()?;
 
     let rows = window.y0..window.y0 + window.height;
-    let overlap_free = params.skips.overlap_free && crate::overlap::overlap_free(&triangles, snap_bits, rows.clone());
+    let overlap_free = params.skips.overlap_free && {
+        let corners: Vec<[u32; 3]> = snapped.iter().map(|s| s.corners.map(|c| c as u32)).collect();
+        crate::overlap::overlap_free(&triangles, &corners, snap_bits, rows.clone())
+    };
     let overlap_free_rows = overlap_free.then_some(rows);
     Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate, overlap_free_rows })
 }

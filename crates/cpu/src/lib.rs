@@ -254,20 +254,41 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
         return fine_raster_tile_overlap_free(tx, frame, setups, &bins[bin_start as usize..][..bin_len as usize], band);
     }
     let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
-    for_each_row_span(tx, ty, frame, setups, &bins[bin_start as usize..][..bin_len as usize], |s, first, sides| {
-        for (state, side) in states[first..].iter_mut().zip(sides) {
-            fine::accumulate(side, &s.coverage, state);
+    for_each_row_span(tx, ty, frame, setups, &bins[bin_start as usize..][..bin_len as usize], |s, row| {
+        for (n, state) in states[row.first..][..row.len].iter_mut().enumerate() {
+            fine::accumulate(row.side(n), &s.coverage, state);
         }
     });
     fine_resolve_tile(tx, frame, setups, band, |lid| states[lid as usize]);
 }
 
+/// One row of a triangle's pixels in a tile: `len` pixels from grid pixel `(i0, j)`, the
+/// tile's pixel `first` onwards, with the edge functions at the first one.
+struct RowSpan {
+    first: usize,
+    i0: i32,
+    j: i32,
+    len: usize,
+    start: [i64; 3],
+    step: [i64; 3],
+    excluded_edges: u32,
+}
+
+impl RowSpan {
+    /// Where the row's pixel `n` lies relative to the triangle.
+    #[inline(always)]
+    fn side(&self, n: usize) -> Side {
+        let (d, w, s) = (n as i64, &self.start, &self.step);
+        fine::side_of(w[0] + s[0] * d, w[1] + s[1] * d, w[2] + s[2] * d, self.excluded_edges)
+    }
+}
+
 /// Phase 2 of a tile, the CPU's way round: each triangle of the bin against the pixels of its
 /// rectangle in the tile, row by row, where the GPU's pixels take the triangles in turn. The
 /// pixels' states come out the same, as `fine::accumulate` does not depend on the order.
-/// Calls `visit(setup, first pixel, sides)` for each row of each triangle.
+/// Calls `visit(setup, row)` for each row of each triangle.
 #[inline(always)]
-fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], mut visit: impl FnMut(&TriangleSetup, usize, &mut dyn Iterator<Item = Side>)) {
+fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], mut visit: impl FnMut(&TriangleSetup, &RowSpan)) {
     let (ti0, tj0, _) = fine::tile_pixel(tx, ty, 0, frame);
     // The tile's last pixels in the window (edge tiles overhang it).
     let ti1 = (ti0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
@@ -283,10 +304,16 @@ fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSe
         let e = &c.edges;
         for j in j0..=j1 {
             let (di, dj) = ((i0 - c.rect.i0) as i64, (j - c.rect.j0) as i64);
-            let start = [0, 1, 2].map(|k| e[k].e0 + e[k].step_i * di + e[k].step_j * dj);
-            let first = (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize;
-            let mut sides = (0..=(i1 - i0) as i64).map(|d| fine::side_of(start[0] + e[0].step_i * d, start[1] + e[1].step_i * d, start[2] + e[2].step_i * d, c.excluded_edges));
-            visit(s, first, &mut sides);
+            let row = RowSpan {
+                first: (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize,
+                i0,
+                j,
+                len: (i1 - i0 + 1) as usize,
+                start: [0, 1, 2].map(|k| e[k].e0 + e[k].step_i * di + e[k].step_j * dj),
+                step: [e[0].step_i, e[1].step_i, e[2].step_i],
+                excluded_edges: c.excluded_edges,
+            };
+            visit(s, &row);
         }
     }
 }
@@ -298,30 +325,24 @@ fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSe
 #[inline(always)]
 fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
     let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
-    let (ti0, tj0, _) = fine::tile_pixel(tx, band.ty, 0, frame);
     let mode = frame.mode;
     let values = &mut *band.values;
     let (row0, col0, stride) = (band.row0, band.col0, band.stride);
-    for_each_row_span(tx, band.ty, frame, setups, bin, |s, first, sides| {
-        let (i0, j) = (ti0 + (first % TILE as usize) as i32, tj0 + (first / TILE as usize) as i32);
-        let out = (j - row0) as usize * stride + (i0 - col0) as usize;
-        for (n, side) in sides.enumerate() {
-            let state = &mut states[first + n];
-            if side == Side::Inside {
-                values[out + n] = f32::from_bits(fine::pixel_value_bits(s, i0 + n as i32, j, mode));
-                *state = PixelState { owner: s.coverage.index, slot: s.coverage.slot, count: 1, ..*state };
-            } else {
-                fine::accumulate(side, &s.coverage, state);
+    for_each_row_span(tx, band.ty, frame, setups, bin, |s, row| {
+        let out = (row.j - row0) as usize * stride + (row.i0 - col0) as usize;
+        let values = &mut values[out..][..row.len];
+        let states = &mut states[row.first..][..row.len];
+        for (n, (value, state)) in values.iter_mut().zip(states).enumerate() {
+            match row.side(n) {
+                Side::Inside => {
+                    *value = f32::from_bits(fine::pixel_value_bits(s, row.i0 + n as i32, row.j, mode));
+                    state.owner = s.coverage.index;
+                }
+                side => fine::accumulate(side, &s.coverage, state),
             }
         }
     });
-    let width = (frame.win_w - tx * TILE).min(TILE) as usize;
-    for ly in 0..TILE {
-        let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
-        if !row_inside {
-            break;
-        }
-        let row = band.index(i0, j);
+    for_each_tile_row(tx, frame, band, |band, ly, i0, j, row, width| {
         for lx in 0..width {
             let state = &states[(ly * TILE) as usize + lx];
             let (owner, count) = if state.owner != NO_OWNER {
@@ -338,7 +359,7 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
                 layer[row + lx] = count;
             }
         }
-    }
+    });
 }
 
 /// One row of a triangle's values, in straight loops the compiler can vectorise.
@@ -364,13 +385,7 @@ fn write_plane_row(values: &mut [f32], setup: &TriangleSetup, i0: i32, j: i32, m
 /// values starting at pixel `(i0, j)`; owner and coverage rows are fills.
 #[inline(always)]
 fn fine_resolve_uniform_tile(tx: u32, frame: &FrameParams, band: &mut Band, out: fine::PixelOut, write_values: impl Fn(&mut [f32], i32, i32)) {
-    let width = (frame.win_w - tx * TILE).min(TILE) as usize;
-    for ly in 0..TILE {
-        let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
-        if !row_inside {
-            break;
-        }
-        let row = band.index(i0, j);
+    for_each_tile_row(tx, frame, band, |band, _, i0, j, row, width| {
         write_values(&mut band.values[row..row + width], i0, j);
         if let Some(owner) = band.owner.as_deref_mut() {
             owner[row..row + width].fill(out.owner);
@@ -378,20 +393,14 @@ fn fine_resolve_uniform_tile(tx: u32, frame: &FrameParams, band: &mut Band, out:
         if let Some(coverage) = band.coverage.as_deref_mut() {
             coverage[row..row + width].fill(out.count);
         }
-    }
+    });
 }
 
 /// The last phase of a fine-raster workgroup: every invocation resolves and writes its pixel,
 /// taken row by row so that the stores run along the band's rows.
 #[inline(always)]
 fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, state: impl Fn(u32) -> PixelState) {
-    for ly in 0..TILE {
-        let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
-        if !row_inside {
-            break;
-        }
-        let row = band.index(i0, j);
-        let width = (frame.win_w - tx * TILE).min(TILE) as usize;
+    for_each_tile_row(tx, frame, band, |band, ly, i0, j, row, width| {
         for lx in 0..width {
             let out = fine::fine_resolve(i0 + lx as i32, j, &state(ly * TILE + lx as u32), setups, frame);
             band.values[row + lx] = f32::from_bits(out.value_bits);
@@ -402,6 +411,22 @@ fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], ban
                 coverage[row + lx] = out.count;
             }
         }
+    });
+}
+
+/// Calls `visit(band, ly, i0, j, start, width)` for each row `ly` of tile `tx` that lies in the
+/// window: its first pixel `(i0, j)`, where that row starts in the band's layers, and how many
+/// of its pixels lie in the window.
+#[inline(always)]
+fn for_each_tile_row(tx: u32, frame: &FrameParams, band: &mut Band, mut visit: impl FnMut(&mut Band, u32, i32, i32, usize, usize)) {
+    let width = (frame.win_w - tx * TILE).min(TILE) as usize;
+    for ly in 0..TILE {
+        let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
+        if !row_inside {
+            break;
+        }
+        let row = band.index(i0, j);
+        visit(band, ly, i0, j, row, width);
     }
 }
 
@@ -430,9 +455,9 @@ mod tests {
                 for tx in 0..frame.tiles_x {
                     let (start, len) = fine::bin_range(&offsets, ty * frame.tiles_x + tx);
                     let mut by_rows = [PixelState::EMPTY; TILE_PIXELS as usize];
-                    for_each_row_span(tx, ty, &frame, &setups, &bins[start as usize..][..len as usize], |s, first, sides| {
-                        for (state, side) in by_rows[first..].iter_mut().zip(sides) {
-                            fine::accumulate(side, &s.coverage, state);
+                    for_each_row_span(tx, ty, &frame, &setups, &bins[start as usize..][..len as usize], |s, row| {
+                        for (n, state) in by_rows[row.first..][..row.len].iter_mut().enumerate() {
+                            fine::accumulate(row.side(n), &s.coverage, state);
                         }
                     });
                     let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };

@@ -1,6 +1,7 @@
 //! Turns arbitrary bytes into a small scene, a grid and a value mode, rasterises them on the
 //! CPU and checks the outcome: a typed error, or a raster whose cells are all nodata or
-//! finite, with owner and coverage agreeing (coverage 0 ⇔ no owner).
+//! finite, with owner and coverage agreeing (coverage 0 ⇔ no owner), and bit for bit the
+//! raster the pipeline gives with none of its skips.
 //!
 //! Shared by the cargo-fuzz target (`rasterise.rs`) and by `tests/fuzz_corpus.rs`, so it
 //! depends on nothing but `tileraster-core` and `tileraster-cpu` (no GPU build to fuzz).
@@ -13,7 +14,7 @@
 
 #![allow(dead_code)]
 
-use tileraster_core::{Error, Grid, Mode, Outputs, Params, Raster, Scene};
+use tileraster_core::{Error, Grid, Mode, Outputs, Params, Raster, Scene, Skips};
 
 /// The CPU backend, as `tileraster::rasterise(.., Backend::Cpu)` runs it.
 fn rasterise(scene: &Scene, params: &Params) -> Result<Raster, Error> {
@@ -236,6 +237,17 @@ pub fn check(case: &Case) -> Result<Outcome, String> {
                         ));
                     }
                 }
+            }
+            // Every skip is exact: without any, the same bits (an unsound overlap proof would
+            // show here as another owner or count).
+            match rasterise(scene, &case.params.with_skips(Skips::NONE)) {
+                Ok(plain) => {
+                    let (differing, first) = raster.compare_bits(&plain, 1);
+                    if differing > 0 {
+                        return Err(format!("{differing} cells change when nothing is skipped; first: {}", first[0]));
+                    }
+                }
+                Err(e) => return Err(format!("rasterised with the skips, but without them: {e}")),
             }
             Ok(Outcome::Rasterised(coverage.iter().filter(|&&c| c > 0).count()))
         }

@@ -216,11 +216,28 @@ unsafe fn fine_raster_band_wide(frame: &FrameParams, setups: &[TriangleSetup], o
     fine_raster_band(frame, setups, offsets, bins, band, stats)
 }
 
-/// Every fine-raster workgroup of one row of tiles.
+/// Every fine-raster workgroup of one row of tiles. The band counts its tiles in plain
+/// integers and adds them to the shared counters once: a tile each would make the threads
+/// queue on one cache line.
 #[inline(always)]
 fn fine_raster_band(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+    let mut counts = BandCounters([0; STAT_COUNTERS]);
     for tx in 0..frame.tiles_x {
-        fine_raster_tile(tx, frame, setups, offsets, bins, band, &mut AtomicSlice(stats));
+        fine_raster_tile(tx, frame, setups, offsets, bins, band, &mut counts);
+    }
+    for (shared, count) in stats.iter().zip(counts.0) {
+        shared.fetch_add(count, Ordering::Relaxed);
+    }
+}
+
+/// One band's statistics counters.
+struct BandCounters([u32; STAT_COUNTERS]);
+
+impl Counters for BandCounters {
+    fn fetch_add(&mut self, index: usize, value: u32) -> u32 {
+        let before = self.0[index];
+        self.0[index] += value;
+        before
     }
 }
 
@@ -235,31 +252,30 @@ fn optional_bands(layer: Option<&mut Vec<u32>>, band_len: usize, skip: usize, ta
 
 /// One fine-raster workgroup, phase by phase.
 #[inline(always)]
-fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut AtomicSlice) {
+fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
     if fine::empty_tile(bin_len, frame) {
         fine::count_tile(0, STAT_TILES_EMPTY, stats);
-        return fine_resolve_uniform_tile(tx, frame, band, fine::nodata_pixel(frame), |values, _, _| values.fill(f32::from_bits(frame.nodata_bits)));
+        return fine_resolve_empty_tile(tx, frame, band);
     }
     let mut full = PixelState::EMPTY;
     if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut full) {
         fine::count_tile(0, STAT_TILES_FULL, stats);
-        let setup = &setups[full.slot as usize];
-        let out = fine::PixelOut { value_bits: 0, owner: full.owner, count: full.count };
-        return fine_resolve_uniform_tile(tx, frame, band, out, |values, i0, j| write_plane_row(values, setup, i0, j, frame.mode));
+        return fine_resolve_full_tile(tx, frame, &setups[full.slot as usize], &full, band);
     }
     fine::count_tile(0, STAT_TILES_PARTIAL, stats);
+    let bin = &bins[bin_start as usize..][..bin_len as usize];
     if fine::overlap_free(frame) {
-        return fine_raster_tile_overlap_free(tx, frame, setups, &bins[bin_start as usize..][..bin_len as usize], band);
+        return fine_raster_tile_overlap_free(tx, frame, setups, bin, band);
     }
     let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
-    for_each_row_span(tx, ty, frame, setups, &bins[bin_start as usize..][..bin_len as usize], |s, row| {
+    for (s, row) in row_spans(tx, ty, frame, setups, bin) {
         for (n, state) in states[row.first..][..row.len].iter_mut().enumerate() {
             fine::accumulate(row.side(n), &s.coverage, state);
         }
-    });
-    fine_resolve_tile(tx, frame, setups, band, |lid| states[lid as usize]);
+    }
+    fine_resolve_tile(tx, frame, setups, band, &states);
 }
 
 /// One row of a triangle's pixels in a tile: `len` pixels from grid pixel `(i0, j)`, the
@@ -286,23 +302,23 @@ impl RowSpan {
 /// Phase 2 of a tile, the CPU's way round: each triangle of the bin against the pixels of its
 /// rectangle in the tile, row by row, where the GPU's pixels take the triangles in turn. The
 /// pixels' states come out the same, as `fine::accumulate` does not depend on the order.
-/// Calls `visit(setup, row)` for each row of each triangle.
+/// Yields each row of each triangle with its setup. (An iterator, not a callback: the loops
+/// over the rows' pixels stay in the functions that the wide-vector build compiles.)
 #[inline(always)]
-fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], mut visit: impl FnMut(&TriangleSetup, &RowSpan)) {
+fn row_spans<'a>(tx: u32, ty: u32, frame: &FrameParams, setups: &'a [TriangleSetup], bin: &'a [u32]) -> impl Iterator<Item = (&'a TriangleSetup, RowSpan)> + 'a {
     let (ti0, tj0, _) = fine::tile_pixel(tx, ty, 0, frame);
     // The tile's last pixels in the window (edge tiles overhang it).
     let ti1 = (ti0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
     let tj1 = (tj0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
-    for &entry in bin {
+    bin.iter().flat_map(move |&entry| {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
         let c = &s.coverage;
         let (i0, i1) = (ti0.max(c.rect.i0), ti1.min(c.rect.i1));
         let (j0, j1) = (tj0.max(c.rect.j0), tj1.min(c.rect.j1));
-        if i0 > i1 {
-            continue;
-        }
-        let e = &c.edges;
-        for j in j0..=j1 {
+        // No rows where the rectangle misses the tile's columns (its rows may still meet).
+        let rows = j0..=if i0 > i1 { j0 - 1 } else { j1 };
+        rows.map(move |j| {
+            let e = &c.edges;
             let (di, dj) = ((i0 - c.rect.i0) as i64, (j - c.rect.j0) as i64);
             let row = RowSpan {
                 first: (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize,
@@ -313,9 +329,9 @@ fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSe
                 step: [e[0].step_i, e[1].step_i, e[2].step_i],
                 excluded_edges: c.excluded_edges,
             };
-            visit(s, &row);
-        }
-    }
+            (s, row)
+        })
+    })
 }
 
 /// A partial tile of a scene proven overlap-free: a pixel centre is inside at most one
@@ -326,11 +342,9 @@ fn for_each_row_span(tx: u32, ty: u32, frame: &FrameParams, setups: &[TriangleSe
 fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
     let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
     let mode = frame.mode;
-    let values = &mut *band.values;
-    let (row0, col0, stride) = (band.row0, band.col0, band.stride);
-    for_each_row_span(tx, band.ty, frame, setups, bin, |s, row| {
-        let out = (row.j - row0) as usize * stride + (row.i0 - col0) as usize;
-        let values = &mut values[out..][..row.len];
+    for (s, row) in row_spans(tx, band.ty, frame, setups, bin) {
+        let out = band.index(row.i0, row.j);
+        let values = &mut band.values[out..][..row.len];
         let states = &mut states[row.first..][..row.len];
         for (n, (value, state)) in values.iter_mut().zip(states).enumerate() {
             match row.side(n) {
@@ -341,93 +355,110 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
                 side => fine::accumulate(side, &s.coverage, state),
             }
         }
-    });
-    for_each_tile_row(tx, frame, band, |band, ly, i0, j, row, width| {
-        for lx in 0..width {
-            let state = &states[(ly * TILE) as usize + lx];
+    }
+    for r in tile_rows(tx, frame, band) {
+        for lx in 0..r.width {
+            let state = &states[(r.ly * TILE) as usize + lx];
             let (owner, count) = if state.owner != NO_OWNER {
                 (state.owner, 1)
             } else {
-                let out = fine::fine_resolve(i0 + lx as i32, j, state, setups, frame);
-                band.values[row + lx] = f32::from_bits(out.value_bits);
+                let out = fine::fine_resolve(r.i0 + lx as i32, r.j, state, setups, frame);
+                band.values[r.start + lx] = f32::from_bits(out.value_bits);
                 (out.owner, out.count)
             };
             if let Some(layer) = band.owner.as_deref_mut() {
-                layer[row + lx] = owner;
+                layer[r.start + lx] = owner;
             }
             if let Some(layer) = band.coverage.as_deref_mut() {
-                layer[row + lx] = count;
+                layer[r.start + lx] = count;
             }
         }
-    });
-}
-
-/// One row of a triangle's values, in straight loops the compiler can vectorise.
-#[inline(always)]
-fn write_plane_row(values: &mut [f32], setup: &TriangleSetup, i0: i32, j: i32, mode: u32) {
-    let write_row = |values: &mut [f32]| {
-        for (lx, value) in values.iter_mut().enumerate() {
-            *value = f32::from_bits(fine::pixel_value_bits(setup, i0 + lx as i32, j, mode));
-        }
-    };
-    // The same loop in every arm: with the mode and the conversion's range test answered
-    // outside, the compiler drops both from the loop and vectorises the rest.
-    match (mode, converts_natively(setup.plane.frac_bits)) {
-        (MODE_EXACT, true) => write_row(values),
-        (MODE_PLANE_F32, _) => write_row(values),
-        (MODE_BARYCENTRIC, _) => write_row(values),
-        _ => write_row(values),
     }
 }
 
-/// The last phase for a tile whose pixels all share an owner and a count (`out`): an empty
-/// tile (nodata) or one a triangle covers whole. `write_values(row, i0, j)` writes one row of
-/// values starting at pixel `(i0, j)`; owner and coverage rows are fills.
+/// The last phase for a tile one triangle covers whole: `fine_resolve` of the full state is
+/// that triangle's value, owner and a count of one at every pixel, so rows are written in
+/// straight loops the compiler can vectorise.
 #[inline(always)]
-fn fine_resolve_uniform_tile(tx: u32, frame: &FrameParams, band: &mut Band, out: fine::PixelOut, write_values: impl Fn(&mut [f32], i32, i32)) {
-    for_each_tile_row(tx, frame, band, |band, _, i0, j, row, width| {
-        write_values(&mut band.values[row..row + width], i0, j);
-        if let Some(owner) = band.owner.as_deref_mut() {
-            owner[row..row + width].fill(out.owner);
+fn fine_resolve_full_tile(tx: u32, frame: &FrameParams, setup: &TriangleSetup, full: &PixelState, band: &mut Band) {
+    let mode = frame.mode;
+    for r in tile_rows(tx, frame, band) {
+        let values = &mut band.values[r.start..][..r.width];
+        let (i0, j) = (r.i0, r.j);
+        let write_row = |values: &mut [f32]| {
+            for (lx, value) in values.iter_mut().enumerate() {
+                *value = f32::from_bits(fine::pixel_value_bits(setup, i0 + lx as i32, j, mode));
+            }
+        };
+        // The same loop in every arm: with the mode and the conversion's range test answered
+        // outside, the compiler drops both from the loop and vectorises the rest.
+        match (mode, converts_natively(setup.plane.frac_bits)) {
+            (MODE_EXACT, true) => write_row(values),
+            (MODE_PLANE_F32, _) => write_row(values),
+            (MODE_BARYCENTRIC, _) => write_row(values),
+            _ => write_row(values),
         }
-        if let Some(coverage) = band.coverage.as_deref_mut() {
-            coverage[row..row + width].fill(out.count);
-        }
-    });
+        fill_other_layers(band, &r, full.owner, full.count);
+    }
+}
+
+/// The last phase for a tile with an empty bin: nodata, no owner, a count of zero.
+#[inline(always)]
+fn fine_resolve_empty_tile(tx: u32, frame: &FrameParams, band: &mut Band) {
+    for r in tile_rows(tx, frame, band) {
+        band.values[r.start..][..r.width].fill(f32::from_bits(frame.nodata_bits));
+        fill_other_layers(band, &r, NO_OWNER, 0);
+    }
+}
+
+/// Owner and coverage of a tile row that is the same all along.
+#[inline(always)]
+fn fill_other_layers(band: &mut Band, r: &TileRow, owner: u32, count: u32) {
+    if let Some(layer) = band.owner.as_deref_mut() {
+        layer[r.start..][..r.width].fill(owner);
+    }
+    if let Some(layer) = band.coverage.as_deref_mut() {
+        layer[r.start..][..r.width].fill(count);
+    }
 }
 
 /// The last phase of a fine-raster workgroup: every invocation resolves and writes its pixel,
 /// taken row by row so that the stores run along the band's rows.
 #[inline(always)]
-fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, state: impl Fn(u32) -> PixelState) {
-    for_each_tile_row(tx, frame, band, |band, ly, i0, j, row, width| {
-        for lx in 0..width {
-            let out = fine::fine_resolve(i0 + lx as i32, j, &state(ly * TILE + lx as u32), setups, frame);
-            band.values[row + lx] = f32::from_bits(out.value_bits);
+fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, states: &[PixelState; TILE_PIXELS as usize]) {
+    for r in tile_rows(tx, frame, band) {
+        for lx in 0..r.width {
+            let out = fine::fine_resolve(r.i0 + lx as i32, r.j, &states[(r.ly * TILE) as usize + lx], setups, frame);
+            band.values[r.start + lx] = f32::from_bits(out.value_bits);
             if let Some(owner) = band.owner.as_deref_mut() {
-                owner[row + lx] = out.owner;
+                owner[r.start + lx] = out.owner;
             }
             if let Some(coverage) = band.coverage.as_deref_mut() {
-                coverage[row + lx] = out.count;
+                coverage[r.start + lx] = out.count;
             }
         }
-    });
+    }
 }
 
-/// Calls `visit(band, ly, i0, j, start, width)` for each row `ly` of tile `tx` that lies in the
-/// window: its first pixel `(i0, j)`, where that row starts in the band's layers, and how many
-/// of its pixels lie in the window.
+/// A row of a tile that lies in the window: row `ly` of the tile, its first pixel `(i0, j)`,
+/// where it starts in the band's layers, and how many of its pixels lie in the window.
+struct TileRow {
+    ly: u32,
+    i0: i32,
+    j: i32,
+    start: usize,
+    width: usize,
+}
+
+/// The rows of tile `tx` of `band` that lie in the window.
 #[inline(always)]
-fn for_each_tile_row(tx: u32, frame: &FrameParams, band: &mut Band, mut visit: impl FnMut(&mut Band, u32, i32, i32, usize, usize)) {
+fn tile_rows(tx: u32, frame: &FrameParams, band: &Band) -> impl Iterator<Item = TileRow> + use<> {
     let width = (frame.win_w - tx * TILE).min(TILE) as usize;
-    for ly in 0..TILE {
-        let (i0, j, row_inside) = fine::tile_pixel(tx, band.ty, ly * TILE, frame);
-        if !row_inside {
-            break;
-        }
-        let row = band.index(i0, j);
-        visit(band, ly, i0, j, row, width);
-    }
+    let (frame, ty, row0, col0, stride) = (*frame, band.ty, band.row0, band.col0, band.stride);
+    (0..TILE).map_while(move |ly| {
+        let (i0, j, inside) = fine::tile_pixel(tx, ty, ly * TILE, &frame);
+        inside.then(|| TileRow { ly, i0, j, start: (j - row0) as usize * stride + (i0 - col0) as usize, width })
+    })
 }
 
 #[cfg(test)]
@@ -455,11 +486,11 @@ mod tests {
                 for tx in 0..frame.tiles_x {
                     let (start, len) = fine::bin_range(&offsets, ty * frame.tiles_x + tx);
                     let mut by_rows = [PixelState::EMPTY; TILE_PIXELS as usize];
-                    for_each_row_span(tx, ty, &frame, &setups, &bins[start as usize..][..len as usize], |s, row| {
+                    for (s, row) in row_spans(tx, ty, &frame, &setups, &bins[start as usize..][..len as usize]) {
                         for (n, state) in by_rows[row.first..][..row.len].iter_mut().enumerate() {
                             fine::accumulate(row.side(n), &s.coverage, state);
                         }
-                    });
+                    }
                     let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
                     let mut by_batches = [PixelState::EMPTY; TILE_PIXELS as usize];
                     let mut batch = 0;

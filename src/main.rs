@@ -4,7 +4,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Skips};
+use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skips};
+use tileraster_io::PointColumns;
 
 #[derive(Parser)]
 #[command(name = "tileraster", version, about = "Deterministic triangle rasteriser: bit-identical heightfields on CPU and GPU")]
@@ -22,11 +23,19 @@ enum BackendArg {
 }
 
 #[derive(Subcommand)]
+#[allow(clippy::large_enum_variant)] // parsed once per run
 enum Command {
-    /// Rasterise a mesh (OBJ: `v x y z`, heights in z) to a Float32 GeoTIFF, with gdal_grid's grid semantics.
+    /// Rasterise a mesh, or the Delaunay TIN of a point set, to a Float32 GeoTIFF, with
+    /// gdal_grid's grid semantics.
     Rasterise {
-        /// Input mesh (Wavefront OBJ).
-        mesh: PathBuf,
+        /// Input: a mesh (`.obj`: `v x y z`, heights in z) or points as delimited text (`.csv`,
+        /// `.xyz`, `.txt`, `.pts`: x, y, z columns), triangulated by Delaunay.
+        input: PathBuf,
+        /// Point files: the x, y and z columns, each a header name or a 1-based position
+        /// (default: columns named x/easting/lon, y/northing/lat, z/elevation/height, or the
+        /// first three when there is no header).
+        #[arg(long, value_name = "X,Y,Z", value_parser = point_columns)]
+        columns: Option<PointColumns>,
         /// Output GeoTIFF.
         #[arg(short, long)]
         output: PathBuf,
@@ -87,8 +96,8 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { mesh, output, txe, tye, outsize, backend, nodata, preview, mode, stats, no_skip } => {
-            let scene = tileraster_io::read_obj(&mesh).map_err(|e| e.to_string())?;
+        Command::Rasterise { input, columns, output, txe, tye, outsize, backend, nodata, preview, mode, stats, no_skip } => {
+            let scene = read_input(&input, &columns.unwrap_or_default())?;
             let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], outsize[0], outsize[1]);
             let backend = choose_backend(backend)?;
             let start = Instant::now();
@@ -121,6 +130,41 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         }
         Command::Demo { output, size, cells } => demo(&output, size, cells),
     }
+}
+
+/// The scene in `path`: a mesh, or the Delaunay TIN of a point file, by its extension.
+fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
+    let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+    match extension.as_str() {
+        "obj" => tileraster_io::read_obj(path).map_err(|e| e.to_string()),
+        "csv" | "xyz" | "txt" | "pts" => {
+            let points = tileraster_io::read_points(path, columns).map_err(|e| e.to_string())?;
+            let tin = tileraster_tin::triangulate(&points).map_err(|e| format!("{}: {e}", path.display()))?;
+            eprintln!(
+                "tileraster: {} points from {}{} → Delaunay TIN of {} triangles",
+                points.len(),
+                path.display(),
+                match tin.duplicates {
+                    0 => String::new(),
+                    n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
+                },
+                tin.scene.triangles.len()
+            );
+            Ok(tin.scene)
+        }
+        other => Err(format!(
+            "{}: unsupported input type '{other}'; give a mesh (.obj) or points as delimited text (.csv, .xyz, .txt, .pts)",
+            path.display()
+        )),
+    }
+}
+
+fn point_columns(s: &str) -> Result<PointColumns, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let [x, y, z] = parts.as_slice() else {
+        return Err(format!("'{s}': give three columns, X,Y,Z (names or 1-based positions)"));
+    };
+    Ok(PointColumns { x: Some(x.parse()?), y: Some(y.parse()?), z: Some(z.parse()?) })
 }
 
 fn skip_name(name: &str) -> Result<String, String> {

@@ -151,3 +151,64 @@ fn stats_flag_prints_one_json_object_on_stderr() {
     assert!(!dir.join("never.tif").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+fn read_tif_values(tif: &Path) -> Vec<f32> {
+    let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(tif).unwrap())).unwrap();
+    let DecodingResult::F32(values) = decoder.read_image().unwrap() else { panic!("not Float32") };
+    values
+}
+
+/// Points in, GeoTIFF out: the points of a jittered lattice, shuffled into a CSV with a
+/// header, repeated points among them, give the raster of the lattice's own Delaunay mesh.
+#[test]
+fn points_are_triangulated_and_give_the_delaunay_meshs_raster() {
+    let dir = scratch("points");
+    let (x0, y0) = (500_000.0, 5_000_000.0);
+    let mesh = scenes::delaunay_terrain(x0, y0, 600.0, 400.0, 30, 20, 8);
+    let mut order: Vec<usize> = (0..mesh.vertices.len()).collect();
+    let mut rng = scenes::Rng::new(3);
+    for k in (1..order.len()).rev() {
+        order.swap(k, (rng.range(0.0, (k + 1) as f64) as usize).min(k));
+    }
+    let mut text = String::from("id,height,easting,northing\n");
+    for (n, &k) in order.iter().enumerate() {
+        let v = mesh.vertices[k];
+        text += &format!("{n},{:?},{:?},{:?}\n", v[2], v[0], v[1]);
+        if n % 50 == 0 {
+            // The same position again, later in the file: the first one stays.
+            text += &format!("{n}b,{:?},{:?},{:?}\n", v[2] + 1000.0, v[0], v[1]);
+        }
+    }
+    let (csv, tif) = (dir.join("points.csv"), dir.join("out.tif"));
+    std::fs::write(&csv, text).unwrap();
+    let grid_args = ["--txe", "500000", "500600", "--tye", "5000000", "5000400", "--outsize", "150", "100"];
+    let out = rasterise_cli(&csv, &tif, &grid_args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("repeating an earlier point's x, y"), "{stderr}");
+    let grid = Grid::new(x0, x0 + 600.0, y0, y0 + 400.0, 150, 100);
+    let expected = rasterise(&mesh, &Params::new(grid).with_nodata(-9999.0), Backend::Cpu).unwrap();
+    let values = read_tif_values(&tif);
+    let differing = values.iter().zip(&expected.values).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+    assert_eq!((values.len(), differing), (expected.values.len(), 0), "the TIN of the points rasterises differently from the mesh");
+
+    // Columns by position or name; bad points are reported by file and line, and leave nothing.
+    let out = rasterise_cli(&csv, &dir.join("by-position.tif"), &[&grid_args[..], &["--columns", "3,4,height"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(read_tif_values(&dir.join("by-position.tif")), values);
+    let bad = dir.join("bad.xyz");
+    std::fs::write(&bad, "0 0 1\n10 0 2\n0 ten 3\n").unwrap();
+    let out = rasterise_cli(&bad, &dir.join("bad.tif"), &grid_args);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("bad.xyz:3: y (column 2) is 'ten', not a number"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!dir.join("bad.tif").exists());
+    let line = dir.join("line.csv");
+    std::fs::write(&line, "0,0,1\n1,1,1\n2,2,1\n").unwrap();
+    let out = rasterise_cli(&line, &dir.join("line.tif"), &grid_args);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("lie on one line"), "{}", String::from_utf8_lossy(&out.stderr));
+    let unknown = dir.join("mesh.stl");
+    std::fs::write(&unknown, "solid x\n").unwrap();
+    let out = rasterise_cli(&unknown, &dir.join("stl.tif"), &grid_args);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unsupported input type 'stl'"), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_dir_all(&dir).ok();
+}

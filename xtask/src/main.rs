@@ -6,10 +6,13 @@
 //! - `cargo xtask bench-report [--quick] [--out DIR]`: run time against error for every
 //!   backend × mode × scene beside the peers; writes `DIR/benchmarks.md` and
 //!   `DIR/time-vs-error.svg` (`DIR` defaults to `docs`), with the skips section.
+//! - `cargo xtask delaunay-report [POINTS]`: the candidate Delaunay crates timed and checked on
+//!   the same point sets (default one million points), printed as markdown.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
 
 mod bench_report;
+mod delaunay_report;
 mod skip_report;
 mod svg;
 
@@ -22,7 +25,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]");
     ExitCode::from(2)
 }
 
@@ -98,6 +101,26 @@ fn main() -> ExitCode {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(e) => {
                     eprintln!("xtask bench-report: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        ["delaunay-report", rest @ ..] => {
+            let n = match rest {
+                [] => 1_000_000,
+                [n] => match n.parse() {
+                    Ok(n) => n,
+                    Err(_) => return usage(),
+                },
+                _ => return usage(),
+            };
+            match delaunay_report::run(n) {
+                Ok(markdown) => {
+                    println!("{markdown}");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("xtask delaunay-report: {e}");
                     ExitCode::FAILURE
                 }
             }

@@ -1,13 +1,16 @@
-//! File formats: OBJ meshes in; single-band Float32 GeoTIFF and PNG hillshade previews out.
+//! File formats: OBJ meshes and delimited-text point sets (CSV, XYZ) in; single-band Float32
+//! GeoTIFF and PNG hillshade previews out.
 //! Writers go through a temporary file in the destination's folder and rename it into place,
 //! so a failed run never leaves a partial file behind.
 
 mod geotiff;
 mod obj;
+mod points;
 mod preview;
 
 pub use geotiff::write_geotiff;
 pub use obj::{parse_obj, read_obj};
+pub use points::{parse_points, read_points, Column, PointColumns};
 pub use preview::write_preview_png;
 
 use std::path::{Path, PathBuf};

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skips};
-use tileraster_io::PointColumns;
+use tileraster_io::{GeoTiffOptions, PointColumns};
 
 #[derive(Parser)]
 #[command(name = "tileraster", version, about = "Deterministic triangle rasteriser: bit-identical heightfields on CPU and GPU")]
@@ -28,8 +28,8 @@ enum Command {
     /// Rasterise a mesh, or the Delaunay TIN of a point set, to a Float32 GeoTIFF, with
     /// gdal_grid's grid semantics.
     Rasterise {
-        /// Input: a mesh (`.obj`: `v x y z`, heights in z) or points as delimited text (`.csv`,
-        /// `.xyz`, `.txt`, `.pts`: x, y, z columns), triangulated by Delaunay.
+        /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points as delimited text
+        /// (`.csv`, `.xyz`, `.txt`, `.pts`: x, y, z columns), triangulated by Delaunay.
         input: PathBuf,
         /// Point files: the x, y and z columns, each a header name or a 1-based position
         /// (default: columns named x/easting/lon, y/northing/lat, z/elevation/height, or the
@@ -53,6 +53,13 @@ enum Command {
         /// Value of cells no triangle covers (written as the GDAL_NODATA tag).
         #[arg(long, default_value = "-9999", allow_negative_numbers = true)]
         nodata: f32,
+        /// The CRS, as an EPSG code (gdal_grid's -a_srs), written as GeoKeys.
+        #[arg(long = "a_srs", value_name = "EPSG:CODE", value_parser = tileraster_io::parse_epsg)]
+        a_srs: Option<u16>,
+        /// A GeoTIFF creation option, as gdal_grid's -co (repeatable): TILED=YES (256 × 256
+        /// tiles), COMPRESS=DEFLATE.
+        #[arg(long = "co", value_name = "NAME=VALUE")]
+        creation_options: Vec<String>,
         /// Also write a hillshaded PNG preview.
         #[arg(long)]
         preview: Option<PathBuf>,
@@ -96,7 +103,11 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { input, columns, output, txe, tye, outsize, backend, nodata, preview, mode, stats, no_skip } => {
+        Command::Rasterise { input, columns, output, txe, tye, outsize, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
+            let mut tiff_options = GeoTiffOptions { epsg: a_srs, ..Default::default() };
+            for option in &creation_options {
+                tiff_options.apply(option)?;
+            }
             let scene = read_input(&input, &columns.unwrap_or_default())?;
             let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], outsize[0], outsize[1]);
             let backend = choose_backend(backend)?;
@@ -108,7 +119,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips);
             let raster = rasterise(&scene, &params, backend).map_err(|e| e.to_string())?;
             let took = start.elapsed();
-            tileraster_io::write_geotiff(&raster, &output).map_err(|e| e.to_string())?;
+            tileraster_io::write_geotiff_with(&raster, &output, &tiff_options).map_err(|e| e.to_string())?;
             if let Some(preview) = preview {
                 tileraster_io::write_preview_png(&raster, &preview).map_err(|e| e.to_string())?;
             }
@@ -137,6 +148,8 @@ fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
     match extension.as_str() {
         "obj" => tileraster_io::read_obj(path).map_err(|e| e.to_string()),
+        "ply" => tileraster_io::read_ply(path).map_err(|e| e.to_string()),
+        "stl" => tileraster_io::read_stl(path).map_err(|e| e.to_string()),
         "csv" | "xyz" | "txt" | "pts" => {
             let points = tileraster_io::read_points(path, columns).map_err(|e| e.to_string())?;
             let tin = tileraster_tin::triangulate(&points).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -153,7 +166,7 @@ fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
             Ok(tin.scene)
         }
         other => Err(format!(
-            "{}: unsupported input type '{other}'; give a mesh (.obj) or points as delimited text (.csv, .xyz, .txt, .pts)",
+            "{}: unsupported input type '{other}'; give a mesh (.obj, .ply, .stl) or points as delimited text (.csv, .xyz, .txt, .pts)",
             path.display()
         )),
     }

@@ -206,9 +206,86 @@ fn points_are_triangulated_and_give_the_delaunay_meshs_raster() {
     std::fs::write(&line, "0,0,1\n1,1,1\n2,2,1\n").unwrap();
     let out = rasterise_cli(&line, &dir.join("line.tif"), &grid_args);
     assert!(String::from_utf8_lossy(&out.stderr).contains("lie on one line"), "{}", String::from_utf8_lossy(&out.stderr));
-    let unknown = dir.join("mesh.stl");
-    std::fs::write(&unknown, "solid x\n").unwrap();
-    let out = rasterise_cli(&unknown, &dir.join("stl.tif"), &grid_args);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("unsupported input type 'stl'"), "{}", String::from_utf8_lossy(&out.stderr));
+    let unknown = dir.join("mesh.las");
+    std::fs::write(&unknown, "LASF").unwrap();
+    let out = rasterise_cli(&unknown, &dir.join("las.tif"), &grid_args);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unsupported input type 'las'"), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The same mesh as OBJ, ASCII PLY and binary STL gives the same GeoTIFF (coordinates chosen
+/// exact in f32, which binary STL stores).
+#[test]
+fn obj_ply_and_stl_give_the_same_raster() {
+    let dir = scratch("formats");
+    let mut scene = scenes::terrain(0.0, 0.0, 600.0, 400.0, 12, 8, 5);
+    for v in &mut scene.vertices {
+        *v = v.map(|c| c as f32 as f64);
+    }
+    let (obj, ply, stl) = (dir.join("m.obj"), dir.join("m.ply"), dir.join("m.stl"));
+    write_obj(&scene, &obj);
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        scene.vertices.len(),
+        scene.triangles.len()
+    );
+    for v in &scene.vertices {
+        text += &format!("{:?} {:?} {:?}\n", v[0], v[1], v[2]);
+    }
+    for t in &scene.triangles {
+        text += &format!("3 {} {} {}\n", t[0], t[1], t[2]);
+    }
+    std::fs::write(&ply, text).unwrap();
+    let mut bytes = vec![0u8; 80];
+    bytes.extend((scene.triangles.len() as u32).to_le_bytes());
+    for t in &scene.triangles {
+        bytes.extend([0u8; 12]);
+        for &k in t {
+            for c in scene.vertices[k as usize] {
+                bytes.extend((c as f32).to_le_bytes());
+            }
+        }
+        bytes.extend([0u8; 2]);
+    }
+    std::fs::write(&stl, bytes).unwrap();
+    let grid = ["--txe", "0", "600", "--tye", "0", "400", "--outsize", "120", "80"];
+    let mut rasters = Vec::new();
+    for input in [&obj, &ply, &stl] {
+        let tif = input.with_extension("tif");
+        let out = rasterise_cli(input, &tif, &grid);
+        assert!(out.status.success(), "{}: {}", input.display(), String::from_utf8_lossy(&out.stderr));
+        rasters.push(read_tif_values(&tif));
+    }
+    assert!(rasters[0].iter().any(|&v| v != -9999.0));
+    assert_eq!(rasters[0], rasters[1], "PLY differs from OBJ");
+    assert_eq!(rasters[0], rasters[2], "STL differs from OBJ");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `--a_srs EPSG:n` writes the CRS as GeoKeys; `--co TILED=YES --co COMPRESS=DEFLATE` writes
+/// deflated 256² tiles; the values stay the same; bad options are refused before any work.
+#[test]
+fn crs_tiles_and_compression_on_request() {
+    let dir = scratch("co");
+    let scene = scenes::terrain(0.0, 0.0, 600.0, 400.0, 12, 8, 5);
+    let obj = dir.join("m.obj");
+    write_obj(&scene, &obj);
+    let grid = ["--txe", "0", "600", "--tye", "0", "400", "--outsize", "300", "290"];
+    let (plain, tiled) = (dir.join("plain.tif"), dir.join("tiled.tif"));
+    assert!(rasterise_cli(&obj, &plain, &grid).status.success());
+    let out = rasterise_cli(&obj, &tiled, &[&grid[..], &["--a_srs", "EPSG:32633", "--co", "TILED=YES", "--co", "COMPRESS=DEFLATE"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(read_tif_values(&plain), read_tif_values(&tiled));
+    let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(&tiled).unwrap())).unwrap();
+    assert_eq!(decoder.get_tag_u32(Tag::TileWidth).unwrap(), 256);
+    assert_eq!(decoder.get_tag_u32(Tag::Compression).unwrap(), 8);
+    let keys = decoder.get_tag_u16_vec(Tag::GeoKeyDirectoryTag).unwrap();
+    assert!(keys.windows(4).any(|k| k == [3072, 0, 1, 32633]), "no ProjectedCSTypeGeoKey 32633 in {keys:?}");
+    for (flag, value, message) in [("--a_srs", "+proj=utm", "only EPSG codes"), ("--co", "COMPRESS=JPEG", "unsupported creation option")] {
+        let never = dir.join("never.tif");
+        let out = rasterise_cli(&obj, &never, &[&grid[..], &[flag, value]].concat());
+        assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains(message), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(!never.exists());
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

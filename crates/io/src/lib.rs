@@ -1,15 +1,19 @@
-//! File formats: OBJ meshes and delimited-text point sets (CSV, XYZ) in; single-band Float32
-//! GeoTIFF and PNG hillshade previews out.
+//! File formats: meshes (OBJ, PLY, STL) and delimited-text point sets (CSV, XYZ) in;
+//! single-band Float32 GeoTIFF and PNG hillshade previews out.
 //! Writers go through a temporary file in the destination's folder and rename it into place,
 //! so a failed run never leaves a partial file behind.
 
 mod geotiff;
 mod obj;
+mod ply;
 mod points;
 mod preview;
+mod stl;
 
-pub use geotiff::write_geotiff;
+pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, GeoTiffOptions};
 pub use obj::{parse_obj, read_obj};
+pub use ply::{parse_ply, read_ply};
+pub use stl::{parse_stl, read_stl};
 pub use points::{parse_points, read_points, Column, PointColumns};
 pub use preview::write_preview_png;
 

@@ -1,0 +1,100 @@
+//! The parser fuzz targets' checks (`fuzz/fuzz_targets/points_check.rs`, `mesh_check.rs`)
+//! without cargo-fuzz: deterministic inputs, random bytes and mangled files, must never panic,
+//! and each must be refused with the file named or give finite points (and a consistent TIN)
+//! or a consistent mesh.
+
+#[path = "../fuzz/fuzz_targets/mesh_check.rs"]
+mod mesh_check;
+#[path = "../fuzz/fuzz_targets/points_check.rs"]
+mod points_check;
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// xorshift64: deterministic bytes.
+fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    }
+}
+
+#[test]
+fn mesh_files_never_panic_and_are_refused_or_read_consistently() {
+    let mut next = xorshift(0x2545_f491_4f6c_dd1d);
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let stl = "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n";
+    let mut binary_stl = vec![0u8; 80];
+    binary_stl.extend(1u32.to_le_bytes());
+    binary_stl.extend([0u8; 12]);
+    for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        binary_stl.extend(v.to_le_bytes());
+    }
+    binary_stl.extend([0u8; 2]);
+    let seeds: [(u8, &[u8]); 4] = [(0, obj.as_bytes()), (1, ply.as_bytes()), (2, stl.as_bytes()), (2, &binary_stl)];
+    let (mut refused, mut meshes) = (0, 0);
+    for k in 0..4000 {
+        // A valid file of each kind, mutated: bytes changed, cut short, or random throughout.
+        let (kind, seed) = seeds[k % seeds.len()];
+        let mut data = vec![kind];
+        match next() % 4 {
+            0 => data.extend((0..next() % 200).map(|_| next() as u8)),
+            1 => data.extend_from_slice(&seed[..(next() as usize % (seed.len() + 1))]),
+            _ => {
+                data.extend_from_slice(seed);
+                for _ in 0..1 + next() % 4 {
+                    let at = 1 + (next() as usize % (data.len() - 1).max(1));
+                    if at < data.len() {
+                        data[at] = next() as u8;
+                    }
+                }
+            }
+        }
+        match catch_unwind(AssertUnwindSafe(|| mesh_check::check(&data))) {
+            Ok(Ok(mesh_check::Outcome::Refused)) => refused += 1,
+            Ok(Ok(mesh_check::Outcome::Mesh(_))) => meshes += 1,
+            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
+            Err(_) => panic!("input {k} {data:?}: panicked"),
+        }
+    }
+    eprintln!("mesh files: {refused} refused, {meshes} read");
+    assert!(refused > 0 && meshes > 0, "the inputs reach both outcomes: {refused}/{meshes}");
+}
+
+#[test]
+fn point_files_never_panic_and_are_refused_or_triangulated_consistently() {
+    let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
+    let pieces = ["x,y,h\n", "1,2,3\n", "0 0 0\n", "1e308 1 1\n", "NaN,1,2\n", "-0,0,1\n", "3;4;5\n", "#c\n", "\t", ",", " ", "\n", "inf", "7", "\r\n", "\u{fffd}"];
+    let (mut refused, mut points, mut triangulated) = (0, 0, 0);
+    for k in 0..3000 {
+        let mut data = vec![k as u8];
+        if k % 3 == 0 {
+            data.extend((0..next() % 64).map(|_| next() as u8));
+        } else if k % 3 == 1 {
+            // Point lines of small numbers (repeats and lines likely), now and then spoiled.
+            let separator = [",", ";", " ", "\t"][(next() % 4) as usize];
+            for _ in 0..next() % 30 {
+                let mut fields: Vec<String> = (0..3).map(|_| (next() % 12).to_string()).collect();
+                if next() % 40 == 0 {
+                    fields[(next() % 3) as usize] = pieces[(next() % pieces.len() as u64) as usize].trim().to_string();
+                }
+                data.extend_from_slice(format!("{}\n", fields.join(separator)).as_bytes());
+            }
+        } else {
+            for _ in 0..next() % 40 {
+                data.extend_from_slice(pieces[(next() % pieces.len() as u64) as usize].as_bytes());
+            }
+        }
+        match catch_unwind(AssertUnwindSafe(|| points_check::check(&data))) {
+            Ok(Ok(points_check::Outcome::Refused)) => refused += 1,
+            Ok(Ok(points_check::Outcome::Points(_))) => points += 1,
+            Ok(Ok(points_check::Outcome::Triangulated(_))) => triangulated += 1,
+            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
+            Err(_) => panic!("input {k} {data:?}: panicked"),
+        }
+    }
+    eprintln!("point files: {refused} refused, {points} parsed but not triangulable, {triangulated} triangulated");
+    assert!(refused > 0 && points > 0 && triangulated > 0, "the inputs reach every outcome: {refused}/{points}/{triangulated}");
+}

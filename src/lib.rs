@@ -17,7 +17,7 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 
-pub use tileraster_core::{reference, scenes, Error, Grid, Mode, Outputs, Params, Prepared, Raster, Scene, Skips, Stats, Window};
+pub use tileraster_core::{reference, scenes, Error, Grid, Mode, Outputs, Params, Prepared, Raster, Scene, Skips, Stats, Window, MAX_GRID_DIM};
 
 /// Where the kernels run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

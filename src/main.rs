@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skips};
+use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skips, Window};
 use tileraster_io::{GeoTiffOptions, PointColumns};
 
 #[derive(Parser)]
@@ -45,9 +45,20 @@ enum Command {
         /// Grid y extent, as gdal_grid's -tye (row 0 is at YMAX).
         #[arg(long, num_args = 2, value_names = ["YMIN", "YMAX"], allow_negative_numbers = true, required = true)]
         tye: Vec<f64>,
-        /// Raster size in cells, as gdal_grid's -outsize.
-        #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"], required = true)]
-        outsize: Vec<u32>,
+        /// Raster size in cells, as gdal_grid's -outsize (or give --tr).
+        #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"], required_unless_present = "tr", conflicts_with = "tr")]
+        outsize: Option<Vec<u32>>,
+        /// Cell size in world units, as gdal_grid's -tr: the size is each extent over its
+        /// cell size, rounded to the nearest whole cell, and the extent is kept.
+        #[arg(long, num_args = 2, value_names = ["XRES", "YRES"])]
+        tr: Option<Vec<f64>>,
+        /// Rasterise only this window of the grid (pixel offsets and size); its cells are bit
+        /// for bit the whole run's, and the GeoTIFF is georeferenced to the window.
+        #[arg(long, num_args = 4, value_names = ["XOFF", "YOFF", "XSIZE", "YSIZE"])]
+        window: Option<Vec<u32>>,
+        /// No messages on stderr but errors (and --stats when asked for).
+        #[arg(short, long)]
+        quiet: bool,
         #[arg(long, value_enum, default_value = "auto")]
         backend: BackendArg,
         /// Value of cells no triangle covers (written as the GDAL_NODATA tag).
@@ -103,13 +114,20 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { input, columns, output, txe, tye, outsize, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
+        Command::Rasterise { input, columns, output, txe, tye, outsize, tr, window, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
+            QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
             let mut tiff_options = GeoTiffOptions { epsg: a_srs, ..Default::default() };
             for option in &creation_options {
                 tiff_options.apply(option)?;
             }
             let scene = read_input(&input, &columns.unwrap_or_default())?;
-            let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], outsize[0], outsize[1]);
+            let (width, height) = match (outsize, tr) {
+                (Some(size), _) => (size[0], size[1]),
+                (None, Some(tr)) => (cells_for(txe[1] - txe[0], tr[0], "x")?, cells_for(tye[1] - tye[0], tr[1], "y")?),
+                (None, None) => return Err("give the raster size with --outsize WIDTH HEIGHT or the cell size with --tr XRES YRES".into()),
+            };
+            let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], width, height);
+            let window = window.map(|w| Window { x0: w[0], y0: w[1], width: w[2], height: w[3] });
             let backend = choose_backend(backend)?;
             let start = Instant::now();
             let mut skips = Skips::ALL;
@@ -117,23 +135,24 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 skips = skips.without(name);
             }
             let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips);
-            let raster = rasterise(&scene, &params, backend).map_err(|e| e.to_string())?;
+            let raster = rasterise_window(&scene, &params, window, backend).map_err(|e| e.to_string())?;
             let took = start.elapsed();
             tileraster_io::write_geotiff_with(&raster, &output, &tiff_options).map_err(|e| e.to_string())?;
             if let Some(preview) = preview {
                 tileraster_io::write_preview_png(&raster, &preview).map_err(|e| e.to_string())?;
             }
-            eprintln!(
-                "tileraster: {} triangles onto {}×{} cells with the {} backend, {} mode, in {} (snapping step 2^-{} px) → {}",
+            note(format!(
+                "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, in {} (snapping step 2^-{} px) → {}",
                 scene.triangles.len(),
                 grid.width,
                 grid.height,
+                window.map_or(String::new(), |w| format!(" (window {}×{} at {}, {})", w.width, w.height, w.x0, w.y0)),
                 backend.name(),
                 mode.name(),
                 ms(took),
                 raster.snap_bits,
                 output.display()
-            );
+            ));
             if stats {
                 eprintln!("{}", raster.stats.to_json());
             }
@@ -141,6 +160,28 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         }
         Command::Demo { output, size, cells } => demo(&output, size, cells),
     }
+}
+
+/// `-q`: no messages but errors.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// A message on stderr, unless `-q`.
+fn note(message: String) {
+    if !QUIET.load(std::sync::atomic::Ordering::Relaxed) {
+        eprintln!("{message}");
+    }
+}
+
+/// gdal_grid's `-tr`: cells along an extent, `floor(extent / res + 0.5)`.
+fn cells_for(extent: f64, res: f64, axis: &str) -> Result<u32, String> {
+    if !(res.is_finite() && res > 0.0) {
+        return Err(format!("--tr: the {axis} cell size is {res}; it must be a positive number"));
+    }
+    let cells = (extent / res + 0.5).floor();
+    if !(1.0..=tileraster::MAX_GRID_DIM as f64).contains(&cells) {
+        return Err(format!("--tr: {extent} / {res} gives {cells} cells along {axis}; it must be between 1 and {}", tileraster::MAX_GRID_DIM));
+    }
+    Ok(cells as u32)
 }
 
 /// The scene in `path`: a mesh, or the Delaunay TIN of a point file, by its extension.
@@ -153,7 +194,7 @@ fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
         "csv" | "xyz" | "txt" | "pts" => {
             let points = tileraster_io::read_points(path, columns).map_err(|e| e.to_string())?;
             let tin = tileraster_tin::triangulate(&points).map_err(|e| format!("{}: {e}", path.display()))?;
-            eprintln!(
+            note(format!(
                 "tileraster: {} points from {}{} → Delaunay TIN of {} triangles",
                 points.len(),
                 path.display(),
@@ -162,7 +203,7 @@ fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
                     n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
                 },
                 tin.scene.triangles.len()
-            );
+            ));
             Ok(tin.scene)
         }
         other => Err(format!(
@@ -193,15 +234,15 @@ fn choose_backend(arg: BackendArg) -> Result<Backend, String> {
         BackendArg::Gpu => Ok(Backend::Gpu),
         BackendArg::Auto => match tileraster::gpu_adapter() {
             Ok(a) if !a.software => {
-                eprintln!("tileraster: backend auto: GPU {a}");
+                note(format!("tileraster: backend auto: GPU {a}"));
                 Ok(Backend::Gpu)
             }
             Ok(a) => {
-                eprintln!("tileraster: backend auto: CPU (the only Vulkan adapter, {a}, is itself a CPU implementation)");
+                note(format!("tileraster: backend auto: CPU (the only Vulkan adapter, {a}, is itself a CPU implementation)"));
                 Ok(Backend::Cpu)
             }
             Err(e) => {
-                eprintln!("tileraster: backend auto: CPU ({e})");
+                note(format!("tileraster: backend auto: CPU ({e})"));
                 Ok(Backend::Cpu)
             }
         },

@@ -289,3 +289,48 @@ fn crs_tiles_and_compression_on_request() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// gdal_grid's sizing for `-tr` (what GDAL 3.6 does: round the cell count, keep the extent),
+/// windows that tile the whole run cell for cell and carry their own georeference, and `-q`.
+#[test]
+fn cell_size_windows_and_quiet() {
+    let dir = scratch("tr-window");
+    let scene = scenes::terrain(0.0, 0.0, 10.0, 7.0, 5, 4, 2);
+    let obj = dir.join("m.obj");
+    write_obj(&scene, &obj);
+    let dims = |tif: &Path| Decoder::new(std::io::BufReader::new(std::fs::File::open(tif).unwrap())).unwrap().dimensions().unwrap();
+    for (tr, expected) in [(["3", "2"], (3, 4)), (["4", "4"], (3, 2))] {
+        let tif = dir.join("tr.tif");
+        let out = rasterise_cli(&obj, &tif, &["--txe", "0", "10", "--tye", "0", "7", "--tr", tr[0], tr[1]]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_eq!(dims(&tif), expected, "-tr {tr:?}");
+    }
+    let out = rasterise_cli(&obj, &dir.join("x.tif"), &["--txe", "0", "10", "--tye", "0", "7"]);
+    assert!(!out.status.success());
+
+    let grid = ["--txe", "0", "10", "--tye", "0", "7", "--outsize", "53", "41"];
+    let whole_tif = dir.join("whole.tif");
+    let out = rasterise_cli(&obj, &whole_tif, &[&grid[..], &["-q"]].concat());
+    assert!(out.status.success() && out.stderr.is_empty(), "-q printed: {}", String::from_utf8_lossy(&out.stderr));
+    let whole = read_tif_values(&whole_tif);
+    for (x0, y0, w, h) in [(0, 0, 30, 20), (30, 0, 23, 20), (0, 20, 53, 21)] {
+        let tif = dir.join(format!("w{x0}-{y0}.tif"));
+        let window = [x0.to_string(), y0.to_string(), w.to_string(), h.to_string()];
+        let args: Vec<&str> = grid.iter().copied().chain(["--window"]).chain(window.iter().map(String::as_str)).collect();
+        let out = rasterise_cli(&obj, &tif, &args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let part = read_tif_values(&tif);
+        for j in 0..h {
+            for i in 0..w {
+                assert_eq!(part[j * w + i].to_bits(), whole[(y0 + j) * 53 + x0 + i].to_bits(), "window at ({x0}, {y0}), pixel ({i}, {j})");
+            }
+        }
+        let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(&tif).unwrap())).unwrap();
+        let tie = decoder.get_tag_f64_vec(Tag::ModelTiepointTag).unwrap();
+        // As GDAL georeferences a source window: origin + offset × cell size.
+        assert_eq!((tie[3], tie[4]), (x0 as f64 * (10.0 / 53.0), 7.0 - y0 as f64 * (7.0 / 41.0)), "the window's own top-left corner");
+    }
+    let out = rasterise_cli(&obj, &dir.join("bad.tif"), &[&grid[..], &["--window", "50", "0", "10", "10"]].concat());
+    assert!(!out.status.success() && !dir.join("bad.tif").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

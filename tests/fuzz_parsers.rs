@@ -77,7 +77,7 @@ fn point_files_never_panic_and_are_refused_or_triangulated_consistently() {
             let separator = [",", ";", " ", "\t"][(next() % 4) as usize];
             for _ in 0..next() % 30 {
                 let mut fields: Vec<String> = (0..3).map(|_| (next() % 12).to_string()).collect();
-                if next() % 40 == 0 {
+                if next().is_multiple_of(40) {
                     fields[(next() % 3) as usize] = pieces[(next() % pieces.len() as u64) as usize].trim().to_string();
                 }
                 data.extend_from_slice(format!("{}\n", fields.join(separator)).as_bytes());

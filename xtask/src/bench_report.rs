@@ -127,6 +127,8 @@ pub struct Report {
     pub notes: Vec<String>,
     /// The skips section (`skip_report`).
     pub skips: String,
+    /// Points in, GeoTIFF out, against gdal_grid (`gdal_report`).
+    pub gdal_end_to_end: String,
 }
 
 pub fn run(options: &Options) -> Result<Report, String> {
@@ -231,7 +233,8 @@ pub fn run(options: &Options) -> Result<Report, String> {
     }
     let _ = std::fs::remove_dir_all(&workdir);
     let skips = crate::skip_report::run(options.quick)?;
-    Ok(Report { rows, adapter, gdal, notes, skips })
+    let gdal_end_to_end = if options.quick { crate::gdal_report::run(10_000, 512)? } else { crate::gdal_report::run(100_000, 4096)? };
+    Ok(Report { rows, adapter, gdal, notes, skips, gdal_end_to_end })
 }
 
 /// Writes the tables and the plot.
@@ -284,6 +287,7 @@ fn markdown(report: &Report) -> String {
     );
     let _ = writeln!(s, "![time against error](time-vs-error.svg)\n");
     let _ = writeln!(s, "{}", goals(report));
+    let _ = writeln!(s, "## Points in, GeoTIFF out, against gdal_grid\n\n`cargo xtask gdal-report` (the release build of the command line, `cargo build --release --bin tileraster`).\n\n{}", report.gdal_end_to_end);
     let _ = writeln!(s, "{}", report.skips);
     let _ = writeln!(s, "## Run time against error\n");
     let mut case = String::new();

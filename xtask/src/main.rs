@@ -8,11 +8,14 @@
 //!   `DIR/time-vs-error.svg` (`DIR` defaults to `docs`), with the skips section.
 //! - `cargo xtask delaunay-report [POINTS]`: the candidate Delaunay crates timed and checked on
 //!   the same point sets (default one million points), printed as markdown.
+//! - `cargo xtask gdal-report [POINTS] [SIZE]`: points in, GeoTIFF out, against gdal_grid:
+//!   time and cell-by-cell agreement (default 100,000 points onto 4096²).
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
 
 mod bench_report;
 mod delaunay_report;
+mod gdal_report;
 mod skip_report;
 mod svg;
 
@@ -25,7 +28,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]");
     ExitCode::from(2)
 }
 
@@ -121,6 +124,25 @@ fn main() -> ExitCode {
                 }
                 Err(e) => {
                     eprintln!("xtask delaunay-report: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        ["gdal-report", rest @ ..] => {
+            let numbers: Result<Vec<u64>, _> = rest.iter().map(|a| a.parse::<u64>()).collect();
+            let (points, size) = match numbers.as_deref() {
+                Ok([]) => (100_000, 4096),
+                Ok([p]) => (*p as usize, 4096),
+                Ok([p, s]) => (*p as usize, *s as u32),
+                _ => return usage(),
+            };
+            match gdal_report::run(points, size) {
+                Ok(markdown) => {
+                    println!("{markdown}");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("xtask gdal-report: {e}");
                     ExitCode::FAILURE
                 }
             }

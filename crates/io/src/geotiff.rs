@@ -125,7 +125,7 @@ fn write_tiles(dir: &mut Directory, raster: &Raster, deflate: bool) -> tiff::Tif
                 let (y, x0) = (ty * TILE + row, tx * TILE);
                 let inside = if y < h { (w - x0).min(TILE) } else { 0 };
                 let start = y as usize * w as usize + x0 as usize;
-                for (k, cell) in line.chunks_exact_mut(4).enumerate() {
+                for (k, cell) in line.as_chunks_mut::<4>().0.iter_mut().enumerate() {
                     let v = if (k as u32) < inside { raster.values[start + k].to_le_bytes() } else { pad };
                     cell.copy_from_slice(&v);
                 }

@@ -1,0 +1,129 @@
+//! `cargo xtask gdal-report [POINTS] [SIZE]`: the users' comparison, end to end. The same
+//! random points (a gently sloping surface) as one CSV; `tileraster rasterise` (release build,
+//! CPU backend) and `gdal_grid -a linear:radius=0` each read it and write a Float32 GeoTIFF of
+//! the same grid, timed as whole processes, the runs interleaved. Then the two rasters are
+//! compared cell by cell in f32 ulps. Prints markdown.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+use tiff::decoder::{Decoder, DecodingResult};
+use tileraster::scenes::Rng;
+
+const NODATA: f32 = -9999.0;
+
+fn read_values(path: &Path) -> Result<Vec<f32>, String> {
+    let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(|e| format!("{}: {e}", path.display()))?;
+    match decoder.read_image().map_err(|e| format!("{}: {e}", path.display()))? {
+        DecodingResult::F32(v) => Ok(v),
+        _ => Err(format!("{}: not Float32", path.display())),
+    }
+}
+
+/// Distance in representable f32 values.
+fn ulps(a: f32, b: f32) -> u64 {
+    let key = |v: f32| {
+        let bits = v.to_bits() as i64;
+        if bits < 0x8000_0000 { bits } else { 0x8000_0000 - bits }
+    };
+    (key(a) - key(b)).unsigned_abs()
+}
+
+fn run_timed(command: &mut Command) -> Result<f64, String> {
+    let start = Instant::now();
+    let out = command.output().map_err(|e| format!("{command:?}: {e}"))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if !out.status.success() {
+        return Err(format!("{command:?} failed: {}", String::from_utf8_lossy(&out.stderr)));
+    }
+    Ok(seconds)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+pub fn run(points: usize, size: u32) -> Result<String, String> {
+    let Some(version) = tileraster_peers::gdal_grid_version() else {
+        return Ok("gdal_grid is not installed here, so there is no comparison (Debian: apt install gdal-bin).\n".into());
+    };
+    let bin = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/release/tileraster");
+    if !bin.exists() {
+        return Ok(format!("Not measured: {} is missing (`cargo build --release --bin tileraster` builds it).\n", bin.display()));
+    }
+    let dir = std::env::temp_dir().join(format!("tileraster-gdal-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let (x0, y0, extent) = (500_000.0, 5_000_000.0, 10_000.0);
+    let mut rng = Rng::new(7);
+    let mut csv = String::from("x,y,z\n");
+    for _ in 0..points {
+        let (u, v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+        let z = 300.0 + 50.0 * u + 30.0 * v + 20.0 * (6.0 * u).sin() * (4.0 * v).cos() + rng.range(0.0, 5.0);
+        let _ = writeln!(csv, "{:?},{:?},{z:?}", x0 + u * extent, y0 + v * extent);
+    }
+    let csv_path = dir.join("points.csv");
+    std::fs::write(&csv_path, csv).map_err(|e| e.to_string())?;
+    let vrt = dir.join("points.vrt");
+    std::fs::write(
+        &vrt,
+        format!(
+            "<OGRVRTDataSource><OGRVRTLayer name=\"points\"><SrcDataSource>{}</SrcDataSource><GeometryType>wkbPoint</GeometryType>\
+             <GeometryField encoding=\"PointFromColumns\" x=\"x\" y=\"y\" z=\"z\"/></OGRVRTLayer></OGRVRTDataSource>",
+            csv_path.display()
+        ),
+    )
+    .map_err(|e| e.to_string())?;
+    let (ours, theirs) = (dir.join("tileraster.tif"), dir.join("gdal.tif"));
+    let (txe, tye) = ([x0.to_string(), (x0 + extent).to_string()], [y0.to_string(), (y0 + extent).to_string()]);
+    let n = size.to_string();
+    let mut tileraster = Command::new(&bin);
+    tileraster.args(["rasterise", csv_path.to_str().unwrap(), "-o", ours.to_str().unwrap(), "--backend", "cpu", "-q", "--nodata", "-9999"]);
+    tileraster.args(["--txe", &txe[0], &txe[1], "--tye", &tye[0], &tye[1], "--outsize", &n, &n]);
+    let mut gdal = Command::new("gdal_grid");
+    gdal.args(["-q", "-a", "linear:radius=0:nodata=-9999", "-of", "GTiff", "-ot", "Float32", "-l", "points"]);
+    gdal.args(["-txe", &txe[0], &txe[1], "-tye", &tye[0], &tye[1], "-outsize", &n, &n, vrt.to_str().unwrap(), theirs.to_str().unwrap()]);
+    let (mut t_ours, mut t_gdal) = (Vec::new(), Vec::new());
+    run_timed(&mut tileraster)?; // warm-up: the file cache, the binary
+    for _ in 0..3 {
+        eprintln!("gdal-report: tileraster, gdal_grid ...");
+        t_ours.push(run_timed(&mut tileraster)?);
+        t_gdal.push(run_timed(&mut gdal)?);
+    }
+    let (a, b) = (read_values(&ours)?, read_values(&theirs)?);
+    if a.len() != b.len() {
+        return Err(format!("{} cells against {}", a.len(), b.len()));
+    }
+    let (mut both, mut within, mut exact, mut max, mut coverage) = (0u64, 0u64, 0u64, 0u64, 0u64);
+    for (&x, &y) in a.iter().zip(&b) {
+        match (x == NODATA, y == NODATA) {
+            (false, false) => {
+                both += 1;
+                let d = ulps(x, y);
+                within += (d <= 1) as u64;
+                exact += (d == 0) as u64;
+                max = max.max(d);
+            }
+            (true, true) => {}
+            _ => coverage += 1,
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let (ours_s, gdal_s) = (median(t_ours), median(t_gdal));
+    let mut s = format!(
+        "{points} random points (CSV) onto {size}² cells, {version}; whole processes, points in and GeoTIFF out, medians of 3 interleaved runs.\n\n\
+         | | time | cells covered by both | within 1 ulp of gdal_grid | equal | largest difference | covered by only one |\n| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+    );
+    let _ = writeln!(
+        s,
+        "| tileraster (CPU) against gdal_grid -a linear:radius=0 | {:.0} ms against {:.0} ms: {:.1}× faster | {both} | {:.4} % | {:.4} % | {max} ulp | {coverage} |",
+        ours_s * 1e3,
+        gdal_s * 1e3,
+        gdal_s / ours_s,
+        100.0 * within as f64 / both.max(1) as f64,
+        100.0 * exact as f64 / both.max(1) as f64
+    );
+    Ok(s)
+}

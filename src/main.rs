@@ -28,8 +28,8 @@ enum Command {
     /// Rasterise a mesh, or the Delaunay TIN of a point set, to a Float32 GeoTIFF, with
     /// gdal_grid's grid semantics.
     Rasterise {
-        /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points as delimited text
-        /// (`.csv`, `.xyz`, `.txt`, `.pts`: x, y, z columns), triangulated by Delaunay.
+        /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points (`.las`, `.laz`, or
+        /// delimited text: `.csv`, `.xyz`, `.txt`, `.pts`), triangulated by Delaunay.
         input: PathBuf,
         /// Point files: the x, y and z columns, each a header name or a 1-based position
         /// (default: columns named x/easting/lon, y/northing/lat, z/elevation/height, or the
@@ -191,8 +191,12 @@ fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
         "obj" => tileraster_io::read_obj(path).map_err(|e| e.to_string()),
         "ply" => tileraster_io::read_ply(path).map_err(|e| e.to_string()),
         "stl" => tileraster_io::read_stl(path).map_err(|e| e.to_string()),
-        "csv" | "xyz" | "txt" | "pts" => {
-            let points = tileraster_io::read_points(path, columns).map_err(|e| e.to_string())?;
+        "csv" | "xyz" | "txt" | "pts" | "las" | "laz" => {
+            let points = match extension.as_str() {
+                "las" | "laz" => tileraster_io::read_las(path),
+                _ => tileraster_io::read_points(path, columns),
+            }
+            .map_err(|e| e.to_string())?;
             let tin = tileraster_tin::triangulate(&points).map_err(|e| format!("{}: {e}", path.display()))?;
             note(format!(
                 "tileraster: {} points from {}{} → Delaunay TIN of {} triangles",
@@ -207,7 +211,7 @@ fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
             Ok(tin.scene)
         }
         other => Err(format!(
-            "{}: unsupported input type '{other}'; give a mesh (.obj, .ply, .stl) or points as delimited text (.csv, .xyz, .txt, .pts)",
+            "{}: unsupported input type '{other}'; give a mesh (.obj, .ply, .stl) or points (.las, .laz, or delimited text: .csv, .xyz, .txt, .pts)",
             path.display()
         )),
     }

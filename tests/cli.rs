@@ -206,10 +206,10 @@ fn points_are_triangulated_and_give_the_delaunay_meshs_raster() {
     std::fs::write(&line, "0,0,1\n1,1,1\n2,2,1\n").unwrap();
     let out = rasterise_cli(&line, &dir.join("line.tif"), &grid_args);
     assert!(String::from_utf8_lossy(&out.stderr).contains("lie on one line"), "{}", String::from_utf8_lossy(&out.stderr));
-    let unknown = dir.join("mesh.las");
-    std::fs::write(&unknown, "LASF").unwrap();
-    let out = rasterise_cli(&unknown, &dir.join("las.tif"), &grid_args);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("unsupported input type 'las'"), "{}", String::from_utf8_lossy(&out.stderr));
+    let unknown = dir.join("mesh.e57");
+    std::fs::write(&unknown, "ASTM-E57").unwrap();
+    let out = rasterise_cli(&unknown, &dir.join("e57.tif"), &grid_args);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unsupported input type 'e57'"), "{}", String::from_utf8_lossy(&out.stderr));
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -332,5 +332,39 @@ fn cell_size_windows_and_quiet() {
     }
     let out = rasterise_cli(&obj, &dir.join("bad.tif"), &[&grid[..], &["--window", "50", "0", "10", "10"]].concat());
     assert!(!out.status.success() && !dir.join("bad.tif").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The same points as CSV, LAS and LAZ give the same GeoTIFF (coordinates on the LAS files'
+/// 0.001 scale, so all three hold the same numbers).
+#[test]
+fn las_and_laz_points_give_the_csv_raster() {
+    let dir = scratch("las");
+    let mut rng = scenes::Rng::new(11);
+    let points: Vec<[f64; 3]> = (0..2000)
+        .map(|_| [rng.range(0.0, 600_000.0).round() / 1000.0, rng.range(0.0, 400_000.0).round() / 1000.0, rng.range(0.0, 50_000.0).round() / 1000.0])
+        .collect();
+    let csv = dir.join("p.csv");
+    std::fs::write(&csv, points.iter().map(|p| format!("{:?} {:?} {:?}\n", p[0], p[1], p[2])).collect::<String>()).unwrap();
+    let grid = ["--txe", "0", "600", "--tye", "0", "400", "--outsize", "150", "100"];
+    let mut rasters = vec![];
+    for input in [csv, dir.join("p.las"), dir.join("p.laz")] {
+        if input.extension().unwrap() != "csv" {
+            let mut builder = las::Builder::from((1, 2));
+            builder.point_format.is_compressed = input.extension().unwrap() == "laz";
+            let mut writer = las::Writer::from_path(&input, builder.into_header().unwrap()).unwrap();
+            for p in &points {
+                writer.write_point(las::Point { x: p[0], y: p[1], z: p[2], ..Default::default() }).unwrap();
+            }
+            writer.close().unwrap();
+        }
+        let tif = input.with_extension(format!("{}.tif", input.extension().unwrap().to_str().unwrap()));
+        let out = rasterise_cli(&input, &tif, &grid);
+        assert!(out.status.success(), "{}: {}", input.display(), String::from_utf8_lossy(&out.stderr));
+        rasters.push(read_tif_values(&tif));
+    }
+    assert!(rasters[0].iter().any(|&v| v != -9999.0));
+    assert_eq!(rasters[0], rasters[1], "LAS differs from CSV");
+    assert_eq!(rasters[0], rasters[2], "LAZ differs from CSV");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -1,9 +1,10 @@
-//! File formats: meshes (OBJ, PLY, STL) and delimited-text point sets (CSV, XYZ) in;
+//! File formats: meshes (OBJ, PLY, STL) and point sets (CSV and XYZ text, LAS and LAZ) in;
 //! single-band Float32 GeoTIFF and PNG hillshade previews out.
 //! Writers go through a temporary file in the destination's folder and rename it into place,
 //! so a failed run never leaves a partial file behind.
 
 mod geotiff;
+mod las;
 mod obj;
 mod ply;
 mod points;
@@ -12,6 +13,7 @@ mod stl;
 
 pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, GeoTiffOptions};
 pub use obj::{parse_obj, read_obj};
+pub use las::read_las;
 pub use ply::{parse_ply, read_ply};
 pub use stl::{parse_stl, read_stl};
 pub use points::{parse_points, read_points, Column, PointColumns};

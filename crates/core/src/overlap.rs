@@ -77,28 +77,28 @@ fn residual_crossings(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bi
     // stay; their crossings coincide and cancel in the sweep.)
     let vertices = corners.iter().flatten().max().map_or(0, |&v| v as usize + 1);
     let mut starts = vec![0u32; vertices + 1];
-    let edges_of = |mut visit: Box<dyn FnMut(u32, u32, u32) + '_>| {
-        for (t, (tri, ids)) in triangles.iter().zip(corners).enumerate() {
-            for k in 0..3 {
-                let b = (k + 1) % 3;
-                if tri.y[k] != tri.y[b] {
-                    // Horizontal edges cross no row line (the perturbation lifts p* off them).
-                    let (p, q) = (ids[k], ids[b]);
-                    visit(p.min(q), p.max(q), (t as u32 * 3 + k as u32) << 1 | (p < q) as u32);
-                }
-            }
-        }
+    // (smaller index, larger index, triangle·3 + corner and direction bit) of each edge that is
+    // not horizontal: horizontal edges cross no row line (the perturbation lifts p* off them).
+    let edges_of = || {
+        triangles.iter().zip(corners).enumerate().flat_map(|(t, (tri, ids))| {
+            (0..3).filter(move |&k| tri.y[k] != tri.y[(k + 1) % 3]).map(move |k| {
+                let (p, q) = (ids[k], ids[(k + 1) % 3]);
+                (p.min(q), p.max(q), (t as u32 * 3 + k as u32) << 1 | (p < q) as u32)
+            })
+        })
     };
-    edges_of(Box::new(|low, _, _| starts[low as usize + 1] += 1));
+    for (low, _, _) in edges_of() {
+        starts[low as usize + 1] += 1;
+    }
     for v in 0..vertices {
         starts[v + 1] += starts[v];
     }
     let mut fill = starts.clone();
     let mut edges = vec![(0u32, 0u32); starts[vertices] as usize];
-    edges_of(Box::new(|low, high, code| {
+    for (low, high, code) in edges_of() {
         edges[fill[low as usize] as usize] = (high, code);
         fill[low as usize] += 1;
-    }));
+    }
     for v in 0..vertices {
         edges[starts[v] as usize..starts[v + 1] as usize].sort_unstable();
     }

@@ -23,6 +23,9 @@ pub enum TinError {
     TooFew { distinct: usize },
     #[error("all {distinct} distinct points lie on one line: they span no triangle")]
     Collinear { distinct: usize },
+    /// Not expected after the checks above; reported rather than hidden.
+    #[error("the triangulation refused the points: {0}")]
+    Triangulation(String),
 }
 
 /// A TIN built from points: the scene (vertices are the kept points, in input order) and what
@@ -75,7 +78,7 @@ pub fn triangulate(points: &[[f64; 3]]) -> Result<Tin, TinError> {
         .collect();
     // Bulk loading reorders the sites but carries each one's vertex number with it; it has no
     // randomness, so the same points give the same triangles.
-    let dt = DelaunayTriangulation::<Site>::bulk_load(sites).map_err(|_| TinError::TooFew { distinct: keep.len() })?;
+    let dt = DelaunayTriangulation::<Site>::bulk_load(sites).map_err(|e| TinError::Triangulation(format!("{e:?}")))?;
     let triangles: Vec<[u32; 3]> = dt.inner_faces().map(|f| f.vertices().map(|v| v.data().vertex)).collect();
     if triangles.is_empty() {
         return Err(TinError::Collinear { distinct: keep.len() });

@@ -102,8 +102,7 @@ fn timed<T>(runs: usize, mut f: impl FnMut() -> Result<T, String>) -> Result<(f6
         last = f()?;
         times.push(start.elapsed().as_secs_f64());
     }
-    times.sort_by(f64::total_cmp);
-    Ok((times[times.len() / 2], last))
+    Ok((crate::median(times), last))
 }
 
 fn runs_for(cells: u64, quick: bool) -> usize {
@@ -226,9 +225,8 @@ pub fn run(options: &Options) -> Result<Report, String> {
                 times.push(seconds);
                 last = Some(values);
             }
-            times.sort_by(f64::total_cmp);
             let acc = accuracy(&as_raster(last.expect("ran"), &template), &reference);
-            rows.push(row("gdal_grid", "linear", times[times.len() / 2], Some(cpu_roof), Some(acc), None));
+            rows.push(row("gdal_grid", "linear", crate::median(times), Some(cpu_roof), Some(acc), None));
         }
     }
     let _ = std::fs::remove_dir_all(&workdir);

@@ -7,6 +7,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use crate::median;
 use std::time::Instant;
 use tiff::decoder::{Decoder, DecodingResult};
 use tileraster::scenes::Rng;
@@ -39,11 +40,6 @@ fn run_timed(command: &mut Command) -> Result<f64, String> {
         return Err(format!("{command:?} failed: {}", String::from_utf8_lossy(&out.stderr)));
     }
     Ok(seconds)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 pub fn run(points: usize, size: u32) -> Result<String, String> {

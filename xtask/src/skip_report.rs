@@ -3,6 +3,7 @@
 //! once against preparing per window, and a sparse scene over growing grids.
 
 use std::fmt::Write as _;
+use crate::median;
 use std::time::Instant;
 use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Params, PreparedScene, Raster, Scene, Skips, Stats, Window};
 
@@ -22,11 +23,6 @@ fn interleaved<T>(runs: usize, mut a: impl FnMut() -> Result<T, String>, mut b: 
         tb.push(start.elapsed().as_secs_f64());
     }
     Ok((median(ta), median(tb), last_a, last_b))
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn ms(s: f64) -> String {

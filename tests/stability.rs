@@ -583,8 +583,9 @@ fn gradient(scene: &Scene, grid: &Grid, tri: [u32; 3], snap_bits: u32) -> f64 {
 
 /// Every covered cell lies within its owner's vertex heights, widened by `2^-21·max|z|` (a few
 /// `f32` roundings), `|∇z|·2^-(snap_bits-1)` (snapping may let a centre up to
-/// `2^-snap_bits·√2/2` px outside the unsnapped triangle own it) and `2^-147` (the rounding of
-/// subnormal results).
+/// `2^-snap_bits·√2/2` px outside the unsnapped triangle own it), `2^-147` (the rounding of
+/// subnormal results) and `(2 + w + h)·2^-150` (plane-f32's subnormal coefficients, rounded
+/// absolutely, times pixel offsets: docs/numeric-contract.md §6).
 fn check_no_overshoot(name: &str, scene: &Scene, grid: &Grid, raster: &Raster) -> Result<(), TestCaseError> {
     let owner = raster.owner.as_ref().unwrap();
     let width = raster.width() as usize;
@@ -597,7 +598,10 @@ fn check_no_overshoot(name: &str, scene: &Scene, grid: &Grid, raster: &Raster) -
         let (lo, hi) = (z[0].min(z[1]).min(z[2]), z[0].max(z[1]).max(z[2]));
         let zmax = z[0].abs().max(z[1].abs()).max(z[2].abs());
         let g = gradient(scene, grid, tri, raster.snap_bits);
-        let slack = zmax * 2f64.powi(-21) + g * 2f64.powi(1 - raster.snap_bits as i32) + 2f64.powi(-147);
+        // In the subnormal range each f32 rounding is absolute, up to 2^-150, and plane-f32's
+        // coefficients are scaled by pixel offsets below the grid's width and height.
+        let subnormal = (2.0 + grid.width as f64 + grid.height as f64) * 2f64.powi(-150);
+        let slack = zmax * 2f64.powi(-21) + g * 2f64.powi(1 - raster.snap_bits as i32) + 2f64.powi(-147) + subnormal;
         let value = *value as f64;
         prop_assert!(
             value >= lo - slack && value <= hi + slack,
@@ -1132,4 +1136,22 @@ fn non_finite_coordinates_are_named() {
             }
         }
     }
+}
+
+/// A case the property tests found: a plane-f32 triangle with subnormal heights whose f32
+/// coefficients, rounded absolutely, overshoot by tens of subnormal steps at a far pixel
+/// (docs/numeric-contract.md §6).
+#[test]
+fn subnormal_plane_f32_stays_within_its_absolute_bound() {
+    let grid = Grid::new(0.0, 63.0 * 0.05, 4_000_000.0, 4_000_000.0 + 152.0 * 0.025, 63, 152);
+    let scene = Scene::new(
+        vec![[1.684500967003627, 4000003.8, 1.3991397889882268e-39], [0.7772162573954957, 3999999.791050389, 0.0], [3.8002733566193587, 4000002.9320051474, 0.0]],
+        vec![[0, 1, 2]],
+    );
+    let params = Params::new(grid).with_mode(Mode::PlaneF32).with_outputs(Outputs { owner: true, coverage: true });
+    let raster = rasterise(&scene, &params, Backend::Cpu).unwrap();
+    let value = raster.value(40, 108);
+    assert!(raster.owner.as_ref().unwrap()[108 * 63 + 40] == 0, "the triangle covers pixel (40, 108)");
+    eprintln!("pixel (40, 108) = {value:e}");
+    check_no_overshoot("subnormal plane-f32", &scene, &grid, &raster).unwrap();
 }

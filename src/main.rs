@@ -4,7 +4,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skips, Window};
+mod cli;
+
+use cli::progress::{note, set_quiet, Progress};
+use cli::stream;
+use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skips, Window};
 use tileraster_io::{GeoTiffOptions, PointColumns};
 
 #[derive(Parser)]
@@ -54,8 +58,22 @@ enum Command {
         tr: Option<Vec<f64>>,
         /// Rasterise only this window of the grid (pixel offsets and size); its cells are bit
         /// for bit the whole run's, and the GeoTIFF is georeferenced to the window.
-        #[arg(long, num_args = 4, value_names = ["XOFF", "YOFF", "XSIZE", "YSIZE"])]
+        #[arg(long, num_args = 4, value_names = ["XOFF", "YOFF", "XSIZE", "YSIZE"], conflicts_with = "part")]
         window: Option<Vec<u32>>,
+        /// Rasterise only part K (counted from 0) of N bands of rows of the grid: the window a
+        /// cluster job's index picks (see docs/cluster.md). Mosaic the parts with
+        /// `tileraster mosaic`.
+        #[arg(long, value_name = "K/N", value_parser = part)]
+        part: Option<(u32, u32)>,
+        /// Also write the owner-triangle raster: a UInt32 GeoTIFF of the index of the triangle
+        /// each cell's value comes from (0-based, in the mesh's face order, or the order of the
+        /// Delaunay TIN's triangles for points), 4294967295 where none covers the cell.
+        #[arg(long, value_name = "FILE.tif")]
+        owner: Option<PathBuf>,
+        /// The most memory, in MiB, the raster may take at once (default: half the memory
+        /// available). Larger grids are rasterised in bands of rows and streamed to the file.
+        #[arg(long, value_name = "MIB")]
+        memory: Option<u64>,
         /// No messages on stderr but errors (and --stats when asked for).
         #[arg(short, long)]
         quiet: bool,
@@ -68,7 +86,8 @@ enum Command {
         #[arg(long = "a_srs", value_name = "EPSG:CODE", value_parser = tileraster_io::parse_epsg)]
         a_srs: Option<u16>,
         /// A GeoTIFF creation option, as gdal_grid's -co (repeatable): TILED=YES (256 × 256
-        /// tiles), COMPRESS=DEFLATE.
+        /// tiles), COMPRESS=DEFLATE, BIGTIFF=YES|NO|IF_NEEDED (default IF_NEEDED). Output
+        /// streamed in bands is tiled unless TILED=NO is given.
         #[arg(long = "co", value_name = "NAME=VALUE")]
         creation_options: Vec<String>,
         /// Also write a hillshaded PNG preview.
@@ -86,6 +105,16 @@ enum Command {
         /// not change. Names: cull_window, empty_tiles, full_tiles, overlap_free.
         #[arg(long = "no-skip", value_name = "SKIP", value_parser = skip_name)]
         no_skip: Vec<String>,
+    },
+    /// Write a VRT mosaic of GeoTIFF parts of one grid (from --part or --window runs), each
+    /// placed by its own georeferencing: GDAL then reads them as one raster.
+    Mosaic {
+        /// The VRT to write.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// The parts, in any order.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
     },
     /// Rasterise a built-in procedural terrain TIN on both backends, time them, compare them
     /// bit for bit, and write a GeoTIFF and a PNG preview.
@@ -114,61 +143,93 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { input, columns, output, txe, tye, outsize, tr, window, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
-            QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
-            let mut tiff_options = GeoTiffOptions { epsg: a_srs, ..Default::default() };
+        Command::Rasterise { input, columns, output, txe, tye, outsize, tr, window, part, owner, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
+            set_quiet(quiet);
+            let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
             for option in &creation_options {
-                tiff_options.apply(option)?;
+                tiff.apply(option)?;
             }
-            let scene = read_input(&input, &columns.unwrap_or_default())?;
             let (width, height) = match (outsize, tr) {
                 (Some(size), _) => (size[0], size[1]),
                 (None, Some(tr)) => (cells_for(txe[1] - txe[0], tr[0], "x")?, cells_for(tye[1] - tye[0], tr[1], "y")?),
                 (None, None) => return Err("give the raster size with --outsize WIDTH HEIGHT or the cell size with --tr XRES YRES".into()),
             };
             let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], width, height);
-            let window = window.map(|w| Window { x0: w[0], y0: w[1], width: w[2], height: w[3] });
+            grid.validate().map_err(|e| e.to_string())?;
+            let window = match (window, part) {
+                (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
+                (None, Some((k, n))) => part_window(&grid, k, n)?,
+                (None, None) => Window::whole(&grid),
+            };
+            let progress = Progress::start();
+            progress.stage(format!("reading {}", input.display()));
+            let scene = read_input(&input, &columns.unwrap_or_default(), &progress)?;
             let backend = choose_backend(backend)?;
-            let start = Instant::now();
             let mut skips = Skips::ALL;
             for name in &no_skip {
                 skips = skips.without(name);
             }
-            let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips);
-            let raster = rasterise_window(&scene, &params, window, backend).map_err(|e| e.to_string())?;
-            let took = start.elapsed();
-            tileraster_io::write_geotiff_with(&raster, &output, &tiff_options).map_err(|e| e.to_string())?;
-            if let Some(preview) = preview {
-                tileraster_io::write_preview_png(&raster, &preview).map_err(|e| e.to_string())?;
+            let outputs = tileraster::Outputs { owner: owner.is_some(), coverage: false };
+            let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(outputs);
+            let budget = memory.map_or_else(stream::default_memory_budget, |mib| mib << 20);
+            let band_rows = stream::band_rows(&window, stream::bytes_per_cell(owner.is_some(), backend), budget);
+            if band_rows < window.height {
+                if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
+                    tiff.tiled = true;
+                }
+                note(format!(
+                    "tileraster: {}×{} cells do not fit in {} MiB: rasterising bands of {band_rows} rows, streamed to a {} GeoTIFF",
+                    window.width,
+                    window.height,
+                    budget >> 20,
+                    if tiff.tiled { "tiled" } else { "striped" }
+                ));
             }
+            let files = stream::Outputs { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
+            let start = Instant::now();
+            let run = stream::rasterise_bands(&scene, &params, window, backend, band_rows, &files, &progress)?;
+            drop(progress);
+            let whole = window == Window::whole(&grid);
             note(format!(
-                "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, in {} (snapping step 2^-{} px) → {}",
+                "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, in {} (snapping step 2^-{} px){} → {}",
                 scene.triangles.len(),
                 grid.width,
                 grid.height,
-                window.map_or(String::new(), |w| format!(" (window {}×{} at {}, {})", w.width, w.height, w.x0, w.y0)),
+                if whole { String::new() } else { format!(" (window {}×{} at {}, {})", window.width, window.height, window.x0, window.y0) },
                 backend.name(),
                 mode.name(),
-                ms(took),
-                raster.snap_bits,
+                ms(start.elapsed()),
+                run.snap_bits,
+                match run.bands.len() {
+                    1 => String::new(),
+                    n => format!(", {n} bands"),
+                },
                 output.display()
             ));
             if stats {
-                eprintln!("{}", raster.stats.to_json());
+                for band in &run.bands {
+                    eprintln!("{}", band.to_json());
+                }
             }
             Ok(ExitCode::SUCCESS)
         }
+        Command::Mosaic { output, parts } => {
+            let parts = parts.iter().map(|p| tileraster_io::read_part(p)).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
+            let mosaic = tileraster_io::write_mosaic_vrt(&output, &parts).map_err(|e| e.to_string())?;
+            note(format!(
+                "tileraster: {} parts → {}×{} cells{} → {}",
+                parts.len(),
+                mosaic.width,
+                mosaic.height,
+                match mosaic.uncovered {
+                    0 => String::new(),
+                    n => format!(" ({n} cells in no part: nodata)"),
+                },
+                output.display()
+            ));
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Demo { output, size, cells } => demo(&output, size, cells),
-    }
-}
-
-/// `-q`: no messages but errors.
-static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// A message on stderr, unless `-q`.
-fn note(message: String) {
-    if !QUIET.load(std::sync::atomic::Ordering::Relaxed) {
-        eprintln!("{message}");
     }
 }
 
@@ -184,8 +245,27 @@ fn cells_for(extent: f64, res: f64, axis: &str) -> Result<u32, String> {
     Ok(cells as u32)
 }
 
+/// Band `k` of `n` equal bands of the grid's rows (the last may be shorter).
+fn part_window(grid: &Grid, k: u32, n: u32) -> Result<Window, String> {
+    let rows = grid.height.div_ceil(n);
+    let y0 = k as u64 * rows as u64;
+    if y0 >= grid.height as u64 {
+        return Err(format!("--part {k}/{n}: the grid's {} rows make only {} parts of {rows} rows; give fewer parts", grid.height, grid.height.div_ceil(rows)));
+    }
+    Ok(Window { x0: 0, y0: y0 as u32, width: grid.width, height: rows.min(grid.height - y0 as u32) })
+}
+
+fn part(s: &str) -> Result<(u32, u32), String> {
+    let parsed = s.split_once('/').and_then(|(k, n)| Some((k.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?)));
+    match parsed {
+        Some((k, n)) if k < n => Ok((k, n)),
+        Some((k, n)) => Err(format!("part {k} of {n}: parts are counted from 0, so K must be less than N")),
+        None => Err(format!("'{s}' is not K/N (part K, counted from 0, of N)")),
+    }
+}
+
 /// The scene in `path`: a mesh, or the Delaunay TIN of a point file, by its extension.
-fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
+fn read_input(path: &Path, columns: &PointColumns, progress: &Progress) -> Result<Scene, String> {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
     match extension.as_str() {
         "obj" => tileraster_io::read_obj(path).map_err(|e| e.to_string()),
@@ -197,6 +277,7 @@ fn read_input(path: &Path, columns: &PointColumns) -> Result<Scene, String> {
                 _ => tileraster_io::read_points(path, columns),
             }
             .map_err(|e| e.to_string())?;
+            progress.stage(format!("triangulating {} points", points.len()));
             let tin = tileraster_tin::triangulate(&points).map_err(|e| format!("{}: {e}", path.display()))?;
             note(format!(
                 "tileraster: {} points from {}{} → Delaunay TIN of {} triangles",

@@ -368,3 +368,118 @@ fn las_and_laz_points_give_the_csv_raster() {
     assert_eq!(rasters[0], rasters[2], "LAZ differs from CSV");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+fn read_tif_u32(tif: &Path) -> Vec<u32> {
+    let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(tif).unwrap())).unwrap();
+    let DecodingResult::U32(values) = decoder.read_image().unwrap() else { panic!("not UInt32") };
+    values
+}
+
+fn assert_same_bits(a: &[f32], b: &[f32], what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}: cell counts");
+    if let Some(k) = (0..a.len()).find(|&k| a[k].to_bits() != b[k].to_bits()) {
+        panic!("{what}: cell {k} is {} against {}", a[k], b[k]);
+    }
+}
+
+/// A grid too large for `--memory` is rasterised in bands and streamed to a tiled file with
+/// the single run's cells; the owner raster is the library's.
+#[test]
+fn bands_streamed_within_a_memory_budget_give_the_single_runs_cells() {
+    let dir = scratch("bands");
+    let scene = scenes::terrain(0.0, 0.0, 600.0, 900.0, 9, 13, 8);
+    let obj = dir.join("m.obj");
+    write_obj(&scene, &obj);
+    let grid = ["--txe", "-20", "610", "--tye", "-5", "905", "--outsize", "700", "1100"];
+    let (single, banded, owner) = (dir.join("single.tif"), dir.join("banded.tif"), dir.join("owner.tif"));
+    let out = rasterise_cli(&obj, &single, &grid);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // 1 MiB holds 187 rows of 700 cells with their owners: bands of one tile row, 256.
+    let args = [&grid[..], &["--memory", "1", "--owner", owner.to_str().unwrap(), "--stats"]].concat();
+    let out = rasterise_cli(&obj, &banded, &args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("rasterising bands of 256 rows, streamed to a tiled GeoTIFF") && stderr.contains("5 bands"), "{stderr}");
+    assert_eq!(stderr.lines().filter(|l| l.starts_with('{')).count(), 5, "one statistics object per band: {stderr}");
+    let tile = Decoder::new(std::io::BufReader::new(std::fs::File::open(&banded).unwrap())).unwrap().find_tag(Tag::TileWidth).unwrap();
+    assert_eq!(tile.map(|v| v.into_u32().unwrap()), Some(256), "streamed output is tiled");
+    assert_same_bits(&read_tif_values(&banded), &read_tif_values(&single), "banded against single");
+
+    let params = Params::new(Grid::new(-20.0, 610.0, -5.0, 905.0, 700, 1100))
+        .with_nodata(-9999.0)
+        .with_outputs(tileraster::Outputs { owner: true, coverage: false });
+    let expected = rasterise(&scene, &params, Backend::Cpu).unwrap();
+    let owners = read_tif_u32(&owner);
+    assert_eq!(&owners, expected.owner.as_ref().unwrap(), "the owner raster is the library's");
+    assert!(owners.contains(&u32::MAX) && owners.iter().all(|&t| t == u32::MAX || (t as usize) < scene.triangles.len()));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The cluster recipe, locally: each `--part K/N` as its own process, all at once, mosaicked
+/// by `tileraster mosaic` into a VRT whose cells are the single run's. GDAL reads the VRT
+/// when it is installed.
+#[test]
+fn parts_run_as_separate_processes_mosaic_to_the_single_run() {
+    let dir = scratch("parts");
+    let scene = scenes::terrain(500_000.0, 5_000_000.0, 3000.0, 2000.0, 12, 8, 3);
+    let obj = dir.join("m.obj");
+    write_obj(&scene, &obj);
+    let grid = ["--txe", "500000", "503000", "--tye", "5000000", "5002000", "--outsize", "333", "500", "--a_srs", "EPSG:32633", "-q"];
+    let single = dir.join("single.tif");
+    assert!(rasterise_cli(&obj, &single, &grid).status.success());
+    const N: u32 = 3;
+    let parts: Vec<PathBuf> = (0..N).map(|k| dir.join(format!("part-{k}.tif"))).collect();
+    let jobs: Vec<_> = (0..N)
+        .map(|k| {
+            let part = format!("{k}/{N}");
+            bin()
+                .args(["rasterise", obj.to_str().unwrap(), "-o", parts[k as usize].to_str().unwrap(), "--backend", "cpu", "--part", &part])
+                .args(grid)
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for mut job in jobs {
+        assert!(job.wait().unwrap().success());
+    }
+    let vrt = dir.join("mosaic.vrt");
+    // Listed backwards: each part is placed by its own georeferencing.
+    let out = bin().args(["mosaic", "-o", vrt.to_str().unwrap()]).args(parts.iter().rev()).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let xml = std::fs::read_to_string(&vrt).unwrap();
+    assert!(xml.contains("rasterXSize=\"333\" rasterYSize=\"500\"") && xml.contains("<SRS>EPSG:32633</SRS>"), "{xml}");
+
+    // The mosaic as the VRT says: each part's cells at its DstRect.
+    let whole = read_tif_values(&single);
+    let mut mosaic = vec![f32::NAN; whole.len()];
+    for source in xml.split("<SimpleSource>").skip(1) {
+        let name = source.split("\">").nth(1).unwrap().split('<').next().unwrap();
+        let attr = |key: &str| -> usize { source.split("<DstRect").nth(1).unwrap().split(&format!("{key}=\"")).nth(1).unwrap().split('"').next().unwrap().parse().unwrap() };
+        let (x, y, w) = (attr("xOff"), attr("yOff"), attr("xSize"));
+        for (k, v) in read_tif_values(&dir.join(name)).into_iter().enumerate() {
+            mosaic[(y + k / w) * 333 + x + k % w] = v;
+        }
+    }
+    assert_same_bits(&mosaic, &whole, "the VRT's parts against the single run");
+
+    match Command::new("gdal_translate").arg("--version").output() {
+        Ok(version) if version.status.success() => {
+            let through_gdal = dir.join("mosaic.tif");
+            let out = Command::new("gdal_translate").args(["-q", vrt.to_str().unwrap(), through_gdal.to_str().unwrap()]).output().unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            assert_same_bits(&read_tif_values(&through_gdal), &whole, "GDAL's reading of the VRT against the single run");
+        }
+        _ => eprintln!("NOTE: gdal_translate is not installed; the VRT was checked by its own rectangles only"),
+    }
+
+    let out = rasterise_cli(&obj, &dir.join("none.tif"), &[&grid[..], &["--part", "3/3"]].concat());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("counted from 0, so K must be less than N"));
+    let out = rasterise_cli(&obj, &dir.join("none.tif"), &[&grid[..], &["--part", "499/500"]].concat());
+    assert!(out.status.success(), "500 parts of one row each");
+    let out = rasterise_cli(&obj, &dir.join("none.tif"), &[&grid[..], &["--part", "300/400"]].concat());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("give fewer parts"), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = bin().args(["mosaic", "-o", dir.join("bad.vrt").to_str().unwrap(), single.to_str().unwrap(), obj.to_str().unwrap()]).output().unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("m.obj: not a readable TIFF"));
+    assert!(!dir.join("bad.vrt").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

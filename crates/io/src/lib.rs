@@ -1,5 +1,6 @@
 //! File formats: meshes (OBJ, PLY, STL) and point sets (CSV and XYZ text, LAS and LAZ) in;
-//! single-band Float32 GeoTIFF and PNG hillshade previews out.
+//! single-band GeoTIFFs (streamed band by band), VRT mosaics of them, and PNG hillshade
+//! previews out.
 //! Writers go through a temporary file in the destination's folder and rename it into place,
 //! so a failed run never leaves a partial file behind.
 
@@ -10,14 +11,16 @@ mod ply;
 mod points;
 mod preview;
 mod stl;
+mod vrt;
 
-pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, GeoTiffOptions};
+pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, GeoTiffOptions, GeoTiffWriter, Sample, TILE};
 pub use obj::{parse_obj, read_obj};
 pub use las::read_las;
 pub use ply::{parse_ply, read_ply};
 pub use stl::{parse_stl, read_stl};
 pub use points::{parse_points, read_points, Column, PointColumns};
 pub use preview::write_preview_png;
+pub use vrt::{read_part, write_mosaic_vrt, Mosaic, Part};
 
 use std::path::{Path, PathBuf};
 

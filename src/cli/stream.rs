@@ -1,0 +1,155 @@
+//! A run's window, rasterised in bands of rows and streamed to its files: prepared once,
+//! each band rasterised and written before the next, so memory holds one band whatever the
+//! grid's size. Every band's cells are the whole grid's there, so the files do not depend
+//! on how the window was cut.
+
+use super::progress::Progress;
+use std::path::Path;
+use tileraster::{Backend, Grid, Params, PreparedScene, Raster, Scene, Stats, Window};
+use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample, TILE};
+
+/// Where a run's results go.
+pub struct Outputs<'a> {
+    pub heights: &'a Path,
+    /// The owner-triangle raster (UInt32), if asked for.
+    pub owner: Option<&'a Path>,
+    pub preview: Option<&'a Path>,
+    pub tiff: GeoTiffOptions,
+}
+
+/// What a run did.
+pub struct Run {
+    /// Each band's statistics, top to bottom.
+    pub bands: Vec<Stats>,
+    pub snap_bits: u32,
+}
+
+/// The longest side of a preview; larger windows are sampled every few cells.
+pub const PREVIEW_SIDE: u32 = 4096;
+
+/// Bytes a band holds per cell: each layer's 4, twice on the GPU (the device copy is read
+/// back into the host's).
+pub fn bytes_per_cell(owner: bool, backend: Backend) -> u64 {
+    let layers = 1 + owner as u64;
+    4 * layers * if backend == Backend::Gpu { 2 } else { 1 }
+}
+
+/// Rows per band: as many whole tile rows as `budget` bytes hold (at least one tile row),
+/// or the whole window when it fits.
+pub fn band_rows(window: &Window, bytes_per_cell: u64, budget: u64) -> u32 {
+    let row = (window.width as u64 * bytes_per_cell).max(1);
+    if row * window.height as u64 <= budget {
+        return window.height;
+    }
+    let rows = (budget / row) / TILE as u64 * TILE as u64;
+    rows.max(TILE as u64).min(window.height as u64) as u32
+}
+
+/// Rasterise `window` of `params.grid` band by band into `outputs`.
+pub fn rasterise_bands(
+    scene: &Scene,
+    params: &Params,
+    window: Window,
+    backend: Backend,
+    band_rows: u32,
+    outputs: &Outputs,
+    progress: &Progress,
+) -> Result<Run, String> {
+    let text = |e: tileraster_io::IoError| e.to_string();
+    let prepared = tileraster::prepare(scene, params, Some(window)).map_err(|e| e.to_string())?;
+    let mut scene = PreparedScene::from_prepared(prepared, backend);
+    let grid = &params.grid;
+    let mut heights = GeoTiffWriter::create(outputs.heights, grid, window, Sample::Float32 { nodata: params.nodata }, &outputs.tiff).map_err(text)?;
+    let mut owner = outputs.owner.map(|path| GeoTiffWriter::create(path, grid, window, Sample::UInt32, &outputs.tiff)).transpose().map_err(text)?;
+    let mut preview = outputs.preview.map(|_| Sampled::new(grid, window, params.nodata));
+    let mut run = Run { bands: Vec::new(), snap_bits: 0 };
+    progress.rows("rasterising", window.height as u64);
+    for y in (0..window.height).step_by(band_rows as usize) {
+        let band = Window { x0: window.x0, y0: window.y0 + y, width: window.width, height: band_rows.min(window.height - y) };
+        let raster = scene.rasterise_window(band).map_err(|e| e.to_string())?;
+        heights.write_rows(&raster.values).map_err(text)?;
+        if let Some(file) = &mut owner {
+            file.write_rows(raster.owner.as_deref().expect("the owner layer was asked for")).map_err(text)?;
+        }
+        if let Some(sampled) = &mut preview {
+            sampled.add(&raster);
+        }
+        run.snap_bits = raster.snap_bits;
+        run.bands.push(raster.stats);
+        progress.advance(band.height as u64);
+    }
+    progress.stage("writing");
+    heights.finish().map_err(text)?;
+    if let Some(file) = owner {
+        file.finish().map_err(text)?;
+    }
+    if let (Some(path), Some(sampled)) = (outputs.preview, preview) {
+        tileraster_io::write_preview_png(&sampled.into_raster(run.snap_bits), path).map_err(text)?;
+    }
+    Ok(run)
+}
+
+/// Every `step`-th cell of every `step`-th row of a window, gathered band by band: a preview
+/// of at most `PREVIEW_SIDE` cells a side.
+struct Sampled {
+    step: u32,
+    window: Window,
+    grid: Grid,
+    nodata: f32,
+    width: u32,
+    values: Vec<f32>,
+}
+
+impl Sampled {
+    fn new(grid: &Grid, window: Window, nodata: f32) -> Sampled {
+        let step = window.width.max(window.height).div_ceil(PREVIEW_SIDE).max(1);
+        let width = window.width.div_ceil(step);
+        let cells = width as usize * window.height.div_ceil(step) as usize;
+        Sampled { step, window, grid: *grid, nodata, width, values: Vec::with_capacity(cells) }
+    }
+
+    fn add(&mut self, band: &Raster) {
+        for j in 0..band.height() {
+            if (band.window.y0 + j - self.window.y0).is_multiple_of(self.step) {
+                self.values.extend((0..band.width()).step_by(self.step as usize).map(|i| band.value(i, j)));
+            }
+        }
+    }
+
+    /// The samples as a raster of their own coarse grid over the window.
+    fn into_raster(self, snap_bits: u32) -> Raster {
+        let height = (self.values.len() / self.width as usize) as u32;
+        let (dx, dy) = (self.grid.dx() * self.step as f64, self.grid.dy() * self.step as f64);
+        let xmin = self.grid.xmin + self.window.x0 as f64 * self.grid.dx();
+        let ymax = self.grid.ymax - self.window.y0 as f64 * self.grid.dy();
+        let grid = Grid::new(xmin, xmin + dx * self.width as f64, ymax - dy * height as f64, ymax, self.width, height);
+        Raster { grid, window: Window::whole(&grid), nodata: self.nodata, values: self.values, owner: None, coverage: None, snap_bits, stats: Stats::default() }
+    }
+}
+
+/// Half the memory the system says is available (`MemAvailable`), or 2 GiB where it does
+/// not say.
+pub fn default_memory_budget() -> u64 {
+    let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|text| {
+        let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+        let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kib * 1024)
+    });
+    available.map_or(2 << 30, |bytes| bytes / 2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bands_are_whole_tile_rows_within_the_budget() {
+        let window = Window { x0: 0, y0: 0, width: 1000, height: 3000 };
+        assert_eq!(band_rows(&window, 4, 12_000_000), 3000, "fits whole");
+        assert_eq!(band_rows(&window, 4, 4_000 * 700), 512);
+        assert_eq!(band_rows(&window, 8, 4_000 * 700), 256);
+        assert_eq!(band_rows(&window, 4, 1), 256, "at least one tile row");
+        let short = Window { x0: 0, y0: 0, width: 100_000, height: 100 };
+        assert_eq!(band_rows(&short, 4, 1), 100, "never more than the window");
+    }
+}

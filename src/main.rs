@@ -191,7 +191,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             drop(progress);
             let whole = window == Window::whole(&grid);
             note(format!(
-                "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, in {} (snapping step 2^-{} px){} → {}",
+                "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, rasterised and written in {} (snapping step 2^-{} px){} → {}",
                 scene.triangles.len(),
                 grid.width,
                 grid.height,
@@ -272,22 +272,26 @@ fn read_input(path: &Path, columns: &PointColumns, progress: &Progress) -> Resul
         "ply" => tileraster_io::read_ply(path).map_err(|e| e.to_string()),
         "stl" => tileraster_io::read_stl(path).map_err(|e| e.to_string()),
         "csv" | "xyz" | "txt" | "pts" | "las" | "laz" => {
+            let start = Instant::now();
             let points = match extension.as_str() {
                 "las" | "laz" => tileraster_io::read_las(path),
                 _ => tileraster_io::read_points(path, columns),
             }
             .map_err(|e| e.to_string())?;
+            let read = start.elapsed();
             progress.stage(format!("triangulating {} points", points.len()));
             let tin = tileraster_tin::triangulate(&points).map_err(|e| format!("{}: {e}", path.display()))?;
             note(format!(
-                "tileraster: {} points from {}{} → Delaunay TIN of {} triangles",
+                "tileraster: {} points from {} in {}{} → Delaunay TIN of {} triangles in {}",
                 points.len(),
                 path.display(),
+                ms(read),
                 match tin.duplicates {
                     0 => String::new(),
                     n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
                 },
-                tin.scene.triangles.len()
+                tin.scene.triangles.len(),
+                ms(start.elapsed() - read)
             ));
             Ok(tin.scene)
         }

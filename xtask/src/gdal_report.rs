@@ -14,7 +14,7 @@ use tileraster::scenes::Rng;
 
 const NODATA: f32 = -9999.0;
 
-fn read_values(path: &Path) -> Result<Vec<f32>, String> {
+pub(crate) fn read_values(path: &Path) -> Result<Vec<f32>, String> {
     let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(|e| format!("{}: {e}", path.display()))?;
     match decoder.read_image().map_err(|e| format!("{}: {e}", path.display()))? {
@@ -42,6 +42,22 @@ fn run_timed(command: &mut Command) -> Result<f64, String> {
     Ok(seconds)
 }
 
+/// `points` random points of a gently sloping surface as `dir/points.csv`, and their extent
+/// (xmin, xmax, ymin, ymax).
+pub(crate) fn write_points_csv(dir: &Path, points: usize) -> Result<(PathBuf, [f64; 4]), String> {
+    let (x0, y0, extent) = (500_000.0, 5_000_000.0, 10_000.0);
+    let mut rng = Rng::new(7);
+    let mut csv = String::from("x,y,z\n");
+    for _ in 0..points {
+        let (u, v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+        let z = 300.0 + 50.0 * u + 30.0 * v + 20.0 * (6.0 * u).sin() * (4.0 * v).cos() + rng.range(0.0, 5.0);
+        let _ = writeln!(csv, "{:?},{:?},{z:?}", x0 + u * extent, y0 + v * extent);
+    }
+    let path = dir.join("points.csv");
+    std::fs::write(&path, csv).map_err(|e| e.to_string())?;
+    Ok((path, [x0, x0 + extent, y0, y0 + extent]))
+}
+
 pub fn run(points: usize, size: u32) -> Result<String, String> {
     let Some(version) = tileraster_peers::gdal_grid_version() else {
         return Ok("gdal_grid is not installed here, so there is no comparison (Debian: apt install gdal-bin).\n".into());
@@ -52,16 +68,7 @@ pub fn run(points: usize, size: u32) -> Result<String, String> {
     }
     let dir = std::env::temp_dir().join(format!("tileraster-gdal-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let (x0, y0, extent) = (500_000.0, 5_000_000.0, 10_000.0);
-    let mut rng = Rng::new(7);
-    let mut csv = String::from("x,y,z\n");
-    for _ in 0..points {
-        let (u, v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
-        let z = 300.0 + 50.0 * u + 30.0 * v + 20.0 * (6.0 * u).sin() * (4.0 * v).cos() + rng.range(0.0, 5.0);
-        let _ = writeln!(csv, "{:?},{:?},{z:?}", x0 + u * extent, y0 + v * extent);
-    }
-    let csv_path = dir.join("points.csv");
-    std::fs::write(&csv_path, csv).map_err(|e| e.to_string())?;
+    let (csv_path, [x0, x1, y0, y1]) = write_points_csv(&dir, points)?;
     let vrt = dir.join("points.vrt");
     std::fs::write(
         &vrt,
@@ -73,7 +80,7 @@ pub fn run(points: usize, size: u32) -> Result<String, String> {
     )
     .map_err(|e| e.to_string())?;
     let (ours, theirs) = (dir.join("tileraster.tif"), dir.join("gdal.tif"));
-    let (txe, tye) = ([x0.to_string(), (x0 + extent).to_string()], [y0.to_string(), (y0 + extent).to_string()]);
+    let (txe, tye) = ([x0.to_string(), x1.to_string()], [y0.to_string(), y1.to_string()]);
     let n = size.to_string();
     let mut tileraster = Command::new(&bin);
     tileraster.args(["rasterise", csv_path.to_str().unwrap(), "-o", ours.to_str().unwrap(), "--backend", "cpu", "-q", "--nodata", "-9999"]);

@@ -1,0 +1,181 @@
+//! `cargo xtask stream-report [POINTS] [SIZE] [MEMORY_MIB]`: the command line at scale, as
+//! users run it (release build, CPU backend, whole processes).
+//!
+//! - Cluster recipe, locally: the grid cut into `--part K/N` windows, each part its own
+//!   process, all started at once; `tileraster mosaic` builds the VRT; the mosaic's cells,
+//!   read through GDAL when it is installed, are compared bit for bit with the single run.
+//! - A grid larger than the memory it may use: `SIZE`² cells with `--memory MEMORY_MIB`,
+//!   streamed in bands to a tiled (Big)TIFF; the peak resident memory of the process, and
+//!   windows of the file compared bit for bit with `--window` runs of the same cells.
+//!
+//! Prints markdown.
+
+use crate::gdal_report::{read_values, write_points_csv};
+use crate::median;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+use tiff::decoder::{Decoder, DecodingResult};
+
+/// A finished child process: wall seconds and peak resident memory (bytes).
+struct Measured {
+    seconds: f64,
+    peak_rss: u64,
+}
+
+/// Run `command` to its end, with its own peak resident set size from `wait4`.
+fn measure(command: &mut Command) -> Result<Measured, String> {
+    let start = Instant::now();
+    let child = command.stderr(std::process::Stdio::piped()).spawn().map_err(|e| format!("{command:?}: {e}"))?;
+    let pid = child.id() as libc::pid_t;
+    let mut stderr = child.stderr.ok_or("no stderr")?;
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut stderr, &mut text).map_err(|e| e.to_string())?;
+    let (mut status, mut usage) = (0, unsafe { std::mem::zeroed::<libc::rusage>() });
+    // SAFETY: `pid` is our child, not yet waited for; both out-pointers are valid.
+    if unsafe { libc::wait4(pid, &mut status, 0, &mut usage) } != pid {
+        return Err(format!("{command:?}: wait4 failed"));
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
+        return Err(format!("{command:?} failed: {text}"));
+    }
+    Ok(Measured { seconds, peak_rss: usage.ru_maxrss as u64 * 1024 })
+}
+
+fn mib(bytes: u64) -> String {
+    format!("{:.0} MiB", bytes as f64 / (1 << 20) as f64)
+}
+
+fn same_bits(a: &[f32], b: &[f32]) -> u64 {
+    a.iter().zip(b).filter(|(x, y)| x.to_bits() != y.to_bits()).count() as u64 + a.len().abs_diff(b.len()) as u64
+}
+
+/// The cells of `window` (tile-aligned) of a tiled file, read tile by tile.
+fn read_tiled_window(path: &Path, x0: u32, y0: u32, size: u32) -> Result<Vec<f32>, String> {
+    let text = |e: tiff::TiffError| format!("{}: {e}", path.display());
+    let mut d = Decoder::new(std::io::BufReader::new(std::fs::File::open(path).map_err(|e| e.to_string())?)).map_err(text)?;
+    let (width, _) = d.dimensions().map_err(text)?;
+    let (tw, th) = d.chunk_dimensions();
+    if ![x0, size].iter().all(|v| v.is_multiple_of(tw)) || ![y0, size].iter().all(|v| v.is_multiple_of(th)) {
+        return Err(format!("window ({x0}, {y0}) {size}² is not aligned to {tw}×{th} tiles"));
+    }
+    let across = width.div_ceil(tw);
+    let mut cells = vec![0f32; (size * size) as usize];
+    for ty in 0..size / th {
+        for tx in 0..size / tw {
+            let index = (y0 / th + ty) * across + x0 / tw + tx;
+            let DecodingResult::F32(tile) = d.read_chunk(index).map_err(text)? else { return Err("not Float32".into()) };
+            for row in 0..th {
+                let to = ((ty * th + row) * size + tx * tw) as usize;
+                cells[to..to + tw as usize].copy_from_slice(&tile[(row * tw) as usize..][..tw as usize]);
+            }
+        }
+    }
+    Ok(cells)
+}
+
+pub fn run(points: usize, size: u32, memory_mib: u64) -> Result<String, String> {
+    let bin = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/release/tileraster");
+    if !bin.exists() {
+        return Ok(format!("Not measured: {} is missing (`cargo build --release --bin tileraster` builds it).\n", bin.display()));
+    }
+    let dir = std::env::temp_dir().join(format!("tileraster-stream-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let result = report(&bin, &dir, points, size, memory_mib);
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+fn report(bin: &Path, dir: &Path, points: usize, size: u32, memory_mib: u64) -> Result<String, String> {
+    let (csv, extent) = write_points_csv(dir, points)?;
+    let grid_args = |n: u32| -> Vec<String> {
+        let [x0, x1, y0, y1] = extent.map(|v| v.to_string());
+        let n = n.to_string();
+        ["--txe", &x0, &x1, "--tye", &y0, &y1, "--outsize", &n, &n, "--nodata", "-9999", "--backend", "cpu", "-q"].map(String::from).to_vec()
+    };
+    let rasterise = |out: &Path, n: u32, extra: &[&str]| {
+        let mut c = Command::new(bin);
+        c.arg("rasterise").arg(&csv).arg("-o").arg(out).args(grid_args(n)).args(extra);
+        c
+    };
+    let mut s = String::new();
+
+    // The cluster recipe, locally.
+    const CLUSTER: u32 = 4096;
+    const PARTS: u32 = 8;
+    let single = dir.join("single.tif");
+    let (mut t_single, mut t_parts) = (Vec::new(), Vec::new());
+    let parts: Vec<PathBuf> = (0..PARTS).map(|k| dir.join(format!("part-{k}.tif"))).collect();
+    for _ in 0..3 {
+        eprintln!("stream-report: single run, {PARTS} parts ...");
+        t_single.push(measure(&mut rasterise(&single, CLUSTER, &[]))?.seconds);
+        let start = Instant::now();
+        let jobs: Vec<_> = (0..PARTS)
+            .map(|k| rasterise(&parts[k as usize], CLUSTER, &["--part", &format!("{k}/{PARTS}")]).spawn().map_err(|e| e.to_string()))
+            .collect::<Result<_, _>>()?;
+        for mut job in jobs {
+            if !job.wait().map_err(|e| e.to_string())?.success() {
+                return Err("a part failed".into());
+            }
+        }
+        t_parts.push(start.elapsed().as_secs_f64());
+    }
+    let vrt = dir.join("mosaic.vrt");
+    let out = Command::new(bin).args(["mosaic", "-o"]).arg(&vrt).args(&parts).output().map_err(|e| e.to_string())?;
+    if !out.status.success() {
+        return Err(format!("mosaic failed: {}", String::from_utf8_lossy(&out.stderr)));
+    }
+    let whole = read_values(&single)?;
+    let through = match tileraster_peers::gdal_grid_version() {
+        Some(_) => {
+            let tif = dir.join("mosaic.tif");
+            let out = Command::new("gdal_translate").args(["-q"]).arg(&vrt).arg(&tif).output().map_err(|e| e.to_string())?;
+            if !out.status.success() {
+                return Err(format!("gdal_translate failed: {}", String::from_utf8_lossy(&out.stderr)));
+            }
+            let differ = same_bits(&read_values(&tif)?, &whole);
+            format!("read through GDAL's `gdal_translate`: {differ} of {} cells differ from the single run", whole.len())
+        }
+        None => "GDAL is not installed here, so the VRT was not read back through GDAL".into(),
+    };
+    let _ = writeln!(
+        s,
+        "**Cluster recipe, locally.** {points} CSV points onto {CLUSTER}² cells, cut into {PARTS} `--part K/{PARTS}` windows, each its own process, \
+         all started at once; `tileraster mosaic` wrote the VRT, {through}. Medians of 3: the single run {:.0} ms, the {PARTS} parts together {:.0} ms \
+         (each part reads and triangulates all the points again).\n",
+        median(t_single) * 1e3,
+        median(t_parts) * 1e3
+    );
+
+    // Larger than the memory it may use.
+    let big = dir.join("big.tif");
+    let memory = memory_mib.to_string();
+    eprintln!("stream-report: {size}² with --memory {memory_mib} ...");
+    let m = measure(&mut rasterise(&big, size, &["--memory", &memory]))?;
+    let file = std::fs::metadata(&big).map_err(|e| e.to_string())?.len();
+    let bigtiff = std::fs::read(&big).map(|b| b.get(2) == Some(&43)).unwrap_or(false);
+    let raster_bytes = size as u64 * size as u64 * 4;
+    let mut checked = Vec::new();
+    for (x0, y0) in [(0, 0), (size / 2 / 256 * 256, size / 3 / 256 * 256), (size - 1024, size - 1024)] {
+        let window = dir.join("window.tif");
+        let w = [x0.to_string(), y0.to_string(), "1024".into(), "1024".into()];
+        measure(&mut rasterise(&window, size, &["--window", &w[0], &w[1], &w[2], &w[3]]))?;
+        let differ = same_bits(&read_tiled_window(&big, x0, y0, 1024)?, &read_values(&window)?);
+        checked.push(format!("({x0}, {y0}): {differ} differ"));
+    }
+    let _ = writeln!(
+        s,
+        "**Larger than the memory it may use.** The same points onto {size}² cells ({} of Float32) with `--memory {memory_mib}`: \
+         {:.1} s, peak resident memory {} for the whole process (points, TIN and all), a {} tiled {} written band by band. \
+         Three 1024² windows of the file, read tile by tile, against `--window` runs of the same cells: {}.\n",
+        mib(raster_bytes),
+        m.seconds,
+        mib(m.peak_rss),
+        mib(file),
+        if bigtiff { "BigTIFF" } else { "classic TIFF" },
+        checked.join("; ")
+    );
+    Ok(s)
+}

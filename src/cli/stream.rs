@@ -152,4 +152,25 @@ mod tests {
         let short = Window { x0: 0, y0: 0, width: 100_000, height: 100 };
         assert_eq!(band_rows(&short, 4, 1), 100, "never more than the window");
     }
+
+    /// A preview of a window wider than `PREVIEW_SIDE` samples every third cell of every
+    /// third row, across bands, and keeps the window's georeferencing.
+    #[test]
+    fn previews_sample_large_windows_across_bands() {
+        let grid = Grid::new(0.0, 20_000.0, 0.0, 100.0, 10_000, 50);
+        let window = Window { x0: 0, y0: 10, width: 10_000, height: 7 };
+        let mut sampled = Sampled::new(&grid, window, -1.0);
+        assert_eq!((sampled.step, sampled.width), (3, 3334));
+        for (y0, height) in [(10, 4), (14, 3)] {
+            let band = Window { x0: 0, y0, width: 10_000, height };
+            let values = (0..band.pixel_count()).map(|k| (y0 as u64 * 100_000 + k) as f32).collect();
+            let raster = Raster { grid, window: band, nodata: -1.0, values, owner: None, coverage: None, snap_bits: 0, stats: Stats::default() };
+            sampled.add(&raster);
+        }
+        let preview = sampled.into_raster(0);
+        assert_eq!((preview.width(), preview.height()), (3334, 3), "rows 10, 13 and 16 of the grid");
+        assert_eq!(preview.value(1, 1), (10 * 100_000 + 3 * 10_000 + 3) as f32, "row 13 is the first band's fourth");
+        assert_eq!(preview.value(0, 2), (14 * 100_000 + 2 * 10_000) as f32, "row 16 is the second band's third");
+        assert_eq!((preview.grid.xmin, preview.grid.ymax, preview.grid.dx()), (0.0, 80.0, 6.0));
+    }
 }

@@ -37,14 +37,26 @@ pub struct Mosaic {
 
 /// Read a part's size, georeferencing, nodata, sample type and EPSG code.
 pub fn read_part(path: &Path) -> Result<Part, IoError> {
-    let fail = |message: String| IoError::Format { path: path.to_owned(), message };
     let file = std::fs::File::open(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
-    let mut d = Decoder::new(std::io::BufReader::new(file)).map_err(|e| fail(format!("not a readable TIFF: {e}")))?;
+    part_from(std::io::BufReader::new(file), path)
+}
+
+/// [`read_part`] of a file's bytes; errors name `origin`.
+pub fn parse_part(bytes: &[u8], origin: &Path) -> Result<Part, IoError> {
+    part_from(std::io::Cursor::new(bytes), origin)
+}
+
+fn part_from<R: std::io::Read + std::io::Seek>(reader: R, path: &Path) -> Result<Part, IoError> {
+    let fail = |message: String| IoError::Format { path: path.to_owned(), message };
+    let mut d = Decoder::new(reader).map_err(|e| fail(format!("not a readable TIFF: {e}")))?;
     let (width, height) = d.dimensions().map_err(|e| fail(e.to_string()))?;
     let scale = d.get_tag_f64_vec(Tag::ModelPixelScaleTag).map_err(|_| fail("no ModelPixelScale tag: not georeferenced".into()))?;
     let tie = d.get_tag_f64_vec(Tag::ModelTiepointTag).map_err(|_| fail("no ModelTiepoint tag: not georeferenced".into()))?;
     if scale.len() < 2 || tie.len() < 6 || tie[0] != 0.0 || tie[1] != 0.0 {
         return Err(fail("georeferenced other than by one tie point at pixel (0, 0) and a pixel scale".into()));
+    }
+    if !(scale[0].is_finite() && scale[1].is_finite() && scale[0] > 0.0 && scale[1] > 0.0 && tie[3].is_finite() && tie[4].is_finite()) {
+        return Err(fail(format!("cell size {} × {} at corner ({}, {}): not a north-up grid of positive, finite cells", scale[0], scale[1], tie[3], tie[4])));
     }
     let bits = d.get_tag_u32(Tag::BitsPerSample).map_err(|e| fail(e.to_string()))?;
     let format = d.find_tag(Tag::SampleFormat).ok().flatten().and_then(|v| v.into_u32().ok()).unwrap_or(1);
@@ -188,6 +200,29 @@ mod tests {
         let gappy = [part("a.tif", 10, 10, 0.0, 100.0), part("b.tif", 10, 10, 50.0, 100.0), part("c.tif", 10, 10, 12.5, 100.0)];
         // Columns 0..15 and 20..30 of 30, ten rows each.
         assert_eq!(write_mosaic_vrt(&vrt, &gappy).unwrap().uncovered, 300 - 250);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn parts_are_read_from_the_files_written() {
+        use crate::{GeoTiffOptions, GeoTiffWriter, Sample};
+        use tileraster_core::{Grid, Window};
+        let dir = std::env::temp_dir().join(format!("tileraster-vrt-read-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (path, grid) = (dir.join("p.tif"), Grid::new(100.0, 200.0, 0.0, 50.0, 100, 50));
+        for (sample, data_type) in [(Sample::Float32 { nodata: -9999.0 }, "Float32"), (Sample::UInt32, "UInt32")] {
+            let options = GeoTiffOptions { epsg: Some(4326), tiled: true, ..Default::default() };
+            let mut w = GeoTiffWriter::create(&path, &grid, Window { x0: 10, y0: 20, width: 30, height: 5 }, sample, &options).unwrap();
+            w.write_rows(&[7u32; 150]).unwrap();
+            w.finish().unwrap();
+            let part = read_part(&path).unwrap();
+            let nodata = if data_type == "Float32" { "-9999" } else { "4294967295" };
+            let expected = Part { path: path.clone(), width: 30, height: 5, x0: 110.0, y0: 30.0, dx: 1.0, dy: 1.0, nodata: Some(nodata.into()), data_type, epsg: Some(4326) };
+            assert_eq!(part, expected);
+            assert_eq!(parse_part(&std::fs::read(&path).unwrap(), &path).unwrap(), expected);
+        }
+        let e = parse_part(b"II*\0garbage", Path::new("g.tif")).unwrap_err().to_string();
+        assert!(e.starts_with("g.tif: not a readable TIFF"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -1,13 +1,16 @@
-//! The parser fuzz targets' checks (`fuzz/fuzz_targets/points_check.rs`, `mesh_check.rs`)
-//! without cargo-fuzz: deterministic inputs, random bytes and mangled files, must never panic,
-//! and each must be refused with the file named or give finite points (and a consistent TIN)
-//! or a consistent mesh.
+//! The parser fuzz targets' checks (`fuzz/fuzz_targets/points_check.rs`, `mesh_check.rs`,
+//! `las_check.rs`) without cargo-fuzz: deterministic inputs, random bytes and mangled files,
+//! must never panic, and each must be refused with the file named or give finite points (and a
+//! consistent TIN) or a consistent mesh.
 
+#[path = "../fuzz/fuzz_targets/las_check.rs"]
+mod las_check;
 #[path = "../fuzz/fuzz_targets/mesh_check.rs"]
 mod mesh_check;
 #[path = "../fuzz/fuzz_targets/points_check.rs"]
 mod points_check;
 
+use std::io::Cursor;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 /// xorshift64: deterministic bytes.
@@ -97,4 +100,66 @@ fn point_files_never_panic_and_are_refused_or_triangulated_consistently() {
     }
     eprintln!("point files: {refused} refused, {points} parsed but not triangulable, {triangulated} triangulated");
     assert!(refused > 0 && points > 0 && triangulated > 0, "the inputs reach every outcome: {refused}/{points}/{triangulated}");
+}
+
+/// LAS 1.`minor` bytes of `n` points in point `format`, LASzip-compressed or not.
+fn las_file(minor: u8, format: u8, compressed: bool, n: usize) -> Vec<u8> {
+    let mut builder = las::Builder::from((1, minor));
+    builder.point_format = las::point::Format::new(format).unwrap();
+    builder.point_format.is_compressed = compressed;
+    builder.transforms.x = las::Transform { scale: 0.01, offset: 500.0 };
+    builder.transforms.y = las::Transform { scale: 0.01, offset: 700.0 };
+    let mut writer = las::Writer::new(Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
+    let format = *writer.header().point_format();
+    for k in 0..n {
+        let (x, y, z) = (500.0 + (k % 4) as f64 * 2.5, 700.0 + (k / 4) as f64 * 1.5 + (k % 3) as f64 * 0.25, (k * 7 % 11) as f64 * 0.5);
+        let (gps_time, color) = (format.has_gps_time.then_some(k as f64), format.has_color.then_some(las::Color::new(9, 8, 7)));
+        writer.write_point(las::Point { x, y, z, gps_time, color, ..Default::default() }).unwrap();
+    }
+    writer.into_inner().unwrap().into_inner()
+}
+
+#[test]
+fn las_files_never_panic_and_are_refused_or_read_consistently() {
+    let mut next = xorshift(0xd1b5_4a32_d192_ed03);
+    let seeds = [
+        las_file(2, 0, false, 9),
+        las_file(2, 1, true, 12),
+        las_file(2, 3, true, 10),
+        las_file(4, 1, false, 11),
+        las_file(4, 6, true, 13),
+        las_file(4, 7, false, 8),
+    ];
+    let (mut refused, mut points, mut triangulated) = (0, 0, 0);
+    for k in 0..4000 {
+        // A valid file, mutated: random throughout, cut short, bytes changed (most in the
+        // header, VLRs and first records), or a field set to an extreme.
+        let seed = &seeds[k % seeds.len()];
+        let mut data = seed.clone();
+        match next() % 5 {
+            0 => data = (0..next() % 400).map(|_| next() as u8).collect(),
+            1 => data.truncate(next() as usize % seed.len()),
+            2 | 3 => {
+                for _ in 0..1 + next() % 4 {
+                    let at = next() as usize % if next() % 4 == 0 { data.len() } else { data.len().min(420) };
+                    data[at] = next() as u8;
+                }
+            }
+            _ => {
+                let at = next() as usize % (data.len() - 8);
+                let value: [u8; 8] = [u64::MAX, u32::MAX as u64, 1 << 40, 0, next()][(next() % 5) as usize].to_le_bytes();
+                let width = [1, 2, 4, 8][(next() % 4) as usize];
+                data[at..at + width].copy_from_slice(&value[..width]);
+            }
+        }
+        match catch_unwind(AssertUnwindSafe(|| las_check::check(&data))) {
+            Ok(Ok(las_check::Outcome::Refused)) => refused += 1,
+            Ok(Ok(las_check::Outcome::Points(_))) => points += 1,
+            Ok(Ok(las_check::Outcome::Triangulated(_))) => triangulated += 1,
+            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
+            Err(_) => panic!("input {k} {data:?}: panicked"),
+        }
+    }
+    eprintln!("LAS/LAZ files: {refused} refused, {points} read but not triangulable, {triangulated} triangulated");
+    assert!(refused > 0 && points + triangulated > 0, "the inputs reach both outcomes: {refused}/{points}/{triangulated}");
 }

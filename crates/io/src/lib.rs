@@ -15,7 +15,7 @@ mod vrt;
 
 pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, GeoTiffOptions, GeoTiffWriter, Sample, TILE};
 pub use obj::{parse_obj, read_obj};
-pub use las::read_las;
+pub use las::{parse_las, read_las};
 pub use ply::{parse_ply, read_ply};
 pub use stl::{parse_stl, read_stl};
 pub use points::{parse_points, read_points, Column, PointColumns};

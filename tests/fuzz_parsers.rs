@@ -141,7 +141,7 @@ fn las_files_never_panic_and_are_refused_or_read_consistently() {
             1 => data.truncate(next() as usize % seed.len()),
             2 | 3 => {
                 for _ in 0..1 + next() % 4 {
-                    let at = next() as usize % if next() % 4 == 0 { data.len() } else { data.len().min(420) };
+                    let at = next() as usize % if next().is_multiple_of(4) { data.len() } else { data.len().min(420) };
                     data[at] = next() as u8;
                 }
             }

@@ -70,8 +70,9 @@ enum Command {
         /// Delaunay TIN's triangles for points), 4294967295 where none covers the cell.
         #[arg(long, value_name = "FILE.tif")]
         owner: Option<PathBuf>,
-        /// The most memory, in MiB, the raster may take at once (default: half the memory
-        /// available). Larger grids are rasterised in bands of rows and streamed to the file.
+        /// The most memory, in MiB, the raster may take at once (default: half of the least of
+        /// the memory available, the room under this process's cgroup limit and under its
+        /// `ulimit -v`). Larger grids are rasterised in bands of rows and streamed to the file.
         #[arg(long, value_name = "MIB")]
         memory: Option<u64>,
         /// No messages on stderr but errors (and --stats when asked for).
@@ -171,14 +172,14 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             }
             let outputs = tileraster::Outputs { owner: owner.is_some(), coverage: false };
             let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(outputs);
-            let budget = memory.map_or_else(stream::default_memory_budget, |mib| mib << 20);
+            let (budget, set_by) = memory.map_or_else(stream::default_memory_budget, |mib| (mib << 20, "--memory"));
             let band_rows = stream::band_rows(&window, stream::bytes_per_cell(owner.is_some(), backend), budget);
             if band_rows < window.height {
                 if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
                     tiff.tiled = true;
                 }
                 note(format!(
-                    "tileraster: {}×{} cells do not fit in {} MiB: rasterising bands of {band_rows} rows, streamed to a {} GeoTIFF",
+                    "tileraster: {}×{} cells do not fit in {} MiB ({set_by}): rasterising bands of {band_rows} rows, streamed to a {} GeoTIFF",
                     window.width,
                     window.height,
                     budget >> 20,

@@ -127,15 +127,65 @@ impl Sampled {
     }
 }
 
-/// Half the memory the system says is available (`MemAvailable`), or 2 GiB where it does
-/// not say.
-pub fn default_memory_budget() -> u64 {
-    let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|text| {
-        let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-        let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-        Some(kib * 1024)
-    });
-    available.map_or(2 << 30, |bytes| bytes / 2)
+/// The default `--memory`: half of the least of what the system has available
+/// (`MemAvailable`), what this process's cgroup may still take (a container's or a batch
+/// job's limit: Kubernetes, Slurm) and what its address-space limit (`ulimit -v`) leaves;
+/// 2 GiB where none of them says. Returns the budget and which limit set it.
+pub fn default_memory_budget() -> (u64, &'static str) {
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    let mut limits = Vec::new();
+    if let Some(available) = read("/proc/meminfo").and_then(|text| kib_field(&text, "MemAvailable:")) {
+        limits.push((available, "the memory available"));
+    }
+    if let Some(room) = read("/proc/self/cgroup").and_then(|groups| cgroup_room(&groups, |path| read(path))) {
+        limits.push((room, "the room left under the cgroup's memory limit"));
+    }
+    if let Some(room) = address_space_room(read("/proc/self/status").as_deref()) {
+        limits.push((room, "the room left under the address-space limit"));
+    }
+    match limits.into_iter().min_by_key(|l| l.0) {
+        Some((bytes, what)) => (bytes / 2, what),
+        None => (2 << 30, "a default, as the system reports no memory figures"),
+    }
+}
+
+/// A `/proc` field given in KiB, in bytes.
+fn kib_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
+    Some(line.split_whitespace().nth(1)?.parse::<u64>().ok()? * 1024)
+}
+
+/// Memory this process's cgroup may still take: cgroup v2 (`0::PATH`, memory.max and
+/// memory.current) or v1 (`N:memory:PATH`, memory.limit_in_bytes and memory.usage_in_bytes).
+/// Inside a cgroup namespace the group is mounted at the root, so that is tried too.
+fn cgroup_room(groups: &str, read: impl Fn(&str) -> Option<String>) -> Option<u64> {
+    let number = |text: Option<String>| text.and_then(|t| t.trim().parse::<u64>().ok());
+    for line in groups.lines() {
+        let mut fields = line.splitn(3, ':');
+        let (_, controllers, path) = (fields.next()?, fields.next()?, fields.next()?);
+        let (root, limit, usage) = match controllers {
+            "" => ("/sys/fs/cgroup", "memory.max", "memory.current"),
+            c if c.split(',').any(|c| c == "memory") => ("/sys/fs/cgroup/memory", "memory.limit_in_bytes", "memory.usage_in_bytes"),
+            _ => continue,
+        };
+        for dir in [format!("{root}{}", path.trim_end_matches('/')), root.to_string()] {
+            // "max", or v1's "unlimited" of about 2^63, parse to none or to no limit.
+            if let Some(limit) = number(read(&format!("{dir}/{limit}"))).filter(|&l| l < 1 << 60) {
+                return Some(limit.saturating_sub(number(read(&format!("{dir}/{usage}"))).unwrap_or(0)));
+            }
+        }
+    }
+    None
+}
+
+/// Address space `ulimit -v` leaves this process, from its limit and its `VmSize`.
+fn address_space_room(status: Option<&str>) -> Option<u64> {
+    let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: getrlimit writes one `rlimit` through a valid pointer.
+    if unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) } != 0 || limit.rlim_cur == libc::RLIM_INFINITY {
+        return None;
+    }
+    Some((limit.rlim_cur as u64).saturating_sub(status.and_then(|s| kib_field(s, "VmSize:")).unwrap_or(0)))
 }
 
 #[cfg(test)]
@@ -151,6 +201,22 @@ mod tests {
         assert_eq!(band_rows(&window, 4, 1), 256, "at least one tile row");
         let short = Window { x0: 0, y0: 0, width: 100_000, height: 100 };
         assert_eq!(band_rows(&short, 4, 1), 100, "never more than the window");
+    }
+
+    #[test]
+    fn cgroup_limits_are_found_for_v1_and_v2_and_in_namespaces() {
+        let files = |entries: &'static [(&'static str, &'static str)]| move |path: &str| entries.iter().find(|e| e.0 == path).map(|e| e.1.to_string());
+        let v2 = files(&[("/sys/fs/cgroup/job/memory.max", "1073741824\n"), ("/sys/fs/cgroup/job/memory.current", "73741824\n")]);
+        assert_eq!(cgroup_room("0::/job\n", v2), Some(1_000_000_000));
+        let v2_unlimited = files(&[("/sys/fs/cgroup/memory.max", "max\n")]);
+        assert_eq!(cgroup_room("0::/\n", v2_unlimited), None);
+        let v1 = files(&[("/sys/fs/cgroup/memory/slurm/job_7/memory.limit_in_bytes", "2000\n"), ("/sys/fs/cgroup/memory/slurm/job_7/memory.usage_in_bytes", "500\n")]);
+        assert_eq!(cgroup_room("5:cpu,cpuacct:/\n4:memory:/slurm/job_7\n0::/\n", v1), Some(1500));
+        let v1_namespaced = files(&[("/sys/fs/cgroup/memory/memory.limit_in_bytes", "4096\n"), ("/sys/fs/cgroup/memory/memory.usage_in_bytes", "96\n")]);
+        assert_eq!(cgroup_room("4:memory:/kubepods/pod1\n", v1_namespaced), Some(4000));
+        let v1_unlimited = files(&[("/sys/fs/cgroup/memory/memory.limit_in_bytes", "9223372036854771712\n")]);
+        assert_eq!(cgroup_room("4:memory:/\n", v1_unlimited), None);
+        assert_eq!(kib_field("MemTotal: 10 kB\nMemAvailable:    2048 kB\n", "MemAvailable:"), Some(2 << 20));
     }
 
     /// A preview of a window wider than `PREVIEW_SIDE` samples every third cell of every

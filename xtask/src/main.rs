@@ -10,9 +10,9 @@
 //!   the same point sets (default one million points), printed as markdown.
 //! - `cargo xtask gdal-report [POINTS] [SIZE]`: points in, GeoTIFF out, against gdal_grid:
 //!   time and cell-by-cell agreement (default 100,000 points onto 4096²).
-//! - `cargo xtask stream-report [POINTS] [SIZE] [MEMORY_MIB]`: the cluster recipe run locally
+//! - `cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]`: the cluster recipe run locally
 //!   (parts as separate processes, a VRT mosaic, compared with the single run) and a grid
-//!   larger than its memory budget streamed to disk (default 100,000 points, 32768², 512 MiB).
+//!   larger than its address-space limit streamed to disk (default 100,000 points, 32768², 1536 MiB).
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
 
@@ -32,7 +32,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [MEMORY_MIB]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
     ExitCode::from(2)
 }
 
@@ -154,9 +154,9 @@ fn main() -> ExitCode {
         ["stream-report", rest @ ..] => {
             let numbers: Result<Vec<u64>, _> = rest.iter().map(|a| a.parse::<u64>()).collect();
             let (points, size, memory) = match numbers.as_deref() {
-                Ok([]) => (100_000, 32_768, 512),
-                Ok([p]) => (*p as usize, 32_768, 512),
-                Ok([p, s]) => (*p as usize, *s as u32, 512),
+                Ok([]) => (100_000, 32_768, 1536),
+                Ok([p]) => (*p as usize, 32_768, 1536),
+                Ok([p, s]) => (*p as usize, *s as u32, 1536),
                 Ok([p, s, m]) => (*p as usize, *s as u32, *m),
                 _ => return usage(),
             };

@@ -1,12 +1,13 @@
-//! `cargo xtask stream-report [POINTS] [SIZE] [MEMORY_MIB]`: the command line at scale, as
+//! `cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]`: the command line at scale, as
 //! users run it (release build, CPU backend, whole processes).
 //!
 //! - Cluster recipe, locally: the grid cut into `--part K/N` windows, each part its own
 //!   process, all started at once; `tileraster mosaic` builds the VRT; the mosaic's cells,
 //!   read through GDAL when it is installed, are compared bit for bit with the single run.
-//! - A grid larger than the memory it may use: `SIZE`² cells with `--memory MEMORY_MIB`,
-//!   streamed in bands to a tiled (Big)TIFF; the peak resident memory of the process, and
-//!   windows of the file compared bit for bit with `--window` runs of the same cells.
+//! - A grid larger than the memory it may use: `SIZE`² cells in a process whose address space
+//!   is limited to `LIMIT_MIB` (`ulimit -v`), with no `--memory`: it streams bands to a tiled
+//!   (Big)TIFF by itself; the peak resident memory of the process, and windows of the file
+//!   compared bit for bit with `--window` runs of the same cells.
 //!
 //! Prints markdown.
 
@@ -14,6 +15,7 @@ use crate::gdal_report::{read_values, write_points_csv};
 use crate::median;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::os::unix::process::CommandExt as _;
 use std::process::Command;
 use std::time::Instant;
 use tiff::decoder::{Decoder, DecodingResult};
@@ -22,6 +24,7 @@ use tiff::decoder::{Decoder, DecodingResult};
 struct Measured {
     seconds: f64,
     peak_rss: u64,
+    stderr: String,
 }
 
 /// Run `command` to its end, with its own peak resident set size from `wait4`.
@@ -41,7 +44,7 @@ fn measure(command: &mut Command) -> Result<Measured, String> {
     if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
         return Err(format!("{command:?} failed: {text}"));
     }
-    Ok(Measured { seconds, peak_rss: usage.ru_maxrss as u64 * 1024 })
+    Ok(Measured { seconds, peak_rss: usage.ru_maxrss as u64 * 1024, stderr: text })
 }
 
 fn mib(bytes: u64) -> String {
@@ -76,19 +79,19 @@ fn read_tiled_window(path: &Path, x0: u32, y0: u32, size: u32) -> Result<Vec<f32
     Ok(cells)
 }
 
-pub fn run(points: usize, size: u32, memory_mib: u64) -> Result<String, String> {
+pub fn run(points: usize, size: u32, limit_mib: u64) -> Result<String, String> {
     let bin = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/release/tileraster");
     if !bin.exists() {
         return Ok(format!("Not measured: {} is missing (`cargo build --release --bin tileraster` builds it).\n", bin.display()));
     }
     let dir = std::env::temp_dir().join(format!("tileraster-stream-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let result = report(&bin, &dir, points, size, memory_mib);
+    let result = report(&bin, &dir, points, size, limit_mib);
     let _ = std::fs::remove_dir_all(&dir);
     result
 }
 
-fn report(bin: &Path, dir: &Path, points: usize, size: u32, memory_mib: u64) -> Result<String, String> {
+fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> Result<String, String> {
     let (csv, extent) = write_points_csv(dir, points)?;
     let grid_args = |n: u32| -> Vec<String> {
         let [x0, x1, y0, y1] = extent.map(|v| v.to_string());
@@ -149,11 +152,24 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, memory_mib: u64) -> 
         median(t_parts) * 1e3
     );
 
-    // Larger than the memory it may use.
+    // Larger than the memory it may use: an address-space limit (`ulimit -v`) far below the
+    // raster's size, and no --memory: the run finds the limit and streams by itself.
     let big = dir.join("big.tif");
-    let memory = memory_mib.to_string();
-    eprintln!("stream-report: {size}² with --memory {memory_mib} ...");
-    let m = measure(&mut rasterise(&big, size, &["--memory", &memory]))?;
+    let limit = limit_mib << 20;
+    eprintln!("stream-report: {size}² under ulimit -v {limit_mib} MiB ...");
+    let mut command = rasterise(&big, size, &[]);
+    // SAFETY: between fork and exec, only setrlimit, which is async-signal-safe.
+    unsafe {
+        command.pre_exec(move || {
+            let rlimit = libc::rlimit { rlim_cur: limit, rlim_max: limit };
+            match libc::setrlimit(libc::RLIMIT_AS, &rlimit) {
+                0 => Ok(()),
+                _ => Err(std::io::Error::last_os_error()),
+            }
+        });
+    }
+    let m = measure(command.arg("--stats"))?;
+    let bands = m.stderr.lines().filter(|l| l.starts_with('{')).count();
     let file = std::fs::metadata(&big).map_err(|e| e.to_string())?.len();
     let bigtiff = std::fs::read(&big).map(|b| b.get(2) == Some(&43)).unwrap_or(false);
     let raster_bytes = size as u64 * size as u64 * 4;
@@ -167,8 +183,9 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, memory_mib: u64) -> 
     }
     let _ = writeln!(
         s,
-        "**Larger than the memory it may use.** The same points onto {size}² cells ({} of Float32) with `--memory {memory_mib}`: \
-         {:.1} s, peak resident memory {} for the whole process (points, TIN and all), a {} tiled {} written band by band. \
+        "**Larger than the memory it may use.** The same points onto {size}² cells ({} of Float32), the process's address space \
+         limited to {limit_mib} MiB (`ulimit -v`) and no `--memory`: it found the limit itself and streamed {bands} bands in {:.1} s, \
+         peak resident memory {} for the whole process (points, TIN and all), a {} tiled {}. \
          Three 1024² windows of the file, read tile by tile, against `--window` runs of the same cells: {}.\n",
         mib(raster_bytes),
         m.seconds,

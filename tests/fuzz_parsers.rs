@@ -1,12 +1,14 @@
 //! The parser fuzz targets' checks (`fuzz/fuzz_targets/points_check.rs`, `mesh_check.rs`,
-//! `las_check.rs`) without cargo-fuzz: deterministic inputs, random bytes and mangled files,
-//! must never panic, and each must be refused with the file named or give finite points (and a
-//! consistent TIN) or a consistent mesh.
+//! `las_check.rs`, `part_check.rs`) without cargo-fuzz: deterministic inputs, random bytes and
+//! mangled files, must never panic, and each must be refused with the file named or give
+//! finite points (and a consistent TIN), a consistent mesh, or a part a mosaic can place.
 
 #[path = "../fuzz/fuzz_targets/las_check.rs"]
 mod las_check;
 #[path = "../fuzz/fuzz_targets/mesh_check.rs"]
 mod mesh_check;
+#[path = "../fuzz/fuzz_targets/part_check.rs"]
+mod part_check;
 #[path = "../fuzz/fuzz_targets/points_check.rs"]
 mod points_check;
 
@@ -162,4 +164,67 @@ fn las_files_never_panic_and_are_refused_or_read_consistently() {
     }
     eprintln!("LAS/LAZ files: {refused} refused, {points} read but not triangulable, {triangulated} triangulated");
     assert!(refused > 0 && points + triangulated > 0, "the inputs reach both outcomes: {refused}/{points}/{triangulated}");
+}
+
+/// Small GeoTIFF parts as `tileraster` writes them: strips, tiles with deflate, BigTIFF with
+/// a CRS, UInt32 owners.
+fn part_files() -> Vec<Vec<u8>> {
+    use tileraster::{Grid, Window};
+    use tileraster_io::{BigTiff, GeoTiffOptions, GeoTiffWriter, Sample};
+    let dir = std::env::temp_dir().join(format!("tileraster-fuzz-parts-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let grid = Grid::new(500_000.0, 500_300.0, 5_000_000.0, 5_000_200.0, 30, 20);
+    let cases = [
+        (Sample::Float32 { nodata: -9999.0 }, GeoTiffOptions::default()),
+        (Sample::Float32 { nodata: f32::NAN }, GeoTiffOptions { tiled: true, deflate: true, epsg: Some(32633), ..Default::default() }),
+        (Sample::UInt32, GeoTiffOptions { bigtiff: BigTiff::Yes, epsg: Some(4326), ..Default::default() }),
+    ];
+    let files = cases
+        .iter()
+        .map(|(sample, options)| {
+            let path = dir.join("part.tif");
+            let mut w = GeoTiffWriter::create(&path, &grid, Window { x0: 4, y0: 6, width: 12, height: 9 }, *sample, options).unwrap();
+            w.write_rows(&(0..108u32).collect::<Vec<_>>()).unwrap();
+            w.finish().unwrap();
+            std::fs::read(&path).unwrap()
+        })
+        .collect();
+    std::fs::remove_dir_all(&dir).ok();
+    files
+}
+
+#[test]
+fn mosaic_parts_never_panic_and_are_refused_or_placed() {
+    let mut next = xorshift(0x6a09_e667_f3bc_c908);
+    let seeds = part_files();
+    let (mut refused, mut parts) = (0, 0);
+    for k in 0..3000 {
+        // A valid part, mutated: random, cut short, bytes changed, or a field set to an extreme.
+        let seed = &seeds[k % seeds.len()];
+        let mut data = seed.clone();
+        match next() % 4 {
+            0 => data = (0..next() % 300).map(|_| next() as u8).collect(),
+            1 => data.truncate(next() as usize % seed.len()),
+            2 => {
+                for _ in 0..1 + next() % 3 {
+                    let at = next() as usize % data.len();
+                    data[at] = next() as u8;
+                }
+            }
+            _ => {
+                let at = next() as usize % (data.len() - 8);
+                let value = [u64::MAX, u32::MAX as u64, 1 << 40, 0, f64::NAN.to_bits(), (-1.0f64).to_bits()][(next() % 6) as usize].to_le_bytes();
+                let width = [2, 4, 8][(next() % 3) as usize];
+                data[at..at + width].copy_from_slice(&value[..width]);
+            }
+        }
+        match catch_unwind(AssertUnwindSafe(|| part_check::check(&data))) {
+            Ok(Ok(part_check::Outcome::Refused)) => refused += 1,
+            Ok(Ok(part_check::Outcome::Part)) => parts += 1,
+            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
+            Err(_) => panic!("input {k} {data:?}: panicked"),
+        }
+    }
+    eprintln!("mosaic parts: {refused} refused, {parts} placed");
+    assert!(refused > 0 && parts > 0, "the inputs reach both outcomes: {refused}/{parts}");
 }

@@ -128,6 +128,8 @@ pub struct Report {
     pub skips: String,
     /// Points in, GeoTIFF out, against gdal_grid (`gdal_report`).
     pub gdal_end_to_end: String,
+    /// The cluster recipe run locally, and a grid larger than its memory (`stream_report`).
+    pub streaming: String,
 }
 
 pub fn run(options: &Options) -> Result<Report, String> {
@@ -232,7 +234,8 @@ pub fn run(options: &Options) -> Result<Report, String> {
     let _ = std::fs::remove_dir_all(&workdir);
     let skips = crate::skip_report::run(options.quick)?;
     let gdal_end_to_end = if options.quick { crate::gdal_report::run(10_000, 512)? } else { crate::gdal_report::run(100_000, 4096)? };
-    Ok(Report { rows, adapter, gdal, notes, skips, gdal_end_to_end })
+    let streaming = if options.quick { crate::stream_report::run(10_000, 2048, 256)? } else { crate::stream_report::run(100_000, 32_768, 1536)? };
+    Ok(Report { rows, adapter, gdal, notes, skips, gdal_end_to_end, streaming })
 }
 
 /// Writes the tables and the plot.
@@ -286,6 +289,7 @@ fn markdown(report: &Report) -> String {
     let _ = writeln!(s, "![time against error](time-vs-error.svg)\n");
     let _ = writeln!(s, "{}", goals(report));
     let _ = writeln!(s, "## Points in, GeoTIFF out, against gdal_grid\n\n`cargo xtask gdal-report` (the release build of the command line, `cargo build --release --bin tileraster`).\n\n{}", report.gdal_end_to_end);
+    let _ = writeln!(s, "## Any raster size, and the cluster recipe\n\n`cargo xtask stream-report` (the same release build; recipes in [cluster.md](cluster.md)).\n\n{}", report.streaming);
     let _ = writeln!(s, "{}", report.skips);
     let _ = writeln!(s, "## Run time against error\n");
     let mut case = String::new();

@@ -1,6 +1,5 @@
 //! The fuzz target's decoder and checks (`fuzz/fuzz_targets/decode.rs`) without cargo-fuzz:
-//! a few thousand deterministic pseudo-random byte strings, and the inputs in
-//! `fuzz/regressions/` (minimised crashes the fuzzer found), each decoded into a small scene,
+//! a few thousand deterministic pseudo-random byte strings, each decoded into a small scene,
 //! grid and value mode and rasterised on the CPU, must give a typed error or a raster whose
 //! cells are nodata or finite, with owner and coverage agreeing — and never panic.
 
@@ -85,13 +84,4 @@ fn pseudo_random_inputs() {
     // The decoder must reach the rasteriser, not only its validation.
     let covered = outcomes.get("covered").copied().unwrap_or(0);
     assert!(covered >= 400, "only {covered} of 4000 inputs rasterised to a covered cell: {outcomes:?}");
-}
-
-#[test]
-fn fuzzer_regressions() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/regressions");
-    let Ok(entries) = std::fs::read_dir(&dir) else { return };
-    let mut paths: Vec<_> = entries.map(|e| e.expect("readable directory").path()).collect();
-    paths.sort();
-    run_all(paths.into_iter().map(|p| (p.display().to_string(), std::fs::read(&p).expect("readable input"))));
 }

@@ -98,8 +98,9 @@ enum Command {
         /// barycentric (cheaper f32 arithmetic; bounds in docs/numeric-contract.md).
         #[arg(long, default_value = "exact")]
         mode: Mode,
-        /// Print what the call did and skipped as one JSON object on stderr (tiles_total,
-        /// tiles_empty_skipped, tiles_full, triangles_culled, passes, bytes_uploaded, ...).
+        /// Print what the call did and skipped as one JSON object on stderr, one per band when
+        /// streamed (tiles_total, tiles_empty_skipped, tiles_full, triangles_culled, passes,
+        /// bytes_uploaded, ...).
         #[arg(long)]
         stats: bool,
         /// Turn one of the pipeline's skips off (repeatable), to measure its gain; results do

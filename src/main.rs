@@ -70,6 +70,10 @@ enum Command {
         /// Delaunay TIN's triangles for points), 4294967295 where none covers the cell.
         #[arg(long, value_name = "FILE.tif")]
         owner: Option<PathBuf>,
+        /// Also write the mesh that was rasterised as OBJ (for points, their Delaunay TIN):
+        /// its faces, in order, are what --owner's indices count.
+        #[arg(long, value_name = "FILE.obj")]
+        tin: Option<PathBuf>,
         /// The most memory, in MiB, the raster may take at once (default: half of the least of
         /// the memory available, the room under this process's cgroup limit and under its
         /// `ulimit -v`). Larger grids are rasterised in bands of rows and streamed to the file.
@@ -145,7 +149,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { input, columns, output, txe, tye, outsize, tr, window, part, owner, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
+        Command::Rasterise { input, columns, output, txe, tye, outsize, tr, window, part, owner, tin, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
             set_quiet(quiet);
             let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
             for option in &creation_options {
@@ -190,6 +194,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let files = stream::Outputs { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
             let start = Instant::now();
             let run = stream::rasterise_bands(&scene, &params, window, backend, band_rows, &files, &progress)?;
+            if let Some(path) = &tin {
+                tileraster_io::write_obj(&scene, path).map_err(|e| e.to_string())?;
+            }
             drop(progress);
             let whole = window == Window::whole(&grid);
             note(format!(

@@ -483,3 +483,31 @@ fn parts_run_as_separate_processes_mosaic_to_the_single_run() {
     assert!(!dir.join("bad.vrt").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--tin` writes the triangulation a point file was rasterised through; rasterising that
+/// OBJ gives the same cells, and `--owner`'s indices are its faces.
+#[test]
+fn the_tin_written_is_the_one_rasterised_and_owners_index_its_faces() {
+    let dir = scratch("tin");
+    let mut csv = String::from("x,y,z\n");
+    let mut state = 0x1234_5678_9abc_def1u64;
+    for _ in 0..300 {
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        csv += &format!("{:?},{:?},{:?}\n", 100.0 * next(), 80.0 * next(), 10.0 * next());
+    }
+    let (points, tif, owner, tin) = (dir.join("p.csv"), dir.join("h.tif"), dir.join("o.tif"), dir.join("tin.obj"));
+    std::fs::write(&points, csv).unwrap();
+    let out = rasterise_cli(&points, &tif, &["--txe", "0", "100", "--tye", "0", "80", "--outsize", "150", "120", "--owner", owner.to_str().unwrap(), "--tin", tin.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mesh = tileraster_io::read_obj(&tin).unwrap();
+    let params = Params::new(Grid::new(0.0, 100.0, 0.0, 80.0, 150, 120)).with_nodata(-9999.0).with_outputs(tileraster::Outputs { owner: true, coverage: false });
+    let expected = rasterise(&mesh, &params, Backend::Cpu).unwrap();
+    assert_same_bits(&read_tif_values(&tif), &expected.values, "the points' raster against their written TIN's");
+    assert_eq!(&read_tif_u32(&owner), expected.owner.as_ref().unwrap(), "owners index the written TIN's faces");
+    std::fs::remove_dir_all(&dir).ok();
+}

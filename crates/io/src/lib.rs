@@ -1,4 +1,5 @@
 //! File formats: meshes (OBJ, PLY, STL) and point sets (CSV and XYZ text, LAS and LAZ) in;
+//! OBJ meshes (a point set's TIN),
 //! single-band GeoTIFFs (streamed band by band), VRT mosaics of them, and PNG hillshade
 //! previews out.
 //! Writers go through a temporary file in the destination's folder and rename it into place,
@@ -14,7 +15,7 @@ mod stl;
 mod vrt;
 
 pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, GeoTiffOptions, GeoTiffWriter, Sample, TILE};
-pub use obj::{parse_obj, read_obj};
+pub use obj::{parse_obj, read_obj, write_obj};
 pub use las::{parse_las, read_las};
 pub use ply::{parse_ply, read_ply};
 pub use stl::{parse_stl, read_stl};

@@ -1,4 +1,5 @@
-use crate::IoError;
+use crate::{write_atomically, IoError};
+use std::io::Write as _;
 use std::path::Path;
 use tileraster_core::Scene;
 
@@ -8,6 +9,22 @@ use tileraster_core::Scene;
 pub fn read_obj(path: &Path) -> Result<Scene, IoError> {
     let text = std::fs::read_to_string(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
     parse_obj(&text, path)
+}
+
+/// Write a mesh as OBJ: every coordinate in the shortest text that reads back to the same
+/// `f64`, faces 1-based in the scene's order (face `k + 1` is owner index `k`).
+pub fn write_obj(scene: &Scene, path: &Path) -> Result<(), IoError> {
+    write_atomically(path, |out| {
+        let e = |e: std::io::Error| e.to_string();
+        writeln!(out, "# {} vertices, {} triangles", scene.vertices.len(), scene.triangles.len()).map_err(e)?;
+        for [x, y, z] in &scene.vertices {
+            writeln!(out, "v {x:?} {y:?} {z:?}").map_err(e)?;
+        }
+        for [a, b, c] in &scene.triangles {
+            writeln!(out, "f {} {} {}", a + 1, b + 1, c + 1).map_err(e)?;
+        }
+        Ok(())
+    })
 }
 
 /// Parse OBJ text; `path` only names the source in errors.
@@ -88,5 +105,17 @@ mod tests {
         assert!(e.contains("m.obj:1:") && e.contains("not a number"), "{e}");
         let e = parse_obj("", Path::new("m.obj")).unwrap_err().to_string();
         assert!(e.contains("no mesh"), "{e}");
+    }
+
+    #[test]
+    fn written_meshes_read_back_bit_for_bit() {
+        let scene = Scene::new(vec![[500_000.1, 5e6 + 1.0 / 3.0, -0.0], [1e-300, 2.5, f64::MAX], [7.0, 8.0, 9.125]], vec![[0, 1, 2], [2, 1, 0]]);
+        let path = std::env::temp_dir().join(format!("tileraster-obj-{}.obj", std::process::id()));
+        write_obj(&scene, &path).unwrap();
+        let back = read_obj(&path).unwrap();
+        std::fs::remove_file(&path).ok();
+        assert_eq!(back.triangles, scene.triangles);
+        let bits = |s: &Scene| s.vertices.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back), bits(&scene));
     }
 }

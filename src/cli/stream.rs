@@ -179,6 +179,7 @@ fn cgroup_room(groups: &str, read: impl Fn(&str) -> Option<String>) -> Option<u6
 }
 
 /// Address space `ulimit -v` leaves this process, from its limit and its `VmSize`.
+#[allow(clippy::unnecessary_cast)] // rlim_t is not u64 on every target
 fn address_space_room(status: Option<&str>) -> Option<u64> {
     let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
     // SAFETY: getrlimit writes one `rlimit` through a valid pointer.

@@ -445,7 +445,8 @@ type Field = (u16, u64, Vec<u8>);
 /// Tile `tx` of a block row of `TILE` rows (fewer at the image's foot), padded with nodata.
 fn tile(block_row: &[u8], row_bytes: usize, tx: usize, pad: [u8; 4]) -> Vec<u8> {
     let line = TILE as usize * 4;
-    let mut tile = Vec::with_capacity(line * TILE as usize);
+    let size = line * TILE as usize;
+    let mut tile = Vec::with_capacity(size);
     let x0 = tx * line;
     for row in block_row.chunks(row_bytes) {
         let inside = &row[x0..(x0 + line).min(row_bytes)];
@@ -454,7 +455,7 @@ fn tile(block_row: &[u8], row_bytes: usize, tx: usize, pad: [u8; 4]) -> Vec<u8> 
             tile.extend_from_slice(&pad);
         }
     }
-    while tile.len() < tile.capacity() {
+    while tile.len() < size {
         tile.extend_from_slice(&pad);
     }
     tile

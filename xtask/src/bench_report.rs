@@ -370,7 +370,7 @@ fn goals(report: &Report) -> String {
         (Some(ours), Some(gdal)) => {
             let _ = writeln!(
                 s,
-                "- Cost per extra cell on the terrain TIN: tileraster CPU {:.2} ns, gdal_grid {:.2} ns: **{:.0}× cheaper** (goal ≥ 10×: {}).",
+                "- Cost per extra cell on the terrain TIN: tileraster CPU {:.2} ns, gdal_grid {:.2} ns: **{:.1}× cheaper** (goal ≥ 10×: {}).",
                 ours * 1e9,
                 gdal * 1e9,
                 gdal / ours,

@@ -1,4 +1,4 @@
-//! The point-file target's check, shared with `tests/fuzz_points.rs`: any bytes, read as a
+//! The point-file target's check, shared with `tests/fuzz_parsers.rs` and `las_check.rs`: any bytes, read as a
 //! point file (delimited text) with columns chosen by the first byte, must give a typed error
 //! naming the file, or finite points; those, triangulated, a typed error or a TIN whose
 //! triangles index its vertices, with every input point kept or counted as a repeat.
@@ -30,10 +30,16 @@ pub fn check(data: &[u8]) -> Result<Outcome, String> {
         }
         Ok(points) => points,
     };
+    triangulated(&points)
+}
+
+/// Points a reader accepted: all finite; triangulated, a typed error or a TIN whose triangles
+/// index its vertices, with every input point kept or counted as a repeat.
+pub fn triangulated(points: &[[f64; 3]]) -> Result<Outcome, String> {
     if let Some(p) = points.iter().find(|p| p.iter().any(|v| !v.is_finite())) {
         return Err(format!("accepted a non-finite point {p:?}"));
     }
-    match tileraster_tin::triangulate(&points) {
+    match tileraster_tin::triangulate(points) {
         Err(e) if e.to_string().is_empty() => Err(format!("{e:?} has no message")),
         Err(_) => Ok(Outcome::Points(points.len())),
         Ok(tin) => {

@@ -9,8 +9,9 @@ mod las_check;
 mod mesh_check;
 #[path = "../fuzz/fuzz_targets/part_check.rs"]
 mod part_check;
-#[path = "../fuzz/fuzz_targets/points_check.rs"]
-mod points_check;
+
+// The point-file check comes with the LAS check, which builds on it.
+use las_check::points_check;
 
 use std::io::Cursor;
 use std::panic::{catch_unwind, AssertUnwindSafe};

@@ -6,7 +6,7 @@
 #![allow(dead_code)]
 
 #[path = "points_check.rs"]
-mod points_check;
+pub mod points_check;
 
 pub use points_check::Outcome;
 use std::path::Path;

@@ -1,6 +1,6 @@
 //! The `tileraster` command line.
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -27,91 +27,10 @@ enum BackendArg {
 }
 
 #[derive(Subcommand)]
-#[allow(clippy::large_enum_variant)] // parsed once per run
 enum Command {
     /// Rasterise a mesh, or the Delaunay TIN of a point set, to a Float32 GeoTIFF, with
     /// gdal_grid's grid semantics.
-    Rasterise {
-        /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points (`.las`, `.laz`, or
-        /// delimited text: `.csv`, `.xyz`, `.txt`, `.pts`), triangulated by Delaunay.
-        input: PathBuf,
-        /// Point files: the x, y and z columns, each a header name or a 1-based position
-        /// (default: columns named x/easting/lon, y/northing/lat, z/elevation/height, or the
-        /// first three when there is no header).
-        #[arg(long, value_name = "X,Y,Z", value_parser = point_columns)]
-        columns: Option<PointColumns>,
-        /// Output GeoTIFF.
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Grid x extent, as gdal_grid's -txe.
-        #[arg(long, num_args = 2, value_names = ["XMIN", "XMAX"], allow_negative_numbers = true, required = true)]
-        txe: Vec<f64>,
-        /// Grid y extent, as gdal_grid's -tye (row 0 is at YMAX).
-        #[arg(long, num_args = 2, value_names = ["YMIN", "YMAX"], allow_negative_numbers = true, required = true)]
-        tye: Vec<f64>,
-        /// Raster size in cells, as gdal_grid's -outsize (or give --tr).
-        #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"], required_unless_present = "tr", conflicts_with = "tr")]
-        outsize: Option<Vec<u32>>,
-        /// Cell size in world units, as gdal_grid's -tr: the size is each extent over its
-        /// cell size, rounded to the nearest whole cell, and the extent is kept.
-        #[arg(long, num_args = 2, value_names = ["XRES", "YRES"])]
-        tr: Option<Vec<f64>>,
-        /// Rasterise only this window of the grid (pixel offsets and size); its cells are bit
-        /// for bit the whole run's, and the GeoTIFF is georeferenced to the window.
-        #[arg(long, num_args = 4, value_names = ["XOFF", "YOFF", "XSIZE", "YSIZE"], conflicts_with = "part")]
-        window: Option<Vec<u32>>,
-        /// Rasterise only part K (counted from 0) of N bands of rows of the grid: the window a
-        /// cluster job's index picks (see docs/cluster.md). Mosaic the parts with
-        /// `tileraster mosaic`.
-        #[arg(long, value_name = "K/N", value_parser = part)]
-        part: Option<(u32, u32)>,
-        /// Also write the owner-triangle raster: a UInt32 GeoTIFF of the index of the triangle
-        /// each cell's value comes from (0-based, in the mesh's face order, or the order of the
-        /// Delaunay TIN's triangles for points), 4294967295 where none covers the cell.
-        #[arg(long, value_name = "FILE.tif")]
-        owner: Option<PathBuf>,
-        /// Also write the mesh that was rasterised as OBJ (for points, their Delaunay TIN):
-        /// its faces, in order, are what --owner's indices count.
-        #[arg(long, value_name = "FILE.obj")]
-        tin: Option<PathBuf>,
-        /// The most memory, in MiB, the raster may take at once (default: half of the least of
-        /// the memory available, the room under this process's cgroup limit and under its
-        /// `ulimit -v`). Larger grids are rasterised in bands of rows and streamed to the file.
-        #[arg(long, value_name = "MIB")]
-        memory: Option<u64>,
-        /// No messages on stderr but errors (and --stats when asked for).
-        #[arg(short, long)]
-        quiet: bool,
-        #[arg(long, value_enum, default_value = "auto")]
-        backend: BackendArg,
-        /// Value of cells no triangle covers (written as the GDAL_NODATA tag).
-        #[arg(long, default_value = "-9999", allow_negative_numbers = true)]
-        nodata: f32,
-        /// The CRS, as an EPSG code (gdal_grid's -a_srs), written as GeoKeys.
-        #[arg(long = "a_srs", value_name = "EPSG:CODE", value_parser = tileraster_io::parse_epsg)]
-        a_srs: Option<u16>,
-        /// A GeoTIFF creation option, as gdal_grid's -co (repeatable): TILED=YES (256 × 256
-        /// tiles), COMPRESS=DEFLATE, BIGTIFF=YES|NO|IF_NEEDED (default IF_NEEDED). Output
-        /// streamed in bands is tiled unless TILED=NO is given.
-        #[arg(long = "co", value_name = "NAME=VALUE")]
-        creation_options: Vec<String>,
-        /// Also write a hillshaded PNG preview.
-        #[arg(long)]
-        preview: Option<PathBuf>,
-        /// How values are computed: exact (correctly rounded, the default), plane-f32 or
-        /// barycentric (cheaper f32 arithmetic; bounds in docs/numeric-contract.md).
-        #[arg(long, default_value = "exact")]
-        mode: Mode,
-        /// Print what the call did and skipped as one JSON object on stderr, one per band when
-        /// streamed (tiles_total, tiles_empty_skipped, tiles_full, triangles_culled, passes,
-        /// bytes_uploaded, ...).
-        #[arg(long)]
-        stats: bool,
-        /// Turn one of the pipeline's skips off (repeatable), to measure its gain; results do
-        /// not change. Names: cull_window, empty_tiles, full_tiles, overlap_free.
-        #[arg(long = "no-skip", value_name = "SKIP", value_parser = skip_name)]
-        no_skip: Vec<String>,
-    },
+    Rasterise(Box<RasteriseArgs>),
     /// Write a VRT mosaic of GeoTIFF parts of one grid (from --part or --window runs), each
     /// placed by its own georeferencing: GDAL then reads them as one raster.
     Mosaic {
@@ -137,6 +56,90 @@ enum Command {
     },
 }
 
+/// `tileraster rasterise`: gdal_grid's flags, with two dashes, and tileraster's own.
+#[derive(Args)]
+struct RasteriseArgs {
+    /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points (`.las`, `.laz`, or
+    /// delimited text: `.csv`, `.xyz`, `.txt`, `.pts`), triangulated by Delaunay.
+    input: PathBuf,
+    /// Point files: the x, y and z columns, each a header name or a 1-based position
+    /// (default: columns named x/easting/lon, y/northing/lat, z/elevation/height, or the
+    /// first three when there is no header).
+    #[arg(long, value_name = "X,Y,Z", value_parser = point_columns)]
+    columns: Option<PointColumns>,
+    /// Output GeoTIFF.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Grid x extent, as gdal_grid's -txe.
+    #[arg(long, num_args = 2, value_names = ["XMIN", "XMAX"], allow_negative_numbers = true, required = true)]
+    txe: Vec<f64>,
+    /// Grid y extent, as gdal_grid's -tye (row 0 is at YMAX).
+    #[arg(long, num_args = 2, value_names = ["YMIN", "YMAX"], allow_negative_numbers = true, required = true)]
+    tye: Vec<f64>,
+    /// Raster size in cells, as gdal_grid's -outsize (or give --tr).
+    #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"], required_unless_present = "tr", conflicts_with = "tr")]
+    outsize: Option<Vec<u32>>,
+    /// Cell size in world units, as gdal_grid's -tr: the size is each extent over its
+    /// cell size, rounded to the nearest whole cell, and the extent is kept.
+    #[arg(long, num_args = 2, value_names = ["XRES", "YRES"])]
+    tr: Option<Vec<f64>>,
+    /// Rasterise only this window of the grid (pixel offsets and size); its cells are bit
+    /// for bit the whole run's, and the GeoTIFF is georeferenced to the window.
+    #[arg(long, num_args = 4, value_names = ["XOFF", "YOFF", "XSIZE", "YSIZE"], conflicts_with = "part")]
+    window: Option<Vec<u32>>,
+    /// Rasterise only part K (counted from 0) of N bands of rows of the grid: the window a
+    /// cluster job's index picks (see docs/cluster.md). Mosaic the parts with
+    /// `tileraster mosaic`.
+    #[arg(long, value_name = "K/N", value_parser = part)]
+    part: Option<(u32, u32)>,
+    /// Also write the owner-triangle raster: a UInt32 GeoTIFF of the index of the triangle
+    /// each cell's value comes from (0-based, in the mesh's face order, or the order of the
+    /// Delaunay TIN's triangles for points), 4294967295 where none covers the cell.
+    #[arg(long, value_name = "FILE.tif")]
+    owner: Option<PathBuf>,
+    /// Also write the mesh that was rasterised as OBJ (for points, their Delaunay TIN):
+    /// its faces, in order, are what --owner's indices count.
+    #[arg(long, value_name = "FILE.obj")]
+    tin: Option<PathBuf>,
+    /// The most memory, in MiB, the raster may take at once (default: half of the least of
+    /// the memory available, the room under this process's cgroup limit and under its
+    /// `ulimit -v`). Larger grids are rasterised in bands of rows and streamed to the file.
+    #[arg(long, value_name = "MIB")]
+    memory: Option<u64>,
+    /// No messages on stderr but errors (and --stats when asked for).
+    #[arg(short, long)]
+    quiet: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: BackendArg,
+    /// Value of cells no triangle covers (written as the GDAL_NODATA tag).
+    #[arg(long, default_value = "-9999", allow_negative_numbers = true)]
+    nodata: f32,
+    /// The CRS, as an EPSG code (gdal_grid's -a_srs), written as GeoKeys.
+    #[arg(long = "a_srs", value_name = "EPSG:CODE", value_parser = tileraster_io::parse_epsg)]
+    a_srs: Option<u16>,
+    /// A GeoTIFF creation option, as gdal_grid's -co (repeatable): TILED=YES (256 × 256
+    /// tiles), COMPRESS=DEFLATE, BIGTIFF=YES|NO|IF_NEEDED (default IF_NEEDED). Output
+    /// streamed in bands is tiled unless TILED=NO is given.
+    #[arg(long = "co", value_name = "NAME=VALUE")]
+    creation_options: Vec<String>,
+    /// Also write a hillshaded PNG preview.
+    #[arg(long)]
+    preview: Option<PathBuf>,
+    /// How values are computed: exact (correctly rounded, the default), plane-f32 or
+    /// barycentric (cheaper f32 arithmetic; bounds in docs/numeric-contract.md).
+    #[arg(long, default_value = "exact")]
+    mode: Mode,
+    /// Print what the call did and skipped as one JSON object on stderr, one per band when
+    /// streamed (tiles_total, tiles_empty_skipped, tiles_full, triangles_culled, passes,
+    /// bytes_uploaded, ...).
+    #[arg(long)]
+    stats: bool,
+    /// Turn one of the pipeline's skips off (repeatable), to measure its gain; results do
+    /// not change. Names: cull_window, empty_tiles, full_tiles, overlap_free.
+    #[arg(long = "no-skip", value_name = "SKIP", value_parser = skip_name)]
+    no_skip: Vec<String>,
+}
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(code) => code,
@@ -149,79 +152,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
-        Command::Rasterise { input, columns, output, txe, tye, outsize, tr, window, part, owner, tin, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } => {
-            set_quiet(quiet);
-            let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
-            for option in &creation_options {
-                tiff.apply(option)?;
-            }
-            let (width, height) = match (outsize, tr) {
-                (Some(size), _) => (size[0], size[1]),
-                (None, Some(tr)) => (cells_for(txe[1] - txe[0], tr[0], "x")?, cells_for(tye[1] - tye[0], tr[1], "y")?),
-                (None, None) => return Err("give the raster size with --outsize WIDTH HEIGHT or the cell size with --tr XRES YRES".into()),
-            };
-            let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], width, height);
-            grid.validate().map_err(|e| e.to_string())?;
-            let window = match (window, part) {
-                (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
-                (None, Some((k, n))) => part_window(&grid, k, n)?,
-                (None, None) => Window::whole(&grid),
-            };
-            let progress = Progress::start();
-            progress.stage(format!("reading {}", input.display()));
-            let scene = read_input(&input, &columns.unwrap_or_default(), &progress)?;
-            let backend = choose_backend(backend)?;
-            let mut skips = Skips::ALL;
-            for name in &no_skip {
-                skips = skips.without(name);
-            }
-            let outputs = tileraster::Outputs { owner: owner.is_some(), coverage: false };
-            let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(outputs);
-            let (budget, set_by) = memory.map_or_else(stream::default_memory_budget, |mib| (mib << 20, "--memory"));
-            let band_rows = stream::band_rows(&window, stream::bytes_per_cell(owner.is_some(), backend), budget);
-            if band_rows < window.height {
-                if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
-                    tiff.tiled = true;
-                }
-                note(format!(
-                    "tileraster: {}×{} cells do not fit in {} MiB ({set_by}): rasterising bands of {band_rows} rows, streamed to a {} GeoTIFF",
-                    window.width,
-                    window.height,
-                    budget >> 20,
-                    if tiff.tiled { "tiled" } else { "striped" }
-                ));
-            }
-            let files = stream::Outputs { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
-            let start = Instant::now();
-            let run = stream::rasterise_bands(&scene, &params, window, backend, band_rows, &files, &progress)?;
-            if let Some(path) = &tin {
-                tileraster_io::write_obj(&scene, path).map_err(|e| e.to_string())?;
-            }
-            drop(progress);
-            let whole = window == Window::whole(&grid);
-            note(format!(
-                "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, rasterised and written in {} (snapping step 2^-{} px){} → {}",
-                scene.triangles.len(),
-                grid.width,
-                grid.height,
-                if whole { String::new() } else { format!(" (window {}×{} at {}, {})", window.width, window.height, window.x0, window.y0) },
-                backend.name(),
-                mode.name(),
-                ms(start.elapsed()),
-                run.snap_bits,
-                match run.bands.len() {
-                    1 => String::new(),
-                    n => format!(", {n} bands"),
-                },
-                output.display()
-            ));
-            if stats {
-                for band in &run.bands {
-                    eprintln!("{}", band.to_json());
-                }
-            }
-            Ok(ExitCode::SUCCESS)
-        }
+        Command::Rasterise(args) => rasterise_command(args),
         Command::Mosaic { output, parts } => {
             let parts = parts.iter().map(|p| tileraster_io::read_part(p)).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
             let mosaic = tileraster_io::write_mosaic_vrt(&output, &parts).map_err(|e| e.to_string())?;
@@ -240,6 +171,82 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         }
         Command::Demo { output, size, cells } => demo(&output, size, cells),
     }
+}
+
+/// `tileraster rasterise`: read, triangulate if points, rasterise in bands, write.
+fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
+    let RasteriseArgs { input, columns, output, txe, tye, outsize, tr, window, part, owner, tin, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } = *args;
+    set_quiet(quiet);
+    let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
+    for option in &creation_options {
+        tiff.apply(option)?;
+    }
+    let (width, height) = match (outsize, tr) {
+        (Some(size), _) => (size[0], size[1]),
+        (None, Some(tr)) => (cells_for(txe[1] - txe[0], tr[0], "x")?, cells_for(tye[1] - tye[0], tr[1], "y")?),
+        (None, None) => return Err("give the raster size with --outsize WIDTH HEIGHT or the cell size with --tr XRES YRES".into()),
+    };
+    let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], width, height);
+    grid.validate().map_err(|e| e.to_string())?;
+    let window = match (window, part) {
+        (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
+        (None, Some((k, n))) => part_window(&grid, k, n)?,
+        (None, None) => Window::whole(&grid),
+    };
+    let progress = Progress::start();
+    progress.stage(format!("reading {}", input.display()));
+    let scene = read_input(&input, &columns.unwrap_or_default(), &progress)?;
+    let backend = choose_backend(backend)?;
+    let mut skips = Skips::ALL;
+    for name in &no_skip {
+        skips = skips.without(name);
+    }
+    let outputs = tileraster::Outputs { owner: owner.is_some(), coverage: false };
+    let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(outputs);
+    let (budget, set_by) = memory.map_or_else(stream::default_memory_budget, |mib| (mib << 20, "--memory"));
+    let band_rows = stream::band_rows(&window, stream::bytes_per_cell(owner.is_some(), backend), budget);
+    if band_rows < window.height {
+        if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
+            tiff.tiled = true;
+        }
+        note(format!(
+            "tileraster: {}×{} cells do not fit in {} MiB ({set_by}): rasterising bands of {band_rows} rows, streamed to a {} GeoTIFF",
+            window.width,
+            window.height,
+            budget >> 20,
+            if tiff.tiled { "tiled" } else { "striped" }
+        ));
+    }
+    let files = stream::Outputs { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
+    let start = Instant::now();
+    let run = stream::rasterise_bands(&scene, &params, window, backend, band_rows, &files, &progress)?;
+    if let Some(path) = &tin {
+        tileraster_io::write_obj(&scene, path).map_err(|e| e.to_string())?;
+    }
+    drop(progress);
+    let whole = window == Window::whole(&grid);
+    note(format!(
+        "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, rasterised and written in {} (snapping step 2^-{} px){} → {}",
+        scene.triangles.len(),
+        grid.width,
+        grid.height,
+        if whole { String::new() } else { format!(" (window {}×{} at {}, {})", window.width, window.height, window.x0, window.y0) },
+        backend.name(),
+        mode.name(),
+        ms(start.elapsed()),
+        run.snap_bits,
+        match run.bands.len() {
+            1 => String::new(),
+            n => format!(", {n} bands"),
+        },
+        output.display()
+    ));
+    if stats {
+        for band in &run.bands {
+            eprintln!("{}", band.to_json());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// gdal_grid's `-tr`: cells along an extent, `floor(extent / res + 0.5)`.

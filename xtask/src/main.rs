@@ -112,83 +112,48 @@ fn main() -> ExitCode {
                 }
             }
         }
-        ["delaunay-report", rest @ ..] => {
-            let n = match rest {
-                [] => 1_000_000,
-                [n] => match n.parse() {
-                    Ok(n) => n,
-                    Err(_) => return usage(),
-                },
-                _ => return usage(),
-            };
-            match delaunay_report::run(n) {
-                Ok(markdown) => {
-                    println!("{markdown}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("xtask delaunay-report: {e}");
-                    ExitCode::FAILURE
-                }
-            }
-        }
-        ["gdal-report", rest @ ..] => {
-            let numbers: Result<Vec<u64>, _> = rest.iter().map(|a| a.parse::<u64>()).collect();
-            let (points, size) = match numbers.as_deref() {
-                Ok([]) => (100_000, 4096),
-                Ok([p]) => (*p as usize, 4096),
-                Ok([p, s]) => (*p as usize, *s as u32),
-                _ => return usage(),
-            };
-            match gdal_report::run(points, size) {
-                Ok(markdown) => {
-                    println!("{markdown}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("xtask gdal-report: {e}");
-                    ExitCode::FAILURE
-                }
-            }
-        }
-        ["stream-report", rest @ ..] => {
-            let numbers: Result<Vec<u64>, _> = rest.iter().map(|a| a.parse::<u64>()).collect();
-            let (points, size, memory) = match numbers.as_deref() {
-                Ok([]) => (100_000, 32_768, 1536),
-                Ok([p]) => (*p as usize, 32_768, 1536),
-                Ok([p, s]) => (*p as usize, *s as u32, 1536),
-                Ok([p, s, m]) => (*p as usize, *s as u32, *m),
-                _ => return usage(),
-            };
-            match stream_report::run(points, size, memory) {
-                Ok(markdown) => {
-                    println!("{markdown}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("xtask stream-report: {e}");
-                    ExitCode::FAILURE
-                }
-            }
-        }
-        ["skip-report", rest @ ..] => {
-            let quick = match rest {
-                [] => false,
-                ["--quick"] => true,
-                _ => return usage(),
-            };
-            match skip_report::run(quick) {
-                Ok(markdown) => {
-                    println!("{markdown}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("xtask skip-report: {e}");
-                    ExitCode::FAILURE
-                }
-            }
-        }
+        ["delaunay-report", rest @ ..] => match numbers(rest, &[1_000_000]) {
+            Some(n) => print_markdown("delaunay-report", delaunay_report::run(n[0] as usize)),
+            None => usage(),
+        },
+        ["gdal-report", rest @ ..] => match numbers(rest, &[100_000, 4096]) {
+            Some(n) => print_markdown("gdal-report", gdal_report::run(n[0] as usize, n[1] as u32)),
+            None => usage(),
+        },
+        ["stream-report", rest @ ..] => match numbers(rest, &[100_000, 32_768, 1536]) {
+            Some(n) => print_markdown("stream-report", stream_report::run(n[0] as usize, n[1] as u32, n[2])),
+            None => usage(),
+        },
+        ["skip-report", rest @ ..] => match rest {
+            [] => print_markdown("skip-report", skip_report::run(false)),
+            ["--quick"] => print_markdown("skip-report", skip_report::run(true)),
+            _ => usage(),
+        },
         _ => usage(),
+    }
+}
+
+/// Positional numbers, each one not given taken from `defaults`; none if one is not a number
+/// or there are too many.
+fn numbers(args: &[&str], defaults: &[u64]) -> Option<Vec<u64>> {
+    if args.len() > defaults.len() {
+        return None;
+    }
+    let given: Option<Vec<u64>> = args.iter().map(|a| a.parse().ok()).collect();
+    Some(given?.into_iter().chain(defaults[args.len()..].iter().copied()).collect())
+}
+
+/// A report's markdown on stdout, or its error on stderr.
+fn print_markdown(task: &str, report: Result<String, String>) -> ExitCode {
+    match report {
+        Ok(markdown) => {
+            println!("{markdown}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("xtask {task}: {e}");
+            ExitCode::FAILURE
+        }
     }
 }
 

@@ -2,12 +2,11 @@
 //! a grid larger than memory streams through [`GeoTiffWriter`] in bands of rows, and only one
 //! row of blocks is ever held. Classic TIFF, or BigTIFF when the file may pass 4 GiB.
 
-use crate::IoError;
+use crate::{IoError, PartialFile};
 use rayon::prelude::*;
 use std::borrow::Cow;
-use std::fs::File;
-use std::io::{BufWriter, Seek, SeekFrom, Write};
-use std::path::{Path, PathBuf};
+use std::io::{Seek, SeekFrom, Write};
+use std::path::Path;
 use tiff::encoder::compression::{CompressionAlgorithm, Deflate, DeflateLevel};
 use tileraster_core::{Grid, Raster, Window};
 
@@ -142,13 +141,10 @@ impl Sample {
     }
 }
 
-/// A GeoTIFF written a band of rows at a time, top to bottom, through `<name>.partial`
-/// beside the destination: [`finish`](Self::finish) renames it into place, and a writer
-/// dropped before that (an error, a panic) removes it, so no partial file is left behind.
+/// A GeoTIFF written a band of rows at a time, top to bottom, through a [`PartialFile`]:
+/// [`finish`](Self::finish) puts it in place; a writer dropped before that leaves nothing.
 pub struct GeoTiffWriter {
-    path: PathBuf,
-    tmp: PathBuf,
-    out: BufWriter<File>,
+    file: PartialFile,
     /// Bytes written so far: where the next block starts.
     position: u64,
     big: bool,
@@ -167,7 +163,6 @@ pub struct GeoTiffWriter {
     scale: [f64; 3],
     tiepoint: [f64; 6],
     keys: Vec<u16>,
-    finished: bool,
 }
 
 /// How the image is cut into blocks.
@@ -224,15 +219,9 @@ impl GeoTiffWriter {
             }
             BigTiff::No => false,
         };
-        let mut tmp_name = path.file_name().unwrap_or_default().to_owned();
-        tmp_name.push(".partial");
-        let tmp = path.with_file_name(tmp_name);
-        let file = File::create(&tmp).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
         let (dx, dy) = (grid.dx(), grid.dy());
         let mut writer = GeoTiffWriter {
-            path: path.to_owned(),
-            tmp,
-            out: BufWriter::with_capacity(1 << 20, file),
+            file: PartialFile::create(path)?,
             position: 0,
             big,
             width,
@@ -247,7 +236,6 @@ impl GeoTiffWriter {
             scale: [dx, dy, 0.0],
             tiepoint: [0.0, 0.0, 0.0, grid.xmin + window.x0 as f64 * dx, grid.ymax - window.y0 as f64 * dy, 0.0],
             keys: geo_keys(options.epsg),
-            finished: false,
         };
         // The header; the first IFD's offset is filled in by `finish`.
         let header: &[u8] = if big { &[b'I', b'I', 43, 0, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0] } else { &[b'I', b'I', 42, 0, 0, 0, 0, 0] };
@@ -297,20 +285,15 @@ impl GeoTiffWriter {
         let pending = std::mem::take(&mut self.pending);
         self.write_blocks(&pending)?;
         self.write_directory()?;
-        let io = |source| IoError::Io { path: self.path.clone(), source };
-        self.out.flush().map_err(io)?;
-        self.out.get_ref().sync_all().map_err(io)?;
-        std::fs::rename(&self.tmp, &self.path).map_err(io)?;
-        self.finished = true;
-        Ok(())
+        self.file.commit()
     }
 
     fn error(&self, message: String) -> IoError {
-        IoError::Format { path: self.path.clone(), message }
+        IoError::Format { path: self.file.path().to_owned(), message }
     }
 
     fn put(&mut self, bytes: &[u8]) -> Result<(), IoError> {
-        self.out.write_all(bytes).map_err(|source| IoError::Io { path: self.path.clone(), source })?;
+        self.file.out().write_all(bytes).map_err(|source| IoError::Io { path: self.file.path().to_owned(), source })?;
         self.position += bytes.len() as u64;
         if !self.big && self.position > CLASSIC_LIMIT {
             return Err(self.error("the file passes the 4 GiB a classic TIFF can address; allow BigTIFF (-co BIGTIFF=YES)".into()));
@@ -423,19 +406,12 @@ impl GeoTiffWriter {
         debug_assert_eq!(ifd + table.len() as u64, values_at);
         self.put(&table)?;
         self.put(&values)?;
-        let io = |source| IoError::Io { path: self.path.clone(), source };
-        self.out.seek(SeekFrom::Start(if self.big { 8 } else { 4 })).map_err(io)?;
+        let path = self.file.path().to_owned();
+        let io = |source| IoError::Io { path, source };
         let at: Vec<u8> = if self.big { ifd.to_le_bytes().to_vec() } else { (ifd as u32).to_le_bytes().to_vec() };
-        self.out.write_all(&at).map_err(io)?;
+        let out = self.file.out();
+        out.seek(SeekFrom::Start(if self.big { 8 } else { 4 })).and_then(|_| out.write_all(&at)).map_err(io)?;
         Ok(())
-    }
-}
-
-impl Drop for GeoTiffWriter {
-    fn drop(&mut self) {
-        if !self.finished {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
     }
 }
 
@@ -507,7 +483,7 @@ mod tests {
         }
     }
 
-    fn scratch(name: &str) -> PathBuf {
+    fn scratch(name: &str) -> std::path::PathBuf {
         let dir = std::env::temp_dir().join(format!("tileraster-geotiff-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         dir

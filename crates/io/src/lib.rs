@@ -36,25 +36,58 @@ pub enum IoError {
     Format { path: PathBuf, message: String },
 }
 
-/// Write a file through `<name>.partial` beside it, renamed into place only on success.
+/// A file written as `<name>.partial` beside its destination: [`commit`](Self::commit) makes
+/// it durable and renames it into place; dropped before that (an error, a panic), it is
+/// removed, so a failed run leaves no partial file behind.
+pub(crate) struct PartialFile {
+    path: PathBuf,
+    tmp: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+    committed: bool,
+}
+
+impl PartialFile {
+    pub(crate) fn create(path: &Path) -> Result<Self, IoError> {
+        let mut tmp_name = path.file_name().unwrap_or_default().to_owned();
+        tmp_name.push(".partial");
+        let tmp = path.with_file_name(tmp_name);
+        let file = std::fs::File::create(&tmp).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
+        Ok(PartialFile { path: path.to_owned(), tmp, out: std::io::BufWriter::with_capacity(1 << 20, file), committed: false })
+    }
+
+    /// The destination, for errors.
+    pub(crate) fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub(crate) fn out(&mut self) -> &mut std::io::BufWriter<std::fs::File> {
+        &mut self.out
+    }
+
+    pub(crate) fn commit(mut self) -> Result<(), IoError> {
+        let io = |source| IoError::Io { path: self.path.clone(), source };
+        std::io::Write::flush(&mut self.out).map_err(io)?;
+        self.out.get_ref().sync_all().map_err(io)?;
+        std::fs::rename(&self.tmp, &self.path).map_err(io)?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for PartialFile {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Write a whole file at once through a [`PartialFile`].
 pub(crate) fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<(), String>,
 ) -> Result<(), IoError> {
-    let io = |source| IoError::Io { path: path.to_owned(), source };
-    let mut tmp_name = path.file_name().unwrap_or_default().to_owned();
-    tmp_name.push(".partial");
-    let tmp = path.with_file_name(tmp_name);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp).map_err(io)?;
-        let mut out = std::io::BufWriter::new(file);
-        write(&mut out).map_err(|message| IoError::Format { path: path.to_owned(), message })?;
-        let file = out.into_inner().map_err(|e| io(e.into_error()))?;
-        file.sync_all().map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    let mut file = PartialFile::create(path)?;
+    write(file.out()).map_err(|message| IoError::Format { path: path.to_owned(), message })?;
+    file.commit()
 }

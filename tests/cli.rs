@@ -25,6 +25,14 @@ fn rasterise_cli(obj: &Path, tif: &Path, args: &[&str]) -> std::process::Output 
         .unwrap()
 }
 
+/// `scene` as `m.obj` in a scratch folder of its own: the folder and the file.
+fn mesh_file(name: &str, scene: &Scene) -> (PathBuf, PathBuf) {
+    let dir = scratch(name);
+    let obj = dir.join("m.obj");
+    write_obj(scene, &obj);
+    (dir, obj)
+}
+
 fn write_obj(scene: &Scene, path: &Path) {
     let mut text = String::from("# test mesh\n");
     for v in &scene.vertices {
@@ -266,10 +274,8 @@ fn obj_ply_and_stl_give_the_same_raster() {
 /// deflated 256² tiles; the values stay the same; bad options are refused before any work.
 #[test]
 fn crs_tiles_and_compression_on_request() {
-    let dir = scratch("co");
     let scene = scenes::terrain(0.0, 0.0, 600.0, 400.0, 12, 8, 5);
-    let obj = dir.join("m.obj");
-    write_obj(&scene, &obj);
+    let (dir, obj) = mesh_file("co", &scene);
     let grid = ["--txe", "0", "600", "--tye", "0", "400", "--outsize", "300", "290"];
     let (plain, tiled) = (dir.join("plain.tif"), dir.join("tiled.tif"));
     assert!(rasterise_cli(&obj, &plain, &grid).status.success());
@@ -294,10 +300,8 @@ fn crs_tiles_and_compression_on_request() {
 /// windows that tile the whole run cell for cell and carry their own georeference, and `-q`.
 #[test]
 fn cell_size_windows_and_quiet() {
-    let dir = scratch("tr-window");
     let scene = scenes::terrain(0.0, 0.0, 10.0, 7.0, 5, 4, 2);
-    let obj = dir.join("m.obj");
-    write_obj(&scene, &obj);
+    let (dir, obj) = mesh_file("tr-window", &scene);
     let dims = |tif: &Path| Decoder::new(std::io::BufReader::new(std::fs::File::open(tif).unwrap())).unwrap().dimensions().unwrap();
     for (tr, expected) in [(["3", "2"], (3, 4)), (["4", "4"], (3, 2))] {
         let tif = dir.join("tr.tif");
@@ -386,10 +390,8 @@ fn assert_same_bits(a: &[f32], b: &[f32], what: &str) {
 /// the single run's cells; the owner raster is the library's.
 #[test]
 fn bands_streamed_within_a_memory_budget_give_the_single_runs_cells() {
-    let dir = scratch("bands");
     let scene = scenes::terrain(0.0, 0.0, 600.0, 900.0, 9, 13, 8);
-    let obj = dir.join("m.obj");
-    write_obj(&scene, &obj);
+    let (dir, obj) = mesh_file("bands", &scene);
     let grid = ["--txe", "-20", "610", "--tye", "-5", "905", "--outsize", "700", "1100"];
     let (single, banded, owner) = (dir.join("single.tif"), dir.join("banded.tif"), dir.join("owner.tif"));
     let out = rasterise_cli(&obj, &single, &grid);
@@ -420,10 +422,8 @@ fn bands_streamed_within_a_memory_budget_give_the_single_runs_cells() {
 /// when it is installed.
 #[test]
 fn parts_run_as_separate_processes_mosaic_to_the_single_run() {
-    let dir = scratch("parts");
     let scene = scenes::terrain(500_000.0, 5_000_000.0, 3000.0, 2000.0, 12, 8, 3);
-    let obj = dir.join("m.obj");
-    write_obj(&scene, &obj);
+    let (dir, obj) = mesh_file("parts", &scene);
     let grid = ["--txe", "500000", "503000", "--tye", "5000000", "5002000", "--outsize", "333", "500", "--a_srs", "EPSG:32633", "-q"];
     let single = dir.join("single.tif");
     assert!(rasterise_cli(&obj, &single, &grid).status.success());

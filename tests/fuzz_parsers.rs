@@ -26,6 +26,40 @@ fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
     }
 }
 
+/// A valid file, mutated: random bytes, cut short, one to four bytes changed (three times in
+/// four within its first `head` bytes), or a field of 1 to 8 bytes set to one of `extremes`
+/// or to random bits.
+fn mutated(seed: &[u8], next: &mut impl FnMut() -> u64, head: usize, extremes: &[u64]) -> Vec<u8> {
+    let mut data = seed.to_vec();
+    match next() % 5 {
+        0 => data = (0..next() % 400).map(|_| next() as u8).collect(),
+        1 => data.truncate(next() as usize % seed.len()),
+        2 | 3 => {
+            for _ in 0..1 + next() % 4 {
+                let at = next() as usize % if next().is_multiple_of(4) { data.len() } else { data.len().min(head) };
+                data[at] = next() as u8;
+            }
+        }
+        _ => {
+            let at = next() as usize % (data.len() - 8);
+            let pick = next() as usize % (extremes.len() + 1);
+            let value = extremes.get(pick).copied().unwrap_or_else(&mut *next).to_le_bytes();
+            let width = [1, 2, 4, 8][(next() % 4) as usize];
+            data[at..at + width].copy_from_slice(&value[..width]);
+        }
+    }
+    data
+}
+
+/// `check` of input `k`: its outcome, or a failure naming the input and the problem or panic.
+fn checked<O>(k: usize, data: &[u8], check: impl FnOnce(&[u8]) -> Result<O, String>) -> O {
+    match catch_unwind(AssertUnwindSafe(|| check(data))) {
+        Ok(Ok(outcome)) => outcome,
+        Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
+        Err(_) => panic!("input {k} {data:?}: panicked"),
+    }
+}
+
 #[test]
 fn mesh_files_never_panic_and_are_refused_or_read_consistently() {
     let mut next = xorshift(0x2545_f491_4f6c_dd1d);
@@ -58,11 +92,9 @@ fn mesh_files_never_panic_and_are_refused_or_read_consistently() {
                 }
             }
         }
-        match catch_unwind(AssertUnwindSafe(|| mesh_check::check(&data))) {
-            Ok(Ok(mesh_check::Outcome::Refused)) => refused += 1,
-            Ok(Ok(mesh_check::Outcome::Mesh(_))) => meshes += 1,
-            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
-            Err(_) => panic!("input {k} {data:?}: panicked"),
+        match checked(k, &data, mesh_check::check) {
+            mesh_check::Outcome::Refused => refused += 1,
+            mesh_check::Outcome::Mesh(_) => meshes += 1,
         }
     }
     eprintln!("mesh files: {refused} refused, {meshes} read");
@@ -93,12 +125,10 @@ fn point_files_never_panic_and_are_refused_or_triangulated_consistently() {
                 data.extend_from_slice(pieces[(next() % pieces.len() as u64) as usize].as_bytes());
             }
         }
-        match catch_unwind(AssertUnwindSafe(|| points_check::check(&data))) {
-            Ok(Ok(points_check::Outcome::Refused)) => refused += 1,
-            Ok(Ok(points_check::Outcome::Points(_))) => points += 1,
-            Ok(Ok(points_check::Outcome::Triangulated(_))) => triangulated += 1,
-            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
-            Err(_) => panic!("input {k} {data:?}: panicked"),
+        match checked(k, &data, points_check::check) {
+            points_check::Outcome::Refused => refused += 1,
+            points_check::Outcome::Points(_) => points += 1,
+            points_check::Outcome::Triangulated(_) => triangulated += 1,
         }
     }
     eprintln!("point files: {refused} refused, {points} parsed but not triangulable, {triangulated} triangulated");
@@ -135,32 +165,12 @@ fn las_files_never_panic_and_are_refused_or_read_consistently() {
     ];
     let (mut refused, mut points, mut triangulated) = (0, 0, 0);
     for k in 0..4000 {
-        // A valid file, mutated: random throughout, cut short, bytes changed (most in the
-        // header, VLRs and first records), or a field set to an extreme.
-        let seed = &seeds[k % seeds.len()];
-        let mut data = seed.clone();
-        match next() % 5 {
-            0 => data = (0..next() % 400).map(|_| next() as u8).collect(),
-            1 => data.truncate(next() as usize % seed.len()),
-            2 | 3 => {
-                for _ in 0..1 + next() % 4 {
-                    let at = next() as usize % if next().is_multiple_of(4) { data.len() } else { data.len().min(420) };
-                    data[at] = next() as u8;
-                }
-            }
-            _ => {
-                let at = next() as usize % (data.len() - 8);
-                let value: [u8; 8] = [u64::MAX, u32::MAX as u64, 1 << 40, 0, next()][(next() % 5) as usize].to_le_bytes();
-                let width = [1, 2, 4, 8][(next() % 4) as usize];
-                data[at..at + width].copy_from_slice(&value[..width]);
-            }
-        }
-        match catch_unwind(AssertUnwindSafe(|| las_check::check(&data))) {
-            Ok(Ok(las_check::Outcome::Refused)) => refused += 1,
-            Ok(Ok(las_check::Outcome::Points(_))) => points += 1,
-            Ok(Ok(las_check::Outcome::Triangulated(_))) => triangulated += 1,
-            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
-            Err(_) => panic!("input {k} {data:?}: panicked"),
+        // Byte changes mostly in the header, VLRs and first records.
+        let data = mutated(&seeds[k % seeds.len()], &mut next, 420, &[u64::MAX, u32::MAX as u64, 1 << 40, 0]);
+        match checked(k, &data, las_check::check) {
+            las_check::Outcome::Refused => refused += 1,
+            las_check::Outcome::Points(_) => points += 1,
+            las_check::Outcome::Triangulated(_) => triangulated += 1,
         }
     }
     eprintln!("LAS/LAZ files: {refused} refused, {points} read but not triangulable, {triangulated} triangulated");
@@ -200,30 +210,11 @@ fn mosaic_parts_never_panic_and_are_refused_or_placed() {
     let seeds = part_files();
     let (mut refused, mut parts) = (0, 0);
     for k in 0..3000 {
-        // A valid part, mutated: random, cut short, bytes changed, or a field set to an extreme.
-        let seed = &seeds[k % seeds.len()];
-        let mut data = seed.clone();
-        match next() % 4 {
-            0 => data = (0..next() % 300).map(|_| next() as u8).collect(),
-            1 => data.truncate(next() as usize % seed.len()),
-            2 => {
-                for _ in 0..1 + next() % 3 {
-                    let at = next() as usize % data.len();
-                    data[at] = next() as u8;
-                }
-            }
-            _ => {
-                let at = next() as usize % (data.len() - 8);
-                let value = [u64::MAX, u32::MAX as u64, 1 << 40, 0, f64::NAN.to_bits(), (-1.0f64).to_bits()][(next() % 6) as usize].to_le_bytes();
-                let width = [2, 4, 8][(next() % 3) as usize];
-                data[at..at + width].copy_from_slice(&value[..width]);
-            }
-        }
-        match catch_unwind(AssertUnwindSafe(|| part_check::check(&data))) {
-            Ok(Ok(part_check::Outcome::Refused)) => refused += 1,
-            Ok(Ok(part_check::Outcome::Part)) => parts += 1,
-            Ok(Err(problem)) => panic!("input {k} {data:?}: {problem}"),
-            Err(_) => panic!("input {k} {data:?}: panicked"),
+        let extremes = [u64::MAX, u32::MAX as u64, 1 << 40, 0, f64::NAN.to_bits(), (-1.0f64).to_bits()];
+        let data = mutated(&seeds[k % seeds.len()], &mut next, usize::MAX, &extremes);
+        match checked(k, &data, part_check::check) {
+            part_check::Outcome::Refused => refused += 1,
+            part_check::Outcome::Part => parts += 1,
         }
     }
     eprintln!("mosaic parts: {refused} refused, {parts} placed");

@@ -36,9 +36,10 @@ fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Pat
     // short of decoding finds those first, so a panic while decoding, caught where the thread
     // is joined (as `catch_unwind` would), is this file's error. (The fuzz target lets panics
     // located in `laz` unwind.)
+    silence_laz_panics();
     let path = origin.to_owned();
     let decoding = std::thread::Builder::new()
-        .name("las-decoder".into())
+        .name(DECODER_THREAD.into())
         .stack_size(DECODING_STACK)
         .spawn(move || {
             let fail = |message: String| IoError::Format { path: path.clone(), message };
@@ -53,6 +54,25 @@ fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Pat
         let what = panic.downcast_ref::<&str>().copied().or(panic.downcast_ref::<String>().map(String::as_str));
         Err(unreadable(origin, format_args!("decoding failed: {}", what.unwrap_or("no message"))))
     })
+}
+
+const DECODER_THREAD: &str = "las-decoder";
+
+/// Panics inside `laz` on the decoding thread become the file's error, so the panic hook need
+/// not print them as well: chain a hook, once, that stays silent for exactly those and hands
+/// every other panic to the hook it replaces.
+fn silence_laz_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            let decoding = std::thread::current().name() == Some(DECODER_THREAD);
+            let in_laz = info.location().is_some_and(|at| at.file().replace('\\', "/").contains("/laz-"));
+            if !(decoding && in_laz) {
+                previous(info);
+            }
+        }));
+    });
 }
 
 fn unreadable(path: &Path, e: impl std::fmt::Display) -> IoError {

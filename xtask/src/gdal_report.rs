@@ -7,8 +7,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use crate::median;
-use std::time::Instant;
+use crate::{measure, median};
 use tiff::decoder::{Decoder, DecodingResult};
 use tileraster::scenes::Rng;
 
@@ -30,16 +29,6 @@ fn ulps(a: f32, b: f32) -> u64 {
         if bits < 0x8000_0000 { bits } else { 0x8000_0000 - bits }
     };
     (key(a) - key(b)).unsigned_abs()
-}
-
-fn run_timed(command: &mut Command) -> Result<f64, String> {
-    let start = Instant::now();
-    let out = command.output().map_err(|e| format!("{command:?}: {e}"))?;
-    let seconds = start.elapsed().as_secs_f64();
-    if !out.status.success() {
-        return Err(format!("{command:?} failed: {}", String::from_utf8_lossy(&out.stderr)));
-    }
-    Ok(seconds)
 }
 
 /// `points` random points of a gently sloping surface as `dir/points.csv`, and their extent
@@ -89,11 +78,11 @@ pub fn run(points: usize, size: u32) -> Result<String, String> {
     gdal.args(["-q", "-a", "linear:radius=0:nodata=-9999", "-of", "GTiff", "-ot", "Float32", "-l", "points"]);
     gdal.args(["-txe", &txe[0], &txe[1], "-tye", &tye[0], &tye[1], "-outsize", &n, &n, vrt.to_str().unwrap(), theirs.to_str().unwrap()]);
     let (mut t_ours, mut t_gdal) = (Vec::new(), Vec::new());
-    run_timed(&mut tileraster)?; // warm-up: the file cache, the binary
+    measure(&mut tileraster)?; // warm-up: the file cache, the binary
     for _ in 0..3 {
         eprintln!("gdal-report: tileraster, gdal_grid ...");
-        t_ours.push(run_timed(&mut tileraster)?);
-        t_gdal.push(run_timed(&mut gdal)?);
+        t_ours.push(measure(&mut tileraster)?.seconds);
+        t_gdal.push(measure(&mut gdal)?.seconds);
     }
     let (a, b) = (read_values(&ours)?, read_values(&theirs)?);
     if a.len() != b.len() {

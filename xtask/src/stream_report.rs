@@ -12,40 +12,13 @@
 //! Prints markdown.
 
 use crate::gdal_report::{read_values, write_points_csv};
-use crate::median;
+use crate::{measure, median};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::os::unix::process::CommandExt as _;
 use std::process::Command;
 use std::time::Instant;
 use tiff::decoder::{Decoder, DecodingResult};
-
-/// A finished child process: wall seconds and peak resident memory (bytes).
-struct Measured {
-    seconds: f64,
-    peak_rss: u64,
-    stderr: String,
-}
-
-/// Run `command` to its end, with its own peak resident set size from `wait4`.
-fn measure(command: &mut Command) -> Result<Measured, String> {
-    let start = Instant::now();
-    let child = command.stderr(std::process::Stdio::piped()).spawn().map_err(|e| format!("{command:?}: {e}"))?;
-    let pid = child.id() as libc::pid_t;
-    let mut stderr = child.stderr.ok_or("no stderr")?;
-    let mut text = String::new();
-    std::io::Read::read_to_string(&mut stderr, &mut text).map_err(|e| e.to_string())?;
-    let (mut status, mut usage) = (0, unsafe { std::mem::zeroed::<libc::rusage>() });
-    // SAFETY: `pid` is our child, not yet waited for; both out-pointers are valid.
-    if unsafe { libc::wait4(pid, &mut status, 0, &mut usage) } != pid {
-        return Err(format!("{command:?}: wait4 failed"));
-    }
-    let seconds = start.elapsed().as_secs_f64();
-    if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
-        return Err(format!("{command:?} failed: {text}"));
-    }
-    Ok(Measured { seconds, peak_rss: usage.ru_maxrss as u64 * 1024, stderr: text })
-}
 
 fn mib(bytes: u64) -> String {
     format!("{:.0} MiB", bytes as f64 / (1 << 20) as f64)
@@ -157,7 +130,8 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     let big = dir.join("big.tif");
     let limit = limit_mib << 20;
     eprintln!("stream-report: {size}² under ulimit -v {limit_mib} MiB ...");
-    let mut command = rasterise(&big, size, &[]);
+    // Tiled even when it fits in one band, so its windows can be read tile by tile.
+    let mut command = rasterise(&big, size, &["--co", "TILED=YES"]);
     // SAFETY: between fork and exec, only setrlimit, which is async-signal-safe.
     unsafe {
         command.pre_exec(move || {

@@ -201,8 +201,8 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     for name in &no_skip {
         skips = skips.without(name);
     }
-    let outputs = tileraster::Outputs { owner: owner.is_some(), coverage: false };
-    let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(outputs);
+    let layers = tileraster::Outputs { owner: owner.is_some(), coverage: false };
+    let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(layers);
     let (budget, set_by) = memory.map_or_else(stream::default_memory_budget, |mib| (mib << 20, "--memory"));
     let band_rows = stream::band_rows(&window, stream::bytes_per_cell(owner.is_some(), backend), budget);
     if band_rows < window.height {
@@ -217,7 +217,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
             if tiff.tiled { "tiled" } else { "striped" }
         ));
     }
-    let files = stream::Outputs { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
+    let files = stream::Destinations { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
     let start = Instant::now();
     let run = stream::rasterise_bands(&scene, &params, window, backend, band_rows, &files, &progress)?;
     if let Some(path) = &tin {

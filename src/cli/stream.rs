@@ -9,7 +9,7 @@ use tileraster::{Backend, Grid, Params, PreparedScene, Raster, Scene, Stats, Win
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample, TILE};
 
 /// Where a run's results go.
-pub struct Outputs<'a> {
+pub struct Destinations<'a> {
     pub heights: &'a Path,
     /// The owner-triangle raster (UInt32), if asked for.
     pub owner: Option<&'a Path>,
@@ -52,7 +52,7 @@ pub fn rasterise_bands(
     window: Window,
     backend: Backend,
     band_rows: u32,
-    outputs: &Outputs,
+    outputs: &Destinations,
     progress: &Progress,
 ) -> Result<Run, String> {
     let text = |e: tileraster_io::IoError| e.to_string();

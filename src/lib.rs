@@ -17,7 +17,8 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 
-pub use tileraster_core::{reference, scenes, Error, Grid, Mode, Outputs, Params, Prepared, Raster, Scene, Skips, Stats, Window, MAX_GRID_DIM};
+pub use tileraster_core::{reference, scenes, Error, Grid, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window, MAX_GRID_DIM};
+pub use tileraster_core::kernels::pipeline::Stage;
 
 /// Where the kernels run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,13 +68,13 @@ pub fn rasterise_prepared(prepared: &Prepared, backend: Backend) -> Result<Raste
 /// their window needs.
 ///
 /// ```no_run
-/// use tileraster::{Backend, Grid, Params, PreparedScene, Scene, Window};
+/// use tileraster::{Backend, Grid, Params, PreparedScene, Scene, Stage, Window};
 /// # let scene = Scene::new(vec![[0.0, 0.0, 1.0], [100.0, 0.0, 2.0], [0.0, 100.0, 3.0]], vec![[0, 1, 2]]);
 /// let params = Params::new(Grid::new(0.0, 100.0, 0.0, 100.0, 8192, 8192));
 /// let mut dem = PreparedScene::new(&scene, &params, Backend::Gpu)?;
 /// for y0 in (0..8192).step_by(1024) {
 ///     let part = dem.rasterise_window(Window { x0: 0, y0, width: 8192, height: 1024 })?;
-///     assert!(!part.stats.passes.contains(&"setup") || y0 == 0);
+///     assert!(!part.stats.passes.contains(&Stage::Setup.into()) || y0 == 0);
 /// }
 /// # Ok::<(), tileraster::Error>(())
 /// ```

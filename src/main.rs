@@ -8,7 +8,7 @@ mod cli;
 
 use cli::progress::{note, set_quiet, Progress};
 use cli::stream;
-use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skips, Window};
+use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skip, Skips, Window};
 use tileraster_io::{GeoTiffOptions, PointColumns};
 
 #[derive(Parser)]
@@ -137,10 +137,11 @@ struct RasteriseArgs {
     /// Turn one of the pipeline's skips off (repeatable), to measure its gain; results do
     /// not change. Names: cull_window, empty_tiles, full_tiles, overlap_free.
     #[arg(long = "no-skip", value_name = "SKIP", value_parser = skip_name)]
-    no_skip: Vec<String>,
+    no_skip: Vec<Skip>,
 }
 
 fn main() -> ExitCode {
+    give_vulkan_a_runtime_dir();
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(message) => {
@@ -198,8 +199,8 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     let scene = read_input(&input, &columns.unwrap_or_default(), &progress)?;
     let backend = choose_backend(backend)?;
     let mut skips = Skips::ALL;
-    for name in &no_skip {
-        skips = skips.without(name);
+    for &skip in &no_skip {
+        skips = skips.without(skip);
     }
     let layers = tileraster::Outputs { owner: owner.is_some(), coverage: false };
     let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(layers);
@@ -326,10 +327,25 @@ fn point_columns(s: &str) -> Result<PointColumns, String> {
     Ok(PointColumns { x: Some(x.parse()?), y: Some(y.parse()?), z: Some(z.parse()?) })
 }
 
-fn skip_name(name: &str) -> Result<String, String> {
-    match Skips::NAMES.contains(&name) {
-        true => Ok(name.to_string()),
-        false => Err(format!("no skip named '{name}'; the skips are {}", Skips::NAMES.join(", "))),
+fn skip_name(name: &str) -> Result<Skip, String> {
+    name.parse().map_err(|e: tileraster::Error| e.to_string())
+}
+
+/// Mesa's Vulkan drivers print `error: XDG_RUNTIME_DIR is invalid or not set` when the
+/// session has none (a container, a batch job, ssh without a login session), though nothing
+/// fails. A successful run prints no line that says error: give the process a private runtime
+/// directory of its own, as a login session would, before any thread starts.
+fn give_vulkan_a_runtime_dir() {
+    use std::os::unix::fs::{DirBuilderExt, MetadataExt};
+    let valid = |dir: &Path| std::fs::metadata(dir).is_ok_and(|m| m.is_dir() && m.uid() == unsafe { libc::getuid() });
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|d| valid(Path::new(&d))) {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("tileraster-runtime-{}", unsafe { libc::getuid() }));
+    let _ = std::fs::DirBuilder::new().mode(0o700).create(&dir);
+    if valid(&dir) {
+        // SAFETY: called first thing in `main`, before any other thread exists.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
     }
 }
 

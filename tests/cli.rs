@@ -144,7 +144,7 @@ fn stats_flag_prints_one_json_object_on_stderr() {
     assert_eq!(stats["tiles_full"], expected.tiles_full, "{line}");
     assert_eq!(stats["triangles_culled"], expected.triangles_culled, "{line}");
     assert_eq!(stats["bytes_uploaded"], expected.bytes_uploaded, "{line}");
-    assert_eq!(stats["passes"], serde_json::json!(expected.passes), "{line}");
+    assert_eq!(stats["passes"], serde_json::json!(expected.passes.iter().map(|p| p.name()).collect::<Vec<_>>()), "{line}");
     assert!(expected.tiles_empty_skipped > 0 && expected.tiles_full > 0, "{line}");
 
     // Turning a skip off changes the statistics, not the raster; an unknown name is refused.

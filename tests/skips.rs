@@ -6,7 +6,7 @@
 mod common;
 
 use common::{assert_same_bits, gpu_or_skip, skip_variants};
-use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Outputs, Params, PreparedScene, Raster, Scene, Skips, Window};
+use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Outputs, Params, Pass, PreparedScene, Raster, Scene, Skip, Skips, Stage, Window};
 
 /// The backends the tests can use here.
 fn backends(test: &str) -> Vec<Backend> {
@@ -35,8 +35,12 @@ fn statistics_of_a_scene_worked_out_by_hand() {
         assert_eq!((s.tiles_full, s.tiles_partial), (2, 2), "{backend:?}");
         assert_eq!((s.triangles_culled, s.triangles_flat, s.triangles_binned), (0, 0, 2), "{backend:?}");
         assert!(s.overlap_free, "{backend:?}");
-        let passes = ["upload", "setup", "cull", "fill_nodata", "bin_count", "bin_scan", "bin_fill", "fine_raster"];
+        let kernel = |stage: Stage| Pass::Kernel(stage);
+        let window_stages = [Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster].map(kernel);
+        let passes: Vec<Pass> = [Pass::Upload, kernel(Stage::Setup), Pass::Cull, Pass::FillNodata].into_iter().chain(window_stages).collect();
         assert_eq!(s.passes, passes, "{backend:?}");
+        let names: Vec<&str> = s.passes.iter().map(|p| p.name()).collect();
+        assert_eq!(names, ["upload", "setup", "cull", "fill_nodata", "bin_count", "bin_scan", "bin_fill", "fine_raster"], "--stats names");
         assert_eq!(s.bytes_uploaded, 2 * TRIANGLE_BYTES + 2 * 4, "{backend:?}");
 
         // With nothing skipped, every tile is rasterised and tested, and overlaps are resolved.
@@ -44,7 +48,8 @@ fn statistics_of_a_scene_worked_out_by_hand() {
         let s = &none.stats;
         assert_eq!((s.tiles_total, s.tiles_empty_skipped, s.tiles_full, s.tiles_partial), (16, 0, 0, 16), "{backend:?}");
         assert!(!s.overlap_free);
-        assert_eq!(s.passes, ["upload", "setup", "bin_count", "bin_scan", "bin_fill", "fine_raster", "ownership"]);
+        let passes: Vec<Pass> = [Pass::Upload, kernel(Stage::Setup)].into_iter().chain(window_stages).chain([Pass::Ownership]).collect();
+        assert_eq!(s.passes, passes);
         assert_same_bits(&format!("{backend:?}: all skips vs none"), &raster, &none);
     }
 }
@@ -63,30 +68,30 @@ fn each_skip_happens_where_the_scene_allows_it_and_not_when_turned_off() {
 
     // A window of a TIN: the triangles elsewhere are culled before binning.
     let on = run(&tin, grid, Some(window), Skips::ALL);
-    let off = run(&tin, grid, Some(window), Skips::all_but("cull_window"));
-    assert!(on.triangles_culled > 1000 && on.passes.contains(&"cull"), "{on:?}");
-    assert!(off.triangles_culled == 0 && !off.passes.contains(&"cull"), "{off:?}");
+    let off = run(&tin, grid, Some(window), Skips::all_but(Skip::CullWindow));
+    assert!(on.triangles_culled > 1000 && on.passes.contains(&Pass::Cull), "{on:?}");
+    assert!(off.triangles_culled == 0 && !off.passes.contains(&Pass::Cull), "{off:?}");
     assert_eq!(on.triangles_binned + on.triangles_culled, off.triangles_binned);
 
     // The TIN leaves a margin of the grid uncovered: those tiles are skipped as empty.
     let on = run(&tin, grid, None, Skips::ALL);
-    let off = run(&tin, grid, None, Skips::all_but("empty_tiles"));
-    assert!(on.tiles_empty_skipped > 0 && on.passes.contains(&"fill_nodata"), "{on:?}");
-    assert!(off.tiles_empty_skipped == 0 && !off.passes.contains(&"fill_nodata"), "{off:?}");
+    let off = run(&tin, grid, None, Skips::all_but(Skip::EmptyTiles));
+    assert!(on.tiles_empty_skipped > 0 && on.passes.contains(&Pass::FillNodata), "{on:?}");
+    assert!(off.tiles_empty_skipped == 0 && !off.passes.contains(&Pass::FillNodata), "{off:?}");
 
     // A plane covers most tiles whole.
     let on = run(&scenes::sloping_plane(), plane_grid, None, Skips::ALL);
-    let off = run(&scenes::sloping_plane(), plane_grid, None, Skips::all_but("full_tiles"));
+    let off = run(&scenes::sloping_plane(), plane_grid, None, Skips::all_but(Skip::FullTiles));
     assert!(on.tiles_full > 200, "{on:?}");
     assert_eq!((off.tiles_full, off.tiles_partial), (0, on.tiles_total), "{off:?}");
 
     // A TIN is proven overlap-free; a soup of overlapping triangles is not.
     let on = run(&tin, grid, None, Skips::ALL);
-    let off = run(&tin, grid, None, Skips::all_but("overlap_free"));
-    assert!(on.overlap_free && !on.passes.contains(&"ownership"), "{on:?}");
-    assert!(!off.overlap_free && off.passes.contains(&"ownership"), "{off:?}");
+    let off = run(&tin, grid, None, Skips::all_but(Skip::OverlapFree));
+    assert!(on.overlap_free && !on.passes.contains(&Pass::Ownership), "{on:?}");
+    assert!(!off.overlap_free && off.passes.contains(&Pass::Ownership), "{off:?}");
     let soup = run(&soup, soup_grid, None, Skips::ALL);
-    assert!(!soup.overlap_free && soup.passes.contains(&"ownership"), "{soup:?}");
+    assert!(!soup.overlap_free && soup.passes.contains(&Pass::Ownership), "{soup:?}");
 }
 
 #[test]
@@ -98,7 +103,7 @@ fn nothing_in_the_window_means_no_kernel_work() {
         assert!(raster.values.iter().all(|&v| v == -1.0));
         let s = &raster.stats;
         assert_eq!((s.tiles_total, s.tiles_empty_skipped, s.triangles_culled, s.bytes_uploaded), (4, 4, 2, 0));
-        assert_eq!(s.passes, ["cull", "fill_nodata"]);
+        assert_eq!(s.passes, [Pass::Cull, Pass::FillNodata]);
     }
 }
 
@@ -110,13 +115,13 @@ fn outputs_nobody_asked_for_are_not_written_and_change_nothing_else() {
         let run = |owner, coverage| rasterise(&scene, &Params::new(grid).with_outputs(Outputs { owner, coverage }), backend).unwrap();
         let (both, none) = (run(true, true), run(false, false));
         assert!(none.owner.is_none() && none.coverage.is_none());
-        assert!(!none.stats.passes.iter().any(|p| p.starts_with("write_")), "{:?}", none.stats.passes);
+        assert!(!none.stats.passes.iter().any(|p| matches!(p, Pass::WriteOwner | Pass::WriteCoverage)), "{:?}", none.stats.passes);
         for (owner, coverage) in [(true, false), (false, true), (false, false)] {
             let some = run(owner, coverage);
             assert_eq!(some.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), both.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
             assert_eq!(some.owner.is_some(), owner);
-            assert_eq!(some.stats.passes.contains(&"write_owner"), owner);
-            assert_eq!(some.stats.passes.contains(&"write_coverage"), coverage);
+            assert_eq!(some.stats.passes.contains(&Pass::WriteOwner), owner);
+            assert_eq!(some.stats.passes.contains(&Pass::WriteCoverage), coverage);
         }
     }
 }
@@ -147,14 +152,14 @@ fn a_prepared_scene_uploads_and_sets_up_once() {
                 assert_window_of(&what, &whole, &part);
                 let s = &part.stats;
                 let first = k == 0;
-                assert_eq!(s.passes.contains(&"upload"), first, "{what}: {:?}", s.passes);
-                assert_eq!(s.passes.contains(&"setup"), first, "{what}: {:?}", s.passes);
+                assert_eq!(s.passes.contains(&Pass::Upload), first, "{what}: {:?}", s.passes);
+                assert_eq!(s.passes.contains(&Stage::Setup.into()), first, "{what}: {:?}", s.passes);
                 let scene_bytes = if first { n * TRIANGLE_BYTES } else { 0 };
                 assert_eq!(s.bytes_uploaded, scene_bytes + 4 * s.triangles_binned, "{what}");
                 // The rest of the statistics are the one-shot call's.
                 let (mut a, mut b) = (alone.stats.clone(), s.clone());
-                a.passes.retain(|p| !["upload", "setup"].contains(p));
-                b.passes.retain(|p| !["upload", "setup"].contains(p));
+                a.passes.retain(|p| ![Pass::Upload, Stage::Setup.into()].contains(p));
+                b.passes.retain(|p| ![Pass::Upload, Stage::Setup.into()].contains(p));
                 (a.bytes_uploaded, b.bytes_uploaded) = (0, 0);
                 assert_eq!(a, b, "{what}");
             }

@@ -1,12 +1,14 @@
 //! Compute entry points: unpack invocation ids and buffers, call the stage functions.
 //! The host dispatcher (`tileraster-cpu`) has one twin per entry point, with the same name.
+//! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
+//! that order; a test compares the compiled SPIR-V with the table.
 
 use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::stages::fine::{self, FineShared, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
-use crate::types::{FrameParams, TriangleInput, TriangleSetup};
-use crate::{BATCH, OUTPUT_COVERAGE, OUTPUT_OWNER, STAT_TILES_EMPTY, STAT_TILES_FULL, STAT_TILES_PARTIAL};
+use crate::abi::{Counter, FrameParams, OutputSet, TriangleInput, TriangleSetup};
+use crate::BATCH;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
@@ -98,13 +100,13 @@ pub fn fine_raster(
     let mut state = PixelState::EMPTY;
     // Uniform per workgroup: the whole tile takes the same branch, barriers included.
     let out = if fine::empty_tile(bin_len, frame) {
-        fine::count_tile(lid, STAT_TILES_EMPTY, stats);
+        fine::count_tile(lid, Counter::TilesEmpty, stats);
         fine::nodata_pixel(frame)
     } else {
         if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut state) {
-            fine::count_tile(lid, STAT_TILES_FULL, stats);
+            fine::count_tile(lid, Counter::TilesFull, stats);
         } else {
-            fine::count_tile(lid, STAT_TILES_PARTIAL, stats);
+            fine::count_tile(lid, Counter::TilesPartial, stats);
             let overlap_free = fine::overlap_free(frame);
             let mut batch_start = 0;
             while batch_start < bin_len {
@@ -120,10 +122,10 @@ pub fn fine_raster(
     if inside {
         let k = fine::window_index(i, j, frame);
         values[k] = out.value_bits;
-        if frame.outputs & OUTPUT_OWNER != 0 {
+        if frame.outputs.contains(OutputSet::OWNER) {
             owners[k] = out.owner;
         }
-        if frame.outputs & OUTPUT_COVERAGE != 0 {
+        if frame.outputs.contains(OutputSet::COVERAGE) {
             coverage[k] = out.count;
         }
     }

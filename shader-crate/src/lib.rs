@@ -14,10 +14,12 @@
 //! ```
 #![cfg_attr(target_arch = "spirv", no_std)]
 
-pub mod fixed;
+pub mod abi;
+pub mod math;
 pub mod memory;
+#[cfg(not(target_arch = "spirv"))]
+pub mod pipeline;
 pub mod stages;
-pub mod types;
 
 #[cfg(target_arch = "spirv")]
 pub mod entry;
@@ -46,36 +48,8 @@ pub const EXTENT_LIMIT_BITS: u32 = 29;
 // `#[spirv(compute(threads(..)))]` takes literals: keep `entry.rs` and these in step.
 const _: () = assert!(TILE == 16 && TRIANGLE_GROUP == 64 && SCAN_GROUP == 256);
 
-/// `FrameParams::outputs` bit: write the owning triangle's index per pixel.
-pub const OUTPUT_OWNER: u32 = 1;
-/// `FrameParams::outputs` bit: write how many triangles cover each pixel centre.
-pub const OUTPUT_COVERAGE: u32 = 2;
 /// Owner value of a pixel no triangle covers.
 pub const NO_OWNER: u32 = u32::MAX;
-
-/// `FrameParams::mode`: the correctly rounded `f32` of the fixed-point plane (the default).
-pub const MODE_EXACT: u32 = 0;
-/// `FrameParams::mode`: the plane evaluated in `f32` arithmetic.
-pub const MODE_PLANE_F32: u32 = 1;
-/// `FrameParams::mode`: `f32` barycentric interpolation of the vertex heights.
-pub const MODE_BARYCENTRIC: u32 = 2;
-
-/// `FrameParams::flags`: a tile with an empty bin writes nodata without the per-pixel state.
-pub const FLAG_EMPTY_TILES: u32 = 1;
-/// `FrameParams::flags`: a tile one triangle covers whole skips the edge tests.
-pub const FLAG_FULL_TILES: u32 = 2;
-/// `FrameParams::flags`: the host proved that no pixel centre is inside two triangles, so a
-/// pixel stops testing at the first triangle it is inside (no ownership resolution).
-pub const FLAG_OVERLAP_FREE: u32 = 4;
-
-/// Counters fine raster adds to, one increment per tile: tiles that took the empty path...
-pub const STAT_TILES_EMPTY: usize = 0;
-/// ... the full-tile path...
-pub const STAT_TILES_FULL: usize = 1;
-/// ... or tested their pixels against their bin.
-pub const STAT_TILES_PARTIAL: usize = 2;
-/// Length of the statistics buffer.
-pub const STAT_COUNTERS: usize = 4;
 
 /// Bit of a bin entry: the triangle covers every pixel centre of the tile (in the window), so
 /// the tile needs no edge tests if it is the only entry.

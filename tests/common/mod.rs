@@ -1,7 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use tileraster::{rasterise, Backend, Error, Params, Raster, Scene, Skips};
+use tileraster::{rasterise, Backend, Error, Params, Raster, Scene, Skip, Skips};
+use tileraster_cpu::FinePath;
 
 /// Whether GPU tests should run. Without an adapter they fail loudly, unless the user asked
 /// to skip them with `TILERASTER_SKIP_GPU=1`, in which case the skip is printed.
@@ -26,7 +27,7 @@ pub fn gpu_or_skip(test: &str) -> bool {
 /// one turned off alone. No skip may change a bit.
 pub fn skip_variants() -> Vec<(String, Skips)> {
     let mut out = vec![("all skips".to_string(), Skips::ALL), ("no skips".to_string(), Skips::NONE)];
-    out.extend(Skips::NAMES.iter().map(|name| (format!("all skips but {name}"), Skips::all_but(name))));
+    out.extend(Skip::ALL.iter().map(|&skip| (format!("all skips but {skip}"), Skips::all_but(skip))));
     out
 }
 
@@ -43,6 +44,7 @@ pub fn assert_same_bits(what: &str, a: &Raster, b: &Raster) {
 /// everywhere and equal statistics on both backends; print the first differing pixels with
 /// both values if they are not. Returns the rasters with all skips.
 pub fn assert_parity(name: &str, scene: &Scene, params: &Params) -> Option<(Raster, Raster)> {
+    assert_plain_twin(name, scene, params);
     if !gpu_or_skip(name) {
         return None;
     }
@@ -59,6 +61,19 @@ pub fn assert_parity(name: &str, scene: &Scene, params: &Params) -> Option<(Rast
         }
     }
     first
+}
+
+/// The CPU backend's specialised fine raster (row spans, full and overlap-free tiles, wide
+/// vectors) against its plain twin, which runs each tile as the GPU runs its workgroup: the
+/// same bits and statistics, with every skip variant.
+pub fn assert_plain_twin(name: &str, scene: &Scene, params: &Params) {
+    for (variant, skips) in skip_variants() {
+        let prepared = tileraster::prepare(scene, &params.with_skips(skips), None).unwrap_or_else(|e| panic!("{name}, {variant}: {e}"));
+        let run = |path| tileraster_cpu::rasterise_with(&prepared, path).unwrap_or_else(|e| panic!("{name}, {variant}, {path:?}: {e}"));
+        let (specialised, plain) = (run(FinePath::Specialised), run(FinePath::Plain));
+        assert_same_bits(&format!("{name}, {variant}, CPU specialised vs plain twin"), &specialised, &plain);
+        assert_eq!(specialised.stats, plain.stats, "{name}, {variant}: the CPU twins' statistics differ");
+    }
 }
 
 /// Run on the CPU, expecting success.

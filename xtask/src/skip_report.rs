@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use crate::median;
 use std::time::Instant;
-use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Params, PreparedScene, Raster, Scene, Skips, Stats, Window};
+use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Params, PreparedScene, Raster, Scene, Skip, Skips, Stats, Window};
 
 const NODATA: f32 = -9999.0;
 
@@ -96,10 +96,10 @@ fn each_skip(s: &Scenes, runs: usize) -> Result<String, String> {
     // (skip, scene name, scene, grid, window of a prepared scene, the skips without it)
     type SkipCase<'a> = (&'static str, String, &'a Scene, Grid, Option<Window>, Skips);
     let cases: Vec<SkipCase> = vec![
-        ("cull_window", format!("{}² window of the {tin_name} (prepared once)", n / 4), &s.tin, s.tin_grid, Some(window), Skips::all_but("cull_window")),
-        ("empty_tiles", sparse_name.clone(), &s.sparse, s.sparse_grid, None, Skips::all_but("empty_tiles")),
-        ("full_tiles", format!("plane, 2 triangles, {n}²"), &plane, s.plane_grid, None, Skips::all_but("full_tiles")),
-        ("overlap_free", tin_name.clone(), &s.tin, s.tin_grid, None, Skips::all_but("overlap_free")),
+        (Skip::CullWindow.name(), format!("{}² window of the {tin_name} (prepared once)", n / 4), &s.tin, s.tin_grid, Some(window), Skips::all_but(Skip::CullWindow)),
+        (Skip::EmptyTiles.name(), sparse_name.clone(), &s.sparse, s.sparse_grid, None, Skips::all_but(Skip::EmptyTiles)),
+        (Skip::FullTiles.name(), format!("plane, 2 triangles, {n}²"), &plane, s.plane_grid, None, Skips::all_but(Skip::FullTiles)),
+        (Skip::OverlapFree.name(), tin_name.clone(), &s.tin, s.tin_grid, None, Skips::all_but(Skip::OverlapFree)),
         ("all four", tin_name, &s.tin, s.tin_grid, None, Skips::NONE),
         ("all four", sparse_name, &s.sparse, s.sparse_grid, None, Skips::NONE),
     ];
@@ -153,7 +153,7 @@ fn preparation(s: &Scenes, runs: usize) -> Result<String, String> {
     for (name, scene, grid) in cases {
         eprintln!("skips: preparation, {name} ...");
         let prep = |skips| tileraster::prepare(scene, &Params::new(grid).with_skips(skips), None).map_err(|e| e.to_string());
-        let (with_s, without_s, a, _) = interleaved(runs, || prep(Skips::ALL), || prep(Skips::all_but("overlap_free")))?;
+        let (with_s, without_s, a, _) = interleaved(runs, || prep(Skips::ALL), || prep(Skips::all_but(Skip::OverlapFree)))?;
         let _ = writeln!(
             t,
             "| {name} | {} | {} | {:.0} % | {} |",

@@ -63,4 +63,7 @@ pub enum Error {
          the exact mode, or split the triangle"
     )]
     TooWideForMode { triangle: usize, mode: &'static str, extent_px: u64, limit_px: u64 },
+
+    #[error("no {what} named '{name}'; choose one of {choices}")]
+    UnknownName { what: &'static str, name: String, choices: String },
 }

@@ -1,4 +1,5 @@
 use crate::Error;
+use tileraster_kernels::abi::OutputSet;
 
 /// Largest supported width or height, so pixel coordinates stay comfortably inside `i32`.
 pub const MAX_GRID_DIM: u64 = 1 << 30;
@@ -95,54 +96,11 @@ pub struct Outputs {
     pub coverage: bool,
 }
 
-/// How covered cells get their values. Each mode's accuracy bound, and on which adapters its
-/// bits match the CPU's, is in `docs/numeric-contract.md`; the tests check exactly that.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub enum Mode {
-    /// The correctly rounded `f32` of the plane through the unsnapped vertices, evaluated
-    /// exactly in fixed point: within 0.5 ulp (plus the plane's 2^-60 quantisation) and
-    /// bit-identical on every backend.
-    #[default]
-    Exact,
-    /// The same plane evaluated in `f32` arithmetic: cheaper on GPUs without fast `i64`.
-    PlaneF32,
-    /// `f32` barycentric interpolation of the vertex heights on the snapped triangle, as a
-    /// hardware rasteriser does it.
-    Barycentric,
-}
-
-impl Mode {
-    pub const ALL: [Mode; 3] = [Mode::Exact, Mode::PlaneF32, Mode::Barycentric];
-
-    /// The name the command line and the reports use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Exact => "exact",
-            Mode::PlaneF32 => "plane-f32",
-            Mode::Barycentric => "barycentric",
-        }
-    }
-
-    pub(crate) fn kernel_code(self) -> u32 {
-        use tileraster_kernels::{MODE_BARYCENTRIC, MODE_EXACT, MODE_PLANE_F32};
-        match self {
-            Mode::Exact => MODE_EXACT,
-            Mode::PlaneF32 => MODE_PLANE_F32,
-            Mode::Barycentric => MODE_BARYCENTRIC,
-        }
-    }
-}
-
-impl std::str::FromStr for Mode {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, String> {
-        Mode::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
-            let names: Vec<_> = Mode::ALL.iter().map(|m| m.name()).collect();
-            format!("unknown mode '{s}'; choose one of {}", names.join(", "))
-        })
-    }
-}
+/// How covered cells get their values: the kernels' [`ValueMode`](tileraster_kernels::abi::ValueMode),
+/// one type from the command line to the kernel. Each mode's accuracy bound, and on which
+/// adapters its bits match the CPU's, is in `docs/numeric-contract.md`; the tests check exactly
+/// that.
+pub use tileraster_kernels::abi::ValueMode as Mode;
 
 /// The work the pipeline may skip when the scene does not need it. Every skip is exact: it
 /// changes no bit of any output, and the tests check each one by turning it off. All are on
@@ -163,29 +121,76 @@ pub struct Skips {
     pub overlap_free: bool,
 }
 
+/// One of the pipeline's skips, by name (see [`Skips`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Skip {
+    CullWindow,
+    EmptyTiles,
+    FullTiles,
+    OverlapFree,
+}
+
+impl Skip {
+    pub const ALL: [Skip; 4] = [Skip::CullWindow, Skip::EmptyTiles, Skip::FullTiles, Skip::OverlapFree];
+
+    /// The name the command line (`--no-skip NAME`) and the reports use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Skip::CullWindow => "cull_window",
+            Skip::EmptyTiles => "empty_tiles",
+            Skip::FullTiles => "full_tiles",
+            Skip::OverlapFree => "overlap_free",
+        }
+    }
+}
+
+impl std::fmt::Display for Skip {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Skip {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self, Error> {
+        Skip::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| Error::UnknownName {
+            what: "skip",
+            name: s.to_string(),
+            choices: Skip::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "),
+        })
+    }
+}
+
 impl Skips {
     pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true };
     pub const NONE: Skips = Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false };
 
-    /// Each skip by its name, as the command line and the benchmarks use them.
-    pub const NAMES: [&'static str; 4] = ["cull_window", "empty_tiles", "full_tiles", "overlap_free"];
-
-    /// All skips but the one named `name` (one of [`Skips::NAMES`]).
-    pub fn all_but(name: &str) -> Skips {
-        Skips::ALL.without(name)
+    /// All skips but `skip`.
+    pub fn all_but(skip: Skip) -> Skips {
+        Skips::ALL.without(skip)
     }
 
-    /// These skips without the one named `name` (one of [`Skips::NAMES`]).
-    pub fn without(self, name: &str) -> Skips {
+    /// These skips without `skip`.
+    pub fn without(self, skip: Skip) -> Skips {
         let mut s = self;
-        match name {
-            "cull_window" => s.cull_window = false,
-            "empty_tiles" => s.empty_tiles = false,
-            "full_tiles" => s.full_tiles = false,
-            "overlap_free" => s.overlap_free = false,
-            _ => panic!("no skip named {name:?}; the skips are {:?}", Skips::NAMES),
-        }
+        *s.flag(skip) = false;
         s
+    }
+
+    /// Whether `skip` is on.
+    pub fn has(self, skip: Skip) -> bool {
+        let mut s = self;
+        *s.flag(skip)
+    }
+
+    fn flag(&mut self, skip: Skip) -> &mut bool {
+        match skip {
+            Skip::CullWindow => &mut self.cull_window,
+            Skip::EmptyTiles => &mut self.empty_tiles,
+            Skip::FullTiles => &mut self.full_tiles,
+            Skip::OverlapFree => &mut self.overlap_free,
+        }
     }
 }
 
@@ -231,8 +236,7 @@ impl Params {
         self
     }
 
-    pub(crate) fn output_bits(&self) -> u32 {
-        use tileraster_kernels::{OUTPUT_COVERAGE, OUTPUT_OWNER};
-        (if self.outputs.owner { OUTPUT_OWNER } else { 0 }) | (if self.outputs.coverage { OUTPUT_COVERAGE } else { 0 })
+    pub(crate) fn output_set(&self) -> OutputSet {
+        OutputSet::NONE.with(OutputSet::OWNER, self.outputs.owner).with(OutputSet::COVERAGE, self.outputs.coverage)
     }
 }

@@ -12,9 +12,9 @@ mod scene;
 pub mod scenes;
 
 pub use error::Error;
-pub use grid::{Grid, Mode, Outputs, Params, Skips, MAX_GRID_DIM};
+pub use grid::{Grid, Mode, Outputs, Params, Skip, Skips, MAX_GRID_DIM};
 pub use overlap::overlap_free;
-pub use plan::{Plan, Stats};
+pub use plan::{Pass, Plan, Stats};
 pub use prepare::{prepare, Prepared, Window};
 pub use raster::{zeroed_cells, Difference, Raster};
 pub use scene::Scene;

@@ -16,7 +16,7 @@
 //! The scene is overlap-free when that sum never exceeds one on any pixel row of the grid.
 
 use std::ops::Range;
-use tileraster_kernels::types::TriangleInput;
+use tileraster_kernels::abi::TriangleInput;
 
 /// Crossings the analysis may sort per triangle and per pixel row before it gives up (and
 /// ownership is resolved): bounds its time and memory on scenes of many large triangles whose
@@ -183,7 +183,7 @@ fn max_winding(mut crossings: Vec<Crossing>) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tileraster_kernels::types::TriangleInput;
+    use tileraster_kernels::abi::TriangleInput;
     use std::ops::Range;
 
     const S: u32 = 4; // 16 units a pixel; centres at 8 + 16·k
@@ -262,7 +262,8 @@ mod tests {
     #[test]
     fn agrees_with_counting_every_pixel_centre() {
         use crate::{prepare, scenes, Grid, Params};
-        use tileraster_kernels::stages::fine::{side, Side};
+        use tileraster_kernels::math::edge::Side;
+        use tileraster_kernels::stages::fine::side;
         use tileraster_kernels::stages::setup::setup_triangle;
         let grid = Grid::new(0.0, 64.0, 0.0, 48.0, 64, 48);
         let cases = [

@@ -5,12 +5,58 @@
 
 use crate::raster::try_zeroed;
 use crate::{Error, Prepared, Raster, Window};
+use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect, TriangleInput};
+use tileraster_kernels::pipeline::{window_stages, Stage};
 use tileraster_kernels::stages::bin::tile_span;
-use tileraster_kernels::types::{FrameParams, PixelRect, TriangleInput};
-use tileraster_kernels::{
-    BIN_PART_TILES, FLAG_EMPTY_TILES, FLAG_FULL_TILES, FLAG_OVERLAP_FREE, NO_OWNER, STAT_COUNTERS, STAT_TILES_EMPTY,
-    STAT_TILES_FULL, STAT_TILES_PARTIAL, TILE,
-};
+use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
+
+/// A pass of a call, as `Stats::passes` lists them: the kernel stages of the stage table
+/// (`tileraster_kernels::pipeline`) and the host's own passes around them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Pass {
+    /// The prepared triangles go to the backend (first call of a prepared scene).
+    Upload,
+    /// A kernel stage of the stage table.
+    Kernel(Stage),
+    /// The window's triangles are listed, the others left out (`Skip::CullWindow`).
+    Cull,
+    /// Part of the window lies outside every listed triangle's tiles: nodata there, on the host.
+    FillNodata,
+    /// Fine raster resolves overlaps (the scene was not proven overlap-free).
+    Ownership,
+    /// The owner layer is written.
+    WriteOwner,
+    /// The coverage layer is written.
+    WriteCoverage,
+}
+
+impl Pass {
+    /// The name `--stats` prints: a kernel stage's name from the stage table, or the host
+    /// pass's own.
+    pub fn name(self) -> &'static str {
+        match self {
+            Pass::Upload => "upload",
+            Pass::Kernel(stage) => stage.name(),
+            Pass::Cull => "cull",
+            Pass::FillNodata => "fill_nodata",
+            Pass::Ownership => "ownership",
+            Pass::WriteOwner => "write_owner",
+            Pass::WriteCoverage => "write_coverage",
+        }
+    }
+}
+
+impl From<Stage> for Pass {
+    fn from(stage: Stage) -> Self {
+        Pass::Kernel(stage)
+    }
+}
+
+impl std::fmt::Display for Pass {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// What a call did, from the host's plan and the kernels' counters: equal on both backends
 /// for the same input.
@@ -37,7 +83,7 @@ pub struct Stats {
     /// fine raster used it.
     pub overlap_free: bool,
     /// The passes that ran, in order (see [`Plan`]).
-    pub passes: Vec<&'static str>,
+    pub passes: Vec<Pass>,
     /// Bytes of scene data moved to the backend for this call: the prepared triangles the first
     /// time a prepared scene is rasterised, and the list of the window's triangles.
     pub bytes_uploaded: u64,
@@ -46,7 +92,7 @@ pub struct Stats {
 impl Stats {
     /// One JSON object, with the field names above.
     pub fn to_json(&self) -> String {
-        let passes: Vec<String> = self.passes.iter().map(|p| format!("\"{p}\"")).collect();
+        let passes: Vec<String> = self.passes.iter().map(|p| format!("\"{}\"", p.name())).collect();
         format!(
             "{{\"tiles_total\":{},\"tiles_empty_skipped\":{},\"tiles_full\":{},\"tiles_partial\":{},\
              \"triangles_culled\":{},\"triangles_flat\":{},\"triangles_binned\":{},\"overlap_free\":{},\
@@ -70,10 +116,10 @@ impl Stats {
 /// | pass | runs when |
 /// | --- | --- |
 /// | `upload` | the first call that rasterises anything with a prepared scene: its triangles go to the backend |
-/// | `setup` | the same call: edge functions and planes, kept with the triangles for later calls |
-/// | `cull` | `Skips::cull_window`: the window's triangles are listed, the others left out |
+/// | `setup` (the stage table's scene stage) | the same call: edge functions and planes, kept with the triangles for later calls |
+/// | `cull` | `Skip::CullWindow`: the window's triangles are listed, the others left out |
 /// | `fill_nodata` | part of the window lies outside every listed triangle's tiles |
-/// | `bin_count`, `bin_scan`, `bin_fill`, `fine_raster` | some triangle reaches the window |
+/// | the stage table's window stages (`bin_count`, `bin_scan`, `bin_fill`, `fine_raster`) | some triangle reaches the window |
 /// | `ownership` | fine raster resolves overlaps (the scene was not proven overlap-free) |
 /// | `write_owner`, `write_coverage` | those outputs were asked for |
 #[derive(Debug, Clone)]
@@ -86,7 +132,7 @@ pub struct Plan {
     /// no triangle reaches the window.
     pub active: Option<Window>,
     /// `FrameParams::flags`.
-    pub flags: u32,
+    pub flags: FrameFlags,
     /// What the host knows of the statistics before the kernels run.
     pub stats: Stats,
 }
@@ -117,36 +163,37 @@ impl Prepared {
         };
         let rows = self.overlap_free_rows.as_ref();
         let overlap_free = skips.overlap_free && rows.is_some_and(|r| r.start <= window.y0 && window.y0 + window.height <= r.end);
-        let flags = (if skips.empty_tiles { FLAG_EMPTY_TILES } else { 0 })
-            | (if skips.full_tiles { FLAG_FULL_TILES } else { 0 })
-            | (if overlap_free { FLAG_OVERLAP_FREE } else { 0 });
+        let flags = FrameFlags::NONE
+            .with(FrameFlags::EMPTY_TILES, skips.empty_tiles)
+            .with(FrameFlags::FULL_TILES, skips.full_tiles)
+            .with(FrameFlags::OVERLAP_FREE, overlap_free);
 
         let tiles = |w: &Window| w.width.div_ceil(TILE) as u64 * w.height.div_ceil(TILE) as u64;
         let tiles_total = tiles(&window);
         let mut passes = Vec::new();
         let mut bytes_uploaded = 0;
         if active.is_some() && !resident {
-            passes.extend(["upload", "setup"]);
+            passes.extend([Pass::Upload, Stage::Setup.into()]);
             bytes_uploaded += std::mem::size_of_val(self.triangles.as_slice()) as u64;
         }
         if skips.cull_window {
-            passes.push("cull");
+            passes.push(Pass::Cull);
         }
         if active != Some(window) {
-            passes.push("fill_nodata");
+            passes.push(Pass::FillNodata);
         }
         if active.is_some() {
-            passes.extend(["bin_count", "bin_scan", "bin_fill", "fine_raster"]);
+            passes.extend(window_stages().map(|s| Pass::from(s.stage)));
             if !overlap_free {
-                passes.push("ownership");
+                passes.push(Pass::Ownership);
             }
             bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64;
         }
         if self.params.outputs.owner {
-            passes.push("write_owner");
+            passes.push(Pass::WriteOwner);
         }
         if self.params.outputs.coverage {
-            passes.push("write_coverage");
+            passes.push(Pass::WriteCoverage);
         }
         let stats = Stats {
             tiles_total,
@@ -192,9 +239,9 @@ impl Plan {
             triangles: self.listed.len() as u32,
             snap_bits: prepared.snap_bits,
             nodata_bits: prepared.params.nodata.to_bits(),
-            outputs: prepared.params.output_bits(),
+            outputs: prepared.params.output_set(),
             dispatch_width: 0,
-            mode: prepared.params.mode.kernel_code(),
+            mode: prepared.params.mode as u32,
             bin_part_rows: (BIN_PART_TILES / tiles_x.max(1)).max(1),
             bin_parts: 1,
             flags: self.flags,
@@ -269,11 +316,11 @@ impl Plan {
     }
 
     /// The statistics, given the kernels' counters (summed over the call's dispatches).
-    pub fn stats(&self, counters: &[u64; STAT_COUNTERS]) -> Stats {
+    pub fn stats(&self, counters: &[u64; Counter::COUNT]) -> Stats {
         let mut stats = self.stats.clone();
-        stats.tiles_empty_skipped += counters[STAT_TILES_EMPTY];
-        stats.tiles_full = counters[STAT_TILES_FULL];
-        stats.tiles_partial = counters[STAT_TILES_PARTIAL];
+        stats.tiles_empty_skipped += counters[Counter::TilesEmpty as usize];
+        stats.tiles_full = counters[Counter::TilesFull as usize];
+        stats.tiles_partial = counters[Counter::TilesPartial as usize];
         stats
     }
 }

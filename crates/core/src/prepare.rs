@@ -13,8 +13,8 @@
 //! triangle owns a pixel centre lying within `2^-(snap_bits+1)` px of an edge.
 
 use crate::{Error, Grid, Mode, Params, Scene};
-use tileraster_kernels::fixed::{ceil_shr, floor_shr};
-use tileraster_kernels::types::{FloatCoeffs, PixelRect, Plane, TriangleInput};
+use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
+use tileraster_kernels::abi::{FloatCoeffs, PixelRect, Plane, TriangleInput};
 use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS};
 
 /// A rectangle of grid pixels: columns `x0..x0+width`, rows `y0..y0+height`.
@@ -338,7 +338,7 @@ fn quantise_plane(zr: f64, gi: f64, gj: f64, rect: &PixelRect) -> Plane {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tileraster_kernels::fixed::fixed_to_f32_bits;
+    use tileraster_kernels::math::fixed::fixed_to_f32_bits;
 
     #[test]
     fn snapping_is_finest_unless_a_triangle_is_huge() {

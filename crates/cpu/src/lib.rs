@@ -1,45 +1,15 @@
 //! The CPU backend: a host dispatcher that runs the same stage functions as the GPU entry
-//! points, simulating workgroups. Per-triangle stages run as rayon parallel loops; fine
-//! raster runs each row of tiles as one task and each tile as one workgroup. A tile's phases
-//! are taken the CPU's way round where the result cannot tell: phase 2 tests each triangle
-//! against a row of pixels (the GPU's pixels test triangles in turn; the states are equal,
-//! and a test checks that against the GPU's batches), and whole tiles are written row by row.
-//!
-//! Each function here is the twin of the entry point of the same name in
-//! `tileraster_kernels::entry`.
+//! points, simulating workgroups. It walks the stage table (`tileraster_kernels::pipeline`)
+//! and runs each stage's twin (`stages/`, same names): per-triangle stages as rayon parallel
+//! loops, fine raster one row of tiles per task and one tile per workgroup.
 
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicU32, Ordering};
+mod stages;
+
+pub use stages::{bin_count, bin_fill, bin_scan, fine_raster, setup, FinePath};
+
 use tileraster_core::{Error, Plan, Prepared, Raster};
-use tileraster_kernels::fixed::converts_natively;
-use tileraster_kernels::memory::{Counters, Slots};
-use tileraster_kernels::stages::fine::{self, PixelState, Side};
-use tileraster_kernels::stages::{bin, scan, setup::setup_triangle};
-use tileraster_kernels::types::{FrameParams, TriangleSetup};
-use tileraster_kernels::{
-    FULL_TILE_BIT, MODE_BARYCENTRIC, MODE_EXACT, MODE_PLANE_F32, NO_OWNER, SCAN_GROUP, STAT_COUNTERS, STAT_TILES_EMPTY, STAT_TILES_FULL,
-    STAT_TILES_PARTIAL, TILE, TILE_PIXELS,
-};
-
-/// Host atomics standing in for a storage buffer the kernels update atomically.
-#[derive(Clone, Copy)]
-struct AtomicSlice<'a>(&'a [AtomicU32]);
-
-impl Counters for AtomicSlice<'_> {
-    fn fetch_add(&mut self, index: usize, value: u32) -> u32 {
-        self.0[index].fetch_add(value, Ordering::Relaxed)
-    }
-}
-
-impl Slots for AtomicSlice<'_> {
-    fn store(&mut self, index: usize, value: u32) {
-        self.0[index].store(value, Ordering::Relaxed)
-    }
-}
-
-fn atomic_zeroed(len: usize) -> Vec<AtomicU32> {
-    (0..len).map(|_| AtomicU32::new(0)).collect()
-}
+use tileraster_kernels::abi::{Counter, TriangleSetup};
+use tileraster_kernels::pipeline::{Stage, STAGES};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
 /// twin of the GPU backend's resident buffers).
@@ -49,13 +19,30 @@ pub struct Resident {
 
 /// Rasterise a prepared scene on the CPU, over the preparation's window.
 pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
-    rasterise_planned(prepared, &prepared.plan(prepared.window, false)?, &mut None)
+    rasterise_with(prepared, FinePath::default())
+}
+
+/// [`rasterise`] with a chosen fine-raster twin (the tests compare the two).
+pub fn rasterise_with(prepared: &Prepared, path: FinePath) -> Result<Raster, Error> {
+    rasterise_planned_with(prepared, &prepared.plan(prepared.window, false)?, &mut None, path)
 }
 
 /// Run `plan`, setting the scene up first unless `resident` already holds it.
 pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
+    rasterise_planned_with(prepared, plan, resident, FinePath::default())
+}
+
+/// The buffers one window's stages pass along (the GPU's storage buffers of the same names).
+#[derive(Default)]
+struct WindowBuffers {
+    counts: Vec<u32>,
+    offsets: Vec<u32>,
+    bins: Vec<u32>,
+}
+
+fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, path: FinePath) -> Result<Raster, Error> {
     let mut raster = plan.allocate_raster(prepared)?;
-    let mut counters = [0u64; STAT_COUNTERS];
+    let mut counters = [0u64; Counter::COUNT];
     if let Some(active) = plan.active {
         let frame = plan.frame(prepared, active);
         let entries = plan.bin_capacity(prepared, &frame);
@@ -66,488 +53,29 @@ pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option
                 reason: format!("{entries} triangle–tile pairs exceed the 2^32 a window can bin"),
             });
         }
-        let setups = &resident.get_or_insert_with(|| Resident { setups: setup(prepared, &frame) }).setups;
-        let counts = bin_count(&frame, setups, &plan.listed);
-        let offsets = bin_scan(&frame, &counts);
-        debug_assert!(offsets[frame.tile_count() as usize] as u64 <= entries);
-        let bins = bin_fill(&frame, setups, &plan.listed, &offsets);
-        let stats = fine_raster(&frame, setups, &offsets, &bins, &mut raster);
-        counters = stats.map(|c| c.into_inner() as u64);
+        let mut b = WindowBuffers::default();
+        // The stage table's order; each stage's twin. The scene stage runs once per scene.
+        for info in &STAGES {
+            let setups = resident.as_ref().map(|r| r.setups.as_slice()).unwrap_or_default();
+            match info.stage {
+                Stage::Setup => {
+                    if resident.is_none() {
+                        *resident = Some(Resident { setups: setup(prepared, &frame) });
+                    }
+                }
+                Stage::BinCount => b.counts = bin_count(&frame, setups, &plan.listed),
+                Stage::BinScan => b.offsets = bin_scan(&frame, &b.counts),
+                Stage::BinFill => {
+                    debug_assert!(b.offsets[frame.tile_count() as usize] as u64 <= entries);
+                    b.bins = bin_fill(&frame, setups, &plan.listed, &b.offsets);
+                }
+                Stage::FineRaster => {
+                    let stats = fine_raster(path, &frame, setups, &b.offsets, &b.bins, &mut raster);
+                    counters = stats.map(|c| c.into_inner() as u64);
+                }
+            }
+        }
     }
     raster.stats = plan.stats(&counters);
     Ok(raster)
-}
-
-pub fn setup(prepared: &Prepared, frame: &FrameParams) -> Vec<TriangleSetup> {
-    prepared
-        .triangles
-        .par_iter()
-        .enumerate()
-        .map(|(slot, input)| setup_triangle(input, slot as u32, frame.snap_bits))
-        .collect()
-}
-
-pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32]) -> Vec<u32> {
-    let counts = atomic_zeroed(frame.tile_count() as usize);
-    let sink = AtomicSlice(&counts);
-    // The GPU's invocations, (listed triangle, band of tile rows) pairs, grouped by triangle.
-    listed.par_iter().for_each(|&t| (0..frame.bin_parts).for_each(|part| bin::bin_count(&setups[t as usize], frame, part, &mut { sink })));
-    counts.into_iter().map(AtomicU32::into_inner).collect()
-}
-
-pub fn bin_scan(frame: &FrameParams, counts: &[u32]) -> Vec<u32> {
-    let n = frame.tile_count();
-    let mut offsets = vec![0u32; n as usize + 1];
-    let mut shared: scan::ScanShared = [0; SCAN_GROUP as usize];
-    for lid in 0..SCAN_GROUP {
-        scan::scan_reduce(lid, counts, n, &mut shared);
-    }
-    for lid in 0..SCAN_GROUP {
-        scan::scan_partials(lid, &mut shared);
-    }
-    for lid in 0..SCAN_GROUP {
-        scan::scan_write(lid, counts, n, &shared, &mut offsets);
-    }
-    offsets
-}
-
-pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32], offsets: &[u32]) -> Vec<u32> {
-    let cursors = atomic_zeroed(frame.tile_count() as usize);
-    let bins = atomic_zeroed(offsets[frame.tile_count() as usize] as usize);
-    let (cursors_sink, bins_sink) = (AtomicSlice(&cursors), AtomicSlice(&bins));
-    listed.par_iter().for_each(|&t| {
-        let s = &setups[t as usize];
-        (0..frame.bin_parts).for_each(|part| bin::bin_fill(s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink }))
-    });
-    bins.into_iter().map(AtomicU32::into_inner).collect()
-}
-
-/// One band of `TILE` raster rows: the part of each output layer a row of the frame's tiles
-/// writes. The frame may be part of the raster's window (the rest is already nodata).
-struct Band<'a> {
-    ty: u32,
-    /// Grid row of the band's first row, grid column of the raster's first column.
-    row0: i32,
-    col0: i32,
-    /// Raster row length.
-    stride: usize,
-    values: &'a mut [f32],
-    owner: Option<&'a mut [u32]>,
-    coverage: Option<&'a mut [u32]>,
-}
-
-impl Band<'_> {
-    /// Index in the band's layers of grid pixel `(i, j)`.
-    fn index(&self, i: i32, j: i32) -> usize {
-        (j - self.row0) as usize * self.stride + (i - self.col0) as usize
-    }
-}
-
-/// Statistics counters, as the GPU's atomics in its statistics buffer.
-type StatCounters = [AtomicU32; STAT_COUNTERS];
-
-pub fn fine_raster(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
-    fine_raster_using(wide_vectors(), frame, setups, offsets, bins, raster)
-}
-
-/// [`fine_raster`], with or without the wide-vector build (`wide` only where the CPU has it).
-fn fine_raster_using(wide: bool, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
-    let stride = raster.window.width as usize;
-    let band_len = TILE as usize * stride;
-    // The frame's rows start a whole number of bands into the raster (plans align it to tiles).
-    let skip = ((frame.win_y0 - raster.window.y0) / TILE) as usize;
-    let take = frame.tiles_y as usize;
-    let (row0, col0) = (raster.window.y0 as i32, raster.window.x0 as i32);
-    let owner = optional_bands(raster.owner.as_mut(), band_len, skip, take);
-    let coverage = optional_bands(raster.coverage.as_mut(), band_len, skip, take);
-    let bands: Vec<Band> = raster
-        .values
-        .chunks_mut(band_len)
-        .skip(skip)
-        .take(take)
-        .zip(owner)
-        .zip(coverage)
-        .enumerate()
-        .map(|(ty, ((values, owner), coverage))| Band {
-            ty: ty as u32,
-            row0: row0 + ((skip + ty) as u32 * TILE) as i32,
-            col0,
-            stride,
-            values,
-            owner,
-            coverage,
-        })
-        .collect();
-    let stats: StatCounters = std::array::from_fn(|_| AtomicU32::new(0));
-    bands.into_par_iter().for_each(|mut band| {
-        if wide {
-            // SAFETY: callers pass `wide` only when `wide_vectors` found the features.
-            unsafe { fine_raster_band_wide(frame, setups, offsets, bins, &mut band, &stats) }
-        } else {
-            fine_raster_band(frame, setups, offsets, bins, &mut band, &stats)
-        }
-    });
-    stats
-}
-
-/// Whether the CPU has the vector instructions that turn a row of fixed-point values into
-/// `f32` eight at a time (AVX-512 `vcvtqq2ps`, `vpmullq`).
-fn wide_vectors() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq") && std::is_x86_feature_detected!("avx512vl")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// [`fine_raster_band`] compiled for AVX-512: the same code, the same bits (integer and
-/// correctly rounded conversion instructions only), vectorised by the compiler.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-fn fine_raster_band_wide(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
-    fine_raster_band(frame, setups, offsets, bins, band, stats)
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-unsafe fn fine_raster_band_wide(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
-    fine_raster_band(frame, setups, offsets, bins, band, stats)
-}
-
-/// Every fine-raster workgroup of one row of tiles. The band counts its tiles in plain
-/// integers and adds them to the shared counters once: a tile each would make the threads
-/// queue on one cache line.
-#[inline(always)]
-fn fine_raster_band(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
-    let mut counts = BandCounters([0; STAT_COUNTERS]);
-    for tx in 0..frame.tiles_x {
-        fine_raster_tile(tx, frame, setups, offsets, bins, band, &mut counts);
-    }
-    for (shared, count) in stats.iter().zip(counts.0) {
-        shared.fetch_add(count, Ordering::Relaxed);
-    }
-}
-
-/// One band's statistics counters.
-struct BandCounters([u32; STAT_COUNTERS]);
-
-impl Counters for BandCounters {
-    fn fetch_add(&mut self, index: usize, value: u32) -> u32 {
-        let before = self.0[index];
-        self.0[index] += value;
-        before
-    }
-}
-
-/// `take` bands of an optional output layer, after the first `skip` (all `None` when the layer
-/// was not asked for).
-fn optional_bands(layer: Option<&mut Vec<u32>>, band_len: usize, skip: usize, take: usize) -> Vec<Option<&mut [u32]>> {
-    match layer {
-        Some(v) => v.chunks_mut(band_len).skip(skip).take(take).map(Some).collect(),
-        None => (0..take).map(|_| None).collect(),
-    }
-}
-
-/// One fine-raster workgroup, phase by phase.
-#[inline(always)]
-fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
-    let ty = band.ty;
-    let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
-    if fine::empty_tile(bin_len, frame) {
-        fine::count_tile(0, STAT_TILES_EMPTY, stats);
-        return fine_resolve_empty_tile(tx, frame, band);
-    }
-    let mut full = PixelState::EMPTY;
-    if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut full) {
-        fine::count_tile(0, STAT_TILES_FULL, stats);
-        return fine_resolve_full_tile(tx, frame, &setups[full.slot as usize], &full, band);
-    }
-    fine::count_tile(0, STAT_TILES_PARTIAL, stats);
-    let bin = &bins[bin_start as usize..][..bin_len as usize];
-    if fine::overlap_free(frame) {
-        return fine_raster_tile_overlap_free(tx, frame, setups, bin, band);
-    }
-    let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
-    for (s, row) in row_spans(tx, ty, frame, setups, bin) {
-        for (n, state) in states[row.first..][..row.len].iter_mut().enumerate() {
-            fine::accumulate(row.side(n), &s.coverage, state);
-        }
-    }
-    fine_resolve_tile(tx, frame, setups, band, &states);
-}
-
-/// One row of a triangle's pixels in a tile: `len` pixels from grid pixel `(i0, j)`, the
-/// tile's pixel `first` onwards, with the edge functions at the first one.
-struct RowSpan {
-    first: usize,
-    i0: i32,
-    j: i32,
-    len: usize,
-    start: [i64; 3],
-    step: [i64; 3],
-    excluded_edges: u32,
-}
-
-impl RowSpan {
-    /// Where the row's pixel `n` lies relative to the triangle.
-    #[inline(always)]
-    fn side(&self, n: usize) -> Side {
-        let (d, w, s) = (n as i64, &self.start, &self.step);
-        fine::side_of(w[0] + s[0] * d, w[1] + s[1] * d, w[2] + s[2] * d, self.excluded_edges)
-    }
-}
-
-/// Phase 2 of a tile, the CPU's way round: each triangle of the bin against the pixels of its
-/// rectangle in the tile, row by row, where the GPU's pixels take the triangles in turn. The
-/// pixels' states come out the same, as `fine::accumulate` does not depend on the order.
-/// Yields each row of each triangle with its setup. (An iterator, not a callback: the loops
-/// over the rows' pixels stay in the functions that the wide-vector build compiles.)
-#[inline(always)]
-fn row_spans<'a>(tx: u32, ty: u32, frame: &FrameParams, setups: &'a [TriangleSetup], bin: &'a [u32]) -> impl Iterator<Item = (&'a TriangleSetup, RowSpan)> + 'a {
-    let (ti0, tj0, _) = fine::tile_pixel(tx, ty, 0, frame);
-    // The tile's last pixels in the window (edge tiles overhang it).
-    let ti1 = (ti0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
-    let tj1 = (tj0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
-    bin.iter().flat_map(move |&entry| {
-        let s = &setups[(entry & !FULL_TILE_BIT) as usize];
-        let c = &s.coverage;
-        let (i0, i1) = (ti0.max(c.rect.i0), ti1.min(c.rect.i1));
-        let (j0, j1) = (tj0.max(c.rect.j0), tj1.min(c.rect.j1));
-        // No rows where the rectangle misses the tile's columns (its rows may still meet).
-        let rows = j0..=if i0 > i1 { j0 - 1 } else { j1 };
-        rows.map(move |j| {
-            let e = &c.edges;
-            let (di, dj) = ((i0 - c.rect.i0) as i64, (j - c.rect.j0) as i64);
-            let row = RowSpan {
-                first: (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize,
-                i0,
-                j,
-                len: (i1 - i0 + 1) as usize,
-                start: [0, 1, 2].map(|k| e[k].e0 + e[k].step_i * di + e[k].step_j * dj),
-                step: [e[0].step_i, e[1].step_i, e[2].step_i],
-                excluded_edges: c.excluded_edges,
-            };
-            (s, row)
-        })
-    })
-}
-
-/// A partial tile of a scene proven overlap-free: a pixel centre is inside at most one
-/// triangle, so that triangle writes the pixel's value as soon as it finds it, a row at a
-/// time, and no ownership is resolved. Only centres inside no triangle are resolved after the
-/// bin: nodata, or the lowest triangle whose excluded edge they lie on.
-#[inline(always)]
-fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
-    let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
-    let mode = frame.mode;
-    for (s, row) in row_spans(tx, band.ty, frame, setups, bin) {
-        let out = band.index(row.i0, row.j);
-        let values = &mut band.values[out..][..row.len];
-        let states = &mut states[row.first..][..row.len];
-        for (n, (value, state)) in values.iter_mut().zip(states).enumerate() {
-            match row.side(n) {
-                Side::Inside => {
-                    *value = f32::from_bits(fine::pixel_value_bits(s, row.i0 + n as i32, row.j, mode));
-                    state.owner = s.coverage.index;
-                }
-                side => fine::accumulate(side, &s.coverage, state),
-            }
-        }
-    }
-    for r in tile_rows(tx, frame, band) {
-        for lx in 0..r.width {
-            let state = &states[(r.ly * TILE) as usize + lx];
-            let (owner, count) = if state.owner != NO_OWNER {
-                (state.owner, 1)
-            } else {
-                let out = fine::fine_resolve(r.i0 + lx as i32, r.j, state, setups, frame);
-                band.values[r.start + lx] = f32::from_bits(out.value_bits);
-                (out.owner, out.count)
-            };
-            if let Some(layer) = band.owner.as_deref_mut() {
-                layer[r.start + lx] = owner;
-            }
-            if let Some(layer) = band.coverage.as_deref_mut() {
-                layer[r.start + lx] = count;
-            }
-        }
-    }
-}
-
-/// The last phase for a tile one triangle covers whole: `fine_resolve` of the full state is
-/// that triangle's value, owner and a count of one at every pixel, so rows are written in
-/// straight loops the compiler can vectorise.
-#[inline(always)]
-fn fine_resolve_full_tile(tx: u32, frame: &FrameParams, setup: &TriangleSetup, full: &PixelState, band: &mut Band) {
-    let mode = frame.mode;
-    for r in tile_rows(tx, frame, band) {
-        let values = &mut band.values[r.start..][..r.width];
-        let (i0, j) = (r.i0, r.j);
-        let write_row = |values: &mut [f32]| {
-            for (lx, value) in values.iter_mut().enumerate() {
-                *value = f32::from_bits(fine::pixel_value_bits(setup, i0 + lx as i32, j, mode));
-            }
-        };
-        // The same loop in every arm: with the mode and the conversion's range test answered
-        // outside, the compiler drops both from the loop and vectorises the rest.
-        match (mode, converts_natively(setup.plane.frac_bits)) {
-            (MODE_EXACT, true) => write_row(values),
-            (MODE_PLANE_F32, _) => write_row(values),
-            (MODE_BARYCENTRIC, _) => write_row(values),
-            _ => write_row(values),
-        }
-        fill_other_layers(band, &r, full.owner, full.count);
-    }
-}
-
-/// The last phase for a tile with an empty bin: nodata, no owner, a count of zero.
-#[inline(always)]
-fn fine_resolve_empty_tile(tx: u32, frame: &FrameParams, band: &mut Band) {
-    for r in tile_rows(tx, frame, band) {
-        band.values[r.start..][..r.width].fill(f32::from_bits(frame.nodata_bits));
-        fill_other_layers(band, &r, NO_OWNER, 0);
-    }
-}
-
-/// Owner and coverage of a tile row that is the same all along.
-#[inline(always)]
-fn fill_other_layers(band: &mut Band, r: &TileRow, owner: u32, count: u32) {
-    if let Some(layer) = band.owner.as_deref_mut() {
-        layer[r.start..][..r.width].fill(owner);
-    }
-    if let Some(layer) = band.coverage.as_deref_mut() {
-        layer[r.start..][..r.width].fill(count);
-    }
-}
-
-/// The last phase of a fine-raster workgroup: every invocation resolves and writes its pixel,
-/// taken row by row so that the stores run along the band's rows.
-#[inline(always)]
-fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, states: &[PixelState; TILE_PIXELS as usize]) {
-    for r in tile_rows(tx, frame, band) {
-        for lx in 0..r.width {
-            let out = fine::fine_resolve(r.i0 + lx as i32, r.j, &states[(r.ly * TILE) as usize + lx], setups, frame);
-            band.values[r.start + lx] = f32::from_bits(out.value_bits);
-            if let Some(owner) = band.owner.as_deref_mut() {
-                owner[r.start + lx] = out.owner;
-            }
-            if let Some(coverage) = band.coverage.as_deref_mut() {
-                coverage[r.start + lx] = out.count;
-            }
-        }
-    }
-}
-
-/// A row of a tile that lies in the window: row `ly` of the tile, its first pixel `(i0, j)`,
-/// where it starts in the band's layers, and how many of its pixels lie in the window.
-struct TileRow {
-    ly: u32,
-    i0: i32,
-    j: i32,
-    start: usize,
-    width: usize,
-}
-
-/// The rows of tile `tx` of `band` that lie in the window.
-#[inline(always)]
-fn tile_rows(tx: u32, frame: &FrameParams, band: &Band) -> impl Iterator<Item = TileRow> + use<> {
-    let width = (frame.win_w - tx * TILE).min(TILE) as usize;
-    let (frame, ty, row0, col0, stride) = (*frame, band.ty, band.row0, band.col0, band.stride);
-    (0..TILE).map_while(move |ly| {
-        let (i0, j, inside) = fine::tile_pixel(tx, ty, ly * TILE, &frame);
-        inside.then(|| TileRow { ly, i0, j, start: (j - row0) as usize * stride + (i0 - col0) as usize, width })
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use tileraster_core::{prepare, scenes, Grid, Mode, Outputs, Params};
-
-    /// The CPU's row-by-row phase 2 leaves every pixel in the state the GPU's batches leave
-    /// it in (checked natively, so it holds without an adapter too), on scenes with overlaps.
-    #[test]
-    fn rows_of_triangles_give_the_states_of_the_gpus_batches() {
-        use tileraster_kernels::stages::fine::FineShared;
-        use tileraster_kernels::types::Coverage;
-        use tileraster_kernels::BATCH;
-        let grid = Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129);
-        let scenes = [scenes::triangle_soup(&grid, 700, 30.0, 9), scenes::fan(&grid, 60, 60, 90, 40.0, 3), scenes::sliver_wedge(&grid, 80, 0.02, 4)];
-        for (k, scene) in scenes.iter().enumerate() {
-            let prepared = prepare(scene, &Params::new(grid).with_skips(tileraster_core::Skips::NONE), None).unwrap();
-            let plan = prepared.plan(prepared.window, false).unwrap();
-            let frame = plan.frame(&prepared, plan.active.unwrap());
-            let setups = setup(&prepared, &frame);
-            let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
-            let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
-            for ty in 0..frame.tiles_y {
-                for tx in 0..frame.tiles_x {
-                    let (start, len) = fine::bin_range(&offsets, ty * frame.tiles_x + tx);
-                    let mut by_rows = [PixelState::EMPTY; TILE_PIXELS as usize];
-                    for (s, row) in row_spans(tx, ty, &frame, &setups, &bins[start as usize..][..len as usize]) {
-                        for (n, state) in by_rows[row.first..][..row.len].iter_mut().enumerate() {
-                            fine::accumulate(row.side(n), &s.coverage, state);
-                        }
-                    }
-                    let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
-                    let mut by_batches = [PixelState::EMPTY; TILE_PIXELS as usize];
-                    let mut batch = 0;
-                    while batch < len {
-                        for lid in 0..TILE_PIXELS {
-                            fine::fine_load(lid, &bins, start, len, batch, &setups, &mut shared);
-                        }
-                        for (lid, state) in by_batches.iter_mut().enumerate() {
-                            let (i, j, _) = fine::tile_pixel(tx, ty, lid as u32, &frame);
-                            fine::fine_test(i, j, fine::batch_len(len, batch), &shared, false, state);
-                        }
-                        batch += BATCH;
-                    }
-                    for lid in 0..TILE_PIXELS as usize {
-                        if !fine::tile_pixel(tx, ty, lid as u32, &frame).2 {
-                            continue; // outside the window: never written
-                        }
-                        let (a, b) = (by_rows[lid], by_batches[lid]);
-                        let key = |s: PixelState| (s.owner, s.slot, s.count, s.edge_owner, s.edge_slot);
-                        assert_eq!(key(a), key(b), "scene {k}, tile ({tx}, {ty}), pixel {lid}");
-                    }
-                }
-            }
-        }
-    }
-
-    /// The wide-vector build of fine raster gives the same bits as the plain one.
-    #[test]
-    fn wide_vectors_change_no_bit() {
-        if !wide_vectors() {
-            // Say so where the harness cannot swallow it: the comparison needs the features.
-            use std::io::Write;
-            let _ = writeln!(std::io::stderr(), "SKIPPED wide_vectors_change_no_bit: this CPU lacks AVX-512 F/DQ/VL");
-            return;
-        }
-        let scenes = [
-            (scenes::terrain(0.0, 0.0, 1000.0, 800.0, 30, 20, 3), Grid::new(0.0, 1000.0, 0.0, 800.0, 331, 277)),
-            (scenes::sloping_plane(), Grid::new(0.0, 1.0, 0.0, 1.0, 331, 277)),
-        ];
-        for (scene, grid) in &scenes {
-            let grid = *grid;
-            for mode in Mode::ALL {
-                let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true });
-                let prepared = prepare(scene, &params, None).unwrap();
-                let plan = prepared.plan(prepared.window, false).unwrap();
-                let frame = plan.frame(&prepared, plan.active.unwrap());
-                let setups = setup(&prepared, &frame);
-                let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
-                let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
-                let run = |wide| {
-                    let mut raster = plan.allocate_raster(&prepared).unwrap();
-                    fine_raster_using(wide, &frame, &setups, &offsets, &bins, &mut raster);
-                    raster
-                };
-                let (plain, wide) = (run(false), run(true));
-                assert_eq!(plain.compare_bits(&wide, 4).0, 0, "{mode:?}: the wide build differs");
-            }
-        }
-    }
 }

@@ -1,8 +1,9 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Plan, Prepared, Raster, Window};
-use tileraster_kernels::types::{FrameParams, TriangleInput, TriangleSetup};
-use tileraster_kernels::{BIN_PART_TILES, OUTPUT_COVERAGE, OUTPUT_OWNER, STAT_COUNTERS, TILE, TRIANGLE_GROUP};
+use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, TriangleInput, TriangleSetup};
+use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Scope, StageInfo, STAGES};
+use tileraster_kernels::{BIN_PART_TILES, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
 /// big enough to keep a GPU busy, small enough to bound the per-window buffers.
@@ -66,12 +67,11 @@ pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option
     ctx.rasterise(prepared, plan, resident)
 }
 
-struct Pipelines {
-    setup: wgpu::ComputePipeline,
-    bin_count: wgpu::ComputePipeline,
-    bin_scan: wgpu::ComputePipeline,
-    bin_fill: wgpu::ComputePipeline,
-    fine_raster: wgpu::ComputePipeline,
+/// A stage's pipeline and the layout of its one bind group, both built from its row of the
+/// stage table.
+struct StagePipeline {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
 }
 
 /// A storage buffer that grows when a call needs more and is otherwise kept.
@@ -128,7 +128,8 @@ struct GpuContext {
     queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
-    pipelines: Pipelines,
+    /// One per row of the stage table, in its order.
+    pipelines: Vec<StagePipeline>,
     buffers: Buffers,
 }
 
@@ -137,7 +138,8 @@ struct GpuContext {
 fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, Error> {
     let wanted = std::env::var("TILERASTER_ADAPTER").ok();
     let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
-    let usable = adapters.into_iter().filter(|a| a.features().contains(wgpu::Features::SHADER_INT64));
+    let needed = wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS;
+    let usable = adapters.into_iter().filter(|a| a.features().contains(needed));
     let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
         wgpu::DeviceType::DiscreteGpu => 0,
         wgpu::DeviceType::IntegratedGpu => 1,
@@ -153,8 +155,8 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, Error> 
     usable.into_iter().next().ok_or_else(|| Error::NoAdapter {
         details: match (&wanted, seen.is_empty()) {
             (_, true) => "no Vulkan adapter was found".into(),
-            (Some(name), false) => format!("no adapter named like {name:?} with 64-bit integer support among {seen:?}"),
-            (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers in shaders"),
+            (Some(name), false) => format!("no adapter named like {name:?} with 64-bit integers in shaders and SPIR-V passthrough among {seen:?}"),
+            (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers in shaders and SPIR-V passthrough"),
         },
     })
 }
@@ -168,7 +170,7 @@ impl GpuContext {
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("tileraster"),
-            required_features: wgpu::Features::SHADER_INT64,
+            required_features: wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -177,30 +179,7 @@ impl GpuContext {
         device.on_uncaptured_error(std::sync::Arc::new(|e| eprintln!("tileraster: uncaptured GPU error: {e}")));
 
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let words = wgpu::util::make_spirv_raw(crate::KERNELS_SPV);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tileraster kernels"),
-            source: wgpu::ShaderSource::SpirV(words),
-        });
-        // rust-gpu names entry points by their path in the kernel crate.
-        let pipeline = |name: &str| {
-            let entry = format!("entry::{name}");
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(name),
-                layout: None,
-                module: &module,
-                entry_point: Some(&entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let pipelines = Pipelines {
-            setup: pipeline("setup"),
-            bin_count: pipeline("bin_count"),
-            bin_scan: pipeline("bin_scan"),
-            bin_fill: pipeline("bin_fill"),
-            fine_raster: pipeline("fine_raster"),
-        };
+        let pipelines = stage_pipelines(&device);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("the kernels were rejected by the device: {e}")));
         }
@@ -227,7 +206,7 @@ impl GpuContext {
 
     fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
         let mut raster = plan.allocate_raster(prepared)?;
-        let mut counters = [0u64; STAT_COUNTERS];
+        let mut counters = [0u64; Counter::COUNT];
         if let Some(active) = plan.active {
             let scope_validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
             let scope_memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -250,7 +229,7 @@ impl GpuContext {
         active: Window,
         resident: &mut Option<Resident>,
         raster: &mut Raster,
-        counters: &mut [u64; STAT_COUNTERS],
+        counters: &mut [u64; Counter::COUNT],
     ) -> Result<(), Error> {
         let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
         let max_pixels = (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed));
@@ -298,7 +277,40 @@ impl GpuContext {
         (x, y)
     }
 
-    /// Upload the prepared triangles and run setup over them: the setups stay on the device.
+    /// Record the stages of `scope`, in the stage table's order, each with its bindings looked
+    /// up by role in `buffers` and its workgroups by its dispatch shape.
+    fn encode_stages(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scope: Scope,
+        frame: &FrameParams,
+        triangle_groups: (u32, u32),
+        buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
+    ) -> Result<(), Error> {
+        for (info, stage) in STAGES.iter().zip(&self.pipelines).filter(|(info, _)| info.scope == scope) {
+            let bound: Vec<wgpu::Buffer> = info
+                .bindings
+                .iter()
+                .map(|b| buffers(b.buffer).ok_or_else(|| Error::Gpu(format!("stage {} binds {:?}, which its scope has not", info.name, b.buffer))))
+                .collect::<Result<_, _>>()?;
+            let entries: Vec<wgpu::BindGroupEntry> =
+                bound.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
+            let bind = self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(info.name), layout: &stage.layout, entries: &entries });
+            let (x, y) = match info.dispatch {
+                Dispatch::PerTriangle | Dispatch::PerTrianglePart => triangle_groups,
+                Dispatch::Single => (1, 1),
+                Dispatch::PerTile => (frame.tiles_x, frame.tiles_y),
+            };
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(info.name), timestamp_writes: None });
+            pass.set_pipeline(&stage.pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        Ok(())
+    }
+
+    /// Upload the prepared triangles and run the scene stages over them: the setups stay on
+    /// the device.
     fn upload_and_setup(&mut self, prepared: &Prepared) -> Result<Resident, Error> {
         let n = prepared.triangles.len() as u64;
         let setup_bytes = n * std::mem::size_of::<TriangleSetup>() as u64;
@@ -314,10 +326,10 @@ impl GpuContext {
             });
         }
         let mut frame = FrameParams { triangles: n as u32, snap_bits: prepared.snap_bits, ..Default::default() };
-        let (gx, gy) = Self::dispatch_triangles(&mut frame, n as u32);
+        let groups = Self::dispatch_triangles(&mut frame, n as u32);
         let device = &self.device;
-        let frame_buf = self.buffers.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
-        self.queue.write_buffer(frame_buf, 0, bytemuck::bytes_of(&frame));
+        let frame_buf = self.buffers.frame.get(device, std::mem::size_of::<FrameParams>() as u64).clone();
+        self.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
         // Bindings must hold at least one element. The inputs are dropped once set up.
         let slots = n.max(1);
         let storage = |label, bytes| {
@@ -328,17 +340,17 @@ impl GpuContext {
                 mapped_at_creation: false,
             })
         };
-        let inputs_buf = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
-        self.queue.write_buffer(&inputs_buf, 0, bytemuck::cast_slice(&prepared.triangles));
+        let inputs = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
+        self.queue.write_buffer(&inputs, 0, bytemuck::cast_slice(&prepared.triangles));
         let setups = storage("triangle setups", slots * std::mem::size_of::<TriangleSetup>() as u64);
-        let bind = bind_group(device, &self.pipelines.setup, &[frame_buf, &inputs_buf, &setups]);
         let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("setup"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipelines.setup);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
-        }
+        let buffers = |buffer| match buffer {
+            Buffer::Frame => Some(frame_buf.clone()),
+            Buffer::Inputs => Some(inputs.clone()),
+            Buffer::Setups => Some(setups.clone()),
+            _ => None,
+        };
+        self.encode_stages(&mut encoder, Scope::Scene, &frame, groups, &buffers)?;
         self.queue.submit([encoder.finish()]);
         Ok(Resident { setups })
     }
@@ -351,7 +363,7 @@ impl GpuContext {
         setups: &wgpu::Buffer,
         listed: &wgpu::Buffer,
         raster: &mut Raster,
-    ) -> Result<[u32; STAT_COUNTERS], Error> {
+    ) -> Result<[u32; Counter::COUNT], Error> {
         let mut frame = *frame;
         // Binning runs one invocation per triangle and band of its tile rows.
         let items = frame.triangles as u64 * frame.bin_parts as u64;
@@ -360,11 +372,10 @@ impl GpuContext {
             height: frame.win_h as u64,
             reason: format!("binning needs {items} invocations, more than one dispatch holds"),
         })?;
-        let (gx, gy) = Self::dispatch_triangles(&mut frame, items);
+        let groups = Self::dispatch_triangles(&mut frame, items);
         let tiles = frame.tile_count() as u64;
         let pixels = frame.win_w as u64 * frame.win_h as u64;
         let device = &self.device;
-        let p = &self.pipelines;
         let b = &mut self.buffers;
         let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64).clone();
         self.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
@@ -373,36 +384,36 @@ impl GpuContext {
         let offsets = b.offsets.get(device, (tiles + 1) * 4).clone();
         let bins = b.bins.get(device, entries * 4).clone();
         let values = b.values.get(device, pixels * 4).clone();
-        let owner_bytes = if frame.outputs & OUTPUT_OWNER != 0 { pixels * 4 } else { 0 };
-        let coverage_bytes = if frame.outputs & OUTPUT_COVERAGE != 0 { pixels * 4 } else { 0 };
+        let owner_bytes = if frame.outputs.contains(OutputSet::OWNER) { pixels * 4 } else { 0 };
+        let coverage_bytes = if frame.outputs.contains(OutputSet::COVERAGE) { pixels * 4 } else { 0 };
         let owners = b.owners.get(device, owner_bytes).clone();
         let coverage = b.coverage.get(device, coverage_bytes).clone();
-        let stats_bytes = (STAT_COUNTERS * 4) as u64;
+        let stats_bytes = (Counter::COUNT * 4) as u64;
         let stats = b.stats.get(device, stats_bytes).clone();
         let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes).clone();
 
-        let mut counters = [0u32; STAT_COUNTERS];
+        let mut counters = [0u32; Counter::COUNT];
         let mut encoder = device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&counts, 0, Some(tiles * 4));
         encoder.clear_buffer(&cursors, 0, Some(tiles * 4));
         encoder.clear_buffer(&stats, 0, Some(stats_bytes));
-        let stages: [(&wgpu::ComputePipeline, Vec<&wgpu::Buffer>, (u32, u32)); 4] = [
-            (&p.bin_count, vec![&frame_buf, setups, listed, &counts], (gx, gy)),
-            (&p.bin_scan, vec![&frame_buf, &counts, &offsets], (1, 1)),
-            (&p.bin_fill, vec![&frame_buf, setups, listed, &offsets, &cursors, &bins], (gx, gy)),
-            (
-                &p.fine_raster,
-                vec![&frame_buf, setups, &offsets, &bins, &values, &owners, &coverage, &stats],
-                (frame.tiles_x, frame.tiles_y),
-            ),
-        ];
-        for (pipeline, buffers, (x, y)) in &stages {
-            let bind = bind_group(device, pipeline, buffers);
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(*x, *y, 1);
-        }
+        let buffers = |buffer| {
+            Some(match buffer {
+                Buffer::Frame => frame_buf.clone(),
+                Buffer::Inputs => return None,
+                Buffer::Setups => setups.clone(),
+                Buffer::Listed => listed.clone(),
+                Buffer::Counts => counts.clone(),
+                Buffer::Offsets => offsets.clone(),
+                Buffer::Cursors => cursors.clone(),
+                Buffer::Bins => bins.clone(),
+                Buffer::Values => values.clone(),
+                Buffer::Owners => owners.clone(),
+                Buffer::Coverage => coverage.clone(),
+                Buffer::Stats => stats.clone(),
+            })
+        };
+        self.encode_stages(&mut encoder, Scope::Window, &frame, groups, &buffers)?;
         encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
         encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
         encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_bytes);
@@ -424,7 +435,7 @@ impl GpuContext {
         {
             let view = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("mapping the raster failed: {e}")))?;
             let words: &[u32] = bytemuck::cast_slice(&view);
-            let (stat_words, words) = words.split_at(STAT_COUNTERS);
+            let (stat_words, words) = words.split_at(Counter::COUNT);
             counters.copy_from_slice(stat_words);
             let (value_words, rest) = words.split_at(pixels as usize);
             let (owner_words, coverage_words) = rest.split_at((owner_bytes / 4) as usize);
@@ -453,17 +464,60 @@ fn copy_rows(src: &[u32], frame: &FrameParams, width: u32, x0: u32, y0: u32, dst
     }
 }
 
-fn bind_group(device: &wgpu::Device, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
+/// Every stage's pipeline, from the stage table: an explicit bind group layout per stage
+/// (read-only or read-write storage buffers, as the table says) over one passthrough module,
+/// so the driver receives rust-gpu's SPIR-V with its `NoContraction` decorations intact.
+fn stage_pipelines(device: &wgpu::Device) -> Vec<StagePipeline> {
+    let words = wgpu::util::make_spirv_raw(crate::KERNELS_SPV);
+    let entry_points: Vec<wgpu::PassthroughShaderEntryPoint> = STAGES
+        .iter()
+        .map(|s| wgpu::PassthroughShaderEntryPoint { name: s.entry_point.into(), workgroup_size: (s.workgroup[0], s.workgroup[1], s.workgroup[2]) })
+        .collect();
+    // SAFETY: the module is rust-gpu's output, validated by spirv-val when it was built, and
+    // `tests/spirv.rs` checks that every entry point binds exactly what its row of the stage
+    // table (and so the layout below) says, with the table's workgroup size.
+    let module = unsafe {
+        device.create_shader_module_passthrough(wgpu::ShaderModuleDescriptorPassthrough {
+            label: Some("tileraster kernels"),
+            entry_points: entry_points.into(),
+            spirv: Some(words),
+            ..Default::default()
+        })
+    };
+    STAGES.iter().map(|info| stage_pipeline(device, &module, info)).collect()
+}
+
+fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &StageInfo) -> StagePipeline {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = info
+        .bindings
         .iter()
         .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+        .map(|(k, b)| wgpu::BindGroupLayoutEntry {
+            binding: k as u32,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: b.access == Access::Read },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        })
         .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    })
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(info.name), entries: &entries });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(info.name),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(info.name),
+        layout: Some(&pipeline_layout),
+        module,
+        entry_point: Some(info.entry_point),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    StagePipeline { pipeline, layout }
 }
 
 /// Cut `area` into tile-aligned bands of full width (or tile-aligned blocks when one row of

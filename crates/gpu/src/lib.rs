@@ -7,5 +7,6 @@ mod context;
 
 pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, Adapter, Resident};
 
-/// The kernels as compiled by rust-gpu.
-pub const KERNELS_SPV: &[u8] = include_bytes!(env!("tileraster_kernels.spv"));
+/// The kernels as compiled by rust-gpu, every float arithmetic result marked `NoContraction`
+/// (see `build.rs`).
+pub const KERNELS_SPV: &[u8] = include_bytes!(env!("TILERASTER_KERNELS_SPV"));

@@ -10,7 +10,7 @@
 
 use crate::{FULL_TILE_BIT, TILE};
 use crate::memory::{Counters, Slots};
-use crate::types::{Coverage, FrameParams, PixelRect, TriangleSetup};
+use crate::abi::{Coverage, FrameParams, PixelRect, TriangleSetup};
 
 /// Tiles `tx0..=tx1` × `ty0..=ty1` of the window (empty when `tx0 > tx1` or `ty0 > ty1`).
 #[derive(Copy, Clone)]

@@ -22,10 +22,11 @@
 //! not depend on the order of the bin; the coverage count is a plain count. Both are
 //! therefore deterministic whatever the scheduling of the binning atomics.
 
-use crate::fixed::fixed_to_f32_bits;
-use crate::types::{Coverage, FloatCoeffs, FrameParams, Plane, PixelRect, TriangleSetup};
+use crate::math::fixed::fixed_to_f32_bits;
+use crate::abi::{Counter, Coverage, FloatCoeffs, FrameFlags, FrameParams, Plane, PixelRect, TriangleSetup, ValueMode};
+use crate::math::edge::{side_of, Side};
 use crate::memory::Counters;
-use crate::{BATCH, FLAG_EMPTY_TILES, FLAG_FULL_TILES, FLAG_OVERLAP_FREE, FULL_TILE_BIT, MODE_BARYCENTRIC, MODE_PLANE_F32, NO_OWNER, TILE};
+use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE};
 
 /// Workgroup memory of fine raster.
 #[repr(C)]
@@ -51,17 +52,6 @@ pub struct PixelState {
 
 impl PixelState {
     pub const EMPTY: PixelState = PixelState { owner: NO_OWNER, slot: 0, count: 0, edge_owner: NO_OWNER, edge_slot: 0 };
-}
-
-/// Where a pixel centre lies relative to a triangle. (`u32`: SPIR-V has no 8-bit integers
-/// without an extra capability.)
-#[repr(u32)]
-#[derive(Copy, Clone, PartialEq, Eq)]
-pub enum Side {
-    Outside,
-    /// On an edge the fill rule gives to the neighbour across it (if there is one).
-    OnExcludedEdge,
-    Inside,
 }
 
 /// The resolved pixel: its value bits, owner and coverage count.
@@ -117,21 +107,7 @@ pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
     let di = (i - c.rect.i0) as i64;
     let dj = (j - c.rect.j0) as i64;
     let e = &c.edges;
-    let w0 = e[0].e0 + e[0].step_i * di + e[0].step_j * dj;
-    let w1 = e[1].e0 + e[1].step_i * di + e[1].step_j * dj;
-    let w2 = e[2].e0 + e[2].step_i * di + e[2].step_j * dj;
-    side_of(w0, w1, w2, c.excluded_edges)
-}
-
-/// Where a pixel centre lies, from the three edge functions there and the triangle's
-/// excluded edges (the fill rule).
-#[inline(always)]
-pub fn side_of(w0: i64, w1: i64, w2: i64, excluded_edges: u32) -> Side {
-    if (w0 | w1 | w2) < 0 {
-        return Side::Outside;
-    }
-    let on_edges = (w0 == 0) as u32 | ((w1 == 0) as u32) << 1 | ((w2 == 0) as u32) << 2;
-    if on_edges & excluded_edges != 0 { Side::OnExcludedEdge } else { Side::Inside }
+    side_of(e[0].at(di, dj), e[1].at(di, dj), e[2].at(di, dj), c.excluded_edges)
 }
 
 /// What a pixel state keeps of one triangle test: a count, and the lowest index (with its
@@ -160,7 +136,7 @@ pub fn accumulate(side: Side, c: &Coverage, state: &mut PixelState) {
 /// Whether the frame lets a pixel stop at the first triangle it is inside.
 #[inline]
 pub fn overlap_free(frame: &FrameParams) -> bool {
-    frame.flags & FLAG_OVERLAP_FREE != 0
+    frame.flags.contains(FrameFlags::OVERLAP_FREE)
 }
 
 /// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles (with `overlap_free`,
@@ -181,14 +157,14 @@ pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, overlap_fr
 /// Whether the tile takes the empty path: nothing in its bin, so every pixel is nodata.
 #[inline]
 pub fn empty_tile(bin_len: u32, frame: &FrameParams) -> bool {
-    bin_len == 0 && frame.flags & FLAG_EMPTY_TILES != 0
+    bin_len == 0 && frame.flags.contains(FrameFlags::EMPTY_TILES)
 }
 
 /// Whether the tile takes the full path: its bin is a single triangle covering the whole tile.
 /// If so, `state` becomes every pixel's state, with no edge test.
 #[inline]
 pub fn full_tile(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[TriangleSetup], frame: &FrameParams, state: &mut PixelState) -> bool {
-    if frame.flags & FLAG_FULL_TILES == 0 || bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
+    if !frame.flags.contains(FrameFlags::FULL_TILES) || bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
         return false;
     }
     let slot = bin[bin_start as usize] & !FULL_TILE_BIT;
@@ -212,7 +188,7 @@ pub fn saturate_infinity(bits: u32) -> u32 {
     if bits & 0x7fff_ffff == 0x7f80_0000 { bits - 1 } else { bits }
 }
 
-/// `MODE_PLANE_F32`: `(z + gi·Δi) + gj·Δj` in `f32`. `Δi`, `Δj` convert exactly (they are below
+/// `ValueMode::PlaneF32`: `(z + gi·Δi) + gj·Δj` in `f32`. `Δi`, `Δj` convert exactly (they are below
 /// 2^24); each product and sum rounds once, unless a device contracts `a·b + c`.
 #[inline]
 pub fn plane_f32_bits(coeffs: &FloatCoeffs, rect: &PixelRect, i: i32, j: i32) -> u32 {
@@ -222,7 +198,7 @@ pub fn plane_f32_bits(coeffs: &FloatCoeffs, rect: &PixelRect, i: i32, j: i32) ->
     (c[0] + c[1] * di + c[2] * dj).to_bits()
 }
 
-/// `MODE_BARYCENTRIC`: the barycentric weights `wk / Σw` of the snapped triangle in `f32`, as a
+/// `ValueMode::Barycentric`: the barycentric weights `wk / Σw` of the snapped triangle in `f32`, as a
 /// hardware rasteriser computes them, times the vertex heights. The edge functions are
 /// converted with the exact integer conversion so that only the products and sums round.
 #[inline]
@@ -232,19 +208,17 @@ pub fn barycentric_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
     let di = (i - rect.i0) as i64;
     let dj = (j - rect.j0) as i64;
     let e = &s.coverage.edges;
-    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].e0 + e[k].step_i * di + e[k].step_j * dj, 0)) * c[3];
+    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].at(di, dj), 0)) * c[3];
     (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
 }
 
 /// The value bits of pixel `(i, j)` on the triangle in setup slot `slot`, in the frame's mode.
 #[inline]
-pub fn pixel_value_bits(s: &TriangleSetup, i: i32, j: i32, mode: u32) -> u32 {
-    if mode == MODE_PLANE_F32 {
-        plane_f32_bits(&s.coeffs, &s.coverage.rect, i, j)
-    } else if mode == MODE_BARYCENTRIC {
-        barycentric_bits(s, i, j)
-    } else {
-        plane_value_bits(&s.plane, &s.coverage.rect, i, j)
+pub fn pixel_value_bits(s: &TriangleSetup, i: i32, j: i32, mode: ValueMode) -> u32 {
+    match mode {
+        ValueMode::PlaneF32 => plane_f32_bits(&s.coeffs, &s.coverage.rect, i, j),
+        ValueMode::Barycentric => barycentric_bits(s, i, j),
+        ValueMode::Exact => plane_value_bits(&s.plane, &s.coverage.rect, i, j),
     }
 }
 
@@ -260,14 +234,14 @@ pub fn fine_resolve(i: i32, j: i32, state: &PixelState, setups: &[TriangleSetup]
         return nodata_pixel(frame);
     };
     let s = &setups[slot as usize];
-    PixelOut { value_bits: pixel_value_bits(s, i, j, frame.mode), owner, count }
+    PixelOut { value_bits: pixel_value_bits(s, i, j, frame.value_mode()), owner, count }
 }
 
-/// Invocation 0 adds the tile to statistics counter `counter` (a `STAT_*` index).
+/// Invocation 0 adds the tile to statistics counter `counter`.
 #[inline]
-pub fn count_tile<C: Counters + ?Sized>(lid: u32, counter: usize, stats: &mut C) {
+pub fn count_tile<C: Counters + ?Sized>(lid: u32, counter: Counter, stats: &mut C) {
     if lid == 0 {
-        stats.fetch_add(counter, 1);
+        stats.fetch_add(counter as usize, 1);
     }
 }
 

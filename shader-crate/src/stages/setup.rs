@@ -5,14 +5,8 @@
 //! (`EXTENT_LIMIT_BITS`), so coordinate differences stay below 2^29 and every product here,
 //! and every edge value inside the rectangle, stays below 2^60.
 
-use crate::types::{Coverage, EdgeEq, TriangleInput, TriangleSetup};
-
-/// Top-left rule for a positively oriented triangle in raster space (x right, y down): an
-/// edge going right along the top (`dy == 0, dx > 0`) or going up on the left (`dy < 0`)
-/// owns the pixel centres exactly on it.
-pub fn is_top_left(dx: i64, dy: i64) -> bool {
-    (dy == 0 && dx > 0) || dy < 0
-}
+use crate::abi::{Coverage, EdgeEq, TriangleInput, TriangleSetup};
+use crate::math::edge::is_top_left;
 
 pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> TriangleSetup {
     let unit = 1i64 << snap_bits;

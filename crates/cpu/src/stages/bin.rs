@@ -1,0 +1,27 @@
+//! Twins of the `bin_count` and `bin_fill` entry points: one invocation per (listed triangle,
+//! band of its tile rows), grouped by triangle; the bins' atomics are host atomics.
+
+use super::{atomic_zeroed, AtomicSlice};
+use rayon::prelude::*;
+use std::sync::atomic::AtomicU32;
+use tileraster_kernels::abi::{FrameParams, TriangleSetup};
+use tileraster_kernels::stages::bin;
+
+pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32]) -> Vec<u32> {
+    let counts = atomic_zeroed(frame.tile_count() as usize);
+    let sink = AtomicSlice(&counts);
+    // The GPU's invocations, (listed triangle, band of tile rows) pairs, grouped by triangle.
+    listed.par_iter().for_each(|&t| (0..frame.bin_parts).for_each(|part| bin::bin_count(&setups[t as usize], frame, part, &mut { sink })));
+    counts.into_iter().map(AtomicU32::into_inner).collect()
+}
+
+pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32], offsets: &[u32]) -> Vec<u32> {
+    let cursors = atomic_zeroed(frame.tile_count() as usize);
+    let bins = atomic_zeroed(offsets[frame.tile_count() as usize] as usize);
+    let (cursors_sink, bins_sink) = (AtomicSlice(&cursors), AtomicSlice(&bins));
+    listed.par_iter().for_each(|&t| {
+        let s = &setups[t as usize];
+        (0..frame.bin_parts).for_each(|part| bin::bin_fill(s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink }))
+    });
+    bins.into_iter().map(AtomicU32::into_inner).collect()
+}

@@ -1,0 +1,36 @@
+//! One twin per kernel stage, with the stage's name, in files named as the kernel crate's
+//! `stages/` (`setup`, `bin`, `scan`, `fine`).
+
+mod bin;
+mod fine;
+mod scan;
+mod setup;
+
+pub use bin::{bin_count, bin_fill};
+pub use fine::{fine_raster, FinePath};
+pub use scan::bin_scan;
+pub use setup::setup;
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use tileraster_kernels::memory::{Counters, Slots};
+
+/// Host atomics standing in for a storage buffer the kernels update atomically.
+#[derive(Clone, Copy)]
+pub(crate) struct AtomicSlice<'a>(&'a [AtomicU32]);
+
+impl Counters for AtomicSlice<'_> {
+    fn fetch_add(&mut self, index: usize, value: u32) -> u32 {
+        self.0[index].fetch_add(value, Ordering::Relaxed)
+    }
+}
+
+impl Slots for AtomicSlice<'_> {
+    fn store(&mut self, index: usize, value: u32) {
+        self.0[index].store(value, Ordering::Relaxed)
+    }
+}
+
+pub(crate) fn atomic_zeroed(len: usize) -> Vec<AtomicU32> {
+    (0..len).map(|_| AtomicU32::new(0)).collect()
+}
+

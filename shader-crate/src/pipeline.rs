@@ -1,0 +1,218 @@
+//! The pipeline, written once: every kernel stage in the order it runs, with its entry point,
+//! the buffers it binds (in binding order) and the shape of its dispatch.
+//!
+//! - The GPU backend builds its pipelines, bind group layouts and bind groups from this table
+//!   and dispatches the stages in its order.
+//! - The CPU backend runs the twin of each stage (same name) in the same order.
+//! - `Stats::passes` names the kernel passes by the table's names.
+//!
+//! The entry points in `entry.rs` must bind what the table says: a test reads the compiled
+//! SPIR-V and compares every entry point's bindings and workgroup size with this table.
+//! Adding a stage or a buffer is one edit here (plus its entry point and its CPU twin, which
+//! the test and an exhaustive `match` on [`Stage`] ask for).
+//!
+//! ```text
+//!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
+//!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
+//!           setups, listed, offsets ─▶ bin_fill ─▶ bins (cursors: its atomics)
+//!           setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats
+//! ```
+
+use crate::{SCAN_GROUP, TILE, TRIANGLE_GROUP};
+
+/// A kernel stage.
+#[repr(u32)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Stage {
+    Setup,
+    BinCount,
+    BinScan,
+    BinFill,
+    FineRaster,
+}
+
+/// A buffer the stages share, by role. Every binding of every stage is one of these.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Buffer {
+    /// `FrameParams` of the dispatch.
+    Frame,
+    /// `TriangleInput` per prepared triangle (uploaded once per scene).
+    Inputs,
+    /// `TriangleSetup` per prepared triangle (set up once per scene, kept).
+    Setups,
+    /// Setup slots of the window's triangles, `u32` each.
+    Listed,
+    /// Entries per tile.
+    Counts,
+    /// Exclusive prefix sum of `Counts`, one more entry for the total.
+    Offsets,
+    /// Per-tile atomics of `bin_fill`.
+    Cursors,
+    /// The bins: setup slots, `FULL_TILE_BIT` on entries that cover their tile whole.
+    Bins,
+    /// Value bits per window pixel.
+    Values,
+    /// Owner triangle per window pixel (written when asked for).
+    Owners,
+    /// Coverage count per window pixel (written when asked for).
+    Coverage,
+    /// `Counter::COUNT` statistics counters.
+    Stats,
+}
+
+/// Whether a stage only reads a buffer or also writes it.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Access {
+    Read,
+    ReadWrite,
+}
+
+/// One binding of a stage: binding number = position in [`StageInfo::bindings`].
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Binding {
+    pub buffer: Buffer,
+    pub access: Access,
+}
+
+/// How many invocations a stage runs.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Dispatch {
+    /// One per prepared triangle, `TRIANGLE_GROUP` a workgroup, in 2D past 65,535 workgroups
+    /// (`FrameParams::dispatch_width`).
+    PerTriangle,
+    /// One per listed triangle and band of its tile rows (`FrameParams::bin_parts`), laid out
+    /// as `PerTriangle`.
+    PerTrianglePart,
+    /// One workgroup.
+    Single,
+    /// One workgroup per window tile, one invocation per pixel.
+    PerTile,
+}
+
+/// How often a stage runs.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Scope {
+    /// Once per prepared scene; its outputs stay with the scene.
+    Scene,
+    /// Once per rasterised window.
+    Window,
+}
+
+/// One row of the stage table.
+#[derive(Copy, Clone, Debug)]
+pub struct StageInfo {
+    pub stage: Stage,
+    /// The stage's name: its entry point in `entry.rs`, its CPU twin and its pass in `Stats`.
+    pub name: &'static str,
+    /// The SPIR-V entry point (rust-gpu names it by its path in the kernel crate).
+    pub entry_point: &'static str,
+    pub scope: Scope,
+    pub workgroup: [u32; 3],
+    pub dispatch: Dispatch,
+    pub bindings: &'static [Binding],
+}
+
+const fn read(buffer: Buffer) -> Binding {
+    Binding { buffer, access: Access::Read }
+}
+
+const fn write(buffer: Buffer) -> Binding {
+    Binding { buffer, access: Access::ReadWrite }
+}
+
+/// The stages in the order they run.
+pub const STAGES: [StageInfo; 5] = [
+    StageInfo {
+        stage: Stage::Setup,
+        name: "setup",
+        entry_point: "entry::setup",
+        scope: Scope::Scene,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerTriangle,
+        bindings: &[read(Buffer::Frame), read(Buffer::Inputs), write(Buffer::Setups)],
+    },
+    StageInfo {
+        stage: Stage::BinCount,
+        name: "bin_count",
+        entry_point: "entry::bin_count",
+        scope: Scope::Window,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerTrianglePart,
+        bindings: &[read(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), write(Buffer::Counts)],
+    },
+    StageInfo {
+        stage: Stage::BinScan,
+        name: "bin_scan",
+        entry_point: "entry::bin_scan",
+        scope: Scope::Window,
+        workgroup: [SCAN_GROUP, 1, 1],
+        dispatch: Dispatch::Single,
+        bindings: &[read(Buffer::Frame), read(Buffer::Counts), write(Buffer::Offsets)],
+    },
+    StageInfo {
+        stage: Stage::BinFill,
+        name: "bin_fill",
+        entry_point: "entry::bin_fill",
+        scope: Scope::Window,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerTrianglePart,
+        bindings: &[
+            read(Buffer::Frame),
+            read(Buffer::Setups),
+            read(Buffer::Listed),
+            read(Buffer::Offsets),
+            write(Buffer::Cursors),
+            write(Buffer::Bins),
+        ],
+    },
+    StageInfo {
+        stage: Stage::FineRaster,
+        name: "fine_raster",
+        entry_point: "entry::fine_raster",
+        scope: Scope::Window,
+        workgroup: [TILE, TILE, 1],
+        dispatch: Dispatch::PerTile,
+        bindings: &[
+            read(Buffer::Frame),
+            read(Buffer::Setups),
+            read(Buffer::Offsets),
+            read(Buffer::Bins),
+            write(Buffer::Values),
+            write(Buffer::Owners),
+            write(Buffer::Coverage),
+            write(Buffer::Stats),
+        ],
+    },
+];
+
+impl Stage {
+    pub const ALL: [Stage; 5] = [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster];
+
+    /// The stage's row of the table.
+    pub fn info(self) -> &'static StageInfo {
+        &STAGES[self as usize]
+    }
+
+    pub fn name(self) -> &'static str {
+        self.info().name
+    }
+}
+
+/// The stages that run once per window, in order.
+pub fn window_stages() -> impl Iterator<Item = &'static StageInfo> {
+    STAGES.iter().filter(|s| s.scope == Scope::Window)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_is_in_stage_order_and_names_its_entry_points() {
+        for (k, info) in STAGES.iter().enumerate() {
+            assert_eq!(info.stage as usize, k, "{}: STAGES[k] must be the stage numbered k", info.name);
+            assert_eq!(Stage::ALL[k], info.stage);
+            assert_eq!(info.entry_point, format!("entry::{}", info.name));
+        }
+    }
+}

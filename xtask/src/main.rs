@@ -2,10 +2,12 @@
 //!
 //! - `cargo xtask kernels`: what the rust-gpu build of `shader-crate` produced — size,
 //!   capabilities, entry points with their workgroup sizes — as a quick check that the module
-//!   is what the GPU backend expects.
-//! - `cargo xtask bench-report [--quick] [--out DIR]`: run time against error for every
-//!   backend × mode × scene beside the peers; writes `DIR/benchmarks.md` and
+//!   is what the GPU backend expects; then the adapter, its float controls and which module
+//!   it gets.
+//! - `cargo xtask bench-report [--quick] [--tables-only] [--out DIR]`: run time against error
+//!   for every backend × mode × scene beside the peers; writes `DIR/benchmarks.md` and
 //!   `DIR/time-vs-error.svg` (`DIR` defaults to `docs`), with the skips section.
+//!   `--tables-only` leaves out the sections that run the command line (gdal_grid, streaming).
 //! - `cargo xtask delaunay-report [POINTS]`: the candidate Delaunay crates timed and checked on
 //!   the same point sets (default one million points), printed as markdown.
 //! - `cargo xtask gdal-report [POINTS] [SIZE]`: points in, GeoTIFF out, against gdal_grid:
@@ -32,7 +34,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
     ExitCode::from(2)
 }
 
@@ -78,6 +80,13 @@ fn kernels() -> Result<(), String> {
         let (x, y, z) = sizes.get(id).copied().unwrap_or_default();
         println!("entry point {name:<24} workgroup {x}×{y}×{z}");
     }
+    match tileraster::gpu_adapter() {
+        Ok(a) => {
+            let module = if a.float_controls_declared { "with float controls" } else { "plain" };
+            println!("adapter {a}\n  {}\n  module: {module}", a.float_controls);
+        }
+        Err(e) => println!("adapter: none ({e})"),
+    }
     Ok(())
 }
 
@@ -92,11 +101,12 @@ fn main() -> ExitCode {
             }
         },
         ["bench-report", rest @ ..] => {
-            let mut options = bench_report::Options { quick: false, out_dir: "docs".into() };
+            let mut options = bench_report::Options { quick: false, tables_only: false, out_dir: "docs".into() };
             let mut rest = rest.iter();
             while let Some(arg) = rest.next() {
                 match *arg {
                     "--quick" => options.quick = true,
+                    "--tables-only" => options.tables_only = true,
                     "--out" => match rest.next() {
                         Some(dir) => options.out_dir = dir.into(),
                         None => return usage(),
@@ -185,9 +195,29 @@ pub(crate) fn measure(command: &mut std::process::Command) -> Result<Measured, S
 }
 
 /// The median of measured times (seconds).
-fn median(mut times: Vec<f64>) -> f64 {
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+fn median(times: Vec<f64>) -> f64 {
+    Timing::of(times).median
+}
+
+/// Repeated measurements of one thing (seconds): the median, and the fastest and slowest run,
+/// so a report shows whether a difference is larger than the machine's noise.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Timing {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Timing {
+    fn of(mut times: Vec<f64>) -> Self {
+        times.sort_by(f64::total_cmp);
+        Timing { median: times[times.len() / 2], min: times[0], max: times[times.len() - 1] }
+    }
+
+    /// The slowest run against the fastest, less one: 0.05 means they were within 5 %.
+    pub fn spread(&self) -> f64 {
+        self.max / self.min - 1.0
+    }
 }
 
 /// Today's date (UTC) as `YYYY-MM-DD`, from the system clock.

@@ -22,7 +22,7 @@ fn decades(lo: f64, hi: f64) -> (f64, f64) {
 pub fn time_vs_error(rows: &[Row]) -> String {
     let points: Vec<(&Row, f64, f64)> = rows
         .iter()
-        .filter_map(|r| r.accuracy.as_ref().map(|a| (r, r.median_s * 1e3, a.max_ulps.max(ERROR_FLOOR))))
+        .filter_map(|r| r.accuracy.as_ref().map(|a| (r, r.time.median * 1e3, a.max_ulps.max(ERROR_FLOOR))))
         .collect();
     let mut series: Vec<String> = Vec::new();
     for (r, _, _) in &points {

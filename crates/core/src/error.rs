@@ -64,6 +64,12 @@ pub enum Error {
     )]
     TooWideForMode { triangle: usize, mode: &'static str, extent_px: u64, limit_px: u64 },
 
+    #[error(
+        "the {mode} mode computes values in f32, and the GPU adapter {adapter} does not give the \
+         CPU backend's bits for that arithmetic ({reason}); use the exact mode, or the CPU backend"
+    )]
+    ModeInexactOnAdapter { mode: &'static str, adapter: String, reason: String },
+
     #[error("no {what} named '{name}'; choose one of {choices}")]
     UnknownName { what: &'static str, name: String, choices: String },
 }

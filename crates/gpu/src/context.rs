@@ -1,6 +1,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
+use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
-use tileraster_core::{Error, Plan, Prepared, Raster, Window};
+use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, TriangleInput, TriangleSetup};
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Scope, StageInfo, STAGES};
 use tileraster_kernels::{BIN_PART_TILES, TILE, TRIANGLE_GROUP};
@@ -29,6 +30,10 @@ pub struct Adapter {
     pub driver: String,
     /// A CPU implementation of Vulkan (such as lavapipe) rather than a GPU.
     pub software: bool,
+    /// What it reports of IEEE-754 float controls.
+    pub float_controls: FloatControls,
+    /// Whether the kernels declare round-to-nearest-even and subnormal preservation on it.
+    pub float_controls_declared: bool,
 }
 
 impl std::fmt::Display for Adapter {
@@ -46,6 +51,8 @@ pub fn adapter() -> Result<Adapter, Error> {
         device_type: format!("{:?}", info.device_type),
         driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
         software: info.device_type == wgpu::DeviceType::Cpu,
+        float_controls: ctx.float_controls,
+        float_controls_declared: ctx.float_controls_declared,
     })
 }
 
@@ -128,6 +135,10 @@ struct GpuContext {
     queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
+    float_controls: FloatControls,
+    float_controls_declared: bool,
+    /// Whether the `f32` modes give the CPU backend's bits here: checked on first use.
+    float_modes: Option<Result<(), String>>,
     /// One per row of the stage table, in its order.
     pipelines: Vec<StagePipeline>,
     buffers: Buffers,
@@ -178,8 +189,11 @@ impl GpuContext {
         // Errors are collected by error scopes around each call; never panic on them.
         device.on_uncaptured_error(std::sync::Arc::new(|e| eprintln!("tileraster: uncaptured GPU error: {e}")));
 
+        let float_controls = FloatControls::of(&adapter);
+        let declared = float_controls.declared(&adapter.get_info());
+        let kernels = if declared { crate::KERNELS_FLOAT_CONTROLS_SPV } else { crate::KERNELS_SPV };
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipelines = stage_pipelines(&device);
+        let pipelines = stage_pipelines(&device, kernels);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("the kernels were rejected by the device: {e}")));
         }
@@ -196,7 +210,7 @@ impl GpuContext {
             stats: Grown::storage("statistics"),
             readback: Grown::readback("readback"),
         };
-        Ok(GpuContext { device, queue, info: adapter.get_info(), limits, pipelines, buffers })
+        Ok(GpuContext { device, queue, info: adapter.get_info(), limits, float_controls, float_controls_declared: declared, float_modes: None, pipelines, buffers })
     }
 
     /// Largest buffer a kernel may bind.
@@ -205,6 +219,21 @@ impl GpuContext {
     }
 
     fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
+        let mode = prepared.params.mode;
+        if mode != Mode::Exact {
+            if self.float_modes.is_none() {
+                let checked = float_controls::check(|probe| self.rasterise_unchecked(probe, &probe.plan(probe.window, false)?, &mut None));
+                self.float_modes = Some(checked);
+            }
+            if let Some(Err(reason)) = &self.float_modes {
+                return Err(Error::ModeInexactOnAdapter { mode: mode.name(), adapter: self.info.name.clone(), reason: reason.clone() });
+            }
+        }
+        self.rasterise_unchecked(prepared, plan, resident)
+    }
+
+    /// [`Self::rasterise`] without the check of the `f32` modes.
+    fn rasterise_unchecked(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
         let mut raster = plan.allocate_raster(prepared)?;
         let mut counters = [0u64; Counter::COUNT];
         if let Some(active) = plan.active {
@@ -465,10 +494,11 @@ fn copy_rows(src: &[u32], frame: &FrameParams, width: u32, x0: u32, y0: u32, dst
 }
 
 /// Every stage's pipeline, from the stage table: an explicit bind group layout per stage
-/// (read-only or read-write storage buffers, as the table says) over one passthrough module,
-/// so the driver receives rust-gpu's SPIR-V with its `NoContraction` decorations intact.
-fn stage_pipelines(device: &wgpu::Device) -> Vec<StagePipeline> {
-    let words = wgpu::util::make_spirv_raw(crate::KERNELS_SPV);
+/// (read-only or read-write storage buffers, as the table says) over one passthrough module
+/// (`kernels`), so the driver receives rust-gpu's SPIR-V with its `NoContraction` decorations
+/// and float controls intact.
+fn stage_pipelines(device: &wgpu::Device, kernels: &[u8]) -> Vec<StagePipeline> {
+    let words = wgpu::util::make_spirv_raw(kernels);
     let entry_points: Vec<wgpu::PassthroughShaderEntryPoint> = STAGES
         .iter()
         .map(|s| wgpu::PassthroughShaderEntryPoint { name: s.entry_point.into(), workgroup_size: (s.workgroup[0], s.workgroup[1], s.workgroup[2]) })

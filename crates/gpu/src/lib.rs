@@ -4,9 +4,15 @@
 //! changes no bit of the result (every pixel depends only on the triangles covering it).
 
 mod context;
+mod float_controls;
 
 pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, Adapter, Resident};
+pub use float_controls::FloatControls;
 
 /// The kernels as compiled by rust-gpu, every float arithmetic result marked `NoContraction`
 /// (see `build.rs`).
 pub const KERNELS_SPV: &[u8] = include_bytes!(env!("TILERASTER_KERNELS_SPV"));
+
+/// [`KERNELS_SPV`] with 32-bit round-to-nearest-even and subnormal preservation declared on
+/// every entry point, for adapters that report both.
+pub const KERNELS_FLOAT_CONTROLS_SPV: &[u8] = include_bytes!(env!("TILERASTER_KERNELS_FLOAT_CONTROLS_SPV"));

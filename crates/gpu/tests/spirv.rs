@@ -1,16 +1,27 @@
 //! The compiled kernels against what the host assumes of them, read from the SPIR-V itself:
 //! every entry point binds exactly what its row of the stage table says (binding numbers,
 //! read-only or not, workgroup size), and every float arithmetic result carries
-//! `NoContraction`. Needs no adapter.
+//! `NoContraction`, in both embedded modules; the float-controls module declares 32-bit
+//! round-to-nearest-even and subnormal preservation on every entry point, and is otherwise the
+//! same module. Needs no adapter.
 
 use rspirv::dr::{load_words, Instruction, Module, Operand};
-use rspirv::spirv::{Decoration, ExecutionMode, Op, StorageClass};
+use rspirv::spirv::{Capability, Decoration, ExecutionMode, Op, StorageClass};
 use std::collections::{BTreeMap, HashMap, HashSet};
 use tileraster_kernels::pipeline::{Access, STAGES};
 
-fn module() -> Module {
-    let words: Vec<u32> = tileraster_gpu::KERNELS_SPV.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b)).collect();
+fn load(bytes: &[u8]) -> Module {
+    let words: Vec<u32> = bytes.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b)).collect();
     load_words(words).expect("the embedded kernels are valid SPIR-V")
+}
+
+fn module() -> Module {
+    load(tileraster_gpu::KERNELS_SPV)
+}
+
+/// Both embedded modules: as compiled, and with float controls.
+fn modules() -> [(&'static str, Module); 2] {
+    [("plain", module()), ("float controls", load(tileraster_gpu::KERNELS_FLOAT_CONTROLS_SPV))]
 }
 
 fn id(op: &Operand) -> u32 {
@@ -108,8 +119,39 @@ const NOT_ARITHMETIC: [Op; 19] = [
 
 #[test]
 fn every_float_arithmetic_result_carries_no_contraction() {
-    let m = module();
-    let decorated = decorations(&m);
+    for (name, m) in modules() {
+        no_contraction_on_every_float_result(name, &m);
+    }
+}
+
+/// The float-controls module is the plain one plus two capabilities and two execution modes
+/// per entry point, and only that.
+#[test]
+fn the_float_controls_module_declares_rte_and_denorm_preserve_on_every_entry_point() {
+    let [(_, plain), (_, controlled)] = modules();
+    let modes = |m: &Module, wanted: ExecutionMode| -> HashSet<u32> {
+        m.execution_modes.iter().filter(|e| e.operands[1] == Operand::ExecutionMode(wanted)).map(|e| {
+            assert_eq!(e.operands[2], Operand::LiteralBit32(32), "{wanted:?} must name 32-bit floats");
+            id(&e.operands[0])
+        }).collect()
+    };
+    let entries: HashSet<u32> = controlled.entry_points.iter().map(|e| id(&e.operands[1])).collect();
+    assert_eq!(entries.len(), STAGES.len());
+    for wanted in [ExecutionMode::RoundingModeRTE, ExecutionMode::DenormPreserve] {
+        assert_eq!(modes(&controlled, wanted), entries, "{wanted:?} on every entry point");
+        assert!(modes(&plain, wanted).is_empty(), "the plain module declares no {wanted:?}");
+    }
+    let capabilities = |m: &Module| -> Vec<Operand> { m.capabilities.iter().map(|c| c.operands[0].clone()).collect() };
+    let mut expected = capabilities(&plain);
+    expected.extend([Operand::Capability(Capability::RoundingModeRTE), Operand::Capability(Capability::DenormPreserve)]);
+    assert_eq!(capabilities(&controlled), expected);
+    assert_eq!(controlled.execution_modes.len(), plain.execution_modes.len() + 2 * entries.len());
+    use rspirv::binary::Disassemble;
+    assert_eq!(controlled.functions.iter().map(|f| f.disassemble()).collect::<Vec<_>>(), plain.functions.iter().map(|f| f.disassemble()).collect::<Vec<_>>());
+}
+
+fn no_contraction_on_every_float_result(name: &str, m: &Module) {
+    let decorated = decorations(m);
     let float_types: HashSet<u32> = {
         let mut set = HashSet::new();
         for t in &m.types_global_values {
@@ -137,7 +179,7 @@ fn every_float_arithmetic_result_carries_no_contraction() {
             missing.push(format!("%{result} = {:?}", inst.class.opcode));
         }
     }
-    assert!(missing.is_empty(), "{} of {checked} float arithmetic results lack NoContraction: {:?}", missing.len(), &missing[..missing.len().min(12)]);
+    assert!(missing.is_empty(), "{name}: {} of {checked} float arithmetic results lack NoContraction: {:?}", missing.len(), &missing[..missing.len().min(12)]);
     // The modes that compute in f32 are in the module: the check above has something to check.
-    assert!(checked > 0, "no float arithmetic found: the plane-f32 and barycentric modes should have some");
+    assert!(checked > 0, "{name}: no float arithmetic found: the plane-f32 and barycentric modes should have some");
 }

@@ -109,7 +109,10 @@ impl GpuFill {
 
     /// Fill `cells` values with `value` on the GPU and read them back.
     pub fn fill(&mut self, cells: usize, value: f32) -> Result<Vec<f32>, String> {
-        let mut out = vec![0.0f32; cells];
+        // Allocated as tileraster allocates its rasters (see `fill_cpu`): a plain zeroed
+        // vector would fault in 4 KiB pages during the read-back copy, which the rasteriser's
+        // own read-back does not, and make the roofline slower than a whole raster call.
+        let mut out: Vec<f32> = tileraster_core::zeroed_cells(cells)?;
         let chunk_cells = self.chunk_cells;
         let max_groups = self.gpu.limits.max_compute_workgroups_per_dimension as u64;
         let pipeline = self.pipeline.clone();

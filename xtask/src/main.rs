@@ -15,11 +15,14 @@
 //! - `cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]`: the cluster recipe run locally
 //!   (parts as separate processes, a VRT mosaic, compared with the single run) and a grid
 //!   larger than its address-space limit streamed to disk (default 100,000 points, 32768², 1536 MiB).
+//! - `cargo xtask fingerprint`: a hash per scene × mode of what `prepare` made and of the CPU
+//!   raster, to show that a change (speed work, say) changed no bit: run it before and after.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
 
 mod bench_report;
 mod delaunay_report;
+mod fingerprint;
 mod gdal_report;
 mod skip_report;
 mod stream_report;
@@ -34,7 +37,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
     ExitCode::from(2)
 }
 
@@ -134,6 +137,7 @@ fn main() -> ExitCode {
             Some(n) => print_markdown("stream-report", stream_report::run(n[0] as usize, n[1] as u32, n[2])),
             None => usage(),
         },
+        ["fingerprint"] => print_markdown("fingerprint", fingerprint::run()),
         ["skip-report", rest @ ..] => match rest {
             [] => print_markdown("skip-report", skip_report::run(false)),
             ["--quick"] => print_markdown("skip-report", skip_report::run(true)),

@@ -70,6 +70,9 @@ pub enum Error {
     )]
     ModeInexactOnAdapter { mode: &'static str, adapter: String, reason: String },
 
+    #[error("not enough memory for {what}: {reason}; rasterise fewer triangles at once (split the scene) or free memory")]
+    OutOfMemory { what: &'static str, reason: String },
+
     #[error("no {what} named '{name}'; choose one of {choices}")]
     UnknownName { what: &'static str, name: String, choices: String },
 }

@@ -16,6 +16,7 @@
 //! The scene is overlap-free when that sum never exceeds one on any pixel row of the grid.
 
 use std::ops::Range;
+use rayon::prelude::*;
 use tileraster_kernels::abi::TriangleInput;
 
 /// Crossings the analysis may sort per triangle and per pixel row before it gives up (and
@@ -67,26 +68,59 @@ struct Crossing {
     winding: i32,
 }
 
+/// An edge of the scene by its two vertex indices: the smaller, the larger, and the triangle and
+/// corner it starts at with whether it runs from the smaller index (`(t·3 + k) << 1 | up`).
+/// Horizontal edges cross no row line (the perturbation lifts p* off them) and are left out.
+type EdgeKey = (u32, u32, u32);
+
 /// The crossings of pixel-centre rows by the directed edges that do not cancel, or `None` past
-/// the budget.
+/// the budget. Edges are split by their smaller vertex index into one range per thread; each
+/// range's edges cancel among themselves only, so the ranges are worked in parallel, and the
+/// crossings (a set: `max_winding` sorts them) do not depend on how many there are.
 fn residual_crossings(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bits: u32, rows: Range<u32>, budget: usize) -> Option<Vec<Crossing>> {
-    // Each edge by its two vertex indices, bucketed by the smaller one (a counting sort: a
-    // vertex has a handful of edges), with the triangle and corner it starts at and whether it
-    // runs from the smaller index; sorting each small bucket by the larger index brings an
-    // edge's uses together. (Edges that meet only in coordinates, through duplicate vertices,
-    // stay; their crossings coincide and cancel in the sweep.)
-    let vertices = corners.iter().flatten().max().map_or(0, |&v| v as usize + 1);
-    let mut starts = vec![0u32; vertices + 1];
-    // (smaller index, larger index, triangle·3 + corner and direction bit) of each edge that is
-    // not horizontal: horizontal edges cross no row line (the perturbation lifts p* off them).
-    let edges_of = || {
-        triangles.iter().zip(corners).enumerate().flat_map(|(t, (tri, ids))| {
-            (0..3).filter(move |&k| tri.y[k] != tri.y[(k + 1) % 3]).map(move |k| {
+    let vertices = corners.par_iter().flatten().max().map_or(0, |&v| v as usize + 1);
+    // Every triangle's three edges, in parallel; a horizontal edge is `None`.
+    let mut edges: Vec<[Option<EdgeKey>; 3]> = Vec::new();
+    triangles
+        .par_iter()
+        .zip(corners)
+        .enumerate()
+        .map(|(t, (tri, ids))| {
+            [0, 1, 2].map(|k| {
                 let (p, q) = (ids[k], ids[(k + 1) % 3]);
-                (p.min(q), p.max(q), (t as u32 * 3 + k as u32) << 1 | (p < q) as u32)
+                (tri.y[k] != tri.y[(k + 1) % 3]).then(|| (p.min(q), p.max(q), (t as u32 * 3 + k as u32) << 1 | (p < q) as u32))
             })
         })
-    };
+        .collect_into_vec(&mut edges);
+    let parts = rayon::current_num_threads().max(1);
+    let per_part = vertices.div_ceil(parts).max(1);
+    let pieces: Vec<Option<Vec<Crossing>>> = (0..parts)
+        .into_par_iter()
+        .map(|part| {
+            let low = (part * per_part).min(vertices)..((part + 1) * per_part).min(vertices);
+            crossings_of_range(triangles, &edges, low, snap_bits, rows.clone(), budget)
+        })
+        .collect();
+    let mut crossings = Vec::new();
+    for piece in pieces {
+        crossings.extend(piece?);
+        if crossings.len() > budget {
+            return None;
+        }
+    }
+    Some(crossings)
+}
+
+/// [`residual_crossings`] of the edges whose smaller vertex index lies in `lows`.
+fn crossings_of_range(triangles: &[TriangleInput], all_edges: &[[Option<EdgeKey>; 3]], lows: Range<usize>, snap_bits: u32, rows: Range<u32>, budget: usize) -> Option<Vec<Crossing>> {
+    // Each edge by its two vertex indices, bucketed by the smaller one (a counting sort: a
+    // vertex has a handful of edges); sorting each small bucket by the larger index brings an
+    // edge's uses together. (Edges that meet only in coordinates, through duplicate vertices,
+    // stay; their crossings coincide and cancel in the sweep.)
+    let base = lows.start;
+    let vertices = lows.len();
+    let mut starts = vec![0u32; vertices + 1];
+    let edges_of = || all_edges.iter().flatten().flatten().filter(|e| lows.contains(&(e.0 as usize))).map(|&(l, h, code)| (l - base as u32, h, code));
     for (low, _, _) in edges_of() {
         starts[low as usize + 1] += 1;
     }
@@ -158,7 +192,7 @@ fn residual_crossings(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bi
 fn max_winding(mut crossings: Vec<Crossing>) -> i32 {
     // Exact order by (row, x): both fractions have positive denominators below 2^30 and
     // numerators below 2^60, so the cross products fit in i128.
-    crossings.sort_unstable_by(|a, b| a.row.cmp(&b.row).then_with(|| (a.num * b.den).cmp(&(b.num * a.den))));
+    crossings.par_sort_unstable_by(|a, b| a.row.cmp(&b.row).then_with(|| (a.num * b.den).cmp(&(b.num * a.den))));
     let mut max = 0;
     let mut end = crossings.len();
     while end > 0 {

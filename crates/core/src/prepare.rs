@@ -13,6 +13,7 @@
 //! triangle owns a pixel centre lying within `2^-(snap_bits+1)` px of an edge.
 
 use crate::{Error, Grid, Mode, Params, Scene};
+use rayon::prelude::*;
 use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::abi::{FloatCoeffs, PixelRect, Plane, TriangleInput};
 use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS};
@@ -85,21 +86,21 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
     window.validate(&grid)?;
     validate_scene(scene)?;
 
+    // Every step below is per vertex or per triangle, in tasks of `CHUNK` triangles over all
+    // cores; each keeps scene order, so the result does not depend on the number of threads.
+    // The triangles are walked three times rather than collected into intermediate vectors:
+    // for small triangles, moving and faulting in memory would cost more than the arithmetic.
     let raster: Vec<[f64; 2]> = scene
         .vertices
-        .iter()
+        .par_iter()
         .map(|v| {
             let (u, v) = grid.to_raster(v[0], v[1]);
             [u, v]
         })
         .collect();
-
-    // 2. Conservative cull, and the largest extent among the survivors.
     let (w, h) = (grid.width as f64, grid.height as f64);
-    let mut candidates = Vec::with_capacity(scene.triangles.len());
-    let mut max_extent = 0.0f64;
-    let mut widest = 0usize;
-    for (t, tri) in scene.triangles.iter().enumerate() {
+    // The raster-space extent of triangle `t` if it may reach a pixel centre of the grid.
+    let reaching_extent = |tri: &[u32; 3]| -> Option<f64> {
         let p = tri.map(|k| raster[k as usize]);
         let (umin, umax) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
         let (vmin, vmax) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
@@ -107,17 +108,21 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
             && umin <= w - 0.5 + CULL_MARGIN_PX
             && vmax >= 0.5 - CULL_MARGIN_PX
             && vmin <= h - 0.5 + CULL_MARGIN_PX;
-        if !reaches_grid {
-            continue;
-        }
-        let extent = (umax - umin).max(vmax - vmin);
-        if extent > max_extent {
-            max_extent = extent;
-            widest = t;
-        }
-        candidates.push(t);
-    }
-    let mut culled = scene.triangles.len() - candidates.len();
+        reaches_grid.then(|| (umax - umin).max(vmax - vmin))
+    };
+
+    // 2. Conservative cull: the largest extent among the survivors, the first triangle of that
+    // extent (triangle 0 if every extent is zero) as a sequential scan finds it, whatever order
+    // the reduction pairs them in, and the number of survivors.
+    let (max_extent, widest, reaching) = scene
+        .triangles
+        .par_iter()
+        .enumerate()
+        .filter_map(|(t, tri)| reaching_extent(tri).map(|extent| (extent, t, 1)))
+        .reduce(|| (0.0, 0, 0), |a, b| {
+            let (extent, t) = if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { (b.0, b.1) } else { (a.0, a.1) };
+            (extent, t, a.2 + b.2)
+        });
 
     // 3. The finest lattice on which the widest triangle's edge functions fit.
     let snap_bits = snap_bits_for(max_extent).ok_or(Error::TriangleTooLarge {
@@ -128,20 +133,21 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
     })?;
     let unit = (1i64 << snap_bits) as f64;
 
-    // 4. Snap, orient, rectangle.
-    let mut snapped: Vec<Snapped> = Vec::with_capacity(candidates.len());
-    let mut degenerate = 0;
-    for &t in &candidates {
-        let mut corners = scene.triangles[t].map(|k| k as usize);
-        let xy = |k: usize| ((raster[k][0] * unit).round() as i64, (raster[k][1] * unit).round() as i64);
+    // 4. Snap, orient, rectangle: what becomes of triangle `t`.
+    let snap = |t: usize| -> Snap {
+        let tri = &scene.triangles[t];
+        if reaching_extent(tri).is_none() {
+            return Snap::Outside;
+        }
+        let mut corners = tri.map(|k| k as usize);
         let (mut x, mut y) = ([0i64; 3], [0i64; 3]);
         for c in 0..3 {
-            (x[c], y[c]) = xy(corners[c]);
+            let [u, v] = raster[corners[c]];
+            (x[c], y[c]) = (round_to_i64(u * unit), round_to_i64(v * unit));
         }
         let area = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
         if area == 0 {
-            degenerate += 1;
-            continue;
+            return Snap::Flat;
         }
         if area < 0 {
             x.swap(1, 2);
@@ -150,35 +156,81 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         }
         let rect = pixel_rect(&x, &y, snap_bits, &grid);
         if rect.is_empty() {
-            culled += 1;
-            continue;
+            return Snap::NoCentre;
         }
-        snapped.push(Snapped { index: t, corners, x, y, rect });
+        Snap::Kept(Snapped { index: t, corners, x, y, rect })
+    };
+    // First walk: how many triangles each task keeps, and why the others go.
+    let chunks = scene.triangles.len().div_ceil(CHUNK);
+    let chunk = |c: usize| c * CHUNK..scene.triangles.len().min((c + 1) * CHUNK);
+    let (kept_per_chunk, flat_per_chunk): (Vec<usize>, Vec<usize>) = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            chunk(c).fold((0, 0), |(kept, flat), t| match snap(t) {
+                Snap::Kept(_) => (kept + 1, flat),
+                Snap::Flat => (kept, flat + 1),
+                Snap::Outside | Snap::NoCentre => (kept, flat),
+            })
+        })
+        .unzip();
+    let degenerate: usize = flat_per_chunk.iter().sum();
+    let kept: usize = kept_per_chunk.iter().sum();
+    let culled = scene.triangles.len() - kept - degenerate;
+    debug_assert!(kept + degenerate <= reaching);
+
+    // 5. Planes, and the cheaper modes' coefficients, written straight into place (huge pages,
+    // no copies). The first failing triangle in scene order names the error.
+    let input = |s: &Snapped| -> Result<TriangleInput, Error> {
+        let (plane, f64_plane) = fit_plane(scene, &raster, s, snap_bits);
+        let coeffs = float_coeffs(params.mode, scene, s, f64_plane);
+        let reach = float_reach(params.mode, &coeffs, &s.rect);
+        if reach.is_nan() || reach >= FLOAT_REACH_LIMIT {
+            return Err(Error::OutsideModeRange { triangle: s.index, mode: params.mode.name(), reach });
+        }
+        let extent_px = (s.rect.i1 - s.rect.i0).max(s.rect.j1 - s.rect.j0) as u64 + 1;
+        if params.mode == Mode::PlaneF32 && extent_px > FLOAT_OFFSET_LIMIT + 1 {
+            return Err(Error::TooWideForMode { triangle: s.index, mode: params.mode.name(), extent_px, limit_px: FLOAT_OFFSET_LIMIT + 1 });
+        }
+        Ok(TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0, coeffs })
+    };
+    let out_of_memory = |what| move |reason| Error::OutOfMemory { what, reason };
+    let mut triangles: Vec<TriangleInput> = crate::zeroed_cells(kept).map_err(out_of_memory("the prepared triangles"))?;
+    // Scene vertex indices of each, in the same orientation, for the overlap analysis.
+    let analyse = params.skips.overlap_free;
+    let mut corners: Vec<[u32; 3]> = if analyse { crate::zeroed_cells(kept).map_err(out_of_memory("the overlap analysis"))? } else { Vec::new() };
+    let mut parts = Vec::with_capacity(chunks);
+    let (mut rest_t, mut rest_c) = (triangles.as_mut_slice(), corners.as_mut_slice());
+    for (c, &n) in kept_per_chunk.iter().enumerate() {
+        let (part_t, tail_t) = rest_t.split_at_mut(n);
+        let (part_c, tail_c) = if analyse { rest_c.split_at_mut(n) } else { (&mut [][..], rest_c) };
+        parts.push((c, part_t, part_c));
+        (rest_t, rest_c) = (tail_t, tail_c);
+    }
+    let failures: Vec<Error> = parts
+        .into_par_iter()
+        .filter_map(|(c, part_t, part_c)| {
+            let kept = chunk(c).filter_map(|t| match snap(t) {
+                Snap::Kept(s) => Some(s),
+                _ => None,
+            });
+            for (k, s) in kept.enumerate() {
+                match input(&s) {
+                    Ok(t) => part_t[k] = t,
+                    Err(e) => return Some(e),
+                }
+                if analyse {
+                    part_c[k] = s.corners.map(|c| c as u32);
+                }
+            }
+            None
+        })
+        .collect();
+    if let Some(first) = failures.into_iter().next() {
+        return Err(first);
     }
 
-    // 5. Planes, and the cheaper modes' coefficients.
-    let triangles: Vec<TriangleInput> = snapped
-        .iter()
-        .map(|s| {
-            let (plane, f64_plane) = fit_plane(scene, &raster, s, snap_bits);
-            let coeffs = float_coeffs(params.mode, scene, s, f64_plane);
-            let reach = float_reach(params.mode, &coeffs, &s.rect);
-            if reach.is_nan() || reach >= FLOAT_REACH_LIMIT {
-                return Err(Error::OutsideModeRange { triangle: s.index, mode: params.mode.name(), reach });
-            }
-            let extent_px = (s.rect.i1 - s.rect.i0).max(s.rect.j1 - s.rect.j0) as u64 + 1;
-            if params.mode == Mode::PlaneF32 && extent_px > FLOAT_OFFSET_LIMIT + 1 {
-                return Err(Error::TooWideForMode { triangle: s.index, mode: params.mode.name(), extent_px, limit_px: FLOAT_OFFSET_LIMIT + 1 });
-            }
-            Ok(TriangleInput { x: s.x, y: s.y, rect: s.rect, plane, index: s.index as u32, _pad: 0, coeffs })
-        })
-        .collect::<Result<_, _>>()?;
-
     let rows = window.y0..window.y0 + window.height;
-    let overlap_free = params.skips.overlap_free && {
-        let corners: Vec<[u32; 3]> = snapped.iter().map(|s| s.corners.map(|c| c as u32)).collect();
-        crate::overlap::overlap_free(&triangles, &corners, snap_bits, rows.clone())
-    };
+    let overlap_free = analyse && crate::overlap::overlap_free(&triangles, &corners, snap_bits, rows.clone());
     let overlap_free_rows = overlap_free.then_some(rows);
     Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate, overlap_free_rows })
 }
@@ -217,6 +269,40 @@ pub fn snap_bits_for(max_extent_px: f64) -> Option<u32> {
     let ext = max_extent_px.ceil() + 2.0;
     let limit = (1u64 << EXTENT_LIMIT_BITS) as f64;
     (1..=MAX_SNAP_BITS).rev().find(|&s| ext * ((1u64 << s) as f64) < limit)
+}
+
+/// Triangles one task of the per-triangle passes takes, in scene order.
+const CHUNK: usize = 1 << 13;
+
+/// What snapping makes of a scene triangle.
+enum Snap {
+    /// Culled: it cannot reach a pixel centre of the grid.
+    Outside,
+    /// No area once snapped.
+    Flat,
+    /// Its snapped bounding box holds no pixel centre of the grid.
+    NoCentre,
+    Kept(Snapped),
+}
+
+/// `v.round() as i64` (half away from zero) without a call: `f64::round` is a libm call on
+/// x86-64's baseline, and snapping rounds six coordinates per triangle. Below 2^52 the
+/// truncation and `v − trunc(v)` are exact, so the two agree; beyond, `round` decides.
+#[inline]
+fn round_to_i64(v: f64) -> i64 {
+    if v.abs() < (1u64 << 52) as f64 {
+        let t = v as i64;
+        let f = v - t as f64;
+        t + i64::from(f >= 0.5) - i64::from(f <= -0.5)
+    } else {
+        v.round() as i64
+    }
+}
+
+/// `2^k`, exactly (as `2f64.powi(k)`, without its call where `2^k` is a normal number).
+#[inline]
+fn pow2(k: i32) -> f64 {
+    if (-1022..=1023).contains(&k) { f64::from_bits(((k + 1023) as u64) << 52) } else { 2f64.powi(k) }
 }
 
 struct Snapped {
@@ -330,7 +416,7 @@ fn quantise_plane(zr: f64, gi: f64, gj: f64, rect: &PixelRect) -> Plane {
     let scale = |v: f64| {
         // v · 2^frac_bits in two exact steps (2^frac_bits alone may overflow f64).
         let half = frac_bits / 2;
-        (v * 2f64.powi(half) * 2f64.powi(frac_bits - half)).round() as i64
+        round_to_i64(v * pow2(half) * pow2(frac_bits - half))
     };
     Plane { z: scale(zr), gi: scale(gi), gj: scale(gj), frac_bits, _pad: 0 }
 }
@@ -339,6 +425,76 @@ fn quantise_plane(zr: f64, gi: f64, gj: f64, rect: &PixelRect) -> Plane {
 mod tests {
     use super::*;
     use tileraster_kernels::math::fixed::fixed_to_f32_bits;
+
+    /// `prepare` on a pool of `threads` threads.
+    fn prepare_on(threads: usize, scene: &Scene, params: &Params) -> Result<Prepared, Error> {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| prepare(scene, params, None))
+    }
+
+    /// Preparation runs its per-triangle passes in parallel, in chunks, and splits the overlap
+    /// analysis by vertex ranges, one per thread: none of it may show in the result, nor in
+    /// which triangle an error names.
+    #[test]
+    fn preparation_does_not_depend_on_the_number_of_threads() {
+        let grid = Grid::new(0.0, 64.0, 0.0, 64.0, 64, 64);
+        let (micro, micro_grid) = crate::scenes::micro_triangles(64, 0.25, 7);
+        assert!(micro.triangles.len() > 2 * CHUNK, "several chunks");
+        let cases = [
+            (micro, micro_grid),
+            (crate::scenes::terrain(0.0, 0.0, 64.0, 64.0, 40, 40, 5), grid),
+            (crate::scenes::triangle_soup(&grid, 3000, 6.0, 9), grid),
+        ];
+        for (scene, grid) in &cases {
+            for mode in Mode::ALL {
+                let params = Params::new(*grid).with_mode(mode);
+                let one = prepare_on(1, scene, &params).unwrap();
+                for threads in [2, 3, 8] {
+                    let many = prepare_on(threads, scene, &params).unwrap();
+                    assert_eq!(one.triangles, many.triangles, "{threads} threads, {mode:?}");
+                    let facts = |p: &Prepared| (p.snap_bits, p.culled, p.degenerate, p.overlap_free_rows.clone());
+                    assert_eq!(facts(&one), facts(&many), "{threads} threads, {mode:?}");
+                }
+            }
+        }
+        // Several triangles out of plane-f32's range, in different chunks: the first is named.
+        let (mut scene, grid) = crate::scenes::micro_triangles(64, 0.25, 7);
+        for t in [2 * CHUNK + 5, CHUNK + 400, 2 * CHUNK - 3] {
+            let v = scene.triangles[t][0] as usize;
+            scene.vertices[v][2] = 3e38;
+        }
+        // The first kept triangle (the exact mode takes any height) on a raised vertex.
+        let kept = prepare(&scene, &Params::new(grid), None).unwrap().triangles;
+        let first = kept.iter().map(|t| t.index as usize).find(|&t| scene.triangles[t].iter().any(|&v| scene.vertices[v as usize][2] == 3e38)).unwrap();
+        assert!(first > CHUNK, "the failures lie beyond the first chunk");
+        let params = Params::new(grid).with_mode(Mode::PlaneF32);
+        for threads in [1, 2, 8] {
+            match prepare_on(threads, &scene, &params) {
+                Err(Error::OutsideModeRange { triangle, .. }) => assert_eq!(triangle, first, "{threads} threads"),
+                other => panic!("{threads} threads: {other:?}"),
+            }
+        }
+    }
+
+    /// The call-free rounding and powers of two are `f64::round` and `powi`, bit for bit.
+    #[test]
+    fn round_to_i64_and_pow2_are_round_and_powi() {
+        let mut v = 0.5f64;
+        let mut specials = vec![0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994, f64::NAN, 1e300, -1e300];
+        specials.extend([(1u64 << 52) as f64 - 0.5, (1u64 << 52) as f64 + 1.0, -((1u64 << 52) as f64) + 0.5, 4503599627370495.5]);
+        for _ in 0..2000 {
+            v = v * 1.75 + 0.123_456_789;
+            if v > 1e17 {
+                v /= 3.0e16;
+            }
+            specials.extend([v, -v, v.floor() + 0.5, -(v.floor() + 0.5)]);
+        }
+        for x in specials {
+            assert_eq!(round_to_i64(x), x.round() as i64, "{x:e}");
+        }
+        for k in -1100..=1100 {
+            assert_eq!(pow2(k).to_bits(), 2f64.powi(k).to_bits(), "2^{k}");
+        }
+    }
 
     #[test]
     fn snapping_is_finest_unless_a_triangle_is_huge() {

@@ -1,4 +1,5 @@
 use std::sync::atomic::{AtomicU64, Ordering};
+use crate::device::{Gpu, Grown};
 use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
@@ -45,7 +46,7 @@ impl std::fmt::Display for Adapter {
 /// The adapter the GPU backend uses (opening it on first use).
 pub fn adapter() -> Result<Adapter, Error> {
     let ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
-    let info = &ctx.info;
+    let info = &ctx.gpu.info;
     Ok(Adapter {
         name: info.name.clone(),
         device_type: format!("{:?}", info.device_type),
@@ -81,41 +82,6 @@ struct StagePipeline {
     layout: wgpu::BindGroupLayout,
 }
 
-/// A storage buffer that grows when a call needs more and is otherwise kept.
-struct Grown {
-    buffer: Option<wgpu::Buffer>,
-    label: &'static str,
-    usage: wgpu::BufferUsages,
-}
-
-impl Grown {
-    fn storage(label: &'static str) -> Self {
-        Grown {
-            buffer: None,
-            label,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-        }
-    }
-
-    fn readback(label: &'static str) -> Self {
-        Grown { buffer: None, label, usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST }
-    }
-
-    /// At least `bytes` (and at least 16) bytes.
-    fn get(&mut self, device: &wgpu::Device, bytes: u64) -> &wgpu::Buffer {
-        let bytes = bytes.max(16).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
-        if self.buffer.as_ref().is_none_or(|b| b.size() < bytes) {
-            self.buffer = Some(device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(self.label),
-                size: bytes,
-                usage: self.usage,
-                mapped_at_creation: false,
-            }));
-        }
-        self.buffer.as_ref().expect("just created")
-    }
-}
-
 struct Buffers {
     frame: Grown,
     listed: Grown,
@@ -131,10 +97,7 @@ struct Buffers {
 }
 
 struct GpuContext {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
-    info: wgpu::AdapterInfo,
-    limits: wgpu::Limits,
+    gpu: Gpu,
     float_controls: FloatControls,
     float_controls_declared: bool,
     /// Whether the `f32` modes give the CPU backend's bits here: checked on first use.
@@ -146,7 +109,7 @@ struct GpuContext {
 
 /// Prefer a real GPU, then an integrated one, then a CPU implementation such as lavapipe.
 /// `TILERASTER_ADAPTER=<substring>` picks an adapter by name instead.
-fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, Error> {
+fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String> {
     let wanted = std::env::var("TILERASTER_ADAPTER").ok();
     let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
     let needed = wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS;
@@ -163,38 +126,24 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, Error> 
         None => usable.collect(),
     };
     usable.sort_by_key(rank);
-    usable.into_iter().next().ok_or_else(|| Error::NoAdapter {
-        details: match (&wanted, seen.is_empty()) {
-            (_, true) => "no Vulkan adapter was found".into(),
-            (Some(name), false) => format!("no adapter named like {name:?} with 64-bit integers in shaders and SPIR-V passthrough among {seen:?}"),
-            (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers in shaders and SPIR-V passthrough"),
-        },
+    usable.into_iter().next().ok_or_else(|| match (&wanted, seen.is_empty()) {
+        (_, true) => "no Vulkan adapter was found".into(),
+        (Some(name), false) => format!("no adapter named like {name:?} with 64-bit integers in shaders and SPIR-V passthrough among {seen:?}"),
+        (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers in shaders and SPIR-V passthrough"),
     })
 }
 
 impl GpuContext {
     fn new() -> Result<Self, Error> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::VULKAN;
-        let instance = wgpu::Instance::new(desc);
-        let adapter = choose_adapter(pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN)))?;
-        let limits = adapter.limits();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("tileraster"),
-            required_features: wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS,
-            required_limits: limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| Error::NoAdapter { details: format!("the device could not be opened: {e}") })?;
-        // Errors are collected by error scopes around each call; never panic on them.
-        device.on_uncaptured_error(std::sync::Arc::new(|e| eprintln!("tileraster: uncaptured GPU error: {e}")));
-
+        let features = wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS;
+        let (gpu, adapter) = Gpu::open("tileraster", features, choose_adapter).map_err(|details| Error::NoAdapter { details })?;
+        let device = &gpu.device;
         let float_controls = FloatControls::of(&adapter);
         let declared = float_controls.declared(&adapter.get_info());
         let kernels = if declared { crate::KERNELS_FLOAT_CONTROLS_SPV } else { crate::KERNELS_SPV };
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipelines = stage_pipelines(&device, kernels);
-        if let Some(e) = pollster::block_on(scope.pop()) {
+        let scope = gpu.error_scope();
+        let pipelines = stage_pipelines(device, kernels);
+        if let Some(e) = scope.finish() {
             return Err(Error::Gpu(format!("the kernels were rejected by the device: {e}")));
         }
         let buffers = Buffers {
@@ -210,12 +159,12 @@ impl GpuContext {
             stats: Grown::storage("statistics"),
             readback: Grown::readback("readback"),
         };
-        Ok(GpuContext { device, queue, info: adapter.get_info(), limits, float_controls, float_controls_declared: declared, float_modes: None, pipelines, buffers })
+        Ok(GpuContext { gpu, float_controls, float_controls_declared: declared, float_modes: None, pipelines, buffers })
     }
 
     /// Largest buffer a kernel may bind.
     fn max_binding(&self) -> u64 {
-        self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
+        self.gpu.max_storage_binding()
     }
 
     fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
@@ -226,7 +175,7 @@ impl GpuContext {
                 self.float_modes = Some(checked);
             }
             if let Some(Err(reason)) = &self.float_modes {
-                return Err(Error::ModeInexactOnAdapter { mode: mode.name(), adapter: self.info.name.clone(), reason: reason.clone() });
+                return Err(Error::ModeInexactOnAdapter { mode: mode.name(), adapter: self.gpu.info.name.clone(), reason: reason.clone() });
             }
         }
         self.rasterise_unchecked(prepared, plan, resident)
@@ -237,14 +186,12 @@ impl GpuContext {
         let mut raster = plan.allocate_raster(prepared)?;
         let mut counters = [0u64; Counter::COUNT];
         if let Some(active) = plan.active {
-            let scope_validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let scope_memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let scope = self.gpu.error_scope();
             let result = self.rasterise_windows(prepared, plan, active, resident, &mut raster, &mut counters);
-            let memory_error = pollster::block_on(scope_memory.pop());
-            let validation_error = pollster::block_on(scope_validation.pop());
+            let raised = scope.finish();
             result?;
-            if let Some(e) = memory_error.or(validation_error) {
-                return Err(Error::Gpu(e.to_string()));
+            if let Some(e) = raised {
+                return Err(Error::Gpu(e));
             }
         }
         raster.stats = plan.stats(&counters);
@@ -268,8 +215,8 @@ impl GpuContext {
         let setups = resident.as_ref().expect("just set up").setups.clone();
         // The window's list of triangles, once for all its dispatches.
         let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
-        let listed_buf = self.buffers.listed.get(&self.device, listed.len() as u64).clone();
-        self.queue.write_buffer(&listed_buf, 0, listed);
+        let listed_buf = self.buffers.listed.get(&self.gpu.device, listed.len() as u64);
+        self.gpu.queue.write_buffer(&listed_buf, 0, listed);
         let mut pending = windows(&active, max_pixels);
         pending.reverse();
         while let Some(window) = pending.pop() {
@@ -324,7 +271,7 @@ impl GpuContext {
                 .collect::<Result<_, _>>()?;
             let entries: Vec<wgpu::BindGroupEntry> =
                 bound.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
-            let bind = self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(info.name), layout: &stage.layout, entries: &entries });
+            let bind = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(info.name), layout: &stage.layout, entries: &entries });
             let (x, y) = match info.dispatch {
                 Dispatch::PerTriangle | Dispatch::PerTrianglePart => triangle_groups,
                 Dispatch::Single => (1, 1),
@@ -356,9 +303,9 @@ impl GpuContext {
         }
         let mut frame = FrameParams { triangles: n as u32, snap_bits: prepared.snap_bits, ..Default::default() };
         let groups = Self::dispatch_triangles(&mut frame, n as u32);
-        let device = &self.device;
-        let frame_buf = self.buffers.frame.get(device, std::mem::size_of::<FrameParams>() as u64).clone();
-        self.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
+        let device = &self.gpu.device;
+        let frame_buf = self.buffers.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
+        self.gpu.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
         // Bindings must hold at least one element. The inputs are dropped once set up.
         let slots = n.max(1);
         let storage = |label, bytes| {
@@ -370,7 +317,7 @@ impl GpuContext {
             })
         };
         let inputs = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
-        self.queue.write_buffer(&inputs, 0, bytemuck::cast_slice(&prepared.triangles));
+        self.gpu.queue.write_buffer(&inputs, 0, bytemuck::cast_slice(&prepared.triangles));
         let setups = storage("triangle setups", slots * std::mem::size_of::<TriangleSetup>() as u64);
         let mut encoder = device.create_command_encoder(&Default::default());
         let buffers = |buffer| match buffer {
@@ -380,7 +327,7 @@ impl GpuContext {
             _ => None,
         };
         self.encode_stages(&mut encoder, Scope::Scene, &frame, groups, &buffers)?;
-        self.queue.submit([encoder.finish()]);
+        self.gpu.queue.submit([encoder.finish()]);
         Ok(Resident { setups })
     }
 
@@ -404,22 +351,22 @@ impl GpuContext {
         let groups = Self::dispatch_triangles(&mut frame, items);
         let tiles = frame.tile_count() as u64;
         let pixels = frame.win_w as u64 * frame.win_h as u64;
-        let device = &self.device;
+        let device = &self.gpu.device;
         let b = &mut self.buffers;
-        let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64).clone();
-        self.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
-        let counts = b.counts.get(device, tiles * 4).clone();
-        let cursors = b.cursors.get(device, tiles * 4).clone();
-        let offsets = b.offsets.get(device, (tiles + 1) * 4).clone();
-        let bins = b.bins.get(device, entries * 4).clone();
-        let values = b.values.get(device, pixels * 4).clone();
+        let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
+        self.gpu.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
+        let counts = b.counts.get(device, tiles * 4);
+        let cursors = b.cursors.get(device, tiles * 4);
+        let offsets = b.offsets.get(device, (tiles + 1) * 4);
+        let bins = b.bins.get(device, entries * 4);
+        let values = b.values.get(device, pixels * 4);
         let owner_bytes = if frame.outputs.contains(OutputSet::OWNER) { pixels * 4 } else { 0 };
         let coverage_bytes = if frame.outputs.contains(OutputSet::COVERAGE) { pixels * 4 } else { 0 };
-        let owners = b.owners.get(device, owner_bytes).clone();
-        let coverage = b.coverage.get(device, coverage_bytes).clone();
+        let owners = b.owners.get(device, owner_bytes);
+        let coverage = b.coverage.get(device, coverage_bytes);
         let stats_bytes = (Counter::COUNT * 4) as u64;
-        let stats = b.stats.get(device, stats_bytes).clone();
-        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes).clone();
+        let stats = b.stats.get(device, stats_bytes);
+        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes);
 
         let mut counters = [0u32; Counter::COUNT];
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -447,37 +394,24 @@ impl GpuContext {
         encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
         encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_bytes);
         encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + pixels * 4 + owner_bytes, coverage_bytes);
-        self.queue.submit([encoder.finish()]);
-
         let total = stats_bytes + pixels * 4 + owner_bytes + coverage_bytes;
-        let slice = readback.slice(..total);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
-        rx.recv()
-            .map_err(|_| Error::Gpu("the readback was dropped".into()))?
-            .map_err(|e| Error::Gpu(format!("reading the raster back failed: {e}")))?;
-        {
-            let view = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("mapping the raster failed: {e}")))?;
-            let words: &[u32] = bytemuck::cast_slice(&view);
-            let (stat_words, words) = words.split_at(Counter::COUNT);
-            counters.copy_from_slice(stat_words);
-            let (value_words, rest) = words.split_at(pixels as usize);
-            let (owner_words, coverage_words) = rest.split_at((owner_bytes / 4) as usize);
-            let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
-            copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
-            if let Some(owner) = raster.owner.as_mut() {
-                copy_rows(owner_words, &frame, width, x0, y0, owner);
-            }
-            if let Some(coverage) = raster.coverage.as_mut() {
-                copy_rows(coverage_words, &frame, width, x0, y0, coverage);
-            }
-        }
-        readback.unmap();
+        self.gpu
+            .submit_and_read(encoder, &readback, total, |bytes| {
+                let words: &[u32] = bytemuck::cast_slice(bytes);
+                let (stat_words, words) = words.split_at(Counter::COUNT);
+                counters.copy_from_slice(stat_words);
+                let (value_words, rest) = words.split_at(pixels as usize);
+                let (owner_words, coverage_words) = rest.split_at((owner_bytes / 4) as usize);
+                let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
+                copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
+                if let Some(owner) = raster.owner.as_mut() {
+                    copy_rows(owner_words, &frame, width, x0, y0, owner);
+                }
+                if let Some(coverage) = raster.coverage.as_mut() {
+                    copy_rows(coverage_words, &frame, width, x0, y0, coverage);
+                }
+            })
+            .map_err(|e| Error::Gpu(format!("reading the raster back: {e}")))?;
         Ok(counters)
     }
 }

@@ -4,6 +4,7 @@
 //! changes no bit of the result (every pixel depends only on the triangles covering it).
 
 mod context;
+pub mod device;
 mod float_controls;
 
 pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, Adapter, Resident};

@@ -1,7 +1,7 @@
 //! Store-bandwidth rooflines: the least work any raster call does, writing every cell once and
 //! handing the raster to the host.
 
-use crate::device::{Gpu, Grown};
+use crate::device::{self, Gpu, Grown};
 use rayon::prelude::*;
 
 /// Cells each rayon task fills: large enough to amortise scheduling, small enough to balance.
@@ -68,7 +68,7 @@ impl GpuFill {
     /// Open the adapter (a discrete GPU first; `TILERASTER_ADAPTER` picks one by name) and build
     /// the pipeline.
     pub fn new() -> Result<Self, String> {
-        let mut gpu = Gpu::open("tileraster-peers fill")?;
+        let mut gpu = device::open("tileraster-peers fill")?;
         let pipeline = gpu.scoped(|gpu| {
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("fill peer"),

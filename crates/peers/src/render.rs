@@ -1,6 +1,6 @@
 //! The hardware rasteriser peer: a plain wgpu render pipeline.
 
-use crate::device::{Gpu, Grown};
+use crate::device::{self, Gpu, Grown};
 use tileraster_core::{Grid, Scene};
 
 /// Pass-through vertex stage and a fragment stage that writes the interpolated height. With
@@ -53,7 +53,7 @@ impl RenderPipeline {
     /// Open the adapter (a discrete GPU first; `TILERASTER_ADAPTER` picks one by name) and build
     /// the pipeline.
     pub fn new() -> Result<Self, String> {
-        let mut gpu = Gpu::open("tileraster-peers render pipeline")?;
+        let mut gpu = device::open("tileraster-peers render pipeline")?;
         let pipeline = gpu.scoped(|gpu| {
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("render peer"),

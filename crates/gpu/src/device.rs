@@ -1,0 +1,132 @@
+//! Opening a Vulkan device through wgpu, and the helpers every user of one needs: error
+//! scopes, buffers that grow, submit-and-read-back. The GPU backend uses them, and so do the
+//! benchmark's GPU peers, which must run on the same adapter. Errors are plain strings here;
+//! each user maps them into its own error type.
+
+/// An open device with what its users need to know about it.
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+}
+
+impl Gpu {
+    /// Open the Vulkan adapter `choose` picks, with `features` and the adapter's own limits (not
+    /// wgpu's conservative defaults: large rasters need them). Returns the adapter too, for what
+    /// wgpu reads only from it. Uncaptured errors are printed with `label`, never panicked on:
+    /// callers collect errors with [`Gpu::error_scope`].
+    pub fn open(label: &str, features: wgpu::Features, choose: impl FnOnce(Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>) -> Result<(Gpu, wgpu::Adapter), String> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapter = choose(pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN)))?;
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some(label),
+            required_features: features,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("the device could not be opened: {e}"))?;
+        let label = label.to_string();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e| eprintln!("{label}: uncaptured GPU error: {e}")));
+        Ok((Gpu { device, queue, info: adapter.get_info(), limits }, adapter))
+    }
+
+    /// Largest buffer a shader may bind as storage.
+    pub fn max_storage_binding(&self) -> u64 {
+        self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
+    }
+
+    /// Start collecting validation and out-of-memory errors; [`ErrorScope::finish`] says
+    /// whether any was raised.
+    pub fn error_scope(&self) -> ErrorScope {
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        ErrorScope { validation, memory }
+    }
+
+    /// Run `f`, turning validation and out-of-memory errors it raised into an `Err`.
+    pub fn scoped<T>(&mut self, f: impl FnOnce(&mut Gpu) -> Result<T, String>) -> Result<T, String> {
+        let scope = self.error_scope();
+        let result = f(self);
+        let raised = scope.finish();
+        let value = result?;
+        match raised {
+            Some(e) => Err(format!("GPU error: {e}")),
+            None => Ok(value),
+        }
+    }
+
+    /// Submit `encoder`, wait for it, then map the first `bytes` of `readback` and hand them to
+    /// `read`.
+    pub fn submit_and_read(&self, encoder: wgpu::CommandEncoder, readback: &wgpu::Buffer, bytes: u64, read: impl FnOnce(&[u8])) -> Result<(), String> {
+        self.queue.submit([encoder.finish()]);
+        let slice = readback.slice(..bytes);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("waiting for the GPU failed: {e}"))?;
+        rx.recv()
+            .map_err(|_| "the readback was dropped".to_string())?
+            .map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
+        {
+            let view = slice.get_mapped_range().map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
+            read(&view);
+        }
+        readback.unmap();
+        Ok(())
+    }
+}
+
+/// Validation and out-of-memory errors being collected (see [`Gpu::error_scope`]).
+pub struct ErrorScope {
+    validation: wgpu::ErrorScopeGuard,
+    memory: wgpu::ErrorScopeGuard,
+}
+
+impl ErrorScope {
+    /// Stop collecting: the first error raised meanwhile, out-of-memory first.
+    pub fn finish(self) -> Option<String> {
+        // Scopes pop in the reverse order of their pushes.
+        let memory = pollster::block_on(self.memory.pop());
+        let validation = pollster::block_on(self.validation.pop());
+        memory.or(validation).map(|e| e.to_string())
+    }
+}
+
+/// A buffer that grows when a call needs more and is otherwise kept across calls.
+pub struct Grown {
+    buffer: Option<wgpu::Buffer>,
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+}
+
+impl Grown {
+    pub fn new(label: &'static str, usage: wgpu::BufferUsages) -> Self {
+        Grown { buffer: None, label, usage }
+    }
+
+    /// A storage buffer that kernels read and write and the host fills and copies from.
+    pub fn storage(label: &'static str) -> Self {
+        Self::new(label, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC)
+    }
+
+    /// A buffer the host maps to read results back.
+    pub fn readback(label: &'static str) -> Self {
+        Self::new(label, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST)
+    }
+
+    /// At least `bytes` (and at least 16) bytes, a whole number of copy units.
+    pub fn get(&mut self, device: &wgpu::Device, bytes: u64) -> wgpu::Buffer {
+        let bytes = bytes.max(16).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+        if self.buffer.as_ref().is_none_or(|b| b.size() < bytes) {
+            // Drop the old one first so both never hold memory at once.
+            self.buffer = None;
+            self.buffer = Some(device.create_buffer(&wgpu::BufferDescriptor { label: Some(self.label), size: bytes, usage: self.usage, mapped_at_creation: false }));
+        }
+        self.buffer.clone().expect("just created")
+    }
+}

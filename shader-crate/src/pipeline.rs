@@ -216,3 +216,19 @@ mod tests {
         }
     }
 }
+
+/// What the stages before fine raster leave in their buffers for one window: the backends
+/// read them out for a stage-by-stage comparison (`tests/stages.rs`). The order of entries
+/// within a tile's bin depends on the scheduling of `bin_fill`'s atomics; everything else is
+/// fixed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageBuffers {
+    /// One per prepared triangle (`Buffer::Setups`).
+    pub setups: Vec<crate::abi::TriangleSetup>,
+    /// Bin entries per tile (`Buffer::Counts`).
+    pub counts: Vec<u32>,
+    /// Where each tile's bin starts, and the total last (`Buffer::Offsets`).
+    pub offsets: Vec<u32>,
+    /// Every tile's bin, one after the other (`Buffer::Bins`).
+    pub bins: Vec<u32>,
+}

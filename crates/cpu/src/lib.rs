@@ -6,6 +6,7 @@
 mod stages;
 
 pub use stages::{bin_count, bin_fill, bin_scan, fine_raster, setup, FinePath};
+pub use tileraster_kernels::pipeline::StageBuffers;
 
 use tileraster_core::{Error, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{Counter, TriangleSetup};
@@ -30,6 +31,20 @@ pub fn rasterise_with(prepared: &Prepared, path: FinePath) -> Result<Raster, Err
 /// Run `plan`, setting the scene up first unless `resident` already holds it.
 pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
     rasterise_planned_with(prepared, plan, resident, FinePath::default())
+}
+
+/// The buffers the stages before fine raster leave for the preparation's window, as the GPU
+/// backend's `stage_buffers` reads them back (the stage-by-stage comparison of the backends).
+/// `None` when no triangle reaches the window.
+pub fn stage_buffers(prepared: &Prepared) -> Result<Option<StageBuffers>, Error> {
+    let plan = prepared.plan(prepared.window, false)?;
+    let Some(active) = plan.active else { return Ok(None) };
+    let frame = plan.frame(prepared, active);
+    let setups = setup(prepared, &frame);
+    let counts = bin_count(&frame, &setups, &plan.listed);
+    let offsets = bin_scan(&frame, &counts);
+    let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+    Ok(Some(StageBuffers { setups, counts, offsets, bins }))
 }
 
 /// The buffers one window's stages pass along (the GPU's storage buffers of the same names).

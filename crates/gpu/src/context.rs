@@ -4,7 +4,7 @@ use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, TriangleInput, TriangleSetup};
-use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Scope, StageInfo, STAGES};
+use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Scope, StageBuffers, StageInfo, STAGES};
 use tileraster_kernels::{BIN_PART_TILES, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
@@ -73,6 +73,26 @@ pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
 pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     ctx.rasterise(prepared, plan, resident)
+}
+
+/// The buffers the stages before fine raster leave for the preparation's window (see
+/// `StageBuffers`), read back after rasterising it: the stage-by-stage comparison of the
+/// backends. `None` when no triangle reaches the window; an error for a window the backend
+/// would cut into several (only the last one's buffers would be left).
+pub fn stage_buffers(prepared: &Prepared) -> Result<Option<StageBuffers>, Error> {
+    let plan = prepared.plan(prepared.window, false)?;
+    let Some(active) = plan.active else { return Ok(None) };
+    let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+    let frame = plan.frame(prepared, active);
+    let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
+    let max_pixels = (ctx.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed));
+    if windows(&active, max_pixels).len() != 1 || plan.bin_capacity(prepared, &frame) * 4 > ctx.max_binding() {
+        return Err(Error::Gpu(format!("the {}×{} window is rasterised in parts: read its stage buffers window by window", active.width, active.height)));
+    }
+    let mut resident = None;
+    ctx.rasterise(prepared, &plan, &mut resident)?;
+    let setups = resident.expect("rasterise sets the scene up").setups;
+    ctx.read_stage_buffers(prepared.triangles.len() as u64, frame.tile_count() as u64, &setups).map(Some)
 }
 
 /// A stage's pipeline and the layout of its one bind group, both built from its row of the
@@ -160,6 +180,42 @@ impl GpuContext {
             readback: Grown::readback("readback"),
         };
         Ok(GpuContext { gpu, float_controls, float_controls_declared: declared, float_modes: None, pipelines, buffers })
+    }
+
+    /// The first `bytes` of `source`, copied out through a buffer the host maps.
+    fn read_buffer(&self, source: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, Error> {
+        let size = bytes.max(4).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+        let readback = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stage read-back"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(source, 0, &readback, 0, size);
+        let mut out = Vec::new();
+        let scope = self.gpu.error_scope();
+        let read = self.gpu.submit_and_read(encoder, &readback, size, |b| out.extend_from_slice(&b[..bytes as usize]));
+        match (scope.finish(), read) {
+            (Some(e), _) | (None, Err(e)) => Err(Error::Gpu(format!("reading a stage buffer back: {e}"))),
+            (None, Ok(())) => Ok(out),
+        }
+    }
+
+    /// The setups of `triangles` triangles and the last window's counts, offsets and bins for
+    /// `tiles` tiles, as the stages left them.
+    fn read_stage_buffers(&mut self, triangles: u64, tiles: u64, setups: &wgpu::Buffer) -> Result<StageBuffers, Error> {
+        let device = &self.gpu.device;
+        let (counts, offsets, bins) = (self.buffers.counts.get(device, tiles * 4), self.buffers.offsets.get(device, (tiles + 1) * 4), self.buffers.bins.get(device, 0));
+        let words = |bytes: Vec<u8>| -> Vec<u32> { bytemuck::pod_collect_to_vec(&bytes) };
+        let offsets = words(self.read_buffer(&offsets, (tiles + 1) * 4)?);
+        let entries = offsets[tiles as usize] as u64;
+        Ok(StageBuffers {
+            setups: bytemuck::pod_collect_to_vec(&self.read_buffer(setups, triangles * std::mem::size_of::<TriangleSetup>() as u64)?),
+            counts: words(self.read_buffer(&counts, tiles * 4)?),
+            bins: words(self.read_buffer(&bins, entries * 4)?),
+            offsets,
+        })
     }
 
     /// Largest buffer a kernel may bind.
@@ -312,7 +368,8 @@ impl GpuContext {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                // Copied from only by `stage_buffers`, which reads the setups back.
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             })
         };

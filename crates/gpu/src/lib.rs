@@ -7,7 +7,7 @@ mod context;
 pub mod device;
 mod float_controls;
 
-pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, Adapter, Resident};
+pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, stage_buffers, Adapter, Resident};
 pub use float_controls::FloatControls;
 
 /// The kernels as compiled by rust-gpu, every float arithmetic result marked `NoContraction`

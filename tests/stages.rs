@@ -1,0 +1,94 @@
+//! Stage by stage, CPU against GPU: what setup, bin_count, bin_scan and bin_fill leave in
+//! their buffers must be the same on both backends, so that a parity failure of the raster can
+//! be traced to the first stage that differs. Setups, counts and offsets compare in full; a
+//! tile's bin compares as a set (`bin_fill` appends with atomics, so the order within a bin
+//! depends on scheduling; fine raster does not depend on it).
+
+mod common;
+
+use tileraster::{prepare, scenes, Grid, Params, Scene, Skips};
+use tileraster_cpu::StageBuffers;
+
+/// The first index where `a` and `b` differ, with both values.
+fn first_difference<T: PartialEq + std::fmt::Debug>(a: &[T], b: &[T]) -> Option<String> {
+    if let Some(k) = a.iter().zip(b).position(|(x, y)| x != y) {
+        return Some(format!("first at {k}: CPU {:?}, GPU {:?}", a[k], b[k]));
+    }
+    (a.len() != b.len()).then(|| format!("lengths differ: CPU {}, GPU {}", a.len(), b.len()))
+}
+
+/// Panics naming the first stage buffer that differs.
+fn assert_same_stages(name: &str, cpu: &StageBuffers, gpu: &StageBuffers) {
+    for (buffer, diff) in [
+        ("setups", first_difference(&cpu.setups, &gpu.setups)),
+        ("counts", first_difference(&cpu.counts, &gpu.counts)),
+        ("offsets", first_difference(&cpu.offsets, &gpu.offsets)),
+    ] {
+        if let Some(diff) = diff {
+            panic!("{name}: stage buffer {buffer} differs between the backends; {diff}");
+        }
+    }
+    let tiles = cpu.counts.len();
+    for tile in 0..tiles {
+        let range = cpu.offsets[tile] as usize..cpu.offsets[tile + 1] as usize;
+        let (mut a, mut b) = (cpu.bins[range.clone()].to_vec(), gpu.bins[range].to_vec());
+        a.sort_unstable();
+        b.sort_unstable();
+        if let Some(diff) = first_difference(&a, &b) {
+            panic!("{name}: the bin of tile {tile} holds other entries on the two backends (sorted); {diff}");
+        }
+    }
+}
+
+fn cases() -> Vec<(String, Scene, Grid)> {
+    let grid = Grid::new(0.0, 100.0, 0.0, 100.0, 333, 257);
+    let (micro, micro_grid) = scenes::micro_triangles(128, 0.5, 7);
+    vec![
+        ("terrain TIN".into(), scenes::terrain(0.0, 0.0, 100.0, 100.0, 30, 20, 3), grid),
+        ("overlapping soup".into(), scenes::triangle_soup(&grid, 700, 30.0, 9), grid),
+        ("fan around a centre".into(), scenes::fan(&grid, 60, 60, 90, 40.0, 3), grid),
+        ("sliver wedge".into(), scenes::sliver_wedge(&grid, 80, 0.02, 4), grid),
+        ("micro-triangles".into(), micro, micro_grid),
+        ("plane, full tiles".into(), scenes::sloping_plane(), Grid::new(0.0, 1.0, 0.0, 1.0, 700, 300)),
+    ]
+}
+
+#[test]
+fn every_stage_leaves_the_same_buffers_on_both_backends() {
+    if !common::gpu_or_skip("every_stage_leaves_the_same_buffers_on_both_backends") {
+        return;
+    }
+    for (name, scene, grid) in cases() {
+        for (variant, skips) in common::skip_variants() {
+            let prepared = prepare(&scene, &Params::new(grid).with_skips(skips), None).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let cpu = tileraster_cpu::stage_buffers(&prepared).expect("CPU stages");
+            let gpu = tileraster_gpu::stage_buffers(&prepared).unwrap_or_else(|e| panic!("{name}, {variant}: GPU stages: {e}"));
+            match (cpu, gpu) {
+                (Some(cpu), Some(gpu)) => {
+                    assert!(!cpu.bins.is_empty(), "{name}: nothing binned, nothing compared");
+                    assert_same_stages(&format!("{name}, {variant}"), &cpu, &gpu);
+                }
+                (cpu, gpu) => panic!("{name}, {variant}: a window on one backend only (CPU {}, GPU {})", cpu.is_some(), gpu.is_some()),
+            }
+        }
+    }
+}
+
+/// The comparison finds what it is for: a changed setup, count or bin entry is named.
+#[test]
+fn a_differing_stage_buffer_is_named() {
+    let (scene, grid) = (scenes::terrain(0.0, 0.0, 100.0, 100.0, 12, 10, 3), Grid::new(0.0, 100.0, 0.0, 100.0, 97, 61));
+    let prepared = prepare(&scene, &Params::new(grid).with_skips(Skips::NONE), None).unwrap();
+    let cpu = tileraster_cpu::stage_buffers(&prepared).unwrap().expect("a window");
+    assert_same_stages("itself", &cpu, &cpu);
+    let caught = |change: &dyn Fn(&mut StageBuffers), what: &str| {
+        let mut other = cpu.clone();
+        change(&mut other);
+        let message = std::panic::catch_unwind(|| assert_same_stages("changed", &cpu, &other)).expect_err("a difference is caught");
+        let text = message.downcast_ref::<String>().cloned().unwrap_or_default();
+        assert!(text.contains(what), "{text}");
+    };
+    caught(&|b| b.setups[3].coverage.index += 1, "setups");
+    caught(&|b| b.counts[5] += 1, "counts");
+    caught(&|b| *b.bins.last_mut().unwrap() ^= 1, "bin of tile");
+}

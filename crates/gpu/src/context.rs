@@ -1,5 +1,6 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use crate::device::{Gpu, Grown};
+use rayon::prelude::*;
 use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
@@ -473,15 +474,17 @@ impl GpuContext {
     }
 }
 
-/// Copy a window's rows into the raster that holds it.
+/// Copy a window's rows into the raster that holds it, rows in parallel: reading a large
+/// raster back is bound by this copy (and the first touch of the raster's pages), not by the
+/// device.
 fn copy_rows(src: &[u32], frame: &FrameParams, width: u32, x0: u32, y0: u32, dst: &mut [u32]) {
     let w = frame.win_w as usize;
-    for (r, row) in src.chunks(w).enumerate() {
-        let y = (frame.win_y0 - y0) as usize + r;
-        let x = (frame.win_x0 - x0) as usize;
-        let start = y * width as usize + x;
-        dst[start..start + w].copy_from_slice(row);
-    }
+    let x = (frame.win_x0 - x0) as usize;
+    let first_row = (frame.win_y0 - y0) as usize;
+    dst.par_chunks_mut(width as usize)
+        .skip(first_row)
+        .zip(src.par_chunks(w))
+        .for_each(|(row, window_row)| row[x..x + w].copy_from_slice(window_row));
 }
 
 /// Every stage's pipeline, from the stage table: an explicit bind group layout per stage

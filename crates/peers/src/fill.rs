@@ -148,7 +148,9 @@ impl GpuFill {
                 }
                 encoder.copy_buffer_to_buffer(&storage, 0, &readback, 0, count * 4);
                 gpu.submit_and_read(encoder, &readback, count * 4, |bytes| {
-                    chunk.copy_from_slice(bytemuck::cast_slice(bytes));
+                    // On all cores, as the GPU backend copies its rasters out.
+                    let words: &[f32] = bytemuck::cast_slice(bytes);
+                    chunk.par_chunks_mut(CPU_CHUNK).zip(words.par_chunks(CPU_CHUNK)).for_each(|(d, s)| d.copy_from_slice(s));
                 })?;
             }
             Ok(())

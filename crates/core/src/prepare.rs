@@ -111,18 +111,15 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         reaches_grid.then(|| (umax - umin).max(vmax - vmin))
     };
 
-    // 2. Conservative cull: the largest extent among the survivors, the first triangle of that
-    // extent (triangle 0 if every extent is zero) as a sequential scan finds it, whatever order
-    // the reduction pairs them in, and the number of survivors.
-    let (max_extent, widest, reaching) = scene
+    // 2. Conservative cull: the largest extent among the survivors, and the first triangle of
+    // that extent (triangle 0 if every extent is zero) as a sequential scan finds it, whatever
+    // order the reduction pairs them in.
+    let (max_extent, widest) = scene
         .triangles
         .par_iter()
         .enumerate()
-        .filter_map(|(t, tri)| reaching_extent(tri).map(|extent| (extent, t, 1)))
-        .reduce(|| (0.0, 0, 0), |a, b| {
-            let (extent, t) = if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { (b.0, b.1) } else { (a.0, a.1) };
-            (extent, t, a.2 + b.2)
-        });
+        .filter_map(|(t, tri)| reaching_extent(tri).map(|extent| (extent, t)))
+        .reduce(|| (0.0, 0), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
 
     // 3. The finest lattice on which the widest triangle's edge functions fit.
     let snap_bits = snap_bits_for(max_extent).ok_or(Error::TriangleTooLarge {
@@ -160,23 +157,30 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
         }
         Snap::Kept(Snapped { index: t, corners, x, y, rect })
     };
-    // First walk: how many triangles each task keeps, and why the others go.
+    // First walk: what becomes of each triangle (so the second snaps only the kept ones again),
+    // and how many each task keeps.
     let chunks = scene.triangles.len().div_ceil(CHUNK);
     let chunk = |c: usize| c * CHUNK..scene.triangles.len().min((c + 1) * CHUNK);
-    let (kept_per_chunk, flat_per_chunk): (Vec<usize>, Vec<usize>) = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            chunk(c).fold((0, 0), |(kept, flat), t| match snap(t) {
-                Snap::Kept(_) => (kept + 1, flat),
-                Snap::Flat => (kept, flat + 1),
-                Snap::Outside | Snap::NoCentre => (kept, flat),
-            })
+    let mut fate = vec![Fate::Dropped; scene.triangles.len()];
+    let kept_per_chunk: Vec<usize> = fate
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .map(|(c, fates)| {
+            let mut kept = 0;
+            for (fate, t) in fates.iter_mut().zip(chunk(c)) {
+                *fate = match snap(t) {
+                    Snap::Kept(_) => Fate::Kept,
+                    Snap::Flat => Fate::Flat,
+                    Snap::Outside | Snap::NoCentre => Fate::Dropped,
+                };
+                kept += usize::from(*fate == Fate::Kept);
+            }
+            kept
         })
-        .unzip();
-    let degenerate: usize = flat_per_chunk.iter().sum();
+        .collect();
+    let degenerate = fate.par_iter().filter(|&&f| f == Fate::Flat).count();
     let kept: usize = kept_per_chunk.iter().sum();
     let culled = scene.triangles.len() - kept - degenerate;
-    debug_assert!(kept + degenerate <= reaching);
 
     // 5. Planes, and the cheaper modes' coefficients, written straight into place (huge pages,
     // no copies). The first failing triangle in scene order names the error.
@@ -209,9 +213,9 @@ pub fn prepare(scene: &Scene, params: &Params, window: Option<Window>) -> Result
     let failures: Vec<Error> = parts
         .into_par_iter()
         .filter_map(|(c, part_t, part_c)| {
-            let kept = chunk(c).filter_map(|t| match snap(t) {
-                Snap::Kept(s) => Some(s),
-                _ => None,
+            let kept = chunk(c).filter(|&t| fate[t] == Fate::Kept).map(|t| match snap(t) {
+                Snap::Kept(s) => s,
+                _ => unreachable!("the first walk kept triangle {t}"),
             });
             for (k, s) in kept.enumerate() {
                 match input(&s) {
@@ -273,6 +277,16 @@ pub fn snap_bits_for(max_extent_px: f64) -> Option<u32> {
 
 /// Triangles one task of the per-triangle passes takes, in scene order.
 const CHUNK: usize = 1 << 13;
+
+/// What the first walk over the triangles found of each, for the second.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Fate {
+    Kept,
+    /// No area once snapped.
+    Flat,
+    /// Culled, or no pixel centre in its snapped bounding box.
+    Dropped,
+}
 
 /// What snapping makes of a scene triangle.
 enum Snap {

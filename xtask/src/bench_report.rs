@@ -176,26 +176,18 @@ pub fn run(options: &Options) -> Result<Report, String> {
         // The GPU roofline is the faster of two ways to hand the host a constant raster: a
         // compute-shader fill, and a render pass that only clears (the render pipeline peer
         // with no triangles). Either alone can be slower than a whole call of some engine.
-        let compute_fill = match gpu_fill.as_mut() {
-            Some(fill) => match timed(roof_runs, || fill.fill(cells, NODATA)) {
-                Ok((t, _)) => Some(t.min),
-                Err(e) => {
-                    notes.push(format!("{}: GPU roofline (compute fill) failed: {e}", case.name));
-                    None
-                }
-            },
-            None => None,
+        let mut fastest = |how: &str, timing: Option<Result<Timing, String>>| match timing? {
+            Ok(t) => Some(t.min),
+            Err(e) => {
+                notes.push(format!("{}: GPU roofline ({how}) failed: {e}", case.name));
+                None
+            }
         };
-        let render_clear = match render.as_mut() {
-            Some(render) => match timed(roof_runs, || render.rasterise(&empty, &case.grid, NODATA)) {
-                Ok((t, _)) => Some(t.min),
-                Err(e) => {
-                    notes.push(format!("{}: GPU roofline (render-pass clear) failed: {e}", case.name));
-                    None
-                }
-            },
-            None => None,
-        };
+        let compute_fill = fastest("compute fill", gpu_fill.as_mut().map(|fill| timed(roof_runs, || fill.fill(cells, NODATA)).map(|(t, _)| t)));
+        let render_clear = fastest(
+            "render-pass clear",
+            render.as_mut().map(|render| timed(roof_runs, || render.rasterise(&empty, &case.grid, NODATA)).map(|(t, _)| t)),
+        );
         let gpu_roof = match (compute_fill, render_clear) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),

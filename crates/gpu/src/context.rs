@@ -85,9 +85,7 @@ pub fn stage_buffers(prepared: &Prepared) -> Result<Option<StageBuffers>, Error>
     let Some(active) = plan.active else { return Ok(None) };
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     let frame = plan.frame(prepared, active);
-    let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
-    let max_pixels = (ctx.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed));
-    if windows(&active, max_pixels).len() != 1 || plan.bin_capacity(prepared, &frame) * 4 > ctx.max_binding() {
+    if windows(&active, ctx.max_window_pixels(prepared)).len() != 1 || plan.bin_capacity(prepared, &frame) * 4 > ctx.max_binding() {
         return Err(Error::Gpu(format!("the {}×{} window is rasterised in parts: read its stage buffers window by window", active.width, active.height)));
     }
     let mut resident = None;
@@ -219,6 +217,12 @@ impl GpuContext {
         })
     }
 
+    /// Most pixels one window may have: every output layer must fit one binding.
+    fn max_window_pixels(&self, prepared: &Prepared) -> u64 {
+        let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
+        (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed))
+    }
+
     /// Largest buffer a kernel may bind.
     fn max_binding(&self) -> u64 {
         self.gpu.max_storage_binding()
@@ -264,8 +268,7 @@ impl GpuContext {
         raster: &mut Raster,
         counters: &mut [u64; Counter::COUNT],
     ) -> Result<(), Error> {
-        let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
-        let max_pixels = (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed));
+        let max_pixels = self.max_window_pixels(prepared);
         if resident.is_none() {
             *resident = Some(self.upload_and_setup(prepared)?);
         }

@@ -14,30 +14,14 @@ pub fn ceil_shr(v: i64, s: u32) -> i64 {
 
 /// Index of the highest set bit of `v` (`v != 0`), without relying on a device `clz`.
 pub fn msb(v: u64) -> u32 {
-    let mut x = v;
-    let mut n = 0;
-    if x >> 32 != 0 {
-        x >>= 32;
-        n += 32;
-    }
-    if x >> 16 != 0 {
-        x >>= 16;
-        n += 16;
-    }
-    if x >> 8 != 0 {
-        x >>= 8;
-        n += 8;
-    }
-    if x >> 4 != 0 {
-        x >>= 4;
-        n += 4;
-    }
-    if x >> 2 != 0 {
-        x >>= 2;
-        n += 2;
-    }
-    if x >> 1 != 0 {
-        n += 1;
+    // Binary search: halve the window while its upper half holds a set bit.
+    let (mut x, mut n, mut step) = (v, 0, 32);
+    while step > 0 {
+        if x >> step != 0 {
+            x >>= step;
+            n += step;
+        }
+        step >>= 1;
     }
     n
 }

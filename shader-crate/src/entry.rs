@@ -4,10 +4,11 @@
 //! that order; a test compares the compiled SPIR-V with the table.
 
 use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
-use crate::stages::fine::{self, FineShared, PixelState};
+use crate::programs::height::HeightProgram;
+use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
-use crate::abi::{Counter, FrameParams, OutputSet, TriangleInput, TriangleSetup};
+use crate::abi::{Counter, Coverage, FrameParams, OutputSet, TriangleInput, TriangleSetup};
 use crate::BATCH;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 use spirv_std::glam::UVec3;
@@ -92,36 +93,56 @@ pub fn fine_raster(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
-    #[spirv(workgroup)] shared: &mut FineShared,
+    #[spirv(workgroup)] shared: &mut FineShared<Coverage>,
+) {
+    fine_raster_workgroup(&HeightProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, shared);
+}
+
+/// One fine-raster workgroup, for any pixel program: the body of every fine-raster entry point.
+/// It writes the values layer, and the owner and coverage layers where the frame asks for them.
+#[allow(clippy::too_many_arguments)]
+fn fine_raster_workgroup<P: PixelProgram>(
+    program: &P,
+    wg: UVec3,
+    lid: u32,
+    frame: &FrameParams,
+    setups: &[P::Setup],
+    offsets: &[u32],
+    bins: &[u32],
+    values: &mut [P::Value],
+    owners: &mut [u32],
+    coverage: &mut [u32],
+    stats: &mut [u32],
+    shared: &mut FineShared<P::Staged>,
 ) {
     let tile = wg.y * frame.tiles_x + wg.x;
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
-    let mut state = PixelState::EMPTY;
+    let mut state = PixelState::empty(P::NO_KEY);
     // Uniform per workgroup: the whole tile takes the same branch, barriers included.
     let out = if fine::empty_tile(bin_len, frame) {
         fine::count_tile(lid, Counter::TilesEmpty, stats);
-        fine::nodata_pixel(frame)
+        fine::background_pixel(program)
     } else {
-        if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut state) {
+        if fine::full_tile::<P>(bins, bin_start, bin_len, setups, frame, &mut state) {
             fine::count_tile(lid, Counter::TilesFull, stats);
         } else {
             fine::count_tile(lid, Counter::TilesPartial, stats);
             let overlap_free = fine::overlap_free(frame);
             let mut batch_start = 0;
             while batch_start < bin_len {
-                fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, shared);
+                fine::fine_load::<P>(lid, bins, bin_start, bin_len, batch_start, setups, shared);
                 barrier();
-                fine::fine_test(i, j, fine::batch_len(bin_len, batch_start), shared, overlap_free, &mut state);
+                fine::fine_test::<P>(i, j, fine::batch_len(bin_len, batch_start), shared, overlap_free, &mut state);
                 barrier();
                 batch_start += BATCH;
             }
         }
-        fine::fine_resolve(i, j, &state, setups, frame)
+        fine::fine_resolve(program, i, j, &state, setups)
     };
     if inside {
         let k = fine::window_index(i, j, frame);
-        values[k] = out.value_bits;
+        values[k] = out.value;
         if frame.outputs.contains(OutputSet::OWNER) {
             owners[k] = out.owner;
         }

@@ -12,6 +12,9 @@
 //! (per      (per          (one        (per         (one workgroup per tile,
 //! triangle)  triangle)    workgroup)  triangle)    one invocation per pixel)
 //! ```
+//!
+//! Fine raster is generic over what a pixel computes (`stages::fine::PixelProgram`); the
+//! programs live in `programs/` (today: `height`).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 pub mod abi;
@@ -19,6 +22,7 @@ pub mod math;
 pub mod memory;
 #[cfg(not(target_arch = "spirv"))]
 pub mod pipeline;
+pub mod programs;
 pub mod stages;
 
 #[cfg(target_arch = "spirv")]

@@ -1,46 +1,87 @@
 //! Fine raster: one workgroup per tile, one invocation per pixel. The tile's bin is walked in
-//! batches: every invocation stages one triangle's coverage data in workgroup memory
-//! (`fine_load`), barrier, every invocation tests its pixel centre against the whole batch
-//! (`fine_test`), barrier. Finally each invocation resolves its pixel (`fine_resolve`).
+//! batches: every invocation stages one triangle in workgroup memory (`fine_load`), barrier,
+//! every invocation tests its pixel centre against the whole batch (`fine_test`), barrier.
+//! Finally each invocation resolves its pixel (`fine_resolve`).
+//!
+//! The stage is generic over what a pixel computes: a [`PixelProgram`] says what a batch
+//! stages of a triangle, which of the triangles covering a centre owns it (the smallest
+//! *key*), and what the owner's value is there. The heightfield's program
+//! (`crate::programs::height`) keys by triangle index and computes a height plane; a 3D
+//! pipeline keys by depth and interpolates attributes, through the same stage.
 //!
 //! Fill rule: a pixel centre strictly inside a triangle, or on one of its top-left edges, is
 //! *inside* it; in a mesh that tiles a region every centre of the region's interior is inside
-//! exactly one triangle. A centre that is inside no triangle but lies exactly on the edge of
-//! one (an edge no triangle continues beyond: the mesh's outer boundary) is still covered, by
-//! the lowest-index triangle it touches, as gdal_grid covers hull points.
+//! exactly one triangle. Where a program asks for it ([`PixelProgram::HULL_EDGES`]), a centre
+//! that is inside no triangle but lies exactly on the edge of one (an edge no triangle
+//! continues beyond: the mesh's outer boundary) is still covered, by the lowest-index triangle
+//! it touches, as gdal_grid covers hull points.
 //!
 //! Specialisations, each allowed by a bit of `FrameParams::flags`; none changes a bit of the
 //! output:
-//! - a tile with an empty bin writes nodata straight away (`empty_tile`);
+//! - a tile with an empty bin writes the background straight away (`empty_tile`);
 //! - a tile whose bin holds a single triangle that covers all of it (binning marks such
 //!   entries with `FULL_TILE_BIT`) skips the batches: every pixel is inside that triangle
 //!   (`full_tile`);
 //! - where the host proved that no pixel centre is inside two triangles (`overlap_free`), a
 //!   pixel stops testing at the first triangle it is inside: that one owns it, the count is 1.
 //!
-//! Ownership is the minimum triangle index over the triangles a centre is inside, which does
-//! not depend on the order of the bin; the coverage count is a plain count. Both are
-//! therefore deterministic whatever the scheduling of the binning atomics.
+//! Ownership is the minimum key over the triangles a centre is inside, which does not depend
+//! on the order of the bin; the coverage count is a plain count. Both are therefore
+//! deterministic whatever the scheduling of the binning atomics.
 
-use crate::math::fixed::fixed_to_f32_bits;
-use crate::abi::{Counter, Coverage, FloatCoeffs, FrameFlags, FrameParams, Plane, PixelRect, TriangleSetup, ValueMode};
+use crate::abi::{Counter, Coverage, FrameFlags, FrameParams};
 use crate::math::edge::{side_of, Side};
 use crate::memory::Counters;
 use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE};
 
-/// Workgroup memory of fine raster.
+/// What a fine-raster pixel computes from the triangles that cover it.
+///
+/// Keys must be unique per triangle where ties would matter (the heightfield's key is the
+/// triangle index; a depth key carries the index in its low bits), so that the owner does not
+/// depend on the order in which the pixel meets the triangles.
+pub trait PixelProgram {
+    /// One triangle as the setup stage leaves it (an element of the setup buffer).
+    type Setup;
+    /// What a batch stages of a triangle in workgroup memory: its coverage, and what its key
+    /// needs. A setup record starts with it, so the CPU reads it in place.
+    type Staged: Copy;
+    /// Orders the triangles covering a centre: the smallest owns it.
+    type Key: Copy + PartialOrd;
+    /// One pixel's element of the values layer.
+    type Value: Copy;
+    /// Greater than every key a triangle has.
+    const NO_KEY: Self::Key;
+    /// Whether a centre inside no triangle but on an excluded edge of one is covered by the
+    /// lowest-index such triangle (the heightfield's hull), rather than left uncovered.
+    const HULL_EDGES: bool;
+
+    /// The part of a setup record a batch stages.
+    fn staged(setup: &Self::Setup) -> &Self::Staged;
+    /// The coverage data of a staged triangle.
+    fn coverage(staged: &Self::Staged) -> &Coverage;
+    /// The triangle's key at pixel `(i, j)` (called only where the centre is inside it).
+    fn key(staged: &Self::Staged, i: i32, j: i32) -> Self::Key;
+    /// The owner's value at pixel `(i, j)`.
+    fn value(&self, setup: &Self::Setup, i: i32, j: i32) -> Self::Value;
+    /// The value of a pixel no triangle covers.
+    fn background(&self) -> Self::Value;
+}
+
+/// Workgroup memory of fine raster: one batch of staged triangles.
 #[repr(C)]
 #[derive(Copy, Clone)]
-pub struct FineShared {
-    pub batch: [Coverage; BATCH as usize],
+pub struct FineShared<S: Copy> {
+    pub batch: [S; BATCH as usize],
 }
 
 /// What one invocation carries across the batches of its tile.
 #[derive(Copy, Clone)]
-pub struct PixelState {
-    /// Lowest index of a triangle the centre is inside (`NO_OWNER` if none).
+pub struct PixelState<K: Copy> {
+    /// Smallest key of a triangle the centre is inside (`NO_KEY` if none)...
+    pub key: K,
+    /// ... that triangle's index (`NO_OWNER` if none)...
     pub owner: u32,
-    /// Setup slot of that triangle.
+    /// ... and its setup slot.
     pub slot: u32,
     /// Number of triangles the centre is inside.
     pub count: u32,
@@ -50,14 +91,18 @@ pub struct PixelState {
     pub edge_slot: u32,
 }
 
-impl PixelState {
-    pub const EMPTY: PixelState = PixelState { owner: NO_OWNER, slot: 0, count: 0, edge_owner: NO_OWNER, edge_slot: 0 };
+impl<K: Copy> PixelState<K> {
+    /// The state before any triangle: `no_key` is the program's `NO_KEY`.
+    #[inline]
+    pub fn empty(no_key: K) -> Self {
+        PixelState { key: no_key, owner: NO_OWNER, slot: 0, count: 0, edge_owner: NO_OWNER, edge_slot: 0 }
+    }
 }
 
-/// The resolved pixel: its value bits, owner and coverage count.
+/// The resolved pixel: its value, owner and coverage count.
 #[derive(Copy, Clone)]
-pub struct PixelOut {
-    pub value_bits: u32,
+pub struct PixelOut<V: Copy> {
+    pub value: V,
     pub owner: u32,
     pub count: u32,
 }
@@ -82,19 +127,19 @@ pub fn window_index(i: i32, j: i32, frame: &FrameParams) -> usize {
 
 /// Phase 1: invocation `lid` stages entry `batch_start + lid` of the tile's bin.
 #[inline]
-pub fn fine_load(
+pub fn fine_load<P: PixelProgram>(
     lid: u32,
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
     batch_start: u32,
-    setups: &[TriangleSetup],
-    shared: &mut FineShared,
+    setups: &[P::Setup],
+    shared: &mut FineShared<P::Staged>,
 ) {
     let k = batch_start + lid;
     if lid < BATCH && k < bin_len {
         let slot = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
-        shared.batch[lid as usize] = setups[slot as usize].coverage;
+        shared.batch[lid as usize] = *P::staged(&setups[slot as usize]);
     }
 }
 
@@ -110,21 +155,25 @@ pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
     side_of(e[0].at(di, dj), e[1].at(di, dj), e[2].at(di, dj), c.excluded_edges)
 }
 
-/// What a pixel state keeps of one triangle test: a count, and the lowest index (with its
-/// setup slot) among the triangles it is inside, or on an excluded edge of. Minimum and sum
-/// do not depend on the order of the tests.
+/// What a pixel state keeps of one triangle test at pixel `(i, j)`: a count, the smallest key
+/// (with its triangle's index and setup slot) among the triangles it is inside, and the
+/// lowest index among those it lies on an excluded edge of. Minimum and sum do not depend on
+/// the order of the tests.
 #[inline(always)]
-pub fn accumulate(side: Side, c: &Coverage, state: &mut PixelState) {
+pub fn accumulate<P: PixelProgram>(side: Side, staged: &P::Staged, i: i32, j: i32, state: &mut PixelState<P::Key>) {
+    let c = P::coverage(staged);
     match side {
         Side::Inside => {
             state.count += 1;
-            if c.index < state.owner {
+            let key = P::key(staged, i, j);
+            if key < state.key {
+                state.key = key;
                 state.owner = c.index;
                 state.slot = c.slot;
             }
         }
         Side::OnExcludedEdge => {
-            if c.index < state.edge_owner {
+            if P::HULL_EDGES && c.index < state.edge_owner {
                 state.edge_owner = c.index;
                 state.edge_slot = c.slot;
             }
@@ -142,99 +191,56 @@ pub fn overlap_free(frame: &FrameParams) -> bool {
 /// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles (with `overlap_free`,
 /// only until it is inside one: no other can contain it).
 #[inline]
-pub fn fine_test(i: i32, j: i32, batch_len: u32, shared: &FineShared, overlap_free: bool, state: &mut PixelState) {
+pub fn fine_test<P: PixelProgram>(i: i32, j: i32, batch_len: u32, shared: &FineShared<P::Staged>, overlap_free: bool, state: &mut PixelState<P::Key>) {
     let mut k = 0;
     while k < batch_len {
         if overlap_free && state.owner != NO_OWNER {
             return;
         }
-        let c = &shared.batch[k as usize];
-        accumulate(side(c, i, j), c, state);
+        let staged = &shared.batch[k as usize];
+        accumulate::<P>(side(P::coverage(staged), i, j), staged, i, j, state);
         k += 1;
     }
 }
 
-/// Whether the tile takes the empty path: nothing in its bin, so every pixel is nodata.
+/// Whether the tile takes the empty path: nothing in its bin, so every pixel is background.
 #[inline]
 pub fn empty_tile(bin_len: u32, frame: &FrameParams) -> bool {
     bin_len == 0 && frame.flags.contains(FrameFlags::EMPTY_TILES)
 }
 
 /// Whether the tile takes the full path: its bin is a single triangle covering the whole tile.
-/// If so, `state` becomes every pixel's state, with no edge test.
+/// If so, `state` becomes every pixel's state, with no edge test (and no key: there is no
+/// other triangle to compare it with).
 #[inline]
-pub fn full_tile(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[TriangleSetup], frame: &FrameParams, state: &mut PixelState) -> bool {
+pub fn full_tile<P: PixelProgram>(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[P::Setup], frame: &FrameParams, state: &mut PixelState<P::Key>) -> bool {
     if !frame.flags.contains(FrameFlags::FULL_TILES) || bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
         return false;
     }
     let slot = bin[bin_start as usize] & !FULL_TILE_BIT;
-    *state = PixelState { owner: setups[slot as usize].coverage.index, slot, count: 1, edge_owner: NO_OWNER, edge_slot: 0 };
+    let index = P::coverage(P::staged(&setups[slot as usize])).index;
+    *state = PixelState { key: P::NO_KEY, owner: index, slot, count: 1, edge_owner: NO_OWNER, edge_slot: 0 };
     true
 }
 
-/// The owner's plane at pixel `(i, j)`, correctly rounded to `f32`, or `±f32::MAX` where it
-/// lies beyond the `f32` range. Inside a triangle the plane lies between the vertex heights;
-/// only a centre that snapping lets it cover from just outside can be beyond them.
-#[inline]
-pub fn plane_value_bits(plane: &Plane, rect: &PixelRect, i: i32, j: i32) -> u32 {
-    let di = (i - rect.i0) as i64;
-    let dj = (j - rect.j0) as i64;
-    saturate_infinity(fixed_to_f32_bits(plane.z + plane.gi * di + plane.gj * dj, plane.frac_bits))
-}
-
-/// `±∞` becomes `±f32::MAX` (the bits just below); every other value stays.
-#[inline]
-pub fn saturate_infinity(bits: u32) -> u32 {
-    if bits & 0x7fff_ffff == 0x7f80_0000 { bits - 1 } else { bits }
-}
-
-/// `ValueMode::PlaneF32`: `(z + gi·Δi) + gj·Δj` in `f32`. `Δi`, `Δj` convert exactly (they are below
-/// 2^24); each product and sum rounds once, unless a device contracts `a·b + c`.
-#[inline]
-pub fn plane_f32_bits(coeffs: &FloatCoeffs, rect: &PixelRect, i: i32, j: i32) -> u32 {
-    let c = &coeffs.c;
-    let di = (i - rect.i0) as f32;
-    let dj = (j - rect.j0) as f32;
-    (c[0] + c[1] * di + c[2] * dj).to_bits()
-}
-
-/// `ValueMode::Barycentric`: the barycentric weights `wk / Σw` of the snapped triangle in `f32`, as a
-/// hardware rasteriser computes them, times the vertex heights. The edge functions are
-/// converted with the exact integer conversion so that only the products and sums round.
-#[inline]
-pub fn barycentric_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
-    let c = &s.coeffs.c;
-    let rect = &s.coverage.rect;
-    let di = (i - rect.i0) as i64;
-    let dj = (j - rect.j0) as i64;
-    let e = &s.coverage.edges;
-    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].at(di, dj), 0)) * c[3];
-    (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
-}
-
-/// The value bits of pixel `(i, j)` on the triangle in setup slot `slot`, in the frame's mode.
-#[inline]
-pub fn pixel_value_bits(s: &TriangleSetup, i: i32, j: i32, mode: ValueMode) -> u32 {
-    match mode {
-        ValueMode::PlaneF32 => plane_f32_bits(&s.coeffs, &s.coverage.rect, i, j),
-        ValueMode::Barycentric => barycentric_bits(s, i, j),
-        ValueMode::Exact => plane_value_bits(&s.plane, &s.coverage.rect, i, j),
-    }
-}
-
 /// Phase 3: the pixel's outputs. A centre inside no triangle falls back to a triangle whose
-/// excluded edge it lies on: nobody continues across that edge.
+/// excluded edge it lies on (with `HULL_EDGES`): nobody continues across that edge.
 #[inline]
-pub fn fine_resolve(i: i32, j: i32, state: &PixelState, setups: &[TriangleSetup], frame: &FrameParams) -> PixelOut {
+pub fn fine_resolve<P: PixelProgram>(program: &P, i: i32, j: i32, state: &PixelState<P::Key>, setups: &[P::Setup]) -> PixelOut<P::Value> {
     let (owner, slot, count) = if state.owner != NO_OWNER {
         (state.owner, state.slot, state.count)
     } else if state.edge_owner != NO_OWNER {
         (state.edge_owner, state.edge_slot, 1)
     } else {
-        return nodata_pixel(frame);
+        return background_pixel(program);
     };
-    let s = &setups[slot as usize];
-    PixelOut { value_bits: pixel_value_bits(s, i, j, frame.value_mode()), owner, count }
+    PixelOut { value: program.value(&setups[slot as usize], i, j), owner, count }
+}
+
+/// The outputs of a pixel no triangle covers.
+#[inline]
+pub fn background_pixel<P: PixelProgram>(program: &P) -> PixelOut<P::Value> {
+    PixelOut { value: program.background(), owner: NO_OWNER, count: 0 }
 }
 
 /// Invocation 0 adds the tile to statistics counter `counter`.
@@ -243,11 +249,6 @@ pub fn count_tile<C: Counters + ?Sized>(lid: u32, counter: Counter, stats: &mut 
     if lid == 0 {
         stats.fetch_add(counter as usize, 1);
     }
-}
-
-/// The outputs of a pixel no triangle covers.
-pub fn nodata_pixel(frame: &FrameParams) -> PixelOut {
-    PixelOut { value_bits: frame.nodata_bits, owner: NO_OWNER, count: 0 }
 }
 
 /// Number of bin entries in the batch starting at `batch_start`.

@@ -13,11 +13,12 @@
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, Coverage, FrameParams, TriangleSetup, ValueMode};
+use tileraster_kernels::abi::{Counter, FrameParams, TriangleSetup, ValueMode};
 use tileraster_kernels::math::edge::{side_of, Side};
 use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
-use tileraster_kernels::stages::fine::{self, FineShared, PixelState};
+use tileraster_kernels::programs::height::{self, HeightProgram};
+use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
 
 /// One band of `TILE` raster rows: the part of each output layer a row of the frame's tiles
@@ -62,14 +63,24 @@ pub enum FinePath {
 pub fn fine_raster(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
     match path {
         FinePath::Specialised => fine_raster_using(wide_vectors(), frame, setups, offsets, bins, raster),
-        FinePath::Plain => for_each_band(frame, raster, |band, stats| {
-            let mut counts = BandCounters([0; Counter::COUNT]);
-            for tx in 0..frame.tiles_x {
-                fine_raster_tile_plain(tx, frame, setups, offsets, bins, band, &mut counts);
-            }
-            counts.add_to(stats);
-        }),
+        FinePath::Plain => fine_raster_plain(&HeightProgram::of(frame), frame, setups, offsets, bins, raster),
     }
+}
+
+/// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
+/// layer holds their bits).
+pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(program: &P, frame: &FrameParams, setups: &[P::Setup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters
+where
+    P::Setup: Sync,
+    P::Staged: Default,
+{
+    for_each_band(frame, raster, |band, stats| {
+        let mut counts = BandCounters([0; Counter::COUNT]);
+        for tx in 0..frame.tiles_x {
+            fine_raster_tile_plain(program, tx, frame, setups, offsets, bins, band, &mut counts);
+        }
+        counts.add_to(stats);
+    })
 }
 
 /// The specialised path, with or without the wide-vector build (`wide` only where the CPU has it).
@@ -120,29 +131,33 @@ fn for_each_band(frame: &FrameParams, raster: &mut Raster, rasterise_band: impl 
 
 /// One fine-raster workgroup exactly as the entry point runs it: the same branches, every
 /// invocation's `fine_load` and `fine_test` batch by batch, then `fine_resolve` per pixel.
-fn fine_raster_tile_plain(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
+#[allow(clippy::too_many_arguments)]
+fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(program: &P, tx: u32, frame: &FrameParams, setups: &[P::Setup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters)
+where
+    P::Staged: Default,
+{
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
     let pixel = |lid: u32| fine::tile_pixel(tx, ty, lid, frame);
-    let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
+    let mut states = [PixelState::empty(P::NO_KEY); TILE_PIXELS as usize];
     let empty = fine::empty_tile(bin_len, frame);
     if empty {
         fine::count_tile(0, Counter::TilesEmpty, stats);
-    } else if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut states[0]) {
+    } else if fine::full_tile::<P>(bins, bin_start, bin_len, setups, frame, &mut states[0]) {
         fine::count_tile(0, Counter::TilesFull, stats);
         states = [states[0]; TILE_PIXELS as usize];
     } else {
         fine::count_tile(0, Counter::TilesPartial, stats);
         let overlap_free = fine::overlap_free(frame);
-        let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
+        let mut shared = FineShared { batch: [P::Staged::default(); BATCH as usize] };
         let mut batch_start = 0;
         while batch_start < bin_len {
             for lid in 0..TILE_PIXELS {
-                fine::fine_load(lid, bins, bin_start, bin_len, batch_start, setups, &mut shared);
+                fine::fine_load::<P>(lid, bins, bin_start, bin_len, batch_start, setups, &mut shared);
             }
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
-                fine::fine_test(i, j, fine::batch_len(bin_len, batch_start), &shared, overlap_free, state);
+                fine::fine_test::<P>(i, j, fine::batch_len(bin_len, batch_start), &shared, overlap_free, state);
             }
             batch_start += BATCH;
         }
@@ -152,9 +167,9 @@ fn fine_raster_tile_plain(tx: u32, frame: &FrameParams, setups: &[TriangleSetup]
         if !inside {
             continue;
         }
-        let out = if empty { fine::nodata_pixel(frame) } else { fine::fine_resolve(i, j, state, setups, frame) };
+        let out = if empty { fine::background_pixel(program) } else { fine::fine_resolve(program, i, j, state, setups) };
         let k = band.index(i, j);
-        band.values[k] = f32::from_bits(out.value_bits);
+        band.values[k] = f32::from_bits(out.value);
         if let Some(owner) = band.owner.as_deref_mut() {
             owner[k] = out.owner;
         }
@@ -239,8 +254,8 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
         fine::count_tile(0, Counter::TilesEmpty, stats);
         return fine_resolve_empty_tile(tx, frame, band);
     }
-    let mut full = PixelState::EMPTY;
-    if fine::full_tile(bins, bin_start, bin_len, setups, frame, &mut full) {
+    let mut full = PixelState::empty(NO_OWNER);
+    if fine::full_tile::<HeightProgram>(bins, bin_start, bin_len, setups, frame, &mut full) {
         fine::count_tile(0, Counter::TilesFull, stats);
         return fine_resolve_full_tile(tx, frame, &setups[full.slot as usize], &full, band);
     }
@@ -249,10 +264,10 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
     if fine::overlap_free(frame) {
         return fine_raster_tile_overlap_free(tx, frame, setups, bin, band);
     }
-    let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
+    let mut states = [PixelState::empty(NO_OWNER); TILE_PIXELS as usize];
     for (s, row) in row_spans(tx, ty, frame, setups, bin) {
         for (n, state) in states[row.first..][..row.len].iter_mut().enumerate() {
-            fine::accumulate(row.side(n), &s.coverage, state);
+            fine::accumulate::<HeightProgram>(row.side(n), &s.coverage, row.i0 + n as i32, row.j, state);
         }
     }
     fine_resolve_tile(tx, frame, setups, band, &states);
@@ -320,8 +335,8 @@ fn row_spans<'a>(tx: u32, ty: u32, frame: &FrameParams, setups: &'a [TriangleSet
 /// bin: nodata, or the lowest triangle whose excluded edge they lie on.
 #[inline(always)]
 fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
-    let mut states = [PixelState::EMPTY; TILE_PIXELS as usize];
-    let mode = frame.value_mode();
+    let mut states = [PixelState::empty(NO_OWNER); TILE_PIXELS as usize];
+    let program = HeightProgram::of(frame);
     for (s, row) in row_spans(tx, band.ty, frame, setups, bin) {
         let out = band.index(row.i0, row.j);
         let values = &mut band.values[out..][..row.len];
@@ -329,10 +344,10 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
         for (n, (value, state)) in values.iter_mut().zip(states).enumerate() {
             match row.side(n) {
                 Side::Inside => {
-                    *value = f32::from_bits(fine::pixel_value_bits(s, row.i0 + n as i32, row.j, mode));
+                    *value = f32::from_bits(program.value(s, row.i0 + n as i32, row.j));
                     state.owner = s.coverage.index;
                 }
-                side => fine::accumulate(side, &s.coverage, state),
+                side => fine::accumulate::<HeightProgram>(side, &s.coverage, row.i0 + n as i32, row.j, state),
             }
         }
     }
@@ -342,8 +357,8 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
             let (owner, count) = if state.owner != NO_OWNER {
                 (state.owner, 1)
             } else {
-                let out = fine::fine_resolve(r.i0 + lx as i32, r.j, state, setups, frame);
-                band.values[r.start + lx] = f32::from_bits(out.value_bits);
+                let out = fine::fine_resolve(&program, r.i0 + lx as i32, r.j, state, setups);
+                band.values[r.start + lx] = f32::from_bits(out.value);
                 (out.owner, out.count)
             };
             if let Some(layer) = band.owner.as_deref_mut() {
@@ -360,14 +375,14 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
 /// that triangle's value, owner and a count of one at every pixel, so rows are written in
 /// straight loops the compiler can vectorise.
 #[inline(always)]
-fn fine_resolve_full_tile(tx: u32, frame: &FrameParams, setup: &TriangleSetup, full: &PixelState, band: &mut Band) {
+fn fine_resolve_full_tile(tx: u32, frame: &FrameParams, setup: &TriangleSetup, full: &PixelState<u32>, band: &mut Band) {
     let mode = frame.value_mode();
     for r in tile_rows(tx, frame, band) {
         let values = &mut band.values[r.start..][..r.width];
         let (i0, j) = (r.i0, r.j);
         let write_row = |values: &mut [f32]| {
             for (lx, value) in values.iter_mut().enumerate() {
-                *value = f32::from_bits(fine::pixel_value_bits(setup, i0 + lx as i32, j, mode));
+                *value = f32::from_bits(height::pixel_value_bits(setup, i0 + lx as i32, j, mode));
             }
         };
         // The same loop in every arm: with the mode and the conversion's range test answered
@@ -405,11 +420,12 @@ fn fill_other_layers(band: &mut Band, r: &TileRow, owner: u32, count: u32) {
 /// The last phase of a fine-raster workgroup: every invocation resolves and writes its pixel,
 /// taken row by row so that the stores run along the band's rows.
 #[inline(always)]
-fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, states: &[PixelState; TILE_PIXELS as usize]) {
+fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, states: &[PixelState<u32>; TILE_PIXELS as usize]) {
+    let program = HeightProgram::of(frame);
     for r in tile_rows(tx, frame, band) {
         for lx in 0..r.width {
-            let out = fine::fine_resolve(r.i0 + lx as i32, r.j, &states[(r.ly * TILE) as usize + lx], setups, frame);
-            band.values[r.start + lx] = f32::from_bits(out.value_bits);
+            let out = fine::fine_resolve(&program, r.i0 + lx as i32, r.j, &states[(r.ly * TILE) as usize + lx], setups);
+            band.values[r.start + lx] = f32::from_bits(out.value);
             if let Some(owner) = band.owner.as_deref_mut() {
                 owner[r.start + lx] = out.owner;
             }
@@ -445,7 +461,83 @@ fn tile_rows(tx: u32, frame: &FrameParams, band: &Band) -> impl Iterator<Item = 
 mod tests {
     use super::*;
     use crate::stages::{bin_count, bin_fill, bin_scan, setup};
-    use tileraster_core::{prepare, scenes, Grid, Mode, Outputs, Params};
+    use tileraster_core::{prepare, scenes, Grid, Mode, Outputs, Params, Skips};
+    use tileraster_kernels::abi::Coverage;
+
+    /// A pixel program other than the heightfield's, through the same stage: a depth test.
+    /// The lowest surface owns a pixel (its exact height is the depth, the index breaks ties),
+    /// hull edges stay uncovered, and the value is the owner's index.
+    struct LowestSurface;
+
+    impl PixelProgram for LowestSurface {
+        type Setup = TriangleSetup;
+        type Staged = TriangleSetup;
+        type Key = u64;
+        type Value = u32;
+        const NO_KEY: u64 = u64::MAX;
+        const HULL_EDGES: bool = false;
+
+        fn staged(setup: &TriangleSetup) -> &TriangleSetup {
+            setup
+        }
+
+        fn coverage(staged: &TriangleSetup) -> &Coverage {
+            &staged.coverage
+        }
+
+        fn key(s: &TriangleSetup, i: i32, j: i32) -> u64 {
+            depth_key(s, i, j)
+        }
+
+        fn value(&self, setup: &TriangleSetup, _i: i32, _j: i32) -> u32 {
+            setup.coverage.index
+        }
+
+        fn background(&self) -> u32 {
+            u32::MAX
+        }
+    }
+
+    /// The exact height's `f32` bits mapped to an unsigned order, then the index.
+    fn depth_key(s: &TriangleSetup, i: i32, j: i32) -> u64 {
+        let bits = height::plane_value_bits(&s.plane, &s.coverage.rect, i, j);
+        let ordered = if bits >> 31 == 1 { !bits } else { bits | 1 << 31 };
+        (ordered as u64) << 32 | s.coverage.index as u64
+    }
+
+    /// The generic stage with a depth-keyed program gives, at every pixel, what a brute-force
+    /// depth test over all triangles gives: the owner, the value and the coverage count.
+    #[test]
+    fn a_depth_keyed_program_resolves_the_lowest_surface() {
+        let grid = Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129);
+        let scenes = [scenes::triangle_soup(&grid, 700, 30.0, 9), scenes::fan(&grid, 60, 60, 90, 40.0, 3), scenes::terrain(0.0, 0.0, 100.0, 100.0, 12, 9, 5)];
+        for (k, scene) in scenes.iter().enumerate() {
+            for skips in [Skips::NONE, Skips::default()] {
+                let params = Params::new(grid).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true });
+                let prepared = prepare(scene, &params, None).unwrap();
+                let plan = prepared.plan(prepared.window, false).unwrap();
+                let frame = plan.frame(&prepared, plan.active.unwrap());
+                let setups = setup(&prepared, &frame);
+                let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
+                let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+                let mut raster = plan.allocate_raster(&prepared).unwrap();
+                fine_raster_plain(&LowestSurface, &frame, &setups, &offsets, &bins, &mut raster);
+                let (owners, counts) = (raster.owner.as_ref().unwrap(), raster.coverage.as_ref().unwrap());
+                for j in 0..frame.win_h {
+                    for i in 0..frame.win_w {
+                        let (gi, gj) = ((frame.win_x0 + i) as i32, (frame.win_y0 + j) as i32);
+                        let inside: Vec<&TriangleSetup> = plan.listed.iter().map(|&slot| &setups[slot as usize]).filter(|s| fine::side(&s.coverage, gi, gj) == Side::Inside).collect();
+                        let lowest = inside.iter().min_by_key(|s| depth_key(s, gi, gj)).map_or(NO_OWNER, |s| s.coverage.index);
+                        let n = (gj as usize - raster.window.y0 as usize) * raster.window.width as usize + (gi as usize - raster.window.x0 as usize);
+                        let at = format!("scene {k}, {skips:?}, pixel ({gi}, {gj})");
+                        assert_eq!(owners[n], lowest, "owner at {at}");
+                        assert_eq!(raster.values[n].to_bits(), lowest, "value at {at}");
+                        assert_eq!(counts[n], inside.len() as u32, "count at {at}");
+                    }
+                }
+            }
+        }
+    }
 
     /// The CPU's row-by-row phase 2 leaves every pixel in the state the GPU's batches leave
     /// it in (checked natively, so it holds without an adapter too), on scenes with overlaps.
@@ -463,22 +555,22 @@ mod tests {
             for ty in 0..frame.tiles_y {
                 for tx in 0..frame.tiles_x {
                     let (start, len) = fine::bin_range(&offsets, ty * frame.tiles_x + tx);
-                    let mut by_rows = [PixelState::EMPTY; TILE_PIXELS as usize];
+                    let mut by_rows = [PixelState::empty(NO_OWNER); TILE_PIXELS as usize];
                     for (s, row) in row_spans(tx, ty, &frame, &setups, &bins[start as usize..][..len as usize]) {
                         for (n, state) in by_rows[row.first..][..row.len].iter_mut().enumerate() {
-                            fine::accumulate(row.side(n), &s.coverage, state);
+                            fine::accumulate::<HeightProgram>(row.side(n), &s.coverage, row.i0 + n as i32, row.j, state);
                         }
                     }
                     let mut shared = FineShared { batch: [Coverage::default(); BATCH as usize] };
-                    let mut by_batches = [PixelState::EMPTY; TILE_PIXELS as usize];
+                    let mut by_batches = [PixelState::empty(NO_OWNER); TILE_PIXELS as usize];
                     let mut batch = 0;
                     while batch < len {
                         for lid in 0..TILE_PIXELS {
-                            fine::fine_load(lid, &bins, start, len, batch, &setups, &mut shared);
+                            fine::fine_load::<HeightProgram>(lid, &bins, start, len, batch, &setups, &mut shared);
                         }
                         for (lid, state) in by_batches.iter_mut().enumerate() {
                             let (i, j, _) = fine::tile_pixel(tx, ty, lid as u32, &frame);
-                            fine::fine_test(i, j, fine::batch_len(len, batch), &shared, false, state);
+                            fine::fine_test::<HeightProgram>(i, j, fine::batch_len(len, batch), &shared, false, state);
                         }
                         batch += BATCH;
                     }
@@ -487,7 +579,7 @@ mod tests {
                             continue; // outside the window: never written
                         }
                         let (a, b) = (by_rows[lid], by_batches[lid]);
-                        let key = |s: PixelState| (s.owner, s.slot, s.count, s.edge_owner, s.edge_slot);
+                        let key = |s: PixelState<u32>| (s.key, s.owner, s.slot, s.count, s.edge_owner, s.edge_slot);
                         assert_eq!(key(a), key(b), "scene {k}, tile ({tx}, {ty}), pixel {lid}");
                     }
                 }

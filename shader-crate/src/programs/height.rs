@@ -1,0 +1,109 @@
+//! The heightfield's pixel program: the lowest-index triangle owns a pixel (the scene's order,
+//! as gdal_grid's first hit), the hull's edges are covered, and the value is the owner's
+//! height at the pixel centre in the frame's [`ValueMode`], as `f32` bits.
+
+use crate::abi::{Coverage, FloatCoeffs, FrameParams, PixelRect, Plane, TriangleSetup, ValueMode};
+use crate::math::fixed::fixed_to_f32_bits;
+use crate::stages::fine::PixelProgram;
+use crate::NO_OWNER;
+
+/// Heights of the frame's triangles: [`PixelProgram`] for the heightfield pipeline.
+#[derive(Copy, Clone)]
+pub struct HeightProgram {
+    pub mode: ValueMode,
+    pub nodata_bits: u32,
+}
+
+impl HeightProgram {
+    /// The program a frame asks for.
+    #[inline]
+    pub fn of(frame: &FrameParams) -> HeightProgram {
+        HeightProgram { mode: frame.value_mode(), nodata_bits: frame.nodata_bits }
+    }
+}
+
+impl PixelProgram for HeightProgram {
+    type Setup = TriangleSetup;
+    type Staged = Coverage;
+    type Key = u32;
+    type Value = u32;
+    const NO_KEY: u32 = NO_OWNER;
+    const HULL_EDGES: bool = true;
+
+    #[inline(always)]
+    fn staged(setup: &TriangleSetup) -> &Coverage {
+        &setup.coverage
+    }
+
+    #[inline(always)]
+    fn coverage(staged: &Coverage) -> &Coverage {
+        staged
+    }
+
+    /// The triangle's index: the scene's order decides.
+    #[inline(always)]
+    fn key(staged: &Coverage, _i: i32, _j: i32) -> u32 {
+        staged.index
+    }
+
+    #[inline(always)]
+    fn value(&self, setup: &TriangleSetup, i: i32, j: i32) -> u32 {
+        pixel_value_bits(setup, i, j, self.mode)
+    }
+
+    #[inline(always)]
+    fn background(&self) -> u32 {
+        self.nodata_bits
+    }
+}
+
+/// The owner's plane at pixel `(i, j)`, correctly rounded to `f32`, or `±f32::MAX` where it
+/// lies beyond the `f32` range. Inside a triangle the plane lies between the vertex heights;
+/// only a centre that snapping lets it cover from just outside can be beyond them.
+#[inline]
+pub fn plane_value_bits(plane: &Plane, rect: &PixelRect, i: i32, j: i32) -> u32 {
+    let di = (i - rect.i0) as i64;
+    let dj = (j - rect.j0) as i64;
+    saturate_infinity(fixed_to_f32_bits(plane.z + plane.gi * di + plane.gj * dj, plane.frac_bits))
+}
+
+/// `±∞` becomes `±f32::MAX` (the bits just below); every other value stays.
+#[inline]
+pub fn saturate_infinity(bits: u32) -> u32 {
+    if bits & 0x7fff_ffff == 0x7f80_0000 { bits - 1 } else { bits }
+}
+
+/// `ValueMode::PlaneF32`: `(z + gi·Δi) + gj·Δj` in `f32`. `Δi`, `Δj` convert exactly (they are below
+/// 2^24); each product and sum rounds once, unless a device contracts `a·b + c`.
+#[inline]
+pub fn plane_f32_bits(coeffs: &FloatCoeffs, rect: &PixelRect, i: i32, j: i32) -> u32 {
+    let c = &coeffs.c;
+    let di = (i - rect.i0) as f32;
+    let dj = (j - rect.j0) as f32;
+    (c[0] + c[1] * di + c[2] * dj).to_bits()
+}
+
+/// `ValueMode::Barycentric`: the barycentric weights `wk / Σw` of the snapped triangle in `f32`, as a
+/// hardware rasteriser computes them, times the vertex heights. The edge functions are
+/// converted with the exact integer conversion so that only the products and sums round.
+#[inline]
+pub fn barycentric_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
+    let c = &s.coeffs.c;
+    let rect = &s.coverage.rect;
+    let di = (i - rect.i0) as i64;
+    let dj = (j - rect.j0) as i64;
+    let e = &s.coverage.edges;
+    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].at(di, dj), 0)) * c[3];
+    (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
+}
+
+/// The value bits of pixel `(i, j)` on the triangle in setup slot `slot`, in the frame's mode.
+#[inline]
+pub fn pixel_value_bits(s: &TriangleSetup, i: i32, j: i32, mode: ValueMode) -> u32 {
+    match mode {
+        ValueMode::PlaneF32 => plane_f32_bits(&s.coeffs, &s.coverage.rect, i, j),
+        ValueMode::Barycentric => barycentric_bits(s, i, j),
+        ValueMode::Exact => plane_value_bits(&s.plane, &s.coverage.rect, i, j),
+    }
+}
+

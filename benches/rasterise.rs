@@ -5,7 +5,8 @@
 //! `cargo xtask bench-report` runs a reduced set with errors and peers and writes the report.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Scene};
+use tileraster::{rasterise, Backend, Grid, Mode, Params, Scene};
+use tileraster_testkit::scenes;
 
 fn backends() -> Vec<Backend> {
     match tileraster::gpu_adapter() {

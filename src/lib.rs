@@ -17,7 +17,7 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 
-pub use tileraster_core::{reference, scenes, Error, Grid, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window, MAX_GRID_DIM};
+pub use tileraster_core::{Error, Grid, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window, MAX_GRID_DIM};
 pub use tileraster_core::kernels::pipeline::Stage;
 
 /// Where the kernels run.

@@ -8,7 +8,8 @@ mod cli;
 
 use cli::progress::{note, set_quiet, Progress};
 use cli::stream;
-use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene, Skip, Skips, Window};
+use tileraster::{rasterise, Backend, Grid, Mode, Params, Raster, Scene, Skip, Skips, Window};
+use tileraster_testkit::scenes;
 use tileraster_io::{GeoTiffOptions, PointColumns};
 
 #[derive(Parser)]

@@ -5,8 +5,9 @@
 
 mod common;
 
-use tileraster::reference::{accuracy, Reference};
-use tileraster::{rasterise, scenes, Backend, Grid, Params, Raster, Scene};
+use tileraster_testkit::reference::{accuracy, Reference};
+use tileraster::{rasterise, Backend, Grid, Params, Raster, Scene};
+use tileraster_testkit::scenes;
 
 /// The accuracy bounds, with every skip variant (each raster is checked on its own).
 fn check(name: &str, scene: &Scene, grid: Grid, backend: Backend) {

@@ -4,7 +4,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use tiff::decoder::{Decoder, DecodingResult};
 use tiff::tags::Tag;
-use tileraster::{rasterise, scenes, Backend, Grid, Params, Scene};
+use tileraster::{rasterise, Backend, Grid, Params, Scene};
+use tileraster_testkit::scenes;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_tileraster"))

@@ -12,8 +12,9 @@
 
 mod common;
 
-use tileraster::reference::{degenerate, plane_at, ulps};
-use tileraster::{prepare, rasterise, scenes, Backend, Grid, Mode, Outputs, Params, Scene};
+use tileraster_testkit::reference::{degenerate, plane_at, ulps};
+use tileraster::{prepare, rasterise, Backend, Grid, Mode, Outputs, Params, Scene};
+use tileraster_testkit::scenes;
 
 /// Per-pixel gradients and pixel bounding box of a triangle given in raster space.
 fn raster_plane(p: [[f64; 2]; 3], z: [f64; 3]) -> (f64, f64, f64, f64) {
@@ -183,7 +184,7 @@ fn f32_modes_are_accepted_on_this_adapter_and_match_the_cpu() {
         return;
     }
     let adapter = tileraster::gpu_adapter().expect("checked above");
-    let (scene, grid) = scenes::f32_probe();
+    let (scene, grid) = tileraster_gpu::f32_probe();
     for mode in [Mode::PlaneF32, Mode::Barycentric] {
         let params = Params::new(grid).with_mode(mode);
         let cpu = rasterise(&scene, &params, Backend::Cpu).expect("CPU backend");

@@ -3,7 +3,8 @@
 mod common;
 
 use common::assert_parity;
-use tileraster::{scenes, Grid, Outputs, Params, Scene};
+use tileraster::{Grid, Outputs, Params, Scene};
+use tileraster_testkit::scenes;
 
 fn params(grid: Grid) -> Params {
     Params::new(grid).with_nodata(-9999.0).with_outputs(Outputs { owner: true, coverage: true })

@@ -6,7 +6,8 @@
 mod common;
 
 use common::{assert_same_bits, gpu_or_skip, skip_variants};
-use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Outputs, Params, Pass, PreparedScene, Raster, Scene, Skip, Skips, Stage, Window};
+use tileraster::{rasterise, rasterise_window, Backend, Grid, Outputs, Params, Pass, PreparedScene, Raster, Scene, Skip, Skips, Stage, Window};
+use tileraster_testkit::scenes;
 
 /// The backends the tests can use here.
 fn backends(test: &str) -> Vec<Backend> {

@@ -28,7 +28,8 @@ use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::Index;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
-use tileraster::{rasterise, rasterise_window, scenes, Backend, Error, Grid, Mode, Outputs, Params, Raster, Scene, Window};
+use tileraster::{rasterise, rasterise_window, Backend, Error, Grid, Mode, Outputs, Params, Raster, Scene, Window};
+use tileraster_testkit::scenes;
 use tileraster_core::MAX_GRID_DIM;
 
 const BOTH: Outputs = Outputs { owner: true, coverage: true };

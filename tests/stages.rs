@@ -6,7 +6,8 @@
 
 mod common;
 
-use tileraster::{prepare, scenes, Grid, Params, Scene, Skips};
+use tileraster::{prepare, Grid, Params, Scene, Skips};
+use tileraster_testkit::scenes;
 use tileraster_cpu::StageBuffers;
 
 /// The first index where `a` and `b` differ, with both values.

@@ -4,7 +4,8 @@
 
 mod common;
 
-use tileraster::{rasterise, scenes, Backend, Grid, Outputs, Params, Raster, Scene};
+use tileraster::{rasterise, Backend, Grid, Outputs, Params, Raster, Scene};
+use tileraster_testkit::scenes;
 
 fn coverage(scene: &Scene, grid: Grid, backend: Backend) -> Raster {
     let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true });

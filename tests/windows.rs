@@ -3,7 +3,8 @@
 
 mod common;
 
-use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Outputs, Params, Raster, Window};
+use tileraster::{rasterise, rasterise_window, Backend, Grid, Outputs, Params, Raster, Window};
+use tileraster_testkit::scenes;
 
 fn assert_window_matches(name: &str, whole: &Raster, part: &Raster) {
     let w = part.window;

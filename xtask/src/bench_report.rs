@@ -2,15 +2,16 @@
 //! side with the peers a user would otherwise pick, all in one run. Writes
 //! `docs/benchmarks.md` (tables) and `docs/time-vs-error.svg` (the plot).
 //!
-//! Errors are against `tileraster::reference`, an f64 evaluation on the unsnapped input that
+//! Errors are against `tileraster_testkit::reference`, an f64 evaluation on the unsnapped input that
 //! shares no code with the rasteriser. Times are medians of several runs after a warm-up;
 //! each call is a whole `rasterise` (preparation, upload and read-back included).
 
 use crate::{svg, Timing};
 use std::fmt::Write as _;
 use std::time::Instant;
-use tileraster::reference::{accuracy, Accuracy, Reference};
-use tileraster::{rasterise, scenes, Backend, Grid, Mode, Params, Raster, Scene};
+use tileraster_testkit::reference::{accuracy, Accuracy, Reference};
+use tileraster::{rasterise, Backend, Grid, Mode, Params, Raster, Scene};
+use tileraster_testkit::scenes;
 use tileraster_peers::{fill_cpu, gdal_grid_linear, gdal_grid_version, GpuFill, RenderPipeline};
 
 const NODATA: f32 = -9999.0;
@@ -316,7 +317,7 @@ fn markdown(report: &Report) -> String {
          the same raster with a constant takes on the same device (allocation and read-back included; the fastest \
          of three times as many runs; on the GPU the faster of a compute-shader fill and a render pass that only clears), so 100 % means \
          the store bandwidth limit. Errors are against an f64 evaluation of the plane through the unsnapped \
-         vertices at each cell centre (`tileraster::reference`), in units of the f32 spacing there; *exact* is \
+         vertices at each cell centre (`tileraster_testkit::reference`), in units of the f32 spacing there; *exact* is \
          the share of cells equal to that value rounded to f32. *Coverage* counts cells covered by exactly one of \
          raster and reference. *CPU = GPU* says whether the two backends gave the same bits. *Spread* is the \
          slowest timed run against the fastest: two rows whose medians differ by less than their spreads are \

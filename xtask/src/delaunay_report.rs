@@ -7,7 +7,8 @@
 
 use std::fmt::Write as _;
 use std::time::Instant;
-use tileraster::{prepare, scenes::Rng, Grid, Params, Scene};
+use tileraster::{prepare, Grid, Params, Scene};
+use tileraster_testkit::scenes::Rng;
 
 fn uniform(n: usize) -> Vec<[f64; 3]> {
     let mut rng = Rng::new(2026);

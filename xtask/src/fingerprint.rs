@@ -4,7 +4,8 @@
 //! checked by running it before and after and comparing the output.
 
 use std::time::Instant;
-use tileraster::{prepare, rasterise, scenes, Backend, Grid, Mode, Params, Scene};
+use tileraster::{prepare, rasterise, Backend, Grid, Mode, Params, Scene};
+use tileraster_testkit::scenes;
 
 /// FNV-1a, 64 bits: stable across builds and toolchains, unlike `std`'s hasher.
 struct Fnv(u64);

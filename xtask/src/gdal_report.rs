@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use crate::{measure, median};
 use tiff::decoder::{Decoder, DecodingResult};
-use tileraster::scenes::Rng;
+use tileraster_testkit::scenes::Rng;
 
 const NODATA: f32 = -9999.0;
 

@@ -5,7 +5,8 @@
 use std::fmt::Write as _;
 use crate::median;
 use std::time::Instant;
-use tileraster::{rasterise, rasterise_window, scenes, Backend, Grid, Params, PreparedScene, Raster, Scene, Skip, Skips, Stats, Window};
+use tileraster::{rasterise, rasterise_window, Backend, Grid, Params, PreparedScene, Raster, Scene, Skip, Skips, Stats, Window};
+use tileraster_testkit::scenes;
 
 const NODATA: f32 = -9999.0;
 

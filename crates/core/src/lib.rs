@@ -7,9 +7,12 @@ mod overlap;
 mod plan;
 mod prepare;
 mod raster;
-pub mod reference;
 mod scene;
-pub mod scenes;
+/// The test kit's scenes, compiled into the unit tests (see `tileraster-testkit`).
+#[cfg(test)]
+#[allow(dead_code)]
+#[path = "../../testkit/src/scenes.rs"]
+mod scenes;
 
 pub use error::Error;
 pub use grid::{Grid, Mode, Outputs, Params, Skip, Skips, MAX_GRID_DIM};

@@ -9,7 +9,7 @@
 //! frame the backend checks, on a small frame built to expose both, that the adapter gives the
 //! CPU backend's bits. An adapter that does not is refused for those modes with a typed error.
 
-use tileraster_core::{prepare, scenes, Error, Mode, Params, Raster};
+use tileraster_core::{prepare, Error, Grid, Mode, Params, Raster, Scene};
 
 /// What the adapter reports it can guarantee for 32-bit floats when a shader declares it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -64,7 +64,7 @@ impl std::fmt::Display for FloatControls {
 /// Rasterises the probe frame in each `f32` mode with `gpu` and with the CPU backend, and
 /// says where the first one differs.
 pub fn check(mut gpu: impl FnMut(&tileraster_core::Prepared) -> Result<Raster, Error>) -> Result<(), String> {
-    let (scene, grid) = scenes::f32_probe();
+    let (scene, grid) = f32_probe();
     for mode in [Mode::PlaneF32, Mode::Barycentric] {
         let prepared = prepare(&scene, &Params::new(grid).with_mode(mode), None).map_err(|e| e.to_string())?;
         let on_gpu = gpu(&prepared).map_err(|e| e.to_string())?;
@@ -86,6 +86,27 @@ pub fn check(mut gpu: impl FnMut(&tileraster_core::Prepared) -> Result<Raster, E
     Ok(())
 }
 
+/// A frame whose `f32` arithmetic exposes a driver's own choices in both float modes: one
+/// triangle whose heights, gradients and products are subnormal or straddle the smallest
+/// normal (flushed to zero by a device that does not keep subnormals), and one whose products
+/// and sums are inexact (rounded differently by a device that does not round to nearest even).
+pub fn f32_probe() -> (Scene, Grid) {
+    let grid = Grid::new(0.0, 32.0, 0.0, 16.0, 32, 16);
+    let (g, h) = (-1.5e-39, 2.5e-40);
+    let scene = Scene::new(
+        vec![
+            [0.0, 0.0, 1.0e-38],
+            [16.0, 0.0, 1.0e-38 + 16.0 * g],
+            [0.0, 16.0, 1.0e-38 + 16.0 * h],
+            [16.0, 0.0, 1_000.123_456_7],
+            [32.0, 0.0, 1_234.987_654_3],
+            [16.0, 16.0, -777.777_777_7],
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    );
+    (scene, grid)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,7 +119,7 @@ mod tests {
     /// flushes gives zero there) and cells whose value is not the f64 plane's (rounded).
     #[test]
     fn the_probe_frame_has_subnormal_and_rounded_cells_in_both_f32_modes() {
-        let (scene, grid) = scenes::f32_probe();
+        let (scene, grid) = f32_probe();
         for mode in [Mode::PlaneF32, Mode::Barycentric] {
             let raster = cpu(&prepare(&scene, &Params::new(grid).with_mode(mode), None).unwrap()).unwrap();
             let subnormal = raster.values.iter().filter(|v| v.is_subnormal()).count();

@@ -8,7 +8,7 @@ pub mod device;
 mod float_controls;
 
 pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, stage_buffers, Adapter, Resident};
-pub use float_controls::FloatControls;
+pub use float_controls::{f32_probe, FloatControls};
 
 /// The kernels as compiled by rust-gpu, every float arithmetic result marked `NoContraction`
 /// (see `build.rs`).

@@ -461,7 +461,8 @@ fn tile_rows(tx: u32, frame: &FrameParams, band: &Band) -> impl Iterator<Item = 
 mod tests {
     use super::*;
     use crate::stages::{bin_count, bin_fill, bin_scan, setup};
-    use tileraster_core::{prepare, scenes, Grid, Mode, Outputs, Params, Skips};
+    use tileraster_core::{prepare, Grid, Mode, Outputs, Params, Skips};
+use tileraster_testkit::scenes;
     use tileraster_kernels::abi::Coverage;
 
     /// A pixel program other than the heightfield's, through the same stage: a depth test.

@@ -205,24 +205,3 @@ pub fn micro_triangles(size: u32, triangle_px: f64, seed: u64) -> (Scene, Grid) 
     let extent = size as f64;
     (terrain(0.0, 0.0, extent, extent, cols, cols, seed), Grid::new(0.0, extent, 0.0, extent, size, size))
 }
-
-/// A frame whose `f32` arithmetic exposes a driver's own choices in both float modes: one
-/// triangle whose heights, gradients and products are subnormal or straddle the smallest
-/// normal (flushed to zero by a device that does not keep subnormals), and one whose products
-/// and sums are inexact (rounded differently by a device that does not round to nearest even).
-pub fn f32_probe() -> (Scene, Grid) {
-    let grid = Grid::new(0.0, 32.0, 0.0, 16.0, 32, 16);
-    let (g, h) = (-1.5e-39, 2.5e-40);
-    let scene = Scene::new(
-        vec![
-            [0.0, 0.0, 1.0e-38],
-            [16.0, 0.0, 1.0e-38 + 16.0 * g],
-            [0.0, 16.0, 1.0e-38 + 16.0 * h],
-            [16.0, 0.0, 1_000.123_456_7],
-            [32.0, 0.0, 1_234.987_654_3],
-            [16.0, 16.0, -777.777_777_7],
-        ],
-        vec![[0, 1, 2], [3, 4, 5]],
-    );
-    (scene, grid)
-}

@@ -17,6 +17,8 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 
+pub mod dem;
+
 pub use tileraster_core::{Error, Grid, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window, MAX_GRID_DIM};
 pub use tileraster_core::kernels::pipeline::Stage;
 

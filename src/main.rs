@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 mod cli;
 
 use cli::progress::{note, set_quiet, Progress};
-use cli::stream;
-use tileraster::{rasterise, Backend, Grid, Mode, Params, Raster, Scene, Skip, Skips, Window};
+use tileraster::dem::{self, Destinations, GridSize, GridSpec};
+use tileraster::{rasterise, Backend, Grid, Mode, Params, Raster, Skip, Skips, Window};
 use tileraster_testkit::scenes;
 use tileraster_io::{GeoTiffOptions, PointColumns};
 
@@ -183,21 +183,38 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     for option in &creation_options {
         tiff.apply(option)?;
     }
-    let (width, height) = match (outsize, tr) {
-        (Some(size), _) => (size[0], size[1]),
-        (None, Some(tr)) => (cells_for(txe[1] - txe[0], tr[0], "x")?, cells_for(tye[1] - tye[0], tr[1], "y")?),
+    let size = match (outsize, tr) {
+        (Some(size), _) => GridSize::Cells { width: size[0], height: size[1] },
+        (None, Some(tr)) => GridSize::Resolution { x: tr[0], y: tr[1] },
         (None, None) => return Err("give the raster size with --outsize WIDTH HEIGHT or the cell size with --tr XRES YRES".into()),
     };
-    let grid = Grid::new(txe[0], txe[1], tye[0], tye[1], width, height);
-    grid.validate().map_err(|e| e.to_string())?;
+    let grid = GridSpec { txe: [txe[0], txe[1]], tye: [tye[0], tye[1]], size }.grid().map_err(|e| match size {
+        GridSize::Resolution { .. } => format!("--tr: {e}"),
+        GridSize::Cells { .. } => e.to_string(),
+    })?;
     let window = match (window, part) {
         (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
-        (None, Some((k, n))) => part_window(&grid, k, n)?,
+        (None, Some((k, n))) => dem::part_window(&grid, k, n).map_err(|e| format!("--part {k}/{n}: {e}"))?,
         (None, None) => Window::whole(&grid),
     };
     let progress = Progress::start();
     progress.stage(format!("reading {}", input.display()));
-    let scene = read_input(&input, &columns.unwrap_or_default(), &progress)?;
+    let read = dem::read_scene(&input, &columns.unwrap_or_default(), &progress).map_err(|e| e.to_string())?;
+    if let Some(points) = &read.points {
+        note(format!(
+            "tileraster: {} points from {} in {}{} → Delaunay TIN of {} triangles in {}",
+            points.count,
+            input.display(),
+            ms(points.read),
+            match points.duplicates {
+                0 => String::new(),
+                n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
+            },
+            read.scene.triangles.len(),
+            ms(points.triangulated)
+        ));
+    }
+    let scene = read.scene;
     let backend = choose_backend(backend)?;
     let mut skips = Skips::ALL;
     for &skip in &no_skip {
@@ -205,8 +222,8 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     }
     let layers = tileraster::Outputs { owner: owner.is_some(), coverage: false };
     let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(layers);
-    let (budget, set_by) = memory.map_or_else(stream::default_memory_budget, |mib| (mib << 20, "--memory"));
-    let band_rows = stream::band_rows(&window, stream::bytes_per_cell(owner.is_some(), backend), budget);
+    let (budget, set_by) = memory.map_or_else(dem::default_memory_budget, |mib| (mib << 20, "--memory"));
+    let band_rows = dem::band_rows(&window, dem::bytes_per_cell(owner.is_some(), backend), budget);
     if band_rows < window.height {
         if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
             tiff.tiled = true;
@@ -219,9 +236,9 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
             if tiff.tiled { "tiled" } else { "striped" }
         ));
     }
-    let files = stream::Destinations { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
+    let files = Destinations { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
     let start = Instant::now();
-    let run = stream::rasterise_bands(&scene, &params, window, backend, band_rows, &files, &progress)?;
+    let run = dem::write_dem(&scene, &params, window, backend, band_rows, &files, &progress).map_err(|e| e.to_string())?;
     if let Some(path) = &tin {
         tileraster_io::write_obj(&scene, path).map_err(|e| e.to_string())?;
     }
@@ -251,72 +268,12 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// gdal_grid's `-tr`: cells along an extent, `floor(extent / res + 0.5)`.
-fn cells_for(extent: f64, res: f64, axis: &str) -> Result<u32, String> {
-    if !(res.is_finite() && res > 0.0) {
-        return Err(format!("--tr: the {axis} cell size is {res}; it must be a positive number"));
-    }
-    let cells = (extent / res + 0.5).floor();
-    if !(1.0..=tileraster::MAX_GRID_DIM as f64).contains(&cells) {
-        return Err(format!("--tr: {extent} / {res} gives {cells} cells along {axis}; it must be between 1 and {}", tileraster::MAX_GRID_DIM));
-    }
-    Ok(cells as u32)
-}
-
-/// Band `k` of `n` equal bands of the grid's rows (the last may be shorter).
-fn part_window(grid: &Grid, k: u32, n: u32) -> Result<Window, String> {
-    let rows = grid.height.div_ceil(n);
-    let y0 = k as u64 * rows as u64;
-    if y0 >= grid.height as u64 {
-        return Err(format!("--part {k}/{n}: the grid's {} rows make only {} parts of {rows} rows; give fewer parts", grid.height, grid.height.div_ceil(rows)));
-    }
-    Ok(Window { x0: 0, y0: y0 as u32, width: grid.width, height: rows.min(grid.height - y0 as u32) })
-}
-
 fn part(s: &str) -> Result<(u32, u32), String> {
     let parsed = s.split_once('/').and_then(|(k, n)| Some((k.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?)));
     match parsed {
         Some((k, n)) if k < n => Ok((k, n)),
         Some((k, n)) => Err(format!("part {k} of {n}: parts are counted from 0, so K must be less than N")),
         None => Err(format!("'{s}' is not K/N (part K, counted from 0, of N)")),
-    }
-}
-
-/// The scene in `path`: a mesh, or the Delaunay TIN of a point file, by its extension.
-fn read_input(path: &Path, columns: &PointColumns, progress: &Progress) -> Result<Scene, String> {
-    let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
-    match extension.as_str() {
-        "obj" => tileraster_io::read_obj(path).map_err(|e| e.to_string()),
-        "ply" => tileraster_io::read_ply(path).map_err(|e| e.to_string()),
-        "stl" => tileraster_io::read_stl(path).map_err(|e| e.to_string()),
-        "csv" | "xyz" | "txt" | "pts" | "las" | "laz" => {
-            let start = Instant::now();
-            let points = match extension.as_str() {
-                "las" | "laz" => tileraster_io::read_las(path),
-                _ => tileraster_io::read_points(path, columns),
-            }
-            .map_err(|e| e.to_string())?;
-            let read = start.elapsed();
-            progress.stage(format!("triangulating {} points", points.len()));
-            let tin = tileraster_tin::triangulate(&points).map_err(|e| format!("{}: {e}", path.display()))?;
-            note(format!(
-                "tileraster: {} points from {} in {}{} → Delaunay TIN of {} triangles in {}",
-                points.len(),
-                path.display(),
-                ms(read),
-                match tin.duplicates {
-                    0 => String::new(),
-                    n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
-                },
-                tin.scene.triangles.len(),
-                ms(start.elapsed() - read)
-            ));
-            Ok(tin.scene)
-        }
-        other => Err(format!(
-            "{}: unsupported input type '{other}'; give a mesh (.obj, .ply, .stl) or points (.las, .laz, or delimited text: .csv, .xyz, .txt, .pts)",
-            path.display()
-        )),
     }
 }
 

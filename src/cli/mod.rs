@@ -1,4 +1,3 @@
-//! The command line's parts: messages and progress, and band-by-band streaming of a run.
+//! The command line's parts: messages and the progress bar.
 
 pub mod progress;
-pub mod stream;

@@ -77,6 +77,20 @@ impl Progress {
     }
 }
 
+impl tileraster::dem::Progress for Progress {
+    fn stage(&self, what: &str) {
+        Progress::stage(self, what)
+    }
+
+    fn rows(&self, what: &str, total: u64) {
+        Progress::rows(self, what, total)
+    }
+
+    fn advance(&self, rows: u64) {
+        Progress::advance(self, rows)
+    }
+}
+
 impl Drop for Progress {
     fn drop(&mut self) {
         let mut running = BAR.lock().unwrap_or_else(|e| e.into_inner());

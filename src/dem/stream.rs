@@ -1,18 +1,21 @@
-//! A run's window, rasterised in bands of rows and streamed to its files: prepared once,
+//! A window, rasterised in bands of rows and streamed to its files: prepared once,
 //! each band rasterised and written before the next, so memory holds one band whatever the
 //! grid's size. Every band's cells are the whole grid's there, so the files do not depend
 //! on how the window was cut.
 
-use super::progress::Progress;
+use super::{DemError, Progress};
+use crate::{Backend, Grid, Params, PreparedScene, Raster, Scene, Stats, Window};
 use std::path::Path;
-use tileraster::{Backend, Grid, Params, PreparedScene, Raster, Scene, Stats, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample, TILE};
 
-/// Where a run's results go.
+/// Where a run's results go. Each file is written beside its destination and renamed into
+/// place once complete and durable: a failed run leaves no partial file.
 pub struct Destinations<'a> {
+    /// The heights (Float32, nodata tagged).
     pub heights: &'a Path,
     /// The owner-triangle raster (UInt32), if asked for.
     pub owner: Option<&'a Path>,
+    /// A hillshaded PNG preview, if asked for (sampled down to `PREVIEW_SIDE`).
     pub preview: Option<&'a Path>,
     pub tiff: GeoTiffOptions,
 }
@@ -45,31 +48,34 @@ pub fn band_rows(window: &Window, bytes_per_cell: u64, budget: u64) -> u32 {
     rows.max(TILE as u64).min(window.height as u64) as u32
 }
 
-/// Rasterise `window` of `params.grid` band by band into `outputs`.
-pub fn rasterise_bands(
+/// Rasterise `window` of `params.grid` on `backend` in bands of `band_rows` rows (see
+/// [`band_rows`]), each written to `outputs` before the next is drawn. An owner file turns
+/// the owner layer on.
+pub fn write_dem(
     scene: &Scene,
     params: &Params,
     window: Window,
     backend: Backend,
     band_rows: u32,
     outputs: &Destinations,
-    progress: &Progress,
-) -> Result<Run, String> {
-    let text = |e: tileraster_io::IoError| e.to_string();
-    let prepared = tileraster::prepare(scene, params, Some(window)).map_err(|e| e.to_string())?;
+    progress: &dyn Progress,
+) -> Result<Run, DemError> {
+    let mut params = *params;
+    params.outputs.owner |= outputs.owner.is_some();
+    let prepared = crate::prepare(scene, &params, Some(window))?;
     let mut scene = PreparedScene::from_prepared(prepared, backend);
     let grid = &params.grid;
-    let mut heights = GeoTiffWriter::create(outputs.heights, grid, window, Sample::Float32 { nodata: params.nodata }, &outputs.tiff).map_err(text)?;
-    let mut owner = outputs.owner.map(|path| GeoTiffWriter::create(path, grid, window, Sample::UInt32, &outputs.tiff)).transpose().map_err(text)?;
+    let mut heights = GeoTiffWriter::create(outputs.heights, grid, window, Sample::Float32 { nodata: params.nodata }, &outputs.tiff)?;
+    let mut owner = outputs.owner.map(|path| GeoTiffWriter::create(path, grid, window, Sample::UInt32, &outputs.tiff)).transpose()?;
     let mut preview = outputs.preview.map(|_| Sampled::new(grid, window, params.nodata));
     let mut run = Run { bands: Vec::new(), snap_bits: 0 };
     progress.rows("rasterising", window.height as u64);
     for y in (0..window.height).step_by(band_rows as usize) {
         let band = Window { x0: window.x0, y0: window.y0 + y, width: window.width, height: band_rows.min(window.height - y) };
-        let raster = scene.rasterise_window(band).map_err(|e| e.to_string())?;
-        heights.write_rows(&raster.values).map_err(text)?;
-        if let Some(file) = &mut owner {
-            file.write_rows(raster.owner.as_deref().expect("the owner layer was asked for")).map_err(text)?;
+        let raster = scene.rasterise_window(band)?;
+        heights.write_rows(&raster.values)?;
+        if let (Some(file), Some(layer)) = (&mut owner, raster.owner.as_deref()) {
+            file.write_rows(layer)?;
         }
         if let Some(sampled) = &mut preview {
             sampled.add(&raster);
@@ -79,12 +85,12 @@ pub fn rasterise_bands(
         progress.advance(band.height as u64);
     }
     progress.stage("writing");
-    heights.finish().map_err(text)?;
+    heights.finish()?;
     if let Some(file) = owner {
-        file.finish().map_err(text)?;
+        file.finish()?;
     }
     if let (Some(path), Some(sampled)) = (outputs.preview, preview) {
-        tileraster_io::write_preview_png(&sampled.into_raster(run.snap_bits), path).map_err(text)?;
+        tileraster_io::write_preview_png(&sampled.into_raster(run.snap_bits), path)?;
     }
     Ok(run)
 }
@@ -127,7 +133,7 @@ impl Sampled {
     }
 }
 
-/// The default `--memory`: half of the least of what the system has available
+/// The default memory budget (the command line's `--memory`): half of the least of what the system has available
 /// (`MemAvailable`), what this process's cgroup may still take (a container's or a batch
 /// job's limit: Kubernetes, Slurm) and what its address-space limit (`ulimit -v`) leaves;
 /// 2 GiB where none of them says. Returns the budget and which limit set it.

@@ -1,0 +1,76 @@
+//! Digital elevation models from meshes and point clouds, with gdal_grid's grid semantics:
+//! everything `tileraster rasterise` does, as a library.
+//!
+//! - [`GridSpec`] is a grid as gdal_grid's `-txe`, `-tye` and `-outsize` or `-tr` give it;
+//!   [`part_window`] is band K of N of its rows, for cluster jobs.
+//! - [`read_scene`] reads a mesh, or builds the Delaunay TIN of a point file, by file type.
+//! - [`write_dem`] rasterises a window in bands of rows that fit a memory budget
+//!   ([`band_rows`], [`default_memory_budget`]) and streams them to GeoTIFFs: memory holds one
+//!   band whatever the grid's size, and every band's cells are the whole grid's there.
+//!
+//! ```no_run
+//! use tileraster::dem::{self, Destinations, GridSpec, GridSize};
+//! use tileraster::{Backend, Params};
+//! use std::path::Path;
+//! let grid = GridSpec { txe: [0.0, 1000.0], tye: [0.0, 1000.0], size: GridSize::Resolution { x: 0.5, y: 0.5 } }.grid()?;
+//! let input = dem::read_scene(Path::new("points.laz"), &Default::default(), &())?;
+//! let window = tileraster::Window::whole(&grid);
+//! let (budget, _) = dem::default_memory_budget();
+//! let rows = dem::band_rows(&window, dem::bytes_per_cell(false, Backend::Cpu), budget);
+//! let files = Destinations { heights: Path::new("dem.tif"), owner: None, preview: None, tiff: Default::default() };
+//! dem::write_dem(&input.scene, &Params::new(grid), window, Backend::Cpu, rows, &files, &())?;
+//! # Ok::<(), tileraster::dem::DemError>(())
+//! ```
+
+mod grid;
+mod input;
+mod stream;
+
+pub use grid::{part_window, GridSize, GridSpec};
+pub use input::{read_scene, Input, InputKind, PointsRead};
+pub use stream::{band_rows, bytes_per_cell, default_memory_budget, write_dem, Destinations, Run, PREVIEW_SIDE};
+pub use tileraster_io::{GeoTiffOptions, PointColumns};
+
+use std::path::PathBuf;
+
+/// Why a DEM could not be made; each says what was wrong and how to fix it.
+#[derive(Debug, thiserror::Error)]
+pub enum DemError {
+    /// The rasteriser refused the scene or the grid.
+    #[error(transparent)]
+    Raster(#[from] crate::Error),
+    /// A file could not be read, parsed or written.
+    #[error(transparent)]
+    Io(#[from] tileraster_io::IoError),
+    /// The points of `path` make no TIN.
+    #[error("{}: {source}", path.display())]
+    Triangulation { path: PathBuf, source: tileraster_tin::TinError },
+    /// The input's file type is not one tileraster reads.
+    #[error(
+        "{}: unsupported input type '{extension}'; give a mesh (.obj, .ply, .stl) or points (.las, .laz, or delimited text: .csv, .xyz, .txt, .pts)",
+        path.display()
+    )]
+    UnsupportedInput { path: PathBuf, extension: String },
+    /// A cell size is not a positive number.
+    #[error("the {axis} cell size is {res}; it must be a positive number")]
+    CellSize { axis: char, res: f64 },
+    /// A cell size gives too few or too many cells along its extent.
+    #[error("{extent} / {res} gives {cells} cells along {axis}; it must be between 1 and {}", crate::MAX_GRID_DIM)]
+    CellCount { axis: char, extent: f64, res: f64, cells: f64 },
+    /// Part `k` of `n` lies beyond the grid's rows.
+    #[error("the grid's {rows} rows make only {parts} parts of {part_rows} rows; give fewer parts")]
+    NoSuchPart { k: u32, n: u32, rows: u32, parts: u32, part_rows: u32 },
+}
+
+/// What a long run reports as it goes; every method does nothing unless overridden, and `()`
+/// reports nothing.
+pub trait Progress {
+    /// A stage with no count (reading, triangulating, writing).
+    fn stage(&self, _what: &str) {}
+    /// A stage counted in rows, `total` of them.
+    fn rows(&self, _what: &str, _total: u64) {}
+    /// `rows` more rows done.
+    fn advance(&self, _rows: u64) {}
+}
+
+impl Progress for () {}

@@ -21,6 +21,7 @@ pub struct Destinations<'a> {
 }
 
 /// What a run did.
+#[derive(Debug)]
 pub struct Run {
     /// Each band's statistics, top to bottom.
     pub bands: Vec<Stats>,

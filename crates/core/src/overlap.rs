@@ -78,7 +78,7 @@ type EdgeKey = (u32, u32, u32);
 /// range's edges cancel among themselves only, so the ranges are worked in parallel, and the
 /// crossings (a set: `max_winding` sorts them) do not depend on how many there are.
 fn residual_crossings(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bits: u32, rows: Range<u32>, budget: usize) -> Option<Vec<Crossing>> {
-    let vertices = corners.par_iter().flatten().max().map_or(0, |&v| v as usize + 1);
+    let vertices = corners.as_flattened().par_iter().max().map_or(0, |&v| v as usize + 1);
     // Every triangle's three edges, in parallel; a horizontal edge is `None`.
     let mut edges: Vec<[Option<EdgeKey>; 3]> = Vec::new();
     triangles
@@ -120,8 +120,9 @@ fn crossings_of_range(triangles: &[TriangleInput], all_edges: &[[Option<EdgeKey>
     let base = lows.start;
     let vertices = lows.len();
     let mut starts = vec![0u32; vertices + 1];
-    let edges_of = || all_edges.iter().flatten().flatten().filter(|e| lows.contains(&(e.0 as usize))).map(|&(l, h, code)| (l - base as u32, h, code));
-    for (low, _, _) in edges_of() {
+    // One scan of all the edges for this range's (the counting sort then walks only those).
+    let mine: Vec<EdgeKey> = all_edges.as_flattened().iter().flatten().filter(|e| lows.contains(&(e.0 as usize))).map(|&(l, h, code)| (l - base as u32, h, code)).collect();
+    for &(low, _, _) in &mine {
         starts[low as usize + 1] += 1;
     }
     for v in 0..vertices {
@@ -129,7 +130,7 @@ fn crossings_of_range(triangles: &[TriangleInput], all_edges: &[[Option<EdgeKey>
     }
     let mut fill = starts.clone();
     let mut edges = vec![(0u32, 0u32); starts[vertices] as usize];
-    for (low, high, code) in edges_of() {
+    for &(low, high, code) in &mine {
         edges[fill[low as usize] as usize] = (high, code);
         fill[low as usize] += 1;
     }

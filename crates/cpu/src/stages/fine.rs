@@ -13,7 +13,7 @@
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, FrameParams, TriangleSetup, ValueMode};
+use tileraster_kernels::abi::{Counter, FrameParams, PixelRect, TriangleSetup, ValueMode};
 use tileraster_kernels::math::edge::{side_of, Side};
 use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
@@ -275,6 +275,7 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
 
 /// One row of a triangle's pixels in a tile: `len` pixels from grid pixel `(i0, j)`, the
 /// tile's pixel `first` onwards, with the edge functions at the first one.
+#[derive(Clone, Copy)]
 struct RowSpan {
     first: usize,
     i0: i32,
@@ -297,76 +298,128 @@ impl RowSpan {
 /// Phase 2 of a tile, the CPU's way round: each triangle of the bin against the pixels of its
 /// rectangle in the tile, row by row, where the GPU's pixels take the triangles in turn. The
 /// pixels' states come out the same, as `fine::accumulate` does not depend on the order.
-/// Yields each row of each triangle with its setup. (An iterator, not a callback: the loops
-/// over the rows' pixels stay in the functions that the wide-vector build compiles.)
+/// Yields every row of every triangle with its setup; the edge functions step from row to row
+/// (exact: every value inside the rectangle is below 2^60). An iterator whose `next` is
+/// always inlined, not a callback: the loops over the rows' pixels must stay in the functions
+/// the wide-vector build compiles.
+struct RowSpans<'a> {
+    setups: &'a [TriangleSetup],
+    bin: core::slice::Iter<'a, u32>,
+    /// The tile's first pixel, and its last one in the window (edge tiles overhang it).
+    tile: PixelRect,
+    /// The current triangle, its current row and its last row.
+    current: Option<(&'a TriangleSetup, RowSpan, i32)>,
+}
+
 #[inline(always)]
-fn row_spans<'a>(tx: u32, ty: u32, frame: &FrameParams, setups: &'a [TriangleSetup], bin: &'a [u32]) -> impl Iterator<Item = (&'a TriangleSetup, RowSpan)> + 'a {
-    let (ti0, tj0, _) = fine::tile_pixel(tx, ty, 0, frame);
-    // The tile's last pixels in the window (edge tiles overhang it).
-    let ti1 = (ti0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
-    let tj1 = (tj0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
-    bin.iter().flat_map(move |&entry| {
-        let s = &setups[(entry & !FULL_TILE_BIT) as usize];
-        let c = &s.coverage;
-        let (i0, i1) = (ti0.max(c.rect.i0), ti1.min(c.rect.i1));
-        let (j0, j1) = (tj0.max(c.rect.j0), tj1.min(c.rect.j1));
-        // No rows where the rectangle misses the tile's columns (its rows may still meet).
-        let rows = j0..=if i0 > i1 { j0 - 1 } else { j1 };
-        rows.map(move |j| {
+fn row_spans<'a>(tx: u32, ty: u32, frame: &FrameParams, setups: &'a [TriangleSetup], bin: &'a [u32]) -> RowSpans<'a> {
+    let (i0, j0, _) = fine::tile_pixel(tx, ty, 0, frame);
+    let i1 = (i0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
+    let j1 = (j0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
+    RowSpans { setups, bin: bin.iter(), tile: PixelRect { i0, j0, i1, j1 }, current: None }
+}
+
+impl<'a> Iterator for RowSpans<'a> {
+    type Item = (&'a TriangleSetup, RowSpan);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<Self::Item> {
+        if let Some((s, row, j1)) = &mut self.current {
+            if row.j < *j1 {
+                let e = &s.coverage.edges;
+                row.j += 1;
+                row.first += TILE as usize;
+                row.start = [row.start[0] + e[0].step_j, row.start[1] + e[1].step_j, row.start[2] + e[2].step_j];
+                return Some((*s, *row));
+            }
+        }
+        let t = &self.tile;
+        loop {
+            let s = &self.setups[(*self.bin.next()? & !FULL_TILE_BIT) as usize];
+            let c = &s.coverage;
+            let (i0, i1) = (t.i0.max(c.rect.i0), t.i1.min(c.rect.i1));
+            let (j0, j1) = (t.j0.max(c.rect.j0), t.j1.min(c.rect.j1));
+            if i0 > i1 || j0 > j1 {
+                continue;
+            }
             let e = &c.edges;
-            let (di, dj) = ((i0 - c.rect.i0) as i64, (j - c.rect.j0) as i64);
+            let (di, dj) = ((i0 - c.rect.i0) as i64, (j0 - c.rect.j0) as i64);
             let row = RowSpan {
-                first: (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize,
+                first: (j0 - t.j0) as usize * TILE as usize + (i0 - t.i0) as usize,
                 i0,
-                j,
+                j: j0,
                 len: (i1 - i0 + 1) as usize,
-                start: [0, 1, 2].map(|k| e[k].at(di, dj)),
+                start: [e[0].at(di, dj), e[1].at(di, dj), e[2].at(di, dj)],
                 step: [e[0].step_i, e[1].step_i, e[2].step_i],
                 excluded_edges: c.excluded_edges,
             };
-            (s, row)
-        })
-    })
+            self.current = Some((s, row, j1));
+            return Some((s, row));
+        }
+    }
 }
 
 /// A partial tile of a scene proven overlap-free: a pixel centre is inside at most one
-/// triangle, so that triangle writes the pixel's value as soon as it finds it, a row at a
-/// time, and no ownership is resolved. Only centres inside no triangle are resolved after the
-/// bin: nodata, or the lowest triangle whose excluded edge they lie on.
+/// triangle, so that triangle writes the pixel's value (owner, count of one) as soon as it
+/// finds it, a row at a time, and marks it done; no per-pixel state is kept. Only centres
+/// inside no triangle are resolved after the bin, against every triangle of it: nodata, or
+/// the lowest triangle whose excluded edge they lie on (the state `fine::accumulate` leaves).
 #[inline(always)]
 fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
-    let mut states = [PixelState::empty(NO_OWNER); TILE_PIXELS as usize];
+    // Bit `p`: tile pixel `p` is inside a triangle and written.
+    let mut done = [0u64; TILE_PIXELS as usize / 64];
     let program = HeightProgram::of(frame);
     for (s, row) in row_spans(tx, band.ty, frame, setups, bin) {
         let out = band.index(row.i0, row.j);
         let values = &mut band.values[out..][..row.len];
-        let states = &mut states[row.first..][..row.len];
-        for (n, (value, state)) in values.iter_mut().zip(states).enumerate() {
-            match row.side(n) {
-                Side::Inside => {
-                    *value = f32::from_bits(program.value(s, row.i0 + n as i32, row.j));
-                    state.owner = s.coverage.index;
-                }
-                side => fine::accumulate::<HeightProgram>(side, &s.coverage, row.i0 + n as i32, row.j, state),
+        let mut inside = 0u64;
+        for (n, value) in values.iter_mut().enumerate() {
+            if row.side(n) == Side::Inside {
+                *value = f32::from_bits(program.value(s, row.i0 + n as i32, row.j));
+                inside |= 1 << n;
+            }
+        }
+        if inside != 0 {
+            // A tile row is 16 pixels: its bits never straddle two words.
+            done[row.first / 64] |= inside << (row.first % 64);
+            if let Some(layer) = band.owner.as_deref_mut() {
+                write_masked(&mut layer[out..][..row.len], inside, s.coverage.index);
+            }
+            if let Some(layer) = band.coverage.as_deref_mut() {
+                write_masked(&mut layer[out..][..row.len], inside, 1);
             }
         }
     }
     for r in tile_rows(tx, frame, band) {
+        let row_done = done[(r.ly * TILE) as usize / 64] >> ((r.ly * TILE) as usize % 64);
         for lx in 0..r.width {
-            let state = &states[(r.ly * TILE) as usize + lx];
-            let (owner, count) = if state.owner != NO_OWNER {
-                (state.owner, 1)
-            } else {
-                let out = fine::fine_resolve(&program, r.i0 + lx as i32, r.j, state, setups);
-                band.values[r.start + lx] = f32::from_bits(out.value);
-                (out.owner, out.count)
-            };
+            if row_done >> lx & 1 == 1 {
+                continue;
+            }
+            let (i, j) = (r.i0 + lx as i32, r.j);
+            let mut state = PixelState::empty(NO_OWNER);
+            for &entry in bin {
+                let c = &setups[(entry & !FULL_TILE_BIT) as usize].coverage;
+                fine::accumulate::<HeightProgram>(fine::side(c, i, j), c, i, j, &mut state);
+            }
+            let out = fine::fine_resolve(&program, i, j, &state, setups);
+            band.values[r.start + lx] = f32::from_bits(out.value);
             if let Some(layer) = band.owner.as_deref_mut() {
-                layer[r.start + lx] = owner;
+                layer[r.start + lx] = out.owner;
             }
             if let Some(layer) = band.coverage.as_deref_mut() {
-                layer[r.start + lx] = count;
+                layer[r.start + lx] = out.count;
             }
+        }
+    }
+}
+
+/// `value` into the elements of `layer` whose bit is set in `mask`.
+#[inline(always)]
+fn write_masked(layer: &mut [u32], mask: u64, value: u32) {
+    for (n, element) in layer.iter_mut().enumerate() {
+        if mask >> n & 1 == 1 {
+            *element = value;
         }
     }
 }

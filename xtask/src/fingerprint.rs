@@ -1,7 +1,8 @@
-//! `cargo xtask fingerprint`: one line per scene × mode with a hash of what `prepare` made
-//! (every prepared triangle's bytes, the snapping, the counts, the overlap proof) and of the
-//! CPU backend's raster. Work that must change no bit (the speed work on preparation, say) is
-//! checked by running it before and after and comparing the output.
+//! `cargo xtask fingerprint`: one line per scene × mode with two hashes: of what `prepare`
+//! made (every prepared triangle's bytes, the snapping, the counts, the overlap proof), and of
+//! the CPU backend's raster. Work that must change no output bit is checked by running it
+//! before and after and comparing the second column (and the first, where the preparation
+//! itself must not change).
 
 use std::time::Instant;
 use tileraster::{prepare, rasterise, Backend, Grid, Mode, Params, Scene};
@@ -56,8 +57,9 @@ pub fn run() -> Result<String, String> {
                 h.bytes(&v.to_le_bytes());
             }
             let raster = rasterise(&scene, &params, Backend::Cpu).map_err(|e| e.to_string())?;
-            h.bytes(bytemuck::cast_slice(&raster.values));
-            out.push_str(&format!("{:016x}  {name} [{}]\n", h.0, mode.name()));
+            let mut r = Fnv::new();
+            r.bytes(bytemuck::cast_slice(&raster.values));
+            out.push_str(&format!("{:016x} {:016x}  {name} [{}]\n", h.0, r.0, mode.name()));
             eprintln!("{name} [{}]: prepare {:.1} ms", mode.name(), seconds * 1e3);
         }
     }

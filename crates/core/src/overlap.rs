@@ -296,7 +296,8 @@ mod tests {
     /// must hold at every pixel centre, and meshes must be proven.
     #[test]
     fn agrees_with_counting_every_pixel_centre() {
-        use crate::{prepare, scenes, Grid, Params};
+        use crate::prepare::{prepare_with, Analysis};
+        use crate::{scenes, Grid, Params};
         use tileraster_kernels::math::edge::Side;
         use tileraster_kernels::stages::fine::side;
         use tileraster_kernels::stages::setup::setup_triangle;
@@ -311,7 +312,7 @@ mod tests {
             (scenes::triangle_soup(&grid, 40, 10.0, 7), false),
         ];
         for (k, (scene, mesh)) in cases.iter().enumerate() {
-            let prepared = prepare(scene, &Params::new(grid), None).unwrap();
+            let prepared = prepare_with(scene, &Params::new(grid), None, Analysis::Always).unwrap();
             let setups: Vec<_> = prepared.triangles.iter().map(|t| setup_triangle(t, 0, prepared.snap_bits)).collect();
             let most = (0..grid.height as i32)
                 .flat_map(|j| (0..grid.width as i32).map(move |i| (i, j)))

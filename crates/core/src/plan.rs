@@ -4,8 +4,9 @@
 //! the kernels may use, and the statistics the host already knows.
 
 use crate::raster::try_zeroed;
+use rayon::prelude::*;
 use crate::{Error, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect, TriangleInput};
+use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
 use tileraster_kernels::pipeline::{window_stages, Stage};
 use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
@@ -150,18 +151,34 @@ impl Prepared {
             i1: (window.x0 + window.width - 1) as i32,
             j1: (window.y0 + window.height - 1) as i32,
         };
-        let reaches = |t: &TriangleInput| !intersect(&t.rect, &area).is_empty();
-        let listed: Vec<u32> = if skips.cull_window {
-            (0..self.triangles.len() as u32).filter(|&s| reaches(&self.triangles[s as usize])).collect()
-        } else {
-            (0..self.triangles.len() as u32).collect()
+        // One pass over the triangles, on all cores, in chunks kept in scene order: the ones
+        // listed (with `cull_window`, those reaching the window), and the union of what they
+        // reach of it.
+        let union = |a: Option<PixelRect>, b: Option<PixelRect>| match (a, b) {
+            (Some(a), Some(b)) => Some(PixelRect { i0: a.i0.min(b.i0), j0: a.j0.min(b.j0), i1: a.i1.max(b.i1), j1: a.j1.max(b.j1) }),
+            (a, b) => a.or(b),
         };
-        let active = if skips.empty_tiles {
-            let reached = listed.iter().map(|&s| intersect(&self.triangles[s as usize].rect, &area)).filter(|r| !r.is_empty());
-            reached.reduce(|a, b| PixelRect { i0: a.i0.min(b.i0), j0: a.j0.min(b.j0), i1: a.i1.max(b.i1), j1: a.j1.max(b.j1) }).map(|r| tile_aligned(&r, &window))
-        } else {
-            Some(window)
-        };
+        let pieces: Vec<(Vec<u32>, Option<PixelRect>)> = self
+            .triangles
+            .par_chunks(PLAN_CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| {
+                let (mut listed, mut reached) = (Vec::with_capacity(chunk.len()), None);
+                for (k, t) in chunk.iter().enumerate() {
+                    let r = intersect(&t.rect, &area);
+                    if !r.is_empty() {
+                        reached = union(reached, Some(r));
+                    }
+                    if !skips.cull_window || !r.is_empty() {
+                        listed.push((c * PLAN_CHUNK + k) as u32);
+                    }
+                }
+                (listed, reached)
+            })
+            .collect();
+        let listed: Vec<u32> = pieces.iter().flat_map(|p| p.0.iter().copied()).collect();
+        let reached = pieces.iter().fold(None, |r, p| union(r, p.1));
+        let active = if skips.empty_tiles { reached.map(|r| tile_aligned(&r, &window)) } else { Some(window) };
         let rows = self.overlap_free_rows.as_ref();
         let overlap_free = skips.overlap_free && rows.is_some_and(|r| r.start <= window.y0 && window.y0 + window.height <= r.end);
         let flags = FrameFlags::NONE
@@ -211,6 +228,9 @@ impl Prepared {
     }
 }
 
+/// Triangles per task of the plan's pass over them.
+const PLAN_CHUNK: usize = 1 << 14;
+
 /// The part two pixel rectangles share (empty if none).
 fn intersect(a: &PixelRect, b: &PixelRect) -> PixelRect {
     PixelRect { i0: a.i0.max(b.i0), j0: a.j0.max(b.j0), i1: a.i1.min(b.i1), j1: a.j1.min(b.j1) }
@@ -249,20 +269,16 @@ impl Plan {
             _pad: 0,
         };
         // Enough bands for the tallest listed triangle in the part.
-        let rows = self.listed_triangles(prepared).map(|t| tile_span(&t.rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
+        let rows = self.listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
         frame.bin_parts = rows.unwrap_or(1).div_ceil(frame.bin_part_rows).max(1);
         frame
-    }
-
-    fn listed_triangles<'a>(&'a self, prepared: &'a Prepared) -> impl Iterator<Item = &'a TriangleInput> + 'a {
-        self.listed.iter().map(|&s| &prepared.triangles[s as usize])
     }
 
     /// Most (triangle, tile) entries binning can write for `frame` (every tile of every listed
     /// rectangle; binning leaves out the tiles a triangle cannot reach): the size to allocate
     /// before the bins are filled.
     pub fn bin_capacity(&self, prepared: &Prepared, frame: &FrameParams) -> u64 {
-        self.listed_triangles(prepared).map(|t| tile_span(&t.rect, frame).tile_count() as u64).sum()
+        self.listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, frame).tile_count() as u64).sum()
     }
 
     /// The call's raster: zeroed, with nodata (and no owner) already written outside the

@@ -262,6 +262,10 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
         .filter_map(|(c, part_t, part_c, part_ht, part_hc)| {
             let (mut k, mut h) = (0, 0);
             for t in chunk(c) {
+                let wanted = fate[t] == Fate::Kept || (analyse && fate[t] == Fate::Hidden);
+                if !wanted {
+                    continue;
+                }
                 match (fate[t], snap(t)) {
                     (Fate::Kept, Snap::Kept(s)) => {
                         match input(&s) {

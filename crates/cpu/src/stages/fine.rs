@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
 use tileraster_kernels::abi::{Counter, FrameParams, PixelRect, TriangleSetup, ValueMode};
 use tileraster_kernels::math::edge::{side_of, Side};
-use tileraster_kernels::math::fixed::converts_natively;
+use tileraster_kernels::math::fixed::{converts_natively, fixed_to_f32_bits};
 use tileraster_kernels::memory::Counters;
 use tileraster_kernels::programs::height::{self, HeightProgram};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
@@ -364,30 +364,94 @@ impl<'a> Iterator for RowSpans<'a> {
 /// finds it, a row at a time, and marks it done; no per-pixel state is kept. Only centres
 /// inside no triangle are resolved after the bin, against every triangle of it: nodata, or
 /// the lowest triangle whose excluded edge they lie on (the state `fine::accumulate` leaves).
+///
+/// A row is tested as 16 lanes at once, with additions only: the fill rule as thresholds
+/// (inside edge `k` ⇔ `w_k ≥ t_k`, `t_k` one for an excluded edge, else zero: `side_of`'s
+/// `Inside` on integers), each edge's steps along the row precomputed per triangle, and the
+/// edge functions and the exact plane stepped from row to row. Every sum the result reads is
+/// exact: inside the rectangle the edge functions stay below 2^60 and 15 steps beyond it add
+/// less than 2^50; the plane, exact over the rectangle, is summed wrapping (a ring: in range,
+/// the true value) and read only on the rectangle's pixels.
 #[inline(always)]
 fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
     // Bit `p`: tile pixel `p` is inside a triangle and written.
     let mut done = [0u64; TILE_PIXELS as usize / 64];
     let program = HeightProgram::of(frame);
-    for (s, row) in row_spans(tx, band.ty, frame, setups, bin) {
-        let out = band.index(row.i0, row.j);
-        let values = &mut band.values[out..][..row.len];
-        let mut inside = 0u64;
-        for (n, value) in values.iter_mut().enumerate() {
-            if row.side(n) == Side::Inside {
-                *value = f32::from_bits(program.value(s, row.i0 + n as i32, row.j));
-                inside |= 1 << n;
-            }
+    let mode = frame.value_mode();
+    let (ti0, tj0, _) = fine::tile_pixel(tx, band.ty, 0, frame);
+    let ti1 = (ti0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
+    let tj1 = (tj0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
+    for &entry in bin {
+        let s = &setups[(entry & !FULL_TILE_BIT) as usize];
+        let c = &s.coverage;
+        let (i0, i1) = (ti0.max(c.rect.i0), ti1.min(c.rect.i1));
+        let (j0, j1) = (tj0.max(c.rect.j0), tj1.min(c.rect.j1));
+        if i0 > i1 || j0 > j1 {
+            continue;
         }
-        if inside != 0 {
-            // A tile row is 16 pixels: its bits never straddle two words.
-            done[row.first / 64] |= inside << (row.first % 64);
-            if let Some(layer) = band.owner.as_deref_mut() {
-                write_masked(&mut layer[out..][..row.len], inside, s.coverage.index);
+        let len = (i1 - i0 + 1) as usize;
+        let lanes = (1u64 << len) - 1;
+        let (di, dj) = ((i0 - c.rect.i0) as i64, (j0 - c.rect.j0) as i64);
+        let e = &c.edges;
+        let threshold = |k: usize| i64::from(c.excluded_edges >> k & 1);
+        let mut w = [0, 1, 2].map(|k| e[k].at(di, dj) - threshold(k));
+        let along = [0, 1, 2].map(|k| lane_steps(e[k].step_i));
+        let p = &s.plane;
+        let mut height = p.z + p.gi * di + p.gj * dj;
+        let height_along = lane_steps(p.gi);
+        let native = converts_natively(p.frac_bits);
+        for j in j0..=j1 {
+            let mut inside = 0u64;
+            for n in 0..TILE as usize {
+                let in_all = (w[0] + along[0][n]) | (w[1] + along[1][n]) | (w[2] + along[2][n]) >= 0;
+                inside |= u64::from(in_all) << n;
             }
-            if let Some(layer) = band.coverage.as_deref_mut() {
-                write_masked(&mut layer[out..][..row.len], inside, 1);
+            inside &= lanes;
+            if inside != 0 {
+                let out = band.index(i0, j);
+                let band_len = band.values.len();
+                // Sixteen lanes where the band has them (the lanes past the span keep their
+                // values: a select and a whole-vector store), else the span alone.
+                let values = &mut band.values[out..][..if out + TILE as usize <= band_len { TILE as usize } else { len }];
+                // The same loop in each arm, the mode and the conversion's range answered
+                // outside it (as in `fine_resolve_full_tile`).
+                match (mode, native) {
+                    (ValueMode::Exact, true) => {
+                        // All 16 lanes converted at once, then stored where inside.
+                        let row: [f32; TILE as usize] =
+                            core::array::from_fn(|n| f32::from_bits(height::saturate_infinity(fixed_to_f32_bits(height.wrapping_add(height_along[n]), p.frac_bits))));
+                        // A select and a plain store on every lane of the span: vectorised.
+                        if let Ok(values) = <&mut [f32; TILE as usize]>::try_from(&mut *values) {
+                            for (n, value) in values.iter_mut().enumerate() {
+                                *value = if inside >> n & 1 == 1 { row[n] } else { *value };
+                            }
+                        } else {
+                            for (n, value) in values.iter_mut().enumerate() {
+                                *value = if inside >> n & 1 == 1 { row[n] } else { *value };
+                            }
+                        }
+                    }
+                    _ => {
+                        for (n, value) in values.iter_mut().enumerate() {
+                            if inside >> n & 1 == 1 {
+                                *value = f32::from_bits(program.value(s, i0 + n as i32, j));
+                            }
+                        }
+                    }
+                }
+                let first = (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize;
+                // A tile row is 16 pixels: its bits never straddle two words.
+                done[first / 64] |= inside << (first % 64);
+                if let Some(layer) = band.owner.as_deref_mut() {
+                    write_masked(&mut layer[out..][..len], inside, c.index);
+                }
+                if let Some(layer) = band.coverage.as_deref_mut() {
+                    write_masked(&mut layer[out..][..len], inside, 1);
+                }
             }
+            w = [w[0] + e[0].step_j, w[1] + e[1].step_j, w[2] + e[2].step_j];
+            // Past the last row the plane may leave `i64`: it is not read there.
+            height = height.wrapping_add(p.gj);
         }
     }
     for r in tile_rows(tx, frame, band) {
@@ -412,6 +476,13 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
             }
         }
     }
+}
+
+/// `step · n` for the 16 lanes `n` of a tile row, wrapping: exact wherever the sum it goes
+/// into is in range (the lanes of a triangle's rectangle), and never used elsewhere.
+#[inline(always)]
+fn lane_steps(step: i64) -> [i64; TILE as usize] {
+    core::array::from_fn(|n| step.wrapping_mul(n as i64))
 }
 
 /// `value` into the elements of `layer` whose bit is set in `mask`.

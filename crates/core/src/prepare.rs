@@ -160,7 +160,8 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
     let unit = (1i64 << snap_bits) as f64;
 
     // 4. Snap, orient, rectangle: what becomes of triangle `t`.
-    let snap = |t: usize| -> Snap {
+    // `search`: look for a centre the triangle touches (the first walk; the second knows).
+    let snap = |t: usize, search: bool| -> Snap {
         let tri = &scene.triangles[t];
         if reaching_extent(tri).is_none() {
             return Snap::Outside;
@@ -185,7 +186,7 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
             return Snap::NoCentre;
         }
         let snapped = Snapped { index: t, corners, x, y, rect };
-        if touches_no_centre(&snapped, snap_bits) { Snap::Hidden(snapped) } else { Snap::Kept(snapped) }
+        if search && touches_no_centre(&snapped, snap_bits) { Snap::Hidden } else { Snap::Kept(snapped) }
     };
     // First walk: what becomes of each triangle (so the second snaps only the kept ones again),
     // how many each task keeps and hides (for the overlap analysis only), and the pixels of
@@ -199,12 +200,12 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
         .map(|(c, fates)| {
             let (mut kept, mut hidden, mut pixels) = (0, 0, 0);
             for (fate, t) in fates.iter_mut().zip(chunk(c)) {
-                *fate = match snap(t) {
+                *fate = match snap(t, true) {
                     Snap::Kept(s) => {
                         pixels += (s.rect.i1 - s.rect.i0 + 1) as u64 * (s.rect.j1 - s.rect.j0 + 1) as u64;
                         Fate::Kept
                     }
-                    Snap::Hidden(_) => Fate::Hidden,
+                    Snap::Hidden => Fate::Hidden,
                     Snap::Flat => Fate::Flat,
                     Snap::Outside | Snap::NoCentre => Fate::Dropped,
                 };
@@ -266,7 +267,7 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
                 if !wanted {
                     continue;
                 }
-                match (fate[t], snap(t)) {
+                match (fate[t], snap(t, false)) {
                     (Fate::Kept, Snap::Kept(s)) => {
                         match input(&s) {
                             Ok(t) => part_t[k] = t,
@@ -278,12 +279,12 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
                         k += 1;
                     }
                     // Only the analysis reads it: its snapped corners.
-                    (Fate::Hidden, Snap::Hidden(s)) if analyse => {
+                    (Fate::Hidden, Snap::Kept(s)) if analyse => {
                         part_ht[h] = TriangleInput { x: s.x, y: s.y, rect: s.rect, index: s.index as u32, ..Default::default() };
                         part_hc[h] = s.corners.map(|c| c as u32);
                         h += 1;
                     }
-                    (Fate::Kept, _) | (Fate::Hidden, Snap::Kept(_)) => unreachable!("the first walk decided triangle {t}"),
+                    (Fate::Kept | Fate::Hidden, _) => unreachable!("the first walk kept triangle {t}"),
                     _ => {}
                 }
             }
@@ -363,7 +364,7 @@ enum Snap {
     NoCentre,
     /// No pixel centre lies inside it or on its edges: it changes no pixel (see
     /// [`touches_no_centre`]).
-    Hidden(Snapped),
+    Hidden,
     Kept(Snapped),
 }
 

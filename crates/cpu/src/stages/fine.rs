@@ -33,6 +33,9 @@ struct Band<'a> {
     values: &'a mut [f32],
     owner: Option<&'a mut [u32]>,
     coverage: Option<&'a mut [u32]>,
+    /// Scratch of the overlap-free tiles, one state per tile pixel, valid where `edge_seen`
+    /// has its bit: kept across the band's tiles so that no tile clears 256 states.
+    edge_states: [PixelState<u32>; TILE_PIXELS as usize],
 }
 
 impl Band<'_> {
@@ -122,6 +125,7 @@ fn for_each_band(frame: &FrameParams, raster: &mut Raster, rasterise_band: impl 
             values,
             owner,
             coverage,
+            edge_states: [PixelState::empty(NO_OWNER); TILE_PIXELS as usize],
         })
         .collect();
     let stats: StatCounters = std::array::from_fn(|_| AtomicU32::new(0));
@@ -361,9 +365,10 @@ impl<'a> Iterator for RowSpans<'a> {
 
 /// A partial tile of a scene proven overlap-free: a pixel centre is inside at most one
 /// triangle, so that triangle writes the pixel's value (owner, count of one) as soon as it
-/// finds it, a row at a time, and marks it done; no per-pixel state is kept. Only centres
-/// inside no triangle are resolved after the bin, against every triangle of it: nodata, or
-/// the lowest triangle whose excluded edge they lie on (the state `fine::accumulate` leaves).
+/// finds it, a row at a time, and marks it done. The rows also note the centres that lie on
+/// an excluded edge (closed-inside but not inside: rare), as `fine::accumulate` does; the
+/// centres inside no triangle resolve to those after the bin: nodata, or the lowest triangle
+/// whose excluded edge they lie on.
 ///
 /// A row is tested as 16 lanes at once, with additions only: the fill rule as thresholds
 /// (inside edge `k` ⇔ `w_k ≥ t_k`, `t_k` one for an excluded edge, else zero: `side_of`'s
@@ -376,6 +381,9 @@ impl<'a> Iterator for RowSpans<'a> {
 fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
     // Bit `p`: tile pixel `p` is inside a triangle and written.
     let mut done = [0u64; TILE_PIXELS as usize / 64];
+    // What the pixels inside no triangle resolve to: the lowest triangle whose excluded
+    // edge they lie on, if any (`band.edge_states`, valid where the bit is set).
+    let mut edge_seen = [0u64; TILE_PIXELS as usize / 64];
     let program = HeightProgram::of(frame);
     let mode = frame.value_mode();
     let (ti0, tj0, _) = fine::tile_pixel(tx, band.ty, 0, frame);
@@ -393,20 +401,35 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
         let lanes = (1u64 << len) - 1;
         let (di, dj) = ((i0 - c.rect.i0) as i64, (j0 - c.rect.j0) as i64);
         let e = &c.edges;
-        let threshold = |k: usize| i64::from(c.excluded_edges >> k & 1);
-        let mut w = [0, 1, 2].map(|k| e[k].at(di, dj) - threshold(k));
+        let threshold = [0, 1, 2].map(|k| i64::from(c.excluded_edges >> k & 1));
+        let mut w = [0, 1, 2].map(|k| e[k].at(di, dj));
         let along = [0, 1, 2].map(|k| lane_steps(e[k].step_i));
         let p = &s.plane;
         let mut height = p.z + p.gi * di + p.gj * dj;
         let height_along = lane_steps(p.gi);
         let native = converts_natively(p.frac_bits);
         for j in j0..=j1 {
-            let mut inside = 0u64;
+            let (mut inside, mut closed) = (0u64, 0u64);
             for n in 0..TILE as usize {
-                let in_all = (w[0] + along[0][n]) | (w[1] + along[1][n]) | (w[2] + along[2][n]) >= 0;
-                inside |= u64::from(in_all) << n;
+                let at = [w[0] + along[0][n], w[1] + along[1][n], w[2] + along[2][n]];
+                inside |= u64::from((at[0] - threshold[0]) | (at[1] - threshold[1]) | (at[2] - threshold[2]) >= 0) << n;
+                closed |= u64::from((at[0] | at[1] | at[2]) >= 0) << n;
             }
             inside &= lanes;
+            // On an excluded edge and inside no other edge's exclusion: `side_of`'s
+            // `OnExcludedEdge`, which `fine::accumulate` keeps the lowest index of.
+            let on_edge = closed & !inside & lanes;
+            if on_edge != 0 {
+                let first = (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize;
+                for n in (0..len).filter(|&n| on_edge >> n & 1 == 1) {
+                    let (p, state) = (first + n, &mut band.edge_states[first + n]);
+                    if edge_seen[p / 64] >> (p % 64) & 1 == 0 {
+                        edge_seen[p / 64] |= 1 << (p % 64);
+                        *state = PixelState::empty(NO_OWNER);
+                    }
+                    fine::accumulate::<HeightProgram>(Side::OnExcludedEdge, c, i0 + n as i32, j, state);
+                }
+            }
             if inside != 0 {
                 let out = band.index(i0, j);
                 let band_len = band.values.len();
@@ -461,11 +484,8 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
                 continue;
             }
             let (i, j) = (r.i0 + lx as i32, r.j);
-            let mut state = PixelState::empty(NO_OWNER);
-            for &entry in bin {
-                let c = &setups[(entry & !FULL_TILE_BIT) as usize].coverage;
-                fine::accumulate::<HeightProgram>(fine::side(c, i, j), c, i, j, &mut state);
-            }
+            let p = (r.ly * TILE) as usize + lx;
+            let state = if edge_seen[p / 64] >> (p % 64) & 1 == 1 { band.edge_states[p] } else { PixelState::empty(NO_OWNER) };
             let out = fine::fine_resolve(&program, i, j, &state, setups);
             band.values[r.start + lx] = f32::from_bits(out.value);
             if let Some(layer) = band.owner.as_deref_mut() {

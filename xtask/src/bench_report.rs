@@ -399,6 +399,37 @@ fn goals(report: &Report) -> String {
         }
         s.push_str(".\n");
     }
+    // Small triangles and the TIN against the render pipeline on the same adapter, same run.
+    let met = |ok: bool| if ok { "met" } else { "not met" };
+    match (find(report, "terrain TIN", "4096²", "tileraster cpu", "exact"), find(report, "terrain TIN", "4096²", "render pipeline", "f32 hardware")) {
+        (Some(cpu), Some(render)) => {
+            let (ms, ratio) = (cpu.time.median * 1e3, render.time.median / cpu.time.median);
+            let _ = writeln!(
+                s,
+                "- Terrain TIN → 4096², CPU, exact mode: **{ms:.1} ms** ({:.0} Mpixel/s; goal ≤ 40 ms: {}), **{ratio:.2}×** the render pipeline's speed ({:.1} ms; goal ≥ 3×: {}).",
+                cpu.cells as f64 / cpu.time.median / 1e6,
+                met(ms <= 40.0),
+                render.time.median * 1e3,
+                met(ratio >= 3.0)
+            );
+        }
+        _ => s.push_str("- The 4096² terrain TIN against the render pipeline is not in this run.\n"),
+    }
+    for case in report.rows.iter().filter(|r| r.engine == "tileraster cpu" && r.mode == "exact" && (r.case.starts_with("micro") || r.case.starts_with("slivers"))) {
+        let Some(render) = report.rows.iter().find(|r| r.engine == "render pipeline" && r.case == case.case) else { continue };
+        let mtri = |r: &Row| r.triangles as f64 / r.time.median / 1e6;
+        let _ = writeln!(
+            s,
+            "- {}, CPU, exact mode: **{:.1} Mtri/s** against the render pipeline's {:.1} ({:.2} ms against {:.2} ms): **{:.2}×** (goal: ahead: {}).",
+            case.case,
+            mtri(case),
+            mtri(render),
+            case.time.median * 1e3,
+            render.time.median * 1e3,
+            render.time.median / case.time.median,
+            met(case.time.median < render.time.median)
+        );
+    }
     // Marginal cost per extra cell: the TIN at two grid sizes.
     let tin: Vec<&Row> = report.rows.iter().filter(|r| r.case.starts_with("terrain TIN")).collect();
     let marginal = |engine: &str, mode: &str| -> Option<f64> {

@@ -2,6 +2,7 @@
 //! points, simulating workgroups. It walks the stage table (`tileraster_kernels::pipeline`)
 //! and runs each stage's twin (`stages/`, same names): per-triangle stages as rayon parallel
 //! loops, fine raster one row of tiles per task and one tile per workgroup.
+#![feature(portable_simd)]
 
 mod stages;
 

@@ -11,6 +11,8 @@
 //! Both give the same bits; the parity tests run both on every scene.
 
 use rayon::prelude::*;
+use std::simd::cmp::SimdPartialOrd;
+use std::simd::Simd;
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
 use tileraster_kernels::abi::{Counter, FrameParams, PixelRect, TriangleSetup, ValueMode};
@@ -403,19 +405,21 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
         let e = &c.edges;
         let threshold = [0, 1, 2].map(|k| i64::from(c.excluded_edges >> k & 1));
         let mut w = [0, 1, 2].map(|k| e[k].at(di, dj));
-        let along = [0, 1, 2].map(|k| lane_steps(e[k].step_i));
+        let along = [lane_steps(e[0].step_i), lane_steps(e[1].step_i), lane_steps(e[2].step_i)];
         let p = &s.plane;
         let mut height = p.z + p.gi * di + p.gj * dj;
-        let height_along = lane_steps(p.gi);
+        let height_along = lane_steps(p.gi).to_array();
         let native = converts_natively(p.frac_bits);
         for j in j0..=j1 {
-            let (mut inside, mut closed) = (0u64, 0u64);
-            for n in 0..TILE as usize {
-                let at = [w[0] + along[0][n], w[1] + along[1][n], w[2] + along[2][n]];
-                inside |= u64::from((at[0] - threshold[0]) | (at[1] - threshold[1]) | (at[2] - threshold[2]) >= 0) << n;
-                closed |= u64::from((at[0] | at[1] | at[2]) >= 0) << n;
-            }
-            inside &= lanes;
+            // The lanes' comparisons straight to bit masks (`std::simd`: a mask register where
+            // the CPU has one; written as scalar loops, they became OR-reductions).
+            let at = [0, 1, 2].map(|k| Lanes::splat(w[k]) + along[k]);
+            let zero = Lanes::splat(0);
+            let inside = ((at[0] - Lanes::splat(threshold[0])) | (at[1] - Lanes::splat(threshold[1])) | (at[2] - Lanes::splat(threshold[2])))
+                .simd_ge(zero)
+                .to_bitmask()
+                & lanes;
+            let closed = (at[0] | at[1] | at[2]).simd_ge(zero).to_bitmask();
             // On an excluded edge and inside no other edge's exclusion: `side_of`'s
             // `OnExcludedEdge`, which `fine::accumulate` keeps the lowest index of.
             let on_edge = closed & !inside & lanes;
@@ -498,11 +502,15 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
     }
 }
 
+/// The 16 pixels of a tile row, one `i64` each.
+type Lanes = Simd<i64, { TILE as usize }>;
+
 /// `step · n` for the 16 lanes `n` of a tile row, wrapping: exact wherever the sum it goes
 /// into is in range (the lanes of a triangle's rectangle), and never used elsewhere.
 #[inline(always)]
-fn lane_steps(step: i64) -> [i64; TILE as usize] {
-    core::array::from_fn(|n| step.wrapping_mul(n as i64))
+fn lane_steps(step: i64) -> Lanes {
+    const LANE: Lanes = Lanes::from_array([0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15]);
+    Lanes::splat(step) * LANE
 }
 
 /// `value` into the elements of `layer` whose bit is set in `mask`.

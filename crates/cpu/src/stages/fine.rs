@@ -617,6 +617,26 @@ mod tests {
 use tileraster_testkit::scenes;
     use tileraster_kernels::abi::Coverage;
 
+    /// What the stages before fine raster leave for a scene's whole window.
+    struct BeforeFine {
+        prepared: tileraster_core::Prepared,
+        plan: tileraster_core::Plan,
+        frame: FrameParams,
+        setups: Vec<TriangleSetup>,
+        offsets: Vec<u32>,
+        bins: Vec<u32>,
+    }
+
+    fn before_fine(scene: &tileraster_core::Scene, params: &Params) -> BeforeFine {
+        let prepared = prepare(scene, params, None).unwrap();
+        let plan = prepared.plan(prepared.window, false).unwrap();
+        let frame = plan.frame(&prepared, plan.active.unwrap());
+        let setups = setup(&prepared, &frame);
+        let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
+        let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+        BeforeFine { prepared, plan, frame, setups, offsets, bins }
+    }
+
     /// A pixel program other than the heightfield's, through the same stage: a depth test.
     /// The lowest surface owns a pixel (its exact height is the depth, the index breaks ties),
     /// hull edges stay uncovered, and the value is the owner's index.
@@ -667,12 +687,7 @@ use tileraster_testkit::scenes;
         for (k, scene) in scenes.iter().enumerate() {
             for skips in [Skips::NONE, Skips::default()] {
                 let params = Params::new(grid).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true });
-                let prepared = prepare(scene, &params, None).unwrap();
-                let plan = prepared.plan(prepared.window, false).unwrap();
-                let frame = plan.frame(&prepared, plan.active.unwrap());
-                let setups = setup(&prepared, &frame);
-                let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
-                let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+                let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
                 let mut raster = plan.allocate_raster(&prepared).unwrap();
                 fine_raster_plain(&LowestSurface, &frame, &setups, &offsets, &bins, &mut raster);
                 let (owners, counts) = (raster.owner.as_ref().unwrap(), raster.coverage.as_ref().unwrap());
@@ -699,12 +714,7 @@ use tileraster_testkit::scenes;
         let grid = Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129);
         let scenes = [scenes::triangle_soup(&grid, 700, 30.0, 9), scenes::fan(&grid, 60, 60, 90, 40.0, 3), scenes::sliver_wedge(&grid, 80, 0.02, 4)];
         for (k, scene) in scenes.iter().enumerate() {
-            let prepared = prepare(scene, &Params::new(grid).with_skips(tileraster_core::Skips::NONE), None).unwrap();
-            let plan = prepared.plan(prepared.window, false).unwrap();
-            let frame = plan.frame(&prepared, plan.active.unwrap());
-            let setups = setup(&prepared, &frame);
-            let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
-            let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+            let BeforeFine { frame, setups, offsets, bins, .. } = before_fine(scene, &Params::new(grid).with_skips(Skips::NONE));
             for ty in 0..frame.tiles_y {
                 for tx in 0..frame.tiles_x {
                     let (start, len) = fine::bin_range(&offsets, ty * frame.tiles_x + tx);
@@ -757,12 +767,7 @@ use tileraster_testkit::scenes;
             let grid = *grid;
             for mode in Mode::ALL {
                 let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true });
-                let prepared = prepare(scene, &params, None).unwrap();
-                let plan = prepared.plan(prepared.window, false).unwrap();
-                let frame = plan.frame(&prepared, plan.active.unwrap());
-                let setups = setup(&prepared, &frame);
-                let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
-                let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+                let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
                 let run = |wide| {
                     let mut raster = plan.allocate_raster(&prepared).unwrap();
                     fine_raster_using(wide, &frame, &setups, &offsets, &bins, &mut raster);

@@ -19,12 +19,15 @@
 //!   raster, to show that a change (speed work, say) changed no bit: run it before and after.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
+//! - `cargo xtask stage-times`: a CPU call's time pass by pass (preparation, plan, each stage)
+//!   on the micro-triangles, the slivers and the 4096² TIN, printed as markdown.
 
 mod bench_report;
 mod delaunay_report;
 mod fingerprint;
 mod gdal_report;
 mod skip_report;
+mod stage_times;
 mod stream_report;
 mod svg;
 
@@ -37,7 +40,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask stage-times\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
     ExitCode::from(2)
 }
 
@@ -130,7 +133,7 @@ fn main() -> ExitCode {
             None => usage(),
         },
         ["gdal-report", rest @ ..] => match numbers(rest, &[100_000, 4096]) {
-            Some(n) => print_markdown("gdal-report", gdal_report::run(n[0] as usize, n[1] as u32)),
+            Some(n) => print_markdown("gdal-report", gdal_report::run(n[0] as usize, n[1] as u32).map(|e| format!("{}\n{}", e.markdown, e.goals))),
             None => usage(),
         },
         ["stream-report", rest @ ..] => match numbers(rest, &[100_000, 32_768, 1536]) {
@@ -138,6 +141,7 @@ fn main() -> ExitCode {
             None => usage(),
         },
         ["fingerprint"] => print_markdown("fingerprint", fingerprint::run()),
+        ["stage-times"] => print_markdown("stage-times", stage_times::run()),
         ["skip-report", rest @ ..] => match rest {
             [] => print_markdown("skip-report", skip_report::run(false)),
             ["--quick"] => print_markdown("skip-report", skip_report::run(true)),

@@ -420,8 +420,8 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
                 .to_bitmask()
                 & lanes;
             let closed = (at[0] | at[1] | at[2]).simd_ge(zero).to_bitmask();
-            // On an excluded edge and inside no other edge's exclusion: `side_of`'s
-            // `OnExcludedEdge`, which `fine::accumulate` keeps the lowest index of.
+            // Every edge function ≥ 0 but not inside: zero on an excluded edge, `side_of`'s
+            // `OnExcludedEdge` (rare), of which `fine::accumulate` keeps the lowest index.
             let on_edge = closed & !inside & lanes;
             if on_edge != 0 {
                 let first = (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize;
@@ -437,8 +437,9 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
             if inside != 0 {
                 let out = band.index(i0, j);
                 let band_len = band.values.len();
-                // Sixteen lanes where the band has them (the lanes past the span keep their
-                // values: a select and a whole-vector store), else the span alone.
+                // Sixteen lanes where the band has them (the lanes past the span, in this
+                // thread's band, keep their values: a select and a whole-vector store), else
+                // the span alone.
                 let values = &mut band.values[out..][..if out + TILE as usize <= band_len { TILE as usize } else { len }];
                 // The same loop in each arm, the mode and the conversion's range answered
                 // outside it (as in `fine_resolve_full_tile`).

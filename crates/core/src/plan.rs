@@ -82,7 +82,7 @@ pub struct Stats {
     pub triangles_binned: u64,
     /// Whether the scene analysis proved that no pixel centre is inside two triangles, and
     /// fine raster used it. (The analysis runs only where it can pay: on triangles whose
-    /// rectangles average at least 32 pixels.)
+    /// rectangles average at least 96 pixels.)
     pub overlap_free: bool,
     /// The passes that ran, in order (see [`Plan`]).
     pub passes: Vec<Pass>,

@@ -102,11 +102,13 @@ pub(crate) enum Analysis {
 /// The overlap analysis costs about the same per triangle whatever its size (three edges to
 /// match with their neighbours'); what it saves, fine raster's tests of a pixel against the
 /// triangles after the one it is inside, grows with the pixels each triangle is tested
-/// against. On micro-triangles it costs far more than it saves: with it, a 512² grid of
-/// 1 px triangles took 71 ms on the CPU backend, without it 45 ms (2 cores, 2026-11-23); on
-/// the 100k-point TIN at 4096² (≈ 340 px rectangles) the CPU backend is as fast either way
-/// and lavapipe's fine raster 1.22× faster with it.
-const ANALYSIS_MIN_MEAN_PIXELS: u64 = 32;
+/// against. Measured on the CPU backend (2 cores, 2026-11-23), whole calls with the analysis
+/// and without: the 100k-point TIN at 4096² (rectangles of 181 px on average) 97 against
+/// 126 ms; at 2048² (45 px) 83 against 63 ms; 1 px micro-triangles 71 against 45 ms. The
+/// break-even lies between; lavapipe's GPU backend, whose fine raster pays more per pixel,
+/// gains from it on smaller triangles too, but a hardware GPU's calls are bound by this very
+/// preparation.
+const ANALYSIS_MIN_MEAN_PIXELS: u64 = 96;
 
 pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window>, analysis: Analysis) -> Result<Prepared, Error> {
     let grid = params.grid;

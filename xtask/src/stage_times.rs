@@ -1,15 +1,13 @@
 //! `cargo xtask stage-times`: where a CPU call's time goes, pass by pass, on the scenes the
-//! small-triangle goals name: preparation, the plan (listing, frame, allocation), then each
-//! stage of the table run by its CPU twin. Medians of several calls; the passes run one after
-//! the other as `rasterise` runs them.
+//! small-triangle goals name: preparation, the plan, then each stage of the table as the CPU
+//! executor runs it (`tileraster_cpu::rasterise_observed`; the raster's allocation counts with
+//! the first stage). Medians of several calls, each call's result dropped before the next.
 
 use std::fmt::Write;
 use std::time::Instant;
 use tileraster::{Grid, Params, Scene};
-use tileraster_cpu::{bin_count, bin_fill, bin_scan, fine_raster, setup, FinePath};
+use tileraster_core::kernels::pipeline::STAGES;
 use tileraster_testkit::scenes;
-
-const PASSES: [&str; 8] = ["prepare", "plan", "setup", "bin_count", "bin_scan", "bin_fill", "fine_raster", "total"];
 
 fn cases() -> Vec<(String, Scene, Grid)> {
     let mut cases = Vec::new();
@@ -25,47 +23,40 @@ fn cases() -> Vec<(String, Scene, Grid)> {
     cases
 }
 
-/// Milliseconds per pass of one call.
-fn one_call(scene: &Scene, params: &Params) -> Result<[f64; 8], String> {
+/// Milliseconds of one call: preparation, plan, each stage of the table in order, total.
+fn one_call(scene: &Scene, params: &Params) -> Result<Vec<f64>, String> {
     let text = |e: tileraster::Error| e.to_string();
-    let mut laps = [0.0; 8];
+    let mut laps = Vec::with_capacity(STAGES.len() + 3);
     let mut clock = Instant::now();
-    let mut lap = |k: usize| {
-        laps[k] = clock.elapsed().as_secs_f64() * 1e3;
+    let mut lap = |laps: &mut Vec<f64>| {
+        laps.push(clock.elapsed().as_secs_f64() * 1e3);
         clock = Instant::now();
     };
     let prepared = tileraster::prepare(scene, params, None).map_err(text)?;
-    lap(0);
+    lap(&mut laps);
     let plan = prepared.plan(prepared.window, false).map_err(text)?;
-    let Some(active) = plan.active else { return Err("nothing to draw".into()) };
-    let frame = plan.frame(&prepared, active);
-    let _ = plan.bin_capacity(&prepared, &frame);
-    let mut raster = plan.allocate_raster(&prepared).map_err(text)?;
-    lap(1);
-    let setups = setup(&prepared, &frame);
-    lap(2);
-    let counts = bin_count(&frame, &setups, &plan.listed);
-    lap(3);
-    let offsets = bin_scan(&frame, &counts);
-    lap(4);
-    let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
-    lap(5);
-    fine_raster(FinePath::Specialised, &frame, &setups, &offsets, &bins, &mut raster);
-    lap(6);
-    laps[7] = laps[..7].iter().sum();
+    lap(&mut laps);
+    let raster = tileraster_cpu::rasterise_observed(&prepared, &plan, &mut |_| lap(&mut laps)).map_err(text)?;
+    drop(raster);
+    if laps.len() != STAGES.len() + 2 {
+        return Err(format!("{} stages ran of the table's {}", laps.len() - 2, STAGES.len()));
+    }
+    laps.push(laps.iter().sum());
     Ok(laps)
 }
 
 pub fn run() -> Result<String, String> {
     const RUNS: usize = 15;
-    let mut s = format!("CPU backend, exact mode, {} threads; median ms per pass of {RUNS} calls after a warm-up.\n\n", rayon_threads());
-    let _ = writeln!(s, "| scene | {} |", PASSES.join(" | "));
-    let _ = writeln!(s, "| --- |{}", " ---: |".repeat(PASSES.len()));
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut s = format!("CPU backend, exact mode, {threads} threads; median ms per pass of {RUNS} calls after a warm-up.\n\n");
+    let names: Vec<&str> = ["prepare", "plan"].into_iter().chain(STAGES.iter().map(|info| info.name)).chain(["total"]).collect();
+    let _ = writeln!(s, "| scene | {} |", names.join(" | "));
+    let _ = writeln!(s, "| --- |{}", " ---: |".repeat(names.len()));
     for (name, scene, grid) in cases() {
         let params = Params::new(grid);
         one_call(&scene, &params)?;
         let calls = (0..RUNS).map(|_| one_call(&scene, &params)).collect::<Result<Vec<_>, _>>()?;
-        let medians: Vec<String> = (0..PASSES.len())
+        let medians: Vec<String> = (0..names.len())
             .map(|k| {
                 let mut v: Vec<f64> = calls.iter().map(|c| c[k]).collect();
                 v.sort_by(f64::total_cmp);
@@ -76,8 +67,4 @@ pub fn run() -> Result<String, String> {
         eprintln!("{name} done");
     }
     Ok(s)
-}
-
-fn rayon_threads() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
 }

@@ -26,12 +26,18 @@ pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
 
 /// [`rasterise`] with a chosen fine-raster twin (the tests compare the two).
 pub fn rasterise_with(prepared: &Prepared, path: FinePath) -> Result<Raster, Error> {
-    rasterise_planned_with(prepared, &prepared.plan(prepared.window, false)?, &mut None, path)
+    rasterise_planned_with(prepared, &prepared.plan(prepared.window, false)?, &mut None, path, &mut |_| {})
 }
 
 /// Run `plan`, setting the scene up first unless `resident` already holds it.
 pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
-    rasterise_planned_with(prepared, plan, resident, FinePath::default())
+    rasterise_planned_with(prepared, plan, resident, FinePath::default(), &mut |_| {})
+}
+
+/// [`rasterise_planned`] with no resident scene, calling `observe` as each stage of the table
+/// finishes (how `cargo xtask stage-times` splits a call's time by stage).
+pub fn rasterise_observed(prepared: &Prepared, plan: &Plan, observe: &mut dyn FnMut(Stage)) -> Result<Raster, Error> {
+    rasterise_planned_with(prepared, plan, &mut None, FinePath::default(), observe)
 }
 
 /// The buffers the stages before fine raster leave for the preparation's window, as the GPU
@@ -56,7 +62,7 @@ struct WindowBuffers {
     bins: Vec<u32>,
 }
 
-fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, path: FinePath) -> Result<Raster, Error> {
+fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, path: FinePath, observe: &mut dyn FnMut(Stage)) -> Result<Raster, Error> {
     let mut raster = plan.allocate_raster(prepared)?;
     let mut counters = [0u64; Counter::COUNT];
     if let Some(active) = plan.active {
@@ -90,6 +96,7 @@ fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Optio
                     counters = stats.map(|c| c.into_inner() as u64);
                 }
             }
+            observe(info.stage);
         }
     }
     raster.stats = plan.stats(&counters);

@@ -311,7 +311,7 @@ impl RowSpan {
 struct RowSpans<'a> {
     setups: &'a [TriangleSetup],
     bin: core::slice::Iter<'a, u32>,
-    /// The tile's first pixel, and its last one in the window (edge tiles overhang it).
+    /// The tile's pixels in the window.
     tile: PixelRect,
     /// The current triangle, its current row and its last row.
     current: Option<(&'a TriangleSetup, RowSpan, i32)>,
@@ -319,10 +319,16 @@ struct RowSpans<'a> {
 
 #[inline(always)]
 fn row_spans<'a>(tx: u32, ty: u32, frame: &FrameParams, setups: &'a [TriangleSetup], bin: &'a [u32]) -> RowSpans<'a> {
+    RowSpans { setups, bin: bin.iter(), tile: tile_in_window(tx, ty, frame), current: None }
+}
+
+/// The pixels of window tile `(tx, ty)` that lie in the window (edge tiles overhang it).
+#[inline(always)]
+fn tile_in_window(tx: u32, ty: u32, frame: &FrameParams) -> PixelRect {
     let (i0, j0, _) = fine::tile_pixel(tx, ty, 0, frame);
     let i1 = (i0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
     let j1 = (j0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
-    RowSpans { setups, bin: bin.iter(), tile: PixelRect { i0, j0, i1, j1 }, current: None }
+    PixelRect { i0, j0, i1, j1 }
 }
 
 impl<'a> Iterator for RowSpans<'a> {
@@ -388,9 +394,7 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
     let mut edge_seen = [0u64; TILE_PIXELS as usize / 64];
     let program = HeightProgram::of(frame);
     let mode = frame.value_mode();
-    let (ti0, tj0, _) = fine::tile_pixel(tx, band.ty, 0, frame);
-    let ti1 = (ti0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
-    let tj1 = (tj0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
+    let PixelRect { i0: ti0, j0: tj0, i1: ti1, j1: tj1 } = tile_in_window(tx, band.ty, frame);
     for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
         let c = &s.coverage;
@@ -613,7 +617,7 @@ fn tile_rows(tx: u32, frame: &FrameParams, band: &Band) -> impl Iterator<Item = 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::{bin_count, bin_fill, bin_scan, setup};
+    use tileraster_kernels::pipeline::StageBuffers;
     use tileraster_core::{prepare, Grid, Mode, Outputs, Params, Skips};
 use tileraster_testkit::scenes;
     use tileraster_kernels::abi::Coverage;
@@ -632,9 +636,7 @@ use tileraster_testkit::scenes;
         let prepared = prepare(scene, params, None).unwrap();
         let plan = prepared.plan(prepared.window, false).unwrap();
         let frame = plan.frame(&prepared, plan.active.unwrap());
-        let setups = setup(&prepared, &frame);
-        let offsets = bin_scan(&frame, &bin_count(&frame, &setups, &plan.listed));
-        let bins = bin_fill(&frame, &setups, &plan.listed, &offsets);
+        let StageBuffers { setups, offsets, bins, .. } = crate::stage_buffers(&prepared).unwrap().unwrap();
         BeforeFine { prepared, plan, frame, setups, offsets, bins }
     }
 

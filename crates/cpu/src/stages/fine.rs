@@ -11,13 +11,14 @@
 //! Both give the same bits; the parity tests run both on every scene.
 
 use rayon::prelude::*;
-use std::simd::cmp::SimdPartialOrd;
-use std::simd::Simd;
+use std::simd::cmp::{SimdPartialEq, SimdPartialOrd};
+use std::simd::num::{SimdFloat, SimdInt};
+use std::simd::{Mask, Select, Simd};
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
 use tileraster_kernels::abi::{Counter, FrameParams, PixelRect, TriangleSetup, ValueMode};
 use tileraster_kernels::math::edge::{side_of, Side};
-use tileraster_kernels::math::fixed::{converts_natively, fixed_to_f32_bits};
+use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
 use tileraster_kernels::programs::height::{self, HeightProgram};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
@@ -412,7 +413,7 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
         let along = [lane_steps(e[0].step_i), lane_steps(e[1].step_i), lane_steps(e[2].step_i)];
         let p = &s.plane;
         let mut height = p.z + p.gi * di + p.gj * dj;
-        let height_along = lane_steps(p.gi).to_array();
+        let height_along = lane_steps(p.gi);
         let native = converts_natively(p.frac_bits);
         for j in j0..=j1 {
             // The lanes' comparisons straight to bit masks (`std::simd`: a mask register where
@@ -440,28 +441,13 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
             }
             if inside != 0 {
                 let out = band.index(i0, j);
-                let band_len = band.values.len();
-                // Sixteen lanes where the band has them (the lanes past the span, in this
-                // thread's band, keep their values: a select and a whole-vector store), else
-                // the span alone.
-                let values = &mut band.values[out..][..if out + TILE as usize <= band_len { TILE as usize } else { len }];
+                let values = &mut band.values[out..][..len];
                 // The same loop in each arm, the mode and the conversion's range answered
                 // outside it (as in `fine_resolve_full_tile`).
                 match (mode, native) {
                     (ValueMode::Exact, true) => {
-                        // All 16 lanes converted at once, then stored where inside.
-                        let row: [f32; TILE as usize] =
-                            core::array::from_fn(|n| f32::from_bits(height::saturate_infinity(fixed_to_f32_bits(height.wrapping_add(height_along[n]), p.frac_bits))));
-                        // A select and a plain store on every lane of the span: vectorised.
-                        if let Ok(values) = <&mut [f32; TILE as usize]>::try_from(&mut *values) {
-                            for (n, value) in values.iter_mut().enumerate() {
-                                *value = if inside >> n & 1 == 1 { row[n] } else { *value };
-                            }
-                        } else {
-                            for (n, value) in values.iter_mut().enumerate() {
-                                *value = if inside >> n & 1 == 1 { row[n] } else { *value };
-                            }
-                        }
+                        // All 16 lanes converted at once, then one masked store.
+                        exact_heights(Lanes::splat(height) + height_along, p.frac_bits).store_select(values, Mask::from_bitmask(inside));
                     }
                     _ => {
                         for (n, value) in values.iter_mut().enumerate() {
@@ -488,10 +474,11 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
     }
     for r in tile_rows(tx, frame, band) {
         let row_done = done[(r.ly * TILE) as usize / 64] >> ((r.ly * TILE) as usize % 64);
-        for lx in 0..r.width {
-            if row_done >> lx & 1 == 1 {
-                continue;
-            }
+        // The row's pixels not written, lowest first.
+        let mut left = !row_done & ((1 << r.width) - 1);
+        while left != 0 {
+            let lx = left.trailing_zeros() as usize;
+            left &= left - 1;
             let (i, j) = (r.i0 + lx as i32, r.j);
             let p = (r.ly * TILE) as usize + lx;
             let state = if edge_seen[p / 64] >> (p % 64) & 1 == 1 { band.edge_states[p] } else { PixelState::empty(NO_OWNER) };
@@ -509,6 +496,17 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
 
 /// The 16 pixels of a tile row, one `i64` each.
 type Lanes = Simd<i64, { TILE as usize }>;
+
+/// The heights of 16 exact fixed-point plane values with `2^−frac_bits` a normal `f32`:
+/// `fixed_to_f32_bits`'s native path (one correctly rounded conversion, an exact power-of-two
+/// scale) and `height::saturate_infinity`, lane by lane.
+#[inline(always)]
+fn exact_heights(fixed: Lanes, frac_bits: i32) -> Simd<f32, { TILE as usize }> {
+    let scale = f32::from_bits(((127 - frac_bits) as u32) << 23);
+    let bits = (fixed.cast::<f32>() * Simd::splat(scale)).to_bits();
+    let infinite = (bits & Simd::splat(0x7fff_ffff)).simd_eq(Simd::splat(0x7f80_0000));
+    Simd::<f32, { TILE as usize }>::from_bits(infinite.select(bits - Simd::splat(1), bits))
+}
 
 /// `step · n` for the 16 lanes `n` of a tile row, wrapping: exact wherever the sum it goes
 /// into is in range (the lanes of a triangle's rectangle), and never used elsewhere.

@@ -16,8 +16,8 @@ use std::simd::num::{SimdFloat, SimdInt};
 use std::simd::{Mask, Select, Simd};
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, FrameParams, PixelRect, TriangleSetup, ValueMode};
-use tileraster_kernels::math::edge::{side_of, Side};
+use tileraster_kernels::abi::{Counter, Coverage, FrameParams, PixelRect, TriangleSetup, ValueMode};
+use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
 use tileraster_kernels::programs::height::{self, HeightProgram};
@@ -271,56 +271,7 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
     if fine::overlap_free(frame) {
         return fine_raster_tile_overlap_free(tx, frame, setups, bin, band);
     }
-    let mut states = [PixelState::empty(NO_OWNER); TILE_PIXELS as usize];
-    for (s, row) in row_spans(tx, ty, frame, setups, bin) {
-        for (n, state) in states[row.first..][..row.len].iter_mut().enumerate() {
-            fine::accumulate::<HeightProgram>(row.side(n), &s.coverage, row.i0 + n as i32, row.j, state);
-        }
-    }
-    fine_resolve_tile(tx, frame, setups, band, &states);
-}
-
-/// One row of a triangle's pixels in a tile: `len` pixels from grid pixel `(i0, j)`, the
-/// tile's pixel `first` onwards, with the edge functions at the first one.
-#[derive(Clone, Copy)]
-struct RowSpan {
-    first: usize,
-    i0: i32,
-    j: i32,
-    len: usize,
-    start: [i64; 3],
-    step: [i64; 3],
-    excluded_edges: u32,
-}
-
-impl RowSpan {
-    /// Where the row's pixel `n` lies relative to the triangle.
-    #[inline(always)]
-    fn side(&self, n: usize) -> Side {
-        let (d, w, s) = (n as i64, &self.start, &self.step);
-        side_of(w[0] + s[0] * d, w[1] + s[1] * d, w[2] + s[2] * d, self.excluded_edges)
-    }
-}
-
-/// Phase 2 of a tile, the CPU's way round: each triangle of the bin against the pixels of its
-/// rectangle in the tile, row by row, where the GPU's pixels take the triangles in turn. The
-/// pixels' states come out the same, as `fine::accumulate` does not depend on the order.
-/// Yields every row of every triangle with its setup; the edge functions step from row to row
-/// (exact: every value inside the rectangle is below 2^60). An iterator whose `next` is
-/// always inlined, not a callback: the loops over the rows' pixels must stay in the functions
-/// the wide-vector build compiles.
-struct RowSpans<'a> {
-    setups: &'a [TriangleSetup],
-    bin: core::slice::Iter<'a, u32>,
-    /// The tile's pixels in the window.
-    tile: PixelRect,
-    /// The current triangle, its current row and its last row.
-    current: Option<(&'a TriangleSetup, RowSpan, i32)>,
-}
-
-#[inline(always)]
-fn row_spans<'a>(tx: u32, ty: u32, frame: &FrameParams, setups: &'a [TriangleSetup], bin: &'a [u32]) -> RowSpans<'a> {
-    RowSpans { setups, bin: bin.iter(), tile: tile_in_window(tx, ty, frame), current: None }
+    fine_raster_tile_overlapping(tx, frame, setups, bin, band)
 }
 
 /// The pixels of window tile `(tx, ty)` that lie in the window (edge tiles overhang it).
@@ -332,118 +283,228 @@ fn tile_in_window(tx: u32, ty: u32, frame: &FrameParams) -> PixelRect {
     PixelRect { i0, j0, i1, j1 }
 }
 
-impl<'a> Iterator for RowSpans<'a> {
-    type Item = (&'a TriangleSetup, RowSpan);
+/// A triangle's pixels in one tile, a row of 16 lanes at a time: the triangle's rectangle
+/// clipped to the tile, with the edge functions at the current row's first pixel. A row is
+/// tested with additions only: the fill rule as thresholds (inside edge `k` ⇔ `w_k ≥ t_k`,
+/// `t_k` one for an excluded edge, else zero: `side_of`'s `Inside` on integers), each edge's
+/// steps along the row precomputed, the edge functions stepped from row to row. Every sum the
+/// masks read is exact: inside the rectangle the edge functions stay below 2^60, and 15
+/// steps beyond it add less than 2^50.
+struct TriangleRows<'a> {
+    setup: &'a TriangleSetup,
+    /// The rectangle's first pixel in the tile, and its last row.
+    i0: i32,
+    j0: i32,
+    j1: i32,
+    /// Its offset from the tile's first column, and its lanes (bits `0..len`).
+    shift: u32,
+    lanes: u64,
+    w: [i64; 3],
+    along: [Lanes; 3],
+    threshold: [Lanes; 3],
+}
+
+impl<'a> TriangleRows<'a> {
+    /// `None` when the triangle's rectangle misses the tile's pixels in the window.
+    #[inline(always)]
+    fn new(setup: &'a TriangleSetup, tile: &PixelRect) -> Option<Self> {
+        let c = &setup.coverage;
+        let (i0, i1) = (tile.i0.max(c.rect.i0), tile.i1.min(c.rect.i1));
+        let (j0, j1) = (tile.j0.max(c.rect.j0), tile.j1.min(c.rect.j1));
+        if i0 > i1 || j0 > j1 {
+            return None;
+        }
+        let (di, dj) = ((i0 - c.rect.i0) as i64, (j0 - c.rect.j0) as i64);
+        let e = &c.edges;
+        Some(TriangleRows {
+            setup,
+            i0,
+            j0,
+            j1,
+            shift: (i0 - tile.i0) as u32,
+            lanes: (1u64 << (i1 - i0 + 1)) - 1,
+            w: [0, 1, 2].map(|k| e[k].at(di, dj)),
+            along: [0, 1, 2].map(|k| lane_steps(e[k].step_i)),
+            threshold: [0, 1, 2].map(|k| Lanes::splat(i64::from(c.excluded_edges >> k & 1))),
+        })
+    }
+
+    /// The current row's lanes whose centre is inside the triangle, and those that lie on an
+    /// excluded edge (every edge function ≥ 0 but not inside: `side_of`'s `OnExcludedEdge`,
+    /// rare). The comparisons go straight to bit masks (`std::simd`: a mask register where
+    /// the CPU has one; written as scalar loops, they became OR-reductions).
+    #[inline(always)]
+    fn masks(&self) -> (u64, u64) {
+        let at = [0, 1, 2].map(|k| Lanes::splat(self.w[k]) + self.along[k]);
+        let zero = Lanes::splat(0);
+        let inside = ((at[0] - self.threshold[0]) | (at[1] - self.threshold[1]) | (at[2] - self.threshold[2])).simd_ge(zero).to_bitmask() & self.lanes;
+        let closed = (at[0] | at[1] | at[2]).simd_ge(zero).to_bitmask();
+        (inside, closed & !inside & self.lanes)
+    }
 
     #[inline(always)]
-    fn next(&mut self) -> Option<Self::Item> {
-        if let Some((s, row, j1)) = &mut self.current {
-            if row.j < *j1 {
-                let e = &s.coverage.edges;
-                row.j += 1;
-                row.first += TILE as usize;
-                row.start = [row.start[0] + e[0].step_j, row.start[1] + e[1].step_j, row.start[2] + e[2].step_j];
-                return Some((*s, *row));
-            }
+    fn next_row(&mut self) {
+        let e = &self.setup.coverage.edges;
+        self.w = [self.w[0] + e[0].step_j, self.w[1] + e[1].step_j, self.w[2] + e[2].step_j];
+    }
+}
+
+/// Notes the row's centres on an excluded edge of triangle `c` (`on_edge`, lanes from grid
+/// pixel `(i0, j)`, tile pixel `first` onwards) in the band's edge states, as
+/// `fine::accumulate` does: the lowest index is kept.
+#[inline(always)]
+fn note_excluded_edges(band: &mut Band, edge_seen: &mut [u64; TILE_PIXELS as usize / 64], c: &Coverage, first: usize, on_edge: u64, i0: i32, j: i32) {
+    let mut left = on_edge;
+    while left != 0 {
+        let n = left.trailing_zeros() as usize;
+        left &= left - 1;
+        let (p, state) = (first + n, &mut band.edge_states[first + n]);
+        if edge_seen[p / 64] >> (p % 64) & 1 == 0 {
+            edge_seen[p / 64] |= 1 << (p % 64);
+            *state = PixelState::empty(NO_OWNER);
         }
-        let t = &self.tile;
-        loop {
-            let s = &self.setups[(*self.bin.next()? & !FULL_TILE_BIT) as usize];
-            let c = &s.coverage;
-            let (i0, i1) = (t.i0.max(c.rect.i0), t.i1.min(c.rect.i1));
-            let (j0, j1) = (t.j0.max(c.rect.j0), t.j1.min(c.rect.j1));
-            if i0 > i1 || j0 > j1 {
-                continue;
+        fine::accumulate::<HeightProgram>(Side::OnExcludedEdge, c, i0 + n as i32, j, state);
+    }
+}
+
+/// The state the band's edge states give tile pixel `p`: its excluded-edge owner if a row
+/// noted one, else none.
+#[inline(always)]
+fn edge_state(band: &Band, edge_seen: &[u64; TILE_PIXELS as usize / 64], p: usize) -> PixelState<u32> {
+    if edge_seen[p / 64] >> (p % 64) & 1 == 1 { band.edge_states[p] } else { PixelState::empty(NO_OWNER) }
+}
+
+/// A partial tile where triangles may overlap: each triangle of the bin against the pixels of
+/// its rectangle in the tile, a row of 16 lanes at a time, where the GPU's pixels take the
+/// triangles in turn. The pixels' states are kept as 16 vectors per field, and come out as
+/// `fine::accumulate` leaves them in any order: the count of triangles a centre is inside,
+/// the smallest key with its setup slot (the height program's key is the triangle's index,
+/// so the owner is the key), and, in the band's edge states, the lowest excluded edge.
+#[inline(always)]
+fn fine_raster_tile_overlapping(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
+    type Words = Simd<u32, { TILE as usize }>;
+    let mut key = [Words::splat(NO_OWNER); TILE as usize];
+    let mut slot = [Words::splat(0); TILE as usize];
+    let mut count = [Words::splat(0); TILE as usize];
+    let mut edge_seen = [0u64; TILE_PIXELS as usize / 64];
+    let tile = tile_in_window(tx, band.ty, frame);
+    for &entry in bin {
+        let Some(mut rows) = TriangleRows::new(&setups[(entry & !FULL_TILE_BIT) as usize], &tile) else {
+            continue;
+        };
+        let c = &rows.setup.coverage;
+        let (index, triangle_slot) = (Words::splat(c.index), Words::splat(c.slot));
+        for j in rows.j0..=rows.j1 {
+            let (inside, on_edge) = rows.masks();
+            let r = (j - tile.j0) as usize;
+            if on_edge != 0 {
+                note_excluded_edges(band, &mut edge_seen, c, r * TILE as usize + rows.shift as usize, on_edge, rows.i0, j);
             }
-            let e = &c.edges;
-            let (di, dj) = ((i0 - c.rect.i0) as i64, (j0 - c.rect.j0) as i64);
-            let row = RowSpan {
-                first: (j0 - t.j0) as usize * TILE as usize + (i0 - t.i0) as usize,
-                i0,
-                j: j0,
-                len: (i1 - i0 + 1) as usize,
-                start: [e[0].at(di, dj), e[1].at(di, dj), e[2].at(di, dj)],
-                step: [e[0].step_i, e[1].step_i, e[2].step_i],
-                excluded_edges: c.excluded_edges,
-            };
-            self.current = Some((s, row, j1));
-            return Some((s, row));
+            if inside != 0 {
+                let inside = Mask::<i32, { TILE as usize }>::from_bitmask(inside << rows.shift);
+                count[r] += inside.select(Words::splat(1), Words::splat(0));
+                let lower = inside & index.simd_lt(key[r]);
+                key[r] = lower.select(index, key[r]);
+                slot[r] = lower.select(triangle_slot, slot[r]);
+            }
+            rows.next_row();
+        }
+    }
+    // Each owner writes its pixels' values, a row at a time, as the overlap-free path does.
+    let program = HeightProgram::of(frame);
+    let mode = frame.value_mode();
+    for &entry in bin {
+        let s = &setups[(entry & !FULL_TILE_BIT) as usize];
+        let Some(rows) = TriangleRows::new(s, &tile) else {
+            continue;
+        };
+        let (index, p) = (Words::splat(s.coverage.index), &s.plane);
+        let mut height = p.z + p.gi * (rows.i0 - s.coverage.rect.i0) as i64 + p.gj * (rows.j0 - s.coverage.rect.j0) as i64;
+        let native = mode == ValueMode::Exact && converts_natively(p.frac_bits);
+        for j in rows.j0..=rows.j1 {
+            let owned = key[(j - tile.j0) as usize].simd_eq(index).to_bitmask() >> rows.shift & rows.lanes;
+            if owned != 0 {
+                let out = band.index(rows.i0, j);
+                let values = &mut band.values[out..][..rows.lanes.count_ones() as usize];
+                if native {
+                    exact_heights(Lanes::splat(height) + lane_steps(p.gi), p.frac_bits).store_select(values, Mask::from_bitmask(owned));
+                } else {
+                    for (n, value) in values.iter_mut().enumerate() {
+                        if owned >> n & 1 == 1 {
+                            *value = f32::from_bits(program.value(s, rows.i0 + n as i32, j));
+                        }
+                    }
+                }
+            }
+            // Past the last row the plane may leave `i64`: it is not read there.
+            height = height.wrapping_add(p.gj);
+        }
+    }
+    // The owners and counts as they are; the pixels inside no triangle resolve to nodata or
+    // to the lowest triangle whose excluded edge they lie on.
+    for r in tile_rows(tx, frame, band) {
+        let ly = r.ly as usize;
+        if let Some(layer) = band.owner.as_deref_mut() {
+            layer[r.start..][..r.width].copy_from_slice(&key[ly].as_array()[..r.width]);
+        }
+        if let Some(layer) = band.coverage.as_deref_mut() {
+            layer[r.start..][..r.width].copy_from_slice(&count[ly].as_array()[..r.width]);
+        }
+        let mut left = key[ly].simd_eq(Words::splat(NO_OWNER)).to_bitmask() & ((1 << r.width) - 1);
+        while left != 0 {
+            let lx = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let state = edge_state(band, &edge_seen, ly * TILE as usize + lx);
+            let out = fine::fine_resolve(&program, r.i0 + lx as i32, r.j, &state, setups);
+            band.values[r.start + lx] = f32::from_bits(out.value);
+            if let Some(layer) = band.owner.as_deref_mut() {
+                layer[r.start + lx] = out.owner;
+            }
+            if let Some(layer) = band.coverage.as_deref_mut() {
+                layer[r.start + lx] = out.count;
+            }
         }
     }
 }
 
 /// A partial tile of a scene proven overlap-free: a pixel centre is inside at most one
 /// triangle, so that triangle writes the pixel's value (owner, count of one) as soon as it
-/// finds it, a row at a time, and marks it done. The rows also note the centres that lie on
-/// an excluded edge (closed-inside but not inside: rare), as `fine::accumulate` does; the
-/// centres inside no triangle resolve to those after the bin: nodata, or the lowest triangle
-/// whose excluded edge they lie on.
-///
-/// A row is tested as 16 lanes at once, with additions only: the fill rule as thresholds
-/// (inside edge `k` ⇔ `w_k ≥ t_k`, `t_k` one for an excluded edge, else zero: `side_of`'s
-/// `Inside` on integers), each edge's steps along the row precomputed per triangle, and the
-/// edge functions and the exact plane stepped from row to row. Every sum the result reads is
-/// exact: inside the rectangle the edge functions stay below 2^60 and 15 steps beyond it add
-/// less than 2^50; the plane, exact over the rectangle, is summed wrapping (a ring: in range,
-/// the true value) and read only on the rectangle's pixels.
+/// finds it, a row of 16 lanes at a time (`TriangleRows`), and marks it done. The rows also
+/// note the centres that lie on an excluded edge, as `fine::accumulate` does; the centres
+/// inside no triangle resolve to those after the bin: nodata, or the lowest triangle whose
+/// excluded edge they lie on. The exact plane steps from row to row as the edge functions
+/// do: exact over the rectangle, it is summed wrapping (a ring: in range, the true value)
+/// and read only on the rectangle's pixels.
 #[inline(always)]
 fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], band: &mut Band) {
     // Bit `p`: tile pixel `p` is inside a triangle and written.
     let mut done = [0u64; TILE_PIXELS as usize / 64];
-    // What the pixels inside no triangle resolve to: the lowest triangle whose excluded
-    // edge they lie on, if any (`band.edge_states`, valid where the bit is set).
+    // What the pixels inside no triangle resolve to (`band.edge_states`, valid where the bit is set).
     let mut edge_seen = [0u64; TILE_PIXELS as usize / 64];
     let program = HeightProgram::of(frame);
     let mode = frame.value_mode();
-    let PixelRect { i0: ti0, j0: tj0, i1: ti1, j1: tj1 } = tile_in_window(tx, band.ty, frame);
+    let tile = tile_in_window(tx, band.ty, frame);
     for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
-        let c = &s.coverage;
-        let (i0, i1) = (ti0.max(c.rect.i0), ti1.min(c.rect.i1));
-        let (j0, j1) = (tj0.max(c.rect.j0), tj1.min(c.rect.j1));
-        if i0 > i1 || j0 > j1 {
+        let Some(mut rows) = TriangleRows::new(s, &tile) else {
             continue;
-        }
-        let len = (i1 - i0 + 1) as usize;
-        let lanes = (1u64 << len) - 1;
-        let (di, dj) = ((i0 - c.rect.i0) as i64, (j0 - c.rect.j0) as i64);
-        let e = &c.edges;
-        let threshold = [0, 1, 2].map(|k| i64::from(c.excluded_edges >> k & 1));
-        let mut w = [0, 1, 2].map(|k| e[k].at(di, dj));
-        let along = [lane_steps(e[0].step_i), lane_steps(e[1].step_i), lane_steps(e[2].step_i)];
-        let p = &s.plane;
-        let mut height = p.z + p.gi * di + p.gj * dj;
+        };
+        let (c, p) = (&s.coverage, &s.plane);
+        let len = rows.lanes.count_ones() as usize;
+        let mut height = p.z + p.gi * (rows.i0 - c.rect.i0) as i64 + p.gj * (rows.j0 - c.rect.j0) as i64;
         let height_along = lane_steps(p.gi);
         let native = converts_natively(p.frac_bits);
-        for j in j0..=j1 {
-            // The lanes' comparisons straight to bit masks (`std::simd`: a mask register where
-            // the CPU has one; written as scalar loops, they became OR-reductions).
-            let at = [0, 1, 2].map(|k| Lanes::splat(w[k]) + along[k]);
-            let zero = Lanes::splat(0);
-            let inside = ((at[0] - Lanes::splat(threshold[0])) | (at[1] - Lanes::splat(threshold[1])) | (at[2] - Lanes::splat(threshold[2])))
-                .simd_ge(zero)
-                .to_bitmask()
-                & lanes;
-            let closed = (at[0] | at[1] | at[2]).simd_ge(zero).to_bitmask();
-            // Every edge function ≥ 0 but not inside: zero on an excluded edge, `side_of`'s
-            // `OnExcludedEdge` (rare), of which `fine::accumulate` keeps the lowest index.
-            let on_edge = closed & !inside & lanes;
+        for j in rows.j0..=rows.j1 {
+            let (inside, on_edge) = rows.masks();
+            let first = (j - tile.j0) as usize * TILE as usize + rows.shift as usize;
             if on_edge != 0 {
-                let first = (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize;
-                for n in (0..len).filter(|&n| on_edge >> n & 1 == 1) {
-                    let (p, state) = (first + n, &mut band.edge_states[first + n]);
-                    if edge_seen[p / 64] >> (p % 64) & 1 == 0 {
-                        edge_seen[p / 64] |= 1 << (p % 64);
-                        *state = PixelState::empty(NO_OWNER);
-                    }
-                    fine::accumulate::<HeightProgram>(Side::OnExcludedEdge, c, i0 + n as i32, j, state);
-                }
+                note_excluded_edges(band, &mut edge_seen, c, first, on_edge, rows.i0, j);
             }
             if inside != 0 {
-                let out = band.index(i0, j);
+                let out = band.index(rows.i0, j);
                 let values = &mut band.values[out..][..len];
-                // The same loop in each arm, the mode and the conversion's range answered
-                // outside it (as in `fine_resolve_full_tile`).
+                // The mode and the conversion's range answered outside the lanes' loop (as in
+                // `fine_resolve_full_tile`).
                 match (mode, native) {
                     (ValueMode::Exact, true) => {
                         // All 16 lanes converted at once, then one masked store.
@@ -452,12 +513,11 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
                     _ => {
                         for (n, value) in values.iter_mut().enumerate() {
                             if inside >> n & 1 == 1 {
-                                *value = f32::from_bits(program.value(s, i0 + n as i32, j));
+                                *value = f32::from_bits(program.value(s, rows.i0 + n as i32, j));
                             }
                         }
                     }
                 }
-                let first = (j - tj0) as usize * TILE as usize + (i0 - ti0) as usize;
                 // A tile row is 16 pixels: its bits never straddle two words.
                 done[first / 64] |= inside << (first % 64);
                 if let Some(layer) = band.owner.as_deref_mut() {
@@ -467,7 +527,7 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
                     write_masked(&mut layer[out..][..len], inside, 1);
                 }
             }
-            w = [w[0] + e[0].step_j, w[1] + e[1].step_j, w[2] + e[2].step_j];
+            rows.next_row();
             // Past the last row the plane may leave `i64`: it is not read there.
             height = height.wrapping_add(p.gj);
         }
@@ -480,8 +540,7 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
             let lx = left.trailing_zeros() as usize;
             left &= left - 1;
             let (i, j) = (r.i0 + lx as i32, r.j);
-            let p = (r.ly * TILE) as usize + lx;
-            let state = if edge_seen[p / 64] >> (p % 64) & 1 == 1 { band.edge_states[p] } else { PixelState::empty(NO_OWNER) };
+            let state = edge_state(band, &edge_seen, (r.ly * TILE) as usize + lx);
             let out = fine::fine_resolve(&program, i, j, &state, setups);
             band.values[r.start + lx] = f32::from_bits(out.value);
             if let Some(layer) = band.owner.as_deref_mut() {
@@ -569,25 +628,6 @@ fn fill_other_layers(band: &mut Band, r: &TileRow, owner: u32, count: u32) {
     }
     if let Some(layer) = band.coverage.as_deref_mut() {
         layer[r.start..][..r.width].fill(count);
-    }
-}
-
-/// The last phase of a fine-raster workgroup: every invocation resolves and writes its pixel,
-/// taken row by row so that the stores run along the band's rows.
-#[inline(always)]
-fn fine_resolve_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, states: &[PixelState<u32>; TILE_PIXELS as usize]) {
-    let program = HeightProgram::of(frame);
-    for r in tile_rows(tx, frame, band) {
-        for lx in 0..r.width {
-            let out = fine::fine_resolve(&program, r.i0 + lx as i32, r.j, &states[(r.ly * TILE) as usize + lx], setups);
-            band.values[r.start + lx] = f32::from_bits(out.value);
-            if let Some(owner) = band.owner.as_deref_mut() {
-                owner[r.start + lx] = out.owner;
-            }
-            if let Some(coverage) = band.coverage.as_deref_mut() {
-                coverage[r.start + lx] = out.count;
-            }
-        }
     }
 }
 

@@ -18,6 +18,7 @@
 //! ```
 
 pub mod dem;
+pub mod render;
 
 pub use tileraster_core::{Error, Grid, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window, MAX_GRID_DIM};
 pub use tileraster_core::kernels::pipeline::Stage;

@@ -42,6 +42,9 @@ enum Command {
         #[arg(required = true)]
         parts: Vec<PathBuf>,
     },
+    /// Render a mesh in perspective, depth-tested and shaded, to a PNG (and optionally its
+    /// depth and triangle-id rasters): the same bits on both backends.
+    Render(Box<cli::render::RenderArgs>),
     /// Rasterise a built-in procedural terrain TIN on both backends, time them, compare them
     /// bit for bit, and write a GeoTIFF and a PNG preview.
     Demo {
@@ -155,6 +158,7 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
         Command::Rasterise(args) => rasterise_command(args),
+        Command::Render(args) => cli::render::render_command(*args),
         Command::Mosaic { output, parts } => {
             let parts = parts.iter().map(|p| tileraster_io::read_part(p)).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
             let mosaic = tileraster_io::write_mosaic_vrt(&output, &parts).map_err(|e| e.to_string())?;

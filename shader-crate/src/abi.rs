@@ -265,7 +265,8 @@ pub struct FrameParams {
     pub bin_parts: u32,
     /// The specialisations this frame may use.
     pub flags: FrameFlags,
-    pub _pad: u32,
+    /// The render pipeline's depth test (unused by the heightfield's).
+    pub depth_test: DepthTest,
 }
 
 impl FrameParams {
@@ -277,4 +278,190 @@ impl FrameParams {
     pub fn value_mode(&self) -> ValueMode {
         ValueMode::from_code(self.mode)
     }
+}
+
+/// The render pipeline's depth comparison: a fragment passes where its depth compares so with
+/// the depth buffer's (here: the clear value, `FrameParams::nodata_bits`, since the pipeline
+/// resolves every fragment of a pixel at once). Ties in depth go to the triangle the graphics
+/// APIs would keep: the earlier for `Less`/`Greater`, the later for `LessEqual`/`GreaterEqual`.
+#[repr(u32)]
+#[derive(Copy, Clone, Default, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Debug, Hash))]
+pub enum DepthFunc {
+    #[default]
+    Less = 0,
+    LessEqual = 1,
+    Greater = 2,
+    GreaterEqual = 3,
+    /// Every fragment passes; the last submitted one is kept.
+    Always = 4,
+}
+
+impl DepthFunc {
+    #[inline]
+    pub fn from_code(code: u32) -> DepthFunc {
+        if code == DepthFunc::LessEqual as u32 {
+            DepthFunc::LessEqual
+        } else if code == DepthFunc::Greater as u32 {
+            DepthFunc::Greater
+        } else if code == DepthFunc::GreaterEqual as u32 {
+            DepthFunc::GreaterEqual
+        } else if code == DepthFunc::Always as u32 {
+            DepthFunc::Always
+        } else {
+            DepthFunc::Less
+        }
+    }
+}
+
+#[cfg(not(target_arch = "spirv"))]
+impl DepthFunc {
+    pub const ALL: [DepthFunc; 5] = [DepthFunc::Less, DepthFunc::LessEqual, DepthFunc::Greater, DepthFunc::GreaterEqual, DepthFunc::Always];
+
+    /// The name the command line uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            DepthFunc::Less => "less",
+            DepthFunc::LessEqual => "less-equal",
+            DepthFunc::Greater => "greater",
+            DepthFunc::GreaterEqual => "greater-equal",
+            DepthFunc::Always => "always",
+        }
+    }
+}
+
+/// A depth function and whether passing fragments write their depth: one word of
+/// `FrameParams`, the function's code in the low byte and `WRITE` above it.
+#[repr(transparent)]
+#[derive(Copy, Clone, Default, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, Hash))]
+pub struct DepthTest(pub u32);
+
+impl DepthTest {
+    const WRITE: u32 = 1 << 8;
+
+    pub const fn new(func: DepthFunc, write: bool) -> DepthTest {
+        DepthTest(func as u32 | if write { Self::WRITE } else { 0 })
+    }
+
+    #[inline]
+    pub fn func(self) -> DepthFunc {
+        DepthFunc::from_code(self.0 & 0xff)
+    }
+
+    #[inline]
+    pub fn write(self) -> bool {
+        self.0 & Self::WRITE != 0
+    }
+}
+
+/// What the shade stage computes per pixel (`ShadeParams::shading`).
+#[repr(u32)]
+#[derive(Copy, Clone, Default, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Debug, Hash))]
+pub enum ShadeMode {
+    /// The interpolated vertex colour as it is (flat and Gouraud shading: lit per face or per
+    /// vertex on the host).
+    #[default]
+    Colour = 0,
+    /// Lambert diffuse and Blinn-Phong specular per pixel, from the interpolated normal.
+    Phong = 1,
+    /// The depth as grey, `ShadeParams::depth_view` mapped to white..black.
+    Depth = 2,
+    /// The interpolated unit normal, `n·0.5 + 0.5` as RGB.
+    Normals = 3,
+    /// A colour per input face id.
+    Ids = 4,
+}
+
+impl ShadeMode {
+    #[inline]
+    pub fn from_code(code: u32) -> ShadeMode {
+        if code == ShadeMode::Phong as u32 {
+            ShadeMode::Phong
+        } else if code == ShadeMode::Depth as u32 {
+            ShadeMode::Depth
+        } else if code == ShadeMode::Normals as u32 {
+            ShadeMode::Normals
+        } else if code == ShadeMode::Ids as u32 {
+            ShadeMode::Ids
+        } else {
+            ShadeMode::Colour
+        }
+    }
+}
+
+/// How attributes are interpolated (`ShadeParams::interpolation`).
+#[repr(u32)]
+#[derive(Copy, Clone, Default, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Debug, Hash))]
+pub enum Interpolation {
+    /// Perspective-correct: linear in the triangle's plane in the world.
+    #[default]
+    Perspective = 0,
+    /// Linear on the screen (`noperspective`).
+    Screen = 1,
+}
+
+/// Directional lights the shade stage takes.
+pub const MAX_LIGHTS: usize = 2;
+
+/// Scalars carried per vertex: colour RGBA, normal xyz, world position xyz, texture uv.
+pub const ATTRIBUTES: usize = 12;
+/// Where each attribute starts in a vertex's `ATTRIBUTES` scalars.
+pub const ATTR_COLOUR: usize = 0;
+pub const ATTR_NORMAL: usize = 4;
+pub const ATTR_POSITION: usize = 7;
+pub const ATTR_UV: usize = 10;
+
+/// The shade stage's parameters: one per frame, the same for every pixel.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct ShadeParams {
+    /// A [`ShadeMode`] code.
+    pub shading: u32,
+    /// An [`Interpolation`] code.
+    pub interpolation: u32,
+    /// RGBA8 of pixels no triangle covers (red in the low byte).
+    pub background: u32,
+    /// Lights in use, at most [`MAX_LIGHTS`].
+    pub lights: u32,
+    /// Blinn-Phong exponent (an integer, raised by repeated squaring).
+    pub shininess: u32,
+    pub _pad: [u32; 3],
+    /// Ambient light, RGB.
+    pub ambient: [f32; 4],
+    /// Specular colour, RGB.
+    pub specular: [f32; 4],
+    /// The camera's position in the world, xyz.
+    pub eye: [f32; 4],
+    /// Unit direction towards each light, xyz.
+    pub light_dir: [[f32; 4]; MAX_LIGHTS],
+    /// Each light's colour, RGB.
+    pub light_colour: [[f32; 4]; MAX_LIGHTS],
+    /// The depth view's range: `[near, 1 / (far − near)]`, depth `near` white, `far` black.
+    pub depth_view: [f32; 4],
+}
+
+impl ShadeParams {
+    #[inline]
+    pub fn mode(&self) -> ShadeMode {
+        ShadeMode::from_code(self.shading)
+    }
+}
+
+/// What the shade stage needs of one triangle besides its coverage (one per setup slot): its
+/// vertices' attributes and `1/w`, each paired with the edge function that weighs it (entry `k`
+/// belongs to the vertex opposite edge `k`, as the depth coefficients in `FloatCoeffs`).
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct TriangleShading {
+    pub attributes: [[f32; ATTRIBUTES]; 3],
+    /// `1/w` of each vertex in clip space; the fourth is unused.
+    pub inv_w: [f32; 4],
+    /// The input face this triangle comes from (clipping may cut a face into several).
+    pub face: u32,
+    pub _pad: [u32; 3],
 }

@@ -4,11 +4,13 @@
 //! that order; a test compares the compiled SPIR-V with the table.
 
 use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
+use crate::programs::depth::DepthProgram;
 use crate::programs::height::HeightProgram;
+use crate::programs::shade::shade_pixel;
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
-use crate::abi::{Counter, Coverage, FrameParams, OutputSet, TriangleInput, TriangleSetup};
+use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
 use crate::BATCH;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 use spirv_std::glam::UVec3;
@@ -98,6 +100,50 @@ pub fn fine_raster(
     fine_raster_workgroup(&HeightProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, shared);
 }
 
+/// Fine raster of the render pipeline: the depth test (`programs::depth`).
+#[spirv(compute(threads(16, 16)))]
+#[allow(clippy::too_many_arguments)]
+pub fn fine_depth(
+    #[spirv(workgroup_id)] wg: UVec3,
+    #[spirv(local_invocation_index)] lid: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bins: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] values: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
+    #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup>,
+) {
+    fine_raster_workgroup(&DepthProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, shared);
+}
+
+/// The render pipeline's shade stage (`programs::shade`): one invocation per window pixel,
+/// from the owner fine raster left there.
+#[spirv(compute(threads(16, 16)))]
+#[allow(clippy::too_many_arguments)]
+pub fn shade(
+    #[spirv(workgroup_id)] wg: UVec3,
+    #[spirv(local_invocation_index)] lid: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] params: &ShadeParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] setups: &[TriangleSetup],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] shading: &[TriangleShading],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] values: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] colours: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] faces: &mut [u32],
+) {
+    let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
+    if inside {
+        let k = fine::window_index(i, j, frame);
+        let out = shade_pixel(params, setups, shading, owners[k], values[k], i, j);
+        colours[k] = out.colour;
+        faces[k] = out.face;
+    }
+}
+
 /// One fine-raster workgroup, for any pixel program: the body of every fine-raster entry point.
 /// It writes the values layer, and the owner and coverage layers where the frame asks for them.
 #[allow(clippy::too_many_arguments)]
@@ -133,7 +179,7 @@ fn fine_raster_workgroup<P: PixelProgram>(
             while batch_start < bin_len {
                 fine::fine_load::<P>(lid, bins, bin_start, bin_len, batch_start, setups, shared);
                 barrier();
-                fine::fine_test::<P>(i, j, fine::batch_len(bin_len, batch_start), shared, overlap_free, &mut state);
+                fine::fine_test(program, i, j, fine::batch_len(bin_len, batch_start), shared, overlap_free, &mut state);
                 barrier();
                 batch_start += BATCH;
             }

@@ -11,11 +11,17 @@
 //! Adding a stage or a buffer is one edit here (plus its entry point and its CPU twin, which
 //! the test and an exhaustive `match` on [`Stage`] ask for).
 //!
+//! Two pipelines share the table ([`Pipeline`]): the heightfield's and the render
+//! pipeline's. They share every stage up to fine raster; each has its own fine-raster program,
+//! and the render pipeline shades the pixels afterwards.
+//!
 //! ```text
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins (cursors: its atomics)
-//!           setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats
+//!  height:  setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats
+//!  render:  setups, offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats
+//!           shade params, setups, shading, values, owners ─▶ shade ─▶ colours, faces
 //! ```
 
 use crate::{SCAN_GROUP, TILE, TRIANGLE_GROUP};
@@ -29,7 +35,20 @@ pub enum Stage {
     BinScan,
     BinFill,
     FineRaster,
+    FineDepth,
+    Shade,
 }
+
+/// A pipeline: the rows of the table it runs.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Pipeline {
+    /// Heights of the lowest-index triangle (DEMs).
+    Height,
+    /// Depth-tested, shaded 3D triangles.
+    Render,
+}
+
+const BOTH: &[Pipeline] = &[Pipeline::Height, Pipeline::Render];
 
 /// A buffer the stages share, by role. Every binding of every stage is one of these.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
@@ -58,6 +77,14 @@ pub enum Buffer {
     Coverage,
     /// `Counter::COUNT` statistics counters.
     Stats,
+    /// `ShadeParams` of the frame (render pipeline).
+    ShadeParams,
+    /// `TriangleShading` per prepared triangle (uploaded once per scene; render pipeline).
+    Shading,
+    /// RGBA8 per window pixel (render pipeline).
+    Colours,
+    /// Input face per window pixel (render pipeline).
+    Faces,
 }
 
 /// Whether a stage only reads a buffer or also writes it.
@@ -110,6 +137,21 @@ pub struct StageInfo {
     pub workgroup: [u32; 3],
     pub dispatch: Dispatch,
     pub bindings: &'static [Binding],
+    /// The pipelines that run this stage.
+    pub pipelines: &'static [Pipeline],
+}
+
+impl StageInfo {
+    pub fn runs_in(&self, pipeline: Pipeline) -> bool {
+        let mut k = 0;
+        while k < self.pipelines.len() {
+            if self.pipelines[k] as u32 == pipeline as u32 {
+                return true;
+            }
+            k += 1;
+        }
+        false
+    }
 }
 
 const fn read(buffer: Buffer) -> Binding {
@@ -121,7 +163,7 @@ const fn write(buffer: Buffer) -> Binding {
 }
 
 /// The stages in the order they run.
-pub const STAGES: [StageInfo; 5] = [
+pub const STAGES: [StageInfo; 7] = [
     StageInfo {
         stage: Stage::Setup,
         name: "setup",
@@ -130,6 +172,7 @@ pub const STAGES: [StageInfo; 5] = [
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTriangle,
         bindings: &[read(Buffer::Frame), read(Buffer::Inputs), write(Buffer::Setups)],
+        pipelines: BOTH,
     },
     StageInfo {
         stage: Stage::BinCount,
@@ -139,6 +182,7 @@ pub const STAGES: [StageInfo; 5] = [
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTrianglePart,
         bindings: &[read(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), write(Buffer::Counts)],
+        pipelines: BOTH,
     },
     StageInfo {
         stage: Stage::BinScan,
@@ -148,6 +192,7 @@ pub const STAGES: [StageInfo; 5] = [
         workgroup: [SCAN_GROUP, 1, 1],
         dispatch: Dispatch::Single,
         bindings: &[read(Buffer::Frame), read(Buffer::Counts), write(Buffer::Offsets)],
+        pipelines: BOTH,
     },
     StageInfo {
         stage: Stage::BinFill,
@@ -164,6 +209,7 @@ pub const STAGES: [StageInfo; 5] = [
             write(Buffer::Cursors),
             write(Buffer::Bins),
         ],
+        pipelines: BOTH,
     },
     StageInfo {
         stage: Stage::FineRaster,
@@ -182,11 +228,50 @@ pub const STAGES: [StageInfo; 5] = [
             write(Buffer::Coverage),
             write(Buffer::Stats),
         ],
+        pipelines: &[Pipeline::Height],
+    },
+    StageInfo {
+        stage: Stage::FineDepth,
+        name: "fine_depth",
+        entry_point: "entry::fine_depth",
+        scope: Scope::Window,
+        workgroup: [TILE, TILE, 1],
+        dispatch: Dispatch::PerTile,
+        bindings: &[
+            read(Buffer::Frame),
+            read(Buffer::Setups),
+            read(Buffer::Offsets),
+            read(Buffer::Bins),
+            write(Buffer::Values),
+            write(Buffer::Owners),
+            write(Buffer::Coverage),
+            write(Buffer::Stats),
+        ],
+        pipelines: &[Pipeline::Render],
+    },
+    StageInfo {
+        stage: Stage::Shade,
+        name: "shade",
+        entry_point: "entry::shade",
+        scope: Scope::Window,
+        workgroup: [TILE, TILE, 1],
+        dispatch: Dispatch::PerTile,
+        bindings: &[
+            read(Buffer::Frame),
+            read(Buffer::ShadeParams),
+            read(Buffer::Setups),
+            read(Buffer::Shading),
+            read(Buffer::Values),
+            read(Buffer::Owners),
+            write(Buffer::Colours),
+            write(Buffer::Faces),
+        ],
+        pipelines: &[Pipeline::Render],
     },
 ];
 
 impl Stage {
-    pub const ALL: [Stage; 5] = [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster];
+    pub const ALL: [Stage; 7] = [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster, Stage::FineDepth, Stage::Shade];
 
     /// The stage's row of the table.
     pub fn info(self) -> &'static StageInfo {
@@ -198,9 +283,14 @@ impl Stage {
     }
 }
 
-/// The stages that run once per window, in order.
-pub fn window_stages() -> impl Iterator<Item = &'static StageInfo> {
-    STAGES.iter().filter(|s| s.scope == Scope::Window)
+/// The stages of `pipeline`, in order.
+pub fn stages(pipeline: Pipeline) -> impl Iterator<Item = &'static StageInfo> {
+    STAGES.iter().filter(move |s| s.runs_in(pipeline))
+}
+
+/// The stages of `pipeline` that run once per window, in order.
+pub fn window_stages(pipeline: Pipeline) -> impl Iterator<Item = &'static StageInfo> {
+    stages(pipeline).filter(|s| s.scope == Scope::Window)
 }
 
 #[cfg(test)]

@@ -1,3 +1,6 @@
-//! The command line's parts: messages and the progress bar.
+//! The command line's parts: messages and the progress bar, and `render`.
 
 pub mod progress;
+pub mod render;
+
+

@@ -75,4 +75,16 @@ pub enum Error {
 
     #[error("no {what} named '{name}'; choose one of {choices}")]
     UnknownName { what: &'static str, name: String, choices: String },
+
+    #[error("the {name} matrix has a non-finite entry at row {row}, column {column} ({value}); every entry must be a finite number")]
+    NonFiniteMatrix { name: &'static str, row: usize, column: usize, value: f64 },
+
+    #[error("the mesh has {len} {attribute} for {vertex_count} vertices; give one per vertex, or none")]
+    AttributeLength { attribute: &'static str, len: usize, vertex_count: usize },
+
+    #[error("vertex {vertex} has a non-finite {attribute} ({value}); every attribute must be a finite number")]
+    NonFiniteAttribute { attribute: &'static str, vertex: usize, value: f64 },
+
+    #[error("the camera is singular: {reason}")]
+    SingularCamera { reason: String },
 }

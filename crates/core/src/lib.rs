@@ -1,5 +1,6 @@
 //! Host side shared by both backends: the scene and grid types, typed errors, and the
-//! preparation that snaps geometry and fits height planes once per scene.
+//! preparation that snaps geometry and fits height planes once per scene, and the render
+//! pipeline's geometry stages (`render`).
 
 mod error;
 mod grid;
@@ -7,6 +8,7 @@ mod overlap;
 mod plan;
 mod prepare;
 mod raster;
+pub mod render;
 mod scene;
 /// The test kit's scenes, compiled into the unit tests (see `tileraster-testkit`).
 #[cfg(test)]
@@ -18,7 +20,7 @@ pub use error::Error;
 pub use grid::{Grid, Mode, Outputs, Params, Skip, Skips, MAX_GRID_DIM};
 pub use overlap::overlap_free;
 pub use plan::{Pass, Plan, Stats};
-pub use prepare::{prepare, Prepared, Window};
+pub use prepare::{prepare, Prepared, RenderInputs, Window};
 pub use raster::{zeroed_cells, Difference, Raster};
 pub use scene::Scene;
 pub use tileraster_kernels as kernels;

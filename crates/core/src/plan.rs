@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use crate::{Error, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
 use tileraster_kernels::pipeline::{window_stages, Stage};
+use tileraster_kernels::abi::DepthTest;
 use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
 
@@ -201,7 +202,7 @@ impl Prepared {
             passes.push(Pass::FillNodata);
         }
         if active.is_some() {
-            passes.extend(window_stages().map(|s| Pass::from(s.stage)));
+            passes.extend(window_stages(self.pipeline()).map(|s| Pass::from(s.stage)));
             if !overlap_free {
                 passes.push(Pass::Ownership);
             }
@@ -266,7 +267,7 @@ impl Plan {
             bin_part_rows: (BIN_PART_TILES / tiles_x.max(1)).max(1),
             bin_parts: 1,
             flags: self.flags,
-            _pad: 0,
+            depth_test: prepared.render.as_ref().map_or(DepthTest::default(), |s| s.depth_test),
         };
         // Enough bands for the tallest listed triangle in the part.
         let rows = self.listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
@@ -298,15 +299,18 @@ impl Plan {
             values: try_zeroed(n, &window)?,
             owner: if outputs.owner { Some(try_zeroed(n, &window)?) } else { None },
             coverage: if outputs.coverage { Some(try_zeroed(n, &window)?) } else { None },
+            colours: if prepared.render.is_some() { Some(try_zeroed(n, &window)?) } else { None },
+            faces: if prepared.render.is_some() { Some(try_zeroed(n, &window)?) } else { None },
             snap_bits: prepared.snap_bits,
             stats: Stats::default(),
         };
-        self.fill_inactive(&mut raster);
+        self.fill_inactive(&mut raster, prepared.render.as_ref().map_or(0, |s| s.params.background));
         Ok(raster)
     }
 
-    /// Nodata outside the active window (the coverage count there is the zero it starts with).
-    fn fill_inactive(&self, raster: &mut Raster) {
+    /// Nodata outside the active window (the coverage count there is the zero it starts with),
+    /// and the background colour with no face.
+    fn fill_inactive(&self, raster: &mut Raster, background: u32) {
         let w = self.window;
         let a = self.active.unwrap_or(Window { x0: w.x0, y0: w.y0, width: 0, height: 0 });
         if a == w {
@@ -329,6 +333,12 @@ impl Plan {
         fill(bytemuck::cast_slice_mut(&mut raster.values), nodata.to_bits());
         if let Some(owner) = raster.owner.as_mut() {
             fill(owner, NO_OWNER);
+        }
+        if let Some(colours) = raster.colours.as_mut() {
+            fill(colours, background);
+        }
+        if let Some(faces) = raster.faces.as_mut() {
+            fill(faces, NO_OWNER);
         }
     }
 

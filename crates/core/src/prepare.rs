@@ -17,7 +17,8 @@
 use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
 use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
-use tileraster_kernels::abi::{FloatCoeffs, PixelRect, Plane, TriangleInput};
+use tileraster_kernels::abi::{DepthTest, FloatCoeffs, PixelRect, Plane, ShadeParams, TriangleInput, TriangleShading};
+use tileraster_kernels::pipeline::Pipeline;
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::stages::fine::side;
 use tileraster_kernels::stages::setup::setup_triangle;
@@ -79,6 +80,25 @@ pub struct Prepared {
     /// centre is inside two of `triangles` (see `overlap`); `None` when not proven, or not
     /// looked for (`Skips::overlap_free` off).
     pub overlap_free_rows: Option<std::ops::Range<u32>>,
+    /// The render pipeline's per-triangle attributes and frame parameters; `None` for the
+    /// heightfield pipeline.
+    pub render: Option<RenderInputs>,
+}
+
+/// What the render pipeline adds to a prepared scene (see `crate::render`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderInputs {
+    /// One per prepared triangle, in the same order (setup slots).
+    pub triangles: Vec<TriangleShading>,
+    pub params: ShadeParams,
+    pub depth_test: DepthTest,
+}
+
+impl Prepared {
+    /// The pipeline this preparation runs.
+    pub fn pipeline(&self) -> Pipeline {
+        if self.render.is_some() { Pipeline::Render } else { Pipeline::Height }
+    }
 }
 
 /// Margin of the conservative f64 cull, in pixels: far more than snapping can move a vertex.
@@ -301,7 +321,7 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
     let overlap_free = analyse && crate::overlap::overlap_free(&triangles, &corners, snap_bits, rows.clone());
     let overlap_free_rows = overlap_free.then_some(rows);
     triangles.truncate(kept);
-    Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate, overlap_free_rows })
+    Ok(Prepared { params: *params, window, snap_bits, triangles, culled, degenerate, overlap_free_rows, render: None })
 }
 
 fn validate_scene(scene: &Scene) -> Result<(), Error> {
@@ -402,7 +422,7 @@ fn touches_no_centre(s: &Snapped, snap_bits: u32) -> bool {
 /// x86-64's baseline, and snapping rounds six coordinates per triangle. Below 2^52 the
 /// truncation and `v − trunc(v)` are exact, so the two agree; beyond, `round` decides.
 #[inline]
-fn round_to_i64(v: f64) -> i64 {
+pub(crate) fn round_to_i64(v: f64) -> i64 {
     if v.abs() < (1u64 << 52) as f64 {
         let t = v as i64;
         let f = v - t as f64;
@@ -428,7 +448,7 @@ struct Snapped {
 }
 
 /// Grid pixels whose centres lie in the snapped bounding box (empty if none does).
-fn pixel_rect(x: &[i64; 3], y: &[i64; 3], snap_bits: u32, grid: &Grid) -> PixelRect {
+pub(crate) fn pixel_rect(x: &[i64; 3], y: &[i64; 3], snap_bits: u32, grid: &Grid) -> PixelRect {
     let half = 1i64 << (snap_bits - 1);
     let (xmin, xmax) = (x[0].min(x[1]).min(x[2]), x[0].max(x[1]).max(x[2]));
     let (ymin, ymax) = (y[0].min(y[1]).min(y[2]), y[0].max(y[1]).max(y[2]));

@@ -12,6 +12,10 @@ pub struct Raster {
     pub owner: Option<Vec<u32>>,
     /// Number of triangles covering each pixel centre, when asked for.
     pub coverage: Option<Vec<u32>>,
+    /// The render pipeline's RGBA8 colour per pixel (red in the low byte).
+    pub colours: Option<Vec<u32>>,
+    /// The render pipeline's input face per pixel (`u32::MAX` where none).
+    pub faces: Option<Vec<u32>>,
     /// Sub-pixel bits of the snapping lattice used (the step is `2^-snap_bits` pixels).
     pub snap_bits: u32,
     /// What the call did and skipped.

@@ -6,12 +6,12 @@
 
 mod stages;
 
-pub use stages::{bin_count, bin_fill, bin_scan, fine_raster, setup, FinePath};
+pub use stages::{bin_count, bin_fill, bin_scan, fine_depth, fine_raster, setup, shade, FinePath};
 pub use tileraster_kernels::pipeline::StageBuffers;
 
 use tileraster_core::{Error, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{Counter, TriangleSetup};
-use tileraster_kernels::pipeline::{Stage, STAGES};
+use tileraster_kernels::pipeline::{stages, Stage};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
 /// twin of the GPU backend's resident buffers).
@@ -76,8 +76,9 @@ fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Optio
             });
         }
         let mut b = WindowBuffers::default();
-        // The stage table's order; each stage's twin. The scene stage runs once per scene.
-        for info in &STAGES {
+        // The stage table's order, the pipeline's rows; each stage's twin. The scene stage runs
+        // once per scene.
+        for info in stages(prepared.pipeline()) {
             let setups = resident.as_ref().map(|r| r.setups.as_slice()).unwrap_or_default();
             match info.stage {
                 Stage::Setup => {
@@ -94,6 +95,14 @@ fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Optio
                 Stage::FineRaster => {
                     let stats = fine_raster(path, &frame, setups, &b.offsets, &b.bins, &mut raster);
                     counters = stats.map(|c| c.into_inner() as u64);
+                }
+                Stage::FineDepth => {
+                    let stats = fine_depth(&frame, setups, &b.offsets, &b.bins, &mut raster);
+                    counters = stats.map(|c| c.into_inner() as u64);
+                }
+                Stage::Shade => {
+                    let shading = prepared.render.as_ref().expect("the render pipeline has shading");
+                    shade(&frame, &shading.params, setups, &shading.triangles, &mut raster);
                 }
             }
             observe(info.stage);

@@ -4,8 +4,8 @@ use rayon::prelude::*;
 use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, TriangleInput, TriangleSetup};
-use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Scope, StageBuffers, StageInfo, STAGES};
+use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
+use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, Scope, StageBuffers, StageInfo, STAGES};
 use tileraster_kernels::{BIN_PART_TILES, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
@@ -63,6 +63,8 @@ pub fn adapter() -> Result<Adapter, Error> {
 /// the device memory.
 pub struct Resident {
     setups: wgpu::Buffer,
+    /// The render pipeline's per-triangle attributes.
+    shading: Option<wgpu::Buffer>,
 }
 
 /// Rasterise a prepared scene on the GPU, over the preparation's window.
@@ -112,6 +114,9 @@ struct Buffers {
     owners: Grown,
     coverage: Grown,
     stats: Grown,
+    shade_params: Grown,
+    colours: Grown,
+    faces: Grown,
     readback: Grown,
 }
 
@@ -176,6 +181,9 @@ impl GpuContext {
             owners: Grown::storage("owners"),
             coverage: Grown::storage("coverage"),
             stats: Grown::storage("statistics"),
+            shade_params: Grown::storage("shade parameters"),
+            colours: Grown::storage("colours"),
+            faces: Grown::storage("faces"),
             readback: Grown::readback("readback"),
         };
         Ok(GpuContext { gpu, float_controls, float_controls_declared: declared, float_modes: None, pipelines, buffers })
@@ -219,7 +227,7 @@ impl GpuContext {
 
     /// Most pixels one window may have: every output layer must fit one binding.
     fn max_window_pixels(&self, prepared: &Prepared) -> u64 {
-        let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64;
+        let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64 + 2 * prepared.render.is_some() as u64;
         (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed))
     }
 
@@ -273,6 +281,13 @@ impl GpuContext {
             *resident = Some(self.upload_and_setup(prepared)?);
         }
         let setups = resident.as_ref().expect("just set up").setups.clone();
+        let shading = resident.as_ref().and_then(|r| r.shading.clone());
+        let shade_params = prepared.render.as_ref().map(|s| {
+            let buf = self.buffers.shade_params.get(&self.gpu.device, std::mem::size_of::<ShadeParams>() as u64);
+            self.gpu.queue.write_buffer(&buf, 0, bytemuck::bytes_of(&s.params));
+            buf
+        });
+        let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &setups, shading: shading.as_ref(), shade_params: shade_params.as_ref() };
         // The window's list of triangles, once for all its dispatches.
         let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
         let listed_buf = self.buffers.listed.get(&self.gpu.device, listed.len() as u64);
@@ -296,7 +311,7 @@ impl GpuContext {
                 pending.push(Window { height: top, ..window });
                 continue;
             }
-            let window_counters = self.rasterise_window(&frame, entries, &setups, &listed_buf, raster)?;
+            let window_counters = self.rasterise_window(&frame, entries, &scene, &listed_buf, raster)?;
             for (total, c) in counters.iter_mut().zip(window_counters) {
                 *total += c as u64;
             }
@@ -318,12 +333,13 @@ impl GpuContext {
     fn encode_stages(
         &self,
         encoder: &mut wgpu::CommandEncoder,
+        pipeline: Pipeline,
         scope: Scope,
         frame: &FrameParams,
         triangle_groups: (u32, u32),
         buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
     ) -> Result<(), Error> {
-        for (info, stage) in STAGES.iter().zip(&self.pipelines).filter(|(info, _)| info.scope == scope) {
+        for (info, stage) in STAGES.iter().zip(&self.pipelines).filter(|(info, _)| info.scope == scope && info.runs_in(pipeline)) {
             let bound: Vec<wgpu::Buffer> = info
                 .bindings
                 .iter()
@@ -380,6 +396,11 @@ impl GpuContext {
         let inputs = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
         self.gpu.queue.write_buffer(&inputs, 0, bytemuck::cast_slice(&prepared.triangles));
         let setups = storage("triangle setups", slots * std::mem::size_of::<TriangleSetup>() as u64);
+        let shading = prepared.render.as_ref().map(|s| {
+            let buf = storage("triangle shading", slots * std::mem::size_of::<TriangleShading>() as u64);
+            self.gpu.queue.write_buffer(&buf, 0, bytemuck::cast_slice(&s.triangles));
+            buf
+        });
         let mut encoder = device.create_command_encoder(&Default::default());
         let buffers = |buffer| match buffer {
             Buffer::Frame => Some(frame_buf.clone()),
@@ -387,9 +408,9 @@ impl GpuContext {
             Buffer::Setups => Some(setups.clone()),
             _ => None,
         };
-        self.encode_stages(&mut encoder, Scope::Scene, &frame, groups, &buffers)?;
+        self.encode_stages(&mut encoder, prepared.pipeline(), Scope::Scene, &frame, groups, &buffers)?;
         self.gpu.queue.submit([encoder.finish()]);
-        Ok(Resident { setups })
+        Ok(Resident { setups, shading })
     }
 
     /// One window's dispatches and readback; returns its statistics counters.
@@ -397,7 +418,7 @@ impl GpuContext {
         &mut self,
         frame: &FrameParams,
         entries: u64,
-        setups: &wgpu::Buffer,
+        scene: &SceneBuffers,
         listed: &wgpu::Buffer,
         raster: &mut Raster,
     ) -> Result<[u32; Counter::COUNT], Error> {
@@ -427,7 +448,10 @@ impl GpuContext {
         let coverage = b.coverage.get(device, coverage_bytes);
         let stats_bytes = (Counter::COUNT * 4) as u64;
         let stats = b.stats.get(device, stats_bytes);
-        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes);
+        let shaded_bytes = if scene.pipeline == Pipeline::Render { pixels * 4 } else { 0 };
+        let colours = b.colours.get(device, shaded_bytes);
+        let faces = b.faces.get(device, shaded_bytes);
+        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes + 2 * shaded_bytes);
 
         let mut counters = [0u32; Counter::COUNT];
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -438,7 +462,7 @@ impl GpuContext {
             Some(match buffer {
                 Buffer::Frame => frame_buf.clone(),
                 Buffer::Inputs => return None,
-                Buffer::Setups => setups.clone(),
+                Buffer::Setups => scene.setups.clone(),
                 Buffer::Listed => listed.clone(),
                 Buffer::Counts => counts.clone(),
                 Buffer::Offsets => offsets.clone(),
@@ -448,21 +472,30 @@ impl GpuContext {
                 Buffer::Owners => owners.clone(),
                 Buffer::Coverage => coverage.clone(),
                 Buffer::Stats => stats.clone(),
+                Buffer::ShadeParams => scene.shade_params?.clone(),
+                Buffer::Shading => scene.shading?.clone(),
+                Buffer::Colours => colours.clone(),
+                Buffer::Faces => faces.clone(),
             })
         };
-        self.encode_stages(&mut encoder, Scope::Window, &frame, groups, &buffers)?;
+        self.encode_stages(&mut encoder, scene.pipeline, Scope::Window, &frame, groups, &buffers)?;
         encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
         encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
         encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_bytes);
         encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + pixels * 4 + owner_bytes, coverage_bytes);
-        let total = stats_bytes + pixels * 4 + owner_bytes + coverage_bytes;
+        let shaded_at = stats_bytes + pixels * 4 + owner_bytes + coverage_bytes;
+        encoder.copy_buffer_to_buffer(&colours, 0, &readback, shaded_at, shaded_bytes);
+        encoder.copy_buffer_to_buffer(&faces, 0, &readback, shaded_at + shaded_bytes, shaded_bytes);
+        let total = shaded_at + 2 * shaded_bytes;
         self.gpu
             .submit_and_read(encoder, &readback, total, |bytes| {
                 let words: &[u32] = bytemuck::cast_slice(bytes);
                 let (stat_words, words) = words.split_at(Counter::COUNT);
                 counters.copy_from_slice(stat_words);
                 let (value_words, rest) = words.split_at(pixels as usize);
-                let (owner_words, coverage_words) = rest.split_at((owner_bytes / 4) as usize);
+                let (owner_words, rest) = rest.split_at((owner_bytes / 4) as usize);
+                let (coverage_words, rest) = rest.split_at((coverage_bytes / 4) as usize);
+                let (colour_words, face_words) = rest.split_at((shaded_bytes / 4) as usize);
                 let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
                 copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
                 if let Some(owner) = raster.owner.as_mut() {
@@ -471,10 +504,23 @@ impl GpuContext {
                 if let Some(coverage) = raster.coverage.as_mut() {
                     copy_rows(coverage_words, &frame, width, x0, y0, coverage);
                 }
+                if let (Some(colours), Some(faces)) = (raster.colours.as_mut(), raster.faces.as_mut()) {
+                    copy_rows(colour_words, &frame, width, x0, y0, colours);
+                    copy_rows(face_words, &frame, width, x0, y0, faces);
+                }
             })
             .map_err(|e| Error::Gpu(format!("reading the raster back: {e}")))?;
         Ok(counters)
     }
+}
+
+/// A scene's buffers on the device, as one window's dispatches bind them.
+struct SceneBuffers<'a> {
+    pipeline: Pipeline,
+    setups: &'a wgpu::Buffer,
+    /// The render pipeline's: per-triangle attributes, and the frame's shade parameters.
+    shading: Option<&'a wgpu::Buffer>,
+    shade_params: Option<&'a wgpu::Buffer>,
 }
 
 /// Copy a window's rows into the raster that holds it, rows in parallel: reading a large

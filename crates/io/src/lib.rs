@@ -20,7 +20,7 @@ pub use las::{parse_las, read_las};
 pub use ply::{parse_ply, read_ply};
 pub use stl::{parse_stl, read_stl};
 pub use points::{parse_points, read_points, Column, PointColumns};
-pub use preview::write_preview_png;
+pub use preview::{write_preview_png, write_rgba_png};
 pub use vrt::{parse_part, read_part, write_mosaic_vrt, Mosaic, Part};
 
 use std::path::{Path, PathBuf};

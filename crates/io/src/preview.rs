@@ -73,3 +73,11 @@ pub fn write_preview_png(raster: &Raster, path: &Path) -> Result<(), IoError> {
             .map_err(|e| e.to_string())
     })
 }
+
+/// Write an RGBA8 image (`width × height` pixels, row 0 at the top, 4 bytes a pixel).
+pub fn write_rgba_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<(), IoError> {
+    debug_assert_eq!(rgba.len(), width as usize * height as usize * 4);
+    write_atomically(path, |out| {
+        image::write_buffer_with_format(out, rgba, width, height, image::ExtendedColorType::Rgba8, image::ImageFormat::Png).map_err(|e| e.to_string())
+    })
+}

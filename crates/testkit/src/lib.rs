@@ -1,5 +1,5 @@
 //! What the tests, benchmarks and reports measure tileraster with, kept out of the library's
-//! API: procedurally generated scenes ([`scenes`]), deterministic for a seed, and an
+//! API: procedurally generated scenes ([`scenes`]) and 3D meshes ([`meshes`]), deterministic for a seed, and an
 //! independent f64 reference ([`reference`]) that shares no code with the preparation or the
 //! kernels.
 //!
@@ -8,5 +8,6 @@
 
 use tileraster_core::{Grid, Raster, Scene};
 
+pub mod meshes;
 pub mod reference;
 pub mod scenes;

@@ -1,5 +1,7 @@
 //! The arithmetic every stage shares: exact fixed-point conversions (`fixed`) and the integer
-//! edge functions with the fill rule (`edge`).
+//! edge functions with the fill rule (`edge`), correctly rounded division and square root
+//! (`float`).
 
 pub mod edge;
+pub mod float;
 pub mod fixed;

@@ -42,7 +42,7 @@ impl PixelProgram for HeightProgram {
 
     /// The triangle's index: the scene's order decides.
     #[inline(always)]
-    fn key(staged: &Coverage, _i: i32, _j: i32) -> u32 {
+    fn key(&self, staged: &Coverage, _i: i32, _j: i32) -> u32 {
         staged.index
     }
 

@@ -1,4 +1,7 @@
 //! Pixel programs: what fine raster computes at a pixel once coverage has found the
-//! triangles over it (`stages::fine::PixelProgram`). One module per pipeline.
+//! triangles over it (`stages::fine::PixelProgram`), one module per pipeline, and what the
+//! render pipeline's shade stage computes from the pixel's owner (`shade`).
 
+pub mod depth;
 pub mod height;
+pub mod shade;

@@ -59,8 +59,9 @@ pub trait PixelProgram {
     fn staged(setup: &Self::Setup) -> &Self::Staged;
     /// The coverage data of a staged triangle.
     fn coverage(staged: &Self::Staged) -> &Coverage;
-    /// The triangle's key at pixel `(i, j)` (called only where the centre is inside it).
-    fn key(staged: &Self::Staged, i: i32, j: i32) -> Self::Key;
+    /// The triangle's key at pixel `(i, j)` (called only where the centre is inside it):
+    /// `NO_KEY` where the triangle may not own the pixel at all (a failed depth test).
+    fn key(&self, staged: &Self::Staged, i: i32, j: i32) -> Self::Key;
     /// The owner's value at pixel `(i, j)`.
     fn value(&self, setup: &Self::Setup, i: i32, j: i32) -> Self::Value;
     /// The value of a pixel no triangle covers.
@@ -160,12 +161,12 @@ pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
 /// lowest index among those it lies on an excluded edge of. Minimum and sum do not depend on
 /// the order of the tests.
 #[inline(always)]
-pub fn accumulate<P: PixelProgram>(side: Side, staged: &P::Staged, i: i32, j: i32, state: &mut PixelState<P::Key>) {
+pub fn accumulate<P: PixelProgram>(program: &P, side: Side, staged: &P::Staged, i: i32, j: i32, state: &mut PixelState<P::Key>) {
     let c = P::coverage(staged);
     match side {
         Side::Inside => {
             state.count += 1;
-            let key = P::key(staged, i, j);
+            let key = program.key(staged, i, j);
             if key < state.key {
                 state.key = key;
                 state.owner = c.index;
@@ -191,14 +192,14 @@ pub fn overlap_free(frame: &FrameParams) -> bool {
 /// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles (with `overlap_free`,
 /// only until it is inside one: no other can contain it).
 #[inline]
-pub fn fine_test<P: PixelProgram>(i: i32, j: i32, batch_len: u32, shared: &FineShared<P::Staged>, overlap_free: bool, state: &mut PixelState<P::Key>) {
+pub fn fine_test<P: PixelProgram>(program: &P, i: i32, j: i32, batch_len: u32, shared: &FineShared<P::Staged>, overlap_free: bool, state: &mut PixelState<P::Key>) {
     let mut k = 0;
     while k < batch_len {
         if overlap_free && state.owner != NO_OWNER {
             return;
         }
         let staged = &shared.batch[k as usize];
-        accumulate::<P>(side(P::coverage(staged), i, j), staged, i, j, state);
+        accumulate(program, side(P::coverage(staged), i, j), staged, i, j, state);
         k += 1;
     }
 }

@@ -20,6 +20,7 @@ use tileraster_kernels::abi::{Counter, Coverage, FrameParams, PixelRect, Triangl
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
+use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::programs::height::{self, HeightProgram};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
@@ -71,6 +72,12 @@ pub fn fine_raster(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup]
         FinePath::Specialised => fine_raster_using(wide_vectors(), frame, setups, offsets, bins, raster),
         FinePath::Plain => fine_raster_plain(&HeightProgram::of(frame), frame, setups, offsets, bins, raster),
     }
+}
+
+/// Twin of the `fine_depth` entry point (the render pipeline's depth test), as the GPU runs
+/// its workgroups.
+pub fn fine_depth(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+    fine_raster_plain(&DepthProgram::of(frame), frame, setups, offsets, bins, raster)
 }
 
 /// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
@@ -164,7 +171,7 @@ where
             }
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
-                fine::fine_test::<P>(i, j, fine::batch_len(bin_len, batch_start), &shared, overlap_free, state);
+                fine::fine_test(program, i, j, fine::batch_len(bin_len, batch_start), &shared, overlap_free, state);
             }
             batch_start += BATCH;
         }
@@ -349,6 +356,9 @@ impl<'a> TriangleRows<'a> {
     }
 }
 
+/// The heightfield's program where only its keys matter (they are the triangle indices).
+const HEIGHT_KEYS: HeightProgram = HeightProgram { mode: ValueMode::Exact, nodata_bits: 0 };
+
 /// Notes the row's centres on an excluded edge of triangle `c` (`on_edge`, lanes from grid
 /// pixel `(i0, j)`, tile pixel `first` onwards) in the band's edge states, as
 /// `fine::accumulate` does: the lowest index is kept.
@@ -363,7 +373,7 @@ fn note_excluded_edges(band: &mut Band, edge_seen: &mut [u64; TILE_PIXELS as usi
             edge_seen[p / 64] |= 1 << (p % 64);
             *state = PixelState::empty(NO_OWNER);
         }
-        fine::accumulate::<HeightProgram>(Side::OnExcludedEdge, c, i0 + n as i32, j, state);
+        fine::accumulate(&HEIGHT_KEYS, Side::OnExcludedEdge, c, i0 + n as i32, j, state);
     }
 }
 
@@ -699,7 +709,7 @@ use tileraster_testkit::scenes;
             &staged.coverage
         }
 
-        fn key(s: &TriangleSetup, i: i32, j: i32) -> u64 {
+        fn key(&self, s: &TriangleSetup, i: i32, j: i32) -> u64 {
             depth_key(s, i, j)
         }
 

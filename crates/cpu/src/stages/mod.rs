@@ -1,13 +1,15 @@
 //! One twin per kernel stage, with the stage's name, in files named as the kernel crate's
-//! `stages/` (`setup`, `bin`, `scan`, `fine`).
+//! `stages/` (`setup`, `bin`, `scan`, `fine`, `shade`).
 
 mod bin;
 mod fine;
 mod scan;
 mod setup;
+mod shade;
 
 pub use bin::{bin_count, bin_fill};
-pub use fine::{fine_raster, FinePath};
+pub use fine::{fine_depth, fine_raster, FinePath};
+pub use shade::shade;
 pub use scan::bin_scan;
 pub use setup::setup;
 

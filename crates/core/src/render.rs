@@ -1,0 +1,640 @@
+//! The render pipeline's geometry stages, on the host in `f64`, once per frame and the same
+//! for both backends: vertex transform, clipping, culling, viewport transform and snapping.
+//! What they leave is a [`Prepared`] scene for the kernels (setup, binning, the depth test of
+//! `programs::depth` and the shade stage of `programs::shade`).
+//!
+//! - **Vertex stage**: positions to clip space by the view-projection matrix (Vulkan
+//!   conventions: `0 ≤ z ≤ w` is visible, NDC `y` points down the image); per-vertex colour,
+//!   normal, world position and texture coordinates carried along; flat and Gouraud lighting
+//!   done here, per face and per vertex.
+//! - **Clipping** in homogeneous space against the near (`z = 0`) and far (`z = w`) planes, a
+//!   plane `w = W_MIN` that keeps `w ≤ 0` from the rasteriser, and a guard band
+//!   [`GUARD_PX`] pixels beyond the viewport on each side, so that every snapped edge function
+//!   fits the kernels' integers. An edge is always cut from its inside end towards its outside
+//!   end, so two faces sharing an edge cut it at the same point: clipping opens no crack.
+//!   The clipped polygon is cut into a fan; every piece keeps its face's id.
+//! - **Culling**: whole triangles outside one frustum plane; back or front faces (orientation
+//!   from the snapped vertices, Vulkan's sign rule); zero-area pieces.
+//! - **Viewport and snapping**: pixel centres at `+0.5`, vertices rounded to 8 sub-pixel bits
+//!   (16.8 fixed point, as Direct3D 11 and Vulkan's 2022 roadmap require).
+
+use crate::prepare::{pixel_rect, round_to_i64};
+use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
+use rayon::prelude::*;
+use tileraster_kernels::abi::{
+    DepthFunc, DepthTest, FloatCoeffs, Interpolation, ShadeMode, ShadeParams, TriangleInput, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL,
+    ATTR_POSITION, ATTR_UV, MAX_LIGHTS,
+};
+use tileraster_kernels::EXTENT_LIMIT_BITS;
+
+/// Sub-pixel bits of the render pipeline's snapping (16.8 fixed point).
+pub const RENDER_SNAP_BITS: u32 = 8;
+/// Largest width or height of a rendered frame.
+pub const MAX_RENDER_DIM: u32 = 1 << 16;
+/// How far beyond the viewport, in pixels, a triangle may reach before it is clipped.
+pub const GUARD_PX: f64 = (1u64 << 19) as f64;
+/// The smallest `w` that reaches the rasteriser.
+const W_MIN: f64 = 1e-30;
+
+/// A triangle mesh in world coordinates, with optional per-vertex attributes.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<[f64; 3]>,
+    /// Faces as vertex indices, counter-clockwise seen from the front (by default).
+    pub triangles: Vec<[u32; 3]>,
+    /// Unit normals; computed from the faces (area-weighted) where the shading needs them.
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Linear RGBA in `[0, 1]`; light grey where absent.
+    pub colours: Option<Vec<[f32; 4]>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+}
+
+/// Which faces are dropped.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum Cull {
+    None,
+    #[default]
+    Back,
+    Front,
+}
+
+/// Which winding, as seen on the screen, is the front.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum FrontFace {
+    #[default]
+    CounterClockwise,
+    Clockwise,
+}
+
+/// How pixels are coloured.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum Shading {
+    /// Lit once per face (its normal, its first vertex's colour).
+    Flat,
+    /// Lit per vertex, colours interpolated (Gouraud).
+    #[default]
+    Smooth,
+    /// Lit per pixel (Lambert + Blinn-Phong) from interpolated normals.
+    Phong,
+    /// Depth as grey.
+    Depth,
+    /// Unit normals as RGB.
+    Normals,
+    /// A colour per face id.
+    Ids,
+}
+
+impl Shading {
+    pub const ALL: [Shading; 6] = [Shading::Flat, Shading::Smooth, Shading::Phong, Shading::Depth, Shading::Normals, Shading::Ids];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Shading::Flat => "flat",
+            Shading::Smooth => "smooth",
+            Shading::Phong => "phong",
+            Shading::Depth => "depth",
+            Shading::Normals => "normals",
+            Shading::Ids => "ids",
+        }
+    }
+}
+
+/// A directional light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Light {
+    /// Towards the light, in world coordinates (normalised when used).
+    pub direction: [f64; 3],
+    pub colour: [f64; 3],
+}
+
+/// Everything a frame needs besides its mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderParams {
+    pub width: u32,
+    pub height: u32,
+    /// World to clip space, row-major: `clip = M · (x, y, z, 1)`.
+    pub view_projection: [[f64; 4]; 4],
+    /// The camera's position, for specular highlights; `None`: the view-projection's centre of
+    /// projection.
+    pub eye: Option<[f64; 3]>,
+    pub cull: Cull,
+    pub front_face: FrontFace,
+    pub shading: Shading,
+    pub interpolation: Interpolation,
+    pub depth_func: DepthFunc,
+    pub depth_write: bool,
+    pub clear_depth: f32,
+    /// RGBA8 of pixels no triangle covers.
+    pub background: [u8; 4],
+    /// At most `MAX_LIGHTS`.
+    pub lights: Vec<Light>,
+    pub ambient: [f64; 3],
+    pub specular: [f64; 3],
+    pub shininess: u32,
+    /// `empty_tiles` and `cull_window` apply; the depth test needs the rest off.
+    pub skips: Skips,
+}
+
+impl RenderParams {
+    pub fn new(width: u32, height: u32, view_projection: [[f64; 4]; 4]) -> Self {
+        RenderParams {
+            width,
+            height,
+            view_projection,
+            eye: None,
+            cull: Cull::Back,
+            front_face: FrontFace::CounterClockwise,
+            shading: Shading::Smooth,
+            interpolation: Interpolation::Perspective,
+            depth_func: DepthFunc::Less,
+            depth_write: true,
+            clear_depth: 1.0,
+            background: [0, 0, 0, 0],
+            lights: vec![Light { direction: [0.4, 0.5, 0.75], colour: [0.85, 0.85, 0.85] }],
+            ambient: [0.15, 0.15, 0.15],
+            specular: [0.25, 0.25, 0.25],
+            shininess: 32,
+            skips: Skips::ALL,
+        }
+    }
+}
+
+/// What the geometry stages did to the faces, equal on both backends.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct GeometryCounts {
+    /// Faces cut by a clipping plane that kept some of their area.
+    pub clipped: u64,
+    /// Faces wholly outside the frustum (or clipped away entirely).
+    pub culled_frustum: u64,
+    /// Triangles dropped as back faces, or as front faces.
+    pub culled_back: u64,
+    pub culled_front: u64,
+    /// Triangles with no area once snapped.
+    pub culled_zero_area: u64,
+    /// Triangles whose snapped box holds no pixel centre of the frame.
+    pub culled_no_centre: u64,
+    /// Triangles that reach the rasteriser.
+    pub rasterised: u64,
+}
+
+impl GeometryCounts {
+    fn add(mut self, o: GeometryCounts) -> Self {
+        self.clipped += o.clipped;
+        self.culled_frustum += o.culled_frustum;
+        self.culled_back += o.culled_back;
+        self.culled_front += o.culled_front;
+        self.culled_zero_area += o.culled_zero_area;
+        self.culled_no_centre += o.culled_no_centre;
+        self.rasterised += o.rasterised;
+        self
+    }
+}
+
+/// A vertex through the vertex stage: clip-space position and attributes.
+#[derive(Clone, Copy)]
+struct ClipVertex {
+    clip: [f64; 4],
+    attributes: [f64; ATTRIBUTES],
+}
+
+/// Faces per task of the geometry stages; tasks keep face order.
+const CHUNK: usize = 1 << 12;
+
+/// Runs the geometry stages over `mesh`: the prepared scene the kernels rasterise, and what
+/// the stages did.
+pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
+    validate(mesh, params)?;
+    let (w, h) = (params.width, params.height);
+    let m = &params.view_projection;
+    let eye = match params.eye {
+        Some(e) => e,
+        None => centre_of_projection(m).ok_or_else(|| Error::SingularCamera {
+            reason: "the view-projection matrix has no centre of projection (x = y = w = 0 has no single solution); give the eye position".into(),
+        })?,
+    };
+    let lights: Vec<Light> = params.lights.iter().take(MAX_LIGHTS).map(|l| Light { direction: unit(l.direction), colour: l.colour }).collect();
+    let normals = vertex_normals(mesh);
+    let grey = [0.8f32, 0.8, 0.8, 1.0];
+    let lit = |base: [f64; 4], n: [f64; 3], p: [f64; 3]| blinn_phong(params, &lights, eye, base, n, p);
+
+    // Vertex stage.
+    let vertices: Vec<ClipVertex> = (0..mesh.positions.len())
+        .into_par_iter()
+        .map(|v| {
+            let p = mesh.positions[v];
+            let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
+            let n = normals[v].map(f64::from);
+            let mut colour = mesh.colours.as_ref().map_or(grey, |c| c[v]).map(f64::from);
+            if params.shading == Shading::Smooth {
+                colour = lit(colour, unit(n), p);
+            }
+            let uv = mesh.uvs.as_ref().map_or([0.0; 2], |t| t[v]).map(f64::from);
+            let mut attributes = [0.0; ATTRIBUTES];
+            attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
+            attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+            attributes[ATTR_POSITION..ATTR_POSITION + 3].copy_from_slice(&p);
+            attributes[ATTR_UV..ATTR_UV + 2].copy_from_slice(&uv);
+            ClipVertex { clip, attributes }
+        })
+        .collect();
+
+    let viewport = Viewport::new(w, h);
+    let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
+    let pieces: Vec<(Vec<(TriangleInput, TriangleShading)>, GeometryCounts)> = mesh
+        .triangles
+        .par_chunks(CHUNK)
+        .enumerate()
+        .map(|(c, faces)| {
+            let mut out = Vec::with_capacity(faces.len());
+            let mut counts = GeometryCounts::default();
+            for (k, tri) in faces.iter().enumerate() {
+                let face = c * CHUNK + k;
+                let mut corners = tri.map(|v| vertices[v as usize]);
+                if params.shading == Shading::Flat {
+                    // One colour per face: its first vertex's, lit with the face normal there.
+                    let p = tri.map(|v| mesh.positions[v as usize]);
+                    let n = unit(cross(sub(p[1], p[0]), sub(p[2], p[0])));
+                    let base = mesh.colours.as_ref().map_or(grey, |c| c[tri[0] as usize]).map(f64::from);
+                    let colour = lit(base, n, p[0]);
+                    for v in &mut corners {
+                        v.attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
+                        v.attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+                    }
+                }
+                geometry(&corners, face as u32, params, &viewport, &grid, &mut out, &mut counts);
+            }
+            (out, counts)
+        })
+        .collect();
+    let mut counts = GeometryCounts::default();
+    let total: usize = pieces.iter().map(|p| p.0.len()).sum();
+    let mut triangles = Vec::with_capacity(total);
+    let mut shading = Vec::with_capacity(total);
+    for (piece, c) in pieces {
+        counts = counts.add(c);
+        for (mut input, s) in piece {
+            // The setup slot is the index: the depth key's tie-break and the owner layer's value.
+            input.index = triangles.len() as u32;
+            triangles.push(input);
+            shading.push(s);
+        }
+    }
+    counts.rasterised = triangles.len() as u64;
+    if triangles.len() >= u32::MAX as usize {
+        return Err(Error::RasterTooLarge {
+            width: w as u64,
+            height: h as u64,
+            reason: format!("clipping left {} triangles, more than the 2^32 − 1 a frame indexes", triangles.len()),
+        });
+    }
+
+    let shade = shade_params(params, &lights, eye, depth_range(&vertices));
+    let skips = Skips { full_tiles: false, overlap_free: false, ..params.skips };
+    let grid_params = Params {
+        grid,
+        nodata: params.clear_depth,
+        outputs: Outputs { owner: true, coverage: true },
+        // The depth is the barycentric mode's arithmetic: the GPU backend checks that the
+        // adapter gives the CPU's bits for it before using it.
+        mode: Mode::Barycentric,
+        skips,
+    };
+    let culled = counts.culled_frustum + counts.culled_back + counts.culled_front + counts.culled_no_centre;
+    let prepared = Prepared {
+        params: grid_params,
+        window: Window::whole(&grid),
+        snap_bits: RENDER_SNAP_BITS,
+        triangles,
+        culled: culled as usize,
+        degenerate: counts.culled_zero_area as usize,
+        overlap_free_rows: None,
+        render: Some(RenderInputs { triangles: shading, params: shade, depth_test: DepthTest::new(params.depth_func, params.depth_write) }),
+    };
+    Ok((prepared, counts))
+}
+
+/// The kernels' shade parameters for a frame.
+fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, far): (f64, f64)) -> ShadeParams {
+    let mode = match params.shading {
+        Shading::Flat | Shading::Smooth => ShadeMode::Colour,
+        Shading::Phong => ShadeMode::Phong,
+        Shading::Depth => ShadeMode::Depth,
+        Shading::Normals => ShadeMode::Normals,
+        Shading::Ids => ShadeMode::Ids,
+    };
+    let f4 = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+    let mut s = ShadeParams {
+        shading: mode as u32,
+        interpolation: params.interpolation as u32,
+        background: u32::from_le_bytes(params.background),
+        lights: lights.len() as u32,
+        shininess: params.shininess,
+        ambient: f4(params.ambient),
+        specular: f4(params.specular),
+        eye: f4(eye),
+        depth_view: [near as f32, (1.0 / (far - near).max(1e-6)) as f32, 0.0, 0.0],
+        ..Default::default()
+    };
+    for (k, l) in lights.iter().enumerate() {
+        s.light_dir[k] = f4(l.direction);
+        s.light_colour[k] = f4(l.colour);
+    }
+    s
+}
+
+/// The depths of the visible vertices, lowest and highest (the depth view's range).
+fn depth_range(vertices: &[ClipVertex]) -> (f64, f64) {
+    let visible = vertices.par_iter().filter(|v| v.clip[3] > 0.0 && v.clip[2] >= 0.0 && v.clip[2] <= v.clip[3]).map(|v| v.clip[2] / v.clip[3]);
+    let (lo, hi) = visible.fold(|| (1.0f64, 0.0f64), |(lo, hi), d| (lo.min(d), hi.max(d))).reduce(|| (1.0, 0.0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    if lo < hi { (lo, hi) } else { (0.0, 1.0) }
+}
+
+/// Clip space to pixels.
+struct Viewport {
+    half: [f64; 2],
+    /// Guard-band factor per axis: `|x| ≤ g·w` keeps a vertex within `GUARD_PX` of the viewport.
+    guard: [f64; 2],
+}
+
+impl Viewport {
+    fn new(w: u32, h: u32) -> Self {
+        let (w, h) = (w as f64, h as f64);
+        Viewport { half: [w / 2.0, h / 2.0], guard: [1.0 + 2.0 * GUARD_PX / w, 1.0 + 2.0 * GUARD_PX / h] }
+    }
+
+    /// The clipping planes, as coefficients of `(x, y, z, w)`: inside where the dot product is
+    /// at least zero (the `w` plane: at least `W_MIN`).
+    fn planes(&self) -> [[f64; 4]; 7] {
+        let [gx, gy] = self.guard;
+        [
+            [0.0, 0.0, 1.0, 0.0],  // near: z ≥ 0
+            [0.0, 0.0, -1.0, 1.0], // far: z ≤ w
+            [0.0, 0.0, 0.0, 1.0],  // w ≥ W_MIN
+            [1.0, 0.0, 0.0, gx],   // guard band
+            [-1.0, 0.0, 0.0, gx],
+            [0.0, 1.0, 0.0, gy],
+            [0.0, -1.0, 0.0, gy],
+        ]
+    }
+
+    /// A clip-space position in snapped pixel units (`2^-RENDER_SNAP_BITS` px), `y` down.
+    fn snap(&self, c: &[f64; 4]) -> (i64, i64) {
+        let unit = (1u64 << RENDER_SNAP_BITS) as f64;
+        let px = (c[0] / c[3] + 1.0) * self.half[0];
+        let py = (c[1] / c[3] + 1.0) * self.half[1];
+        (round_to_i64(px * unit), round_to_i64(py * unit))
+    }
+}
+
+/// Signed distance of `c` inside plane `k` of [`Viewport::planes`].
+fn distance(planes: &[[f64; 4]; 7], k: usize, c: &[f64; 4]) -> f64 {
+    let p = &planes[k];
+    let d = p[0] * c[0] + p[1] * c[1] + p[2] * c[2] + p[3] * c[3];
+    if k == 2 { d - W_MIN } else { d }
+}
+
+/// Clip, cull, snap one face and push what reaches the rasteriser.
+fn geometry(corners: &[ClipVertex; 3], face: u32, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
+    // Wholly outside one plane of the view frustum: nothing to clip.
+    let c = corners.map(|v| v.clip);
+    let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
+    if frustum.iter().any(|outside| c.iter().all(outside)) {
+        counts.culled_frustum += 1;
+        return;
+    }
+    let planes = viewport.planes();
+    let needs_clipping = (0..planes.len()).any(|k| c.iter().any(|v| distance(&planes, k, v) < 0.0));
+    let polygon = if needs_clipping { clip_polygon(corners, &planes) } else { corners.to_vec() };
+    if polygon.len() < 3 {
+        counts.culled_frustum += 1;
+        return;
+    }
+    counts.clipped += u64::from(needs_clipping);
+    let snapped: Vec<(i64, i64)> = polygon.iter().map(|v| viewport.snap(&v.clip)).collect();
+    for k in 1..polygon.len() - 1 {
+        let mut v = [0, k, k + 1];
+        let (mut x, mut y) = (v.map(|i| snapped[i].0), v.map(|i| snapped[i].1));
+        let area = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
+        if area == 0 {
+            counts.culled_zero_area += 1;
+            continue;
+        }
+        // Vulkan's rule: with y down, a triangle counter-clockwise on the screen has a negative
+        // cross product here.
+        let front = (area < 0) == (params.front_face == FrontFace::CounterClockwise);
+        match (params.cull, front) {
+            (Cull::Back, false) => {
+                counts.culled_back += 1;
+                continue;
+            }
+            (Cull::Front, true) => {
+                counts.culled_front += 1;
+                continue;
+            }
+            _ => {}
+        }
+        if area < 0 {
+            v.swap(1, 2);
+            x.swap(1, 2);
+            y.swap(1, 2);
+        }
+        let rect = pixel_rect(&x, &y, RENDER_SNAP_BITS, grid);
+        if rect.is_empty() {
+            counts.culled_no_centre += 1;
+            continue;
+        }
+        let extent = (x.iter().max().unwrap() - x.iter().min().unwrap()).max(y.iter().max().unwrap() - y.iter().min().unwrap());
+        debug_assert!(((extent >> RENDER_SNAP_BITS) + 2) << RENDER_SNAP_BITS < 1 << EXTENT_LIMIT_BITS, "the guard band bounds every triangle");
+        // Entry k of the kernels' per-vertex data belongs to the vertex opposite edge k.
+        let opposite = [v[2], v[0], v[1]];
+        let area = area.unsigned_abs() as f64;
+        let depth = |i: usize| (polygon[i].clip[2] / polygon[i].clip[3]).clamp(0.0, 1.0) as f32;
+        let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), (1.0 / area) as f32] };
+        let inv_w = |i: usize| (1.0 / polygon[i].clip[3]) as f32;
+        let attributes = opposite.map(|i| polygon[i].attributes.map(|a| a as f32));
+        out.push((
+            TriangleInput { x, y, rect, coeffs, ..Default::default() },
+            TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face, _pad: [0; 3] },
+        ));
+    }
+}
+
+/// Sutherland–Hodgman in homogeneous space against every plane. An edge crossing a plane is cut
+/// at the point interpolated from its inside end, so a face's neighbour cuts the shared edge
+/// at the same point.
+fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) -> Vec<ClipVertex> {
+    let mut polygon = corners.to_vec();
+    for k in 0..planes.len() {
+        if polygon.is_empty() {
+            break;
+        }
+        let d: Vec<f64> = polygon.iter().map(|v| distance(planes, k, &v.clip)).collect();
+        if d.iter().all(|&d| d >= 0.0) {
+            continue;
+        }
+        let mut next = Vec::with_capacity(polygon.len() + 1);
+        for i in 0..polygon.len() {
+            let j = (i + 1) % polygon.len();
+            if d[i] >= 0.0 {
+                next.push(polygon[i]);
+            }
+            if (d[i] >= 0.0) != (d[j] >= 0.0) {
+                let (a, b, da, db) = if d[i] >= 0.0 { (&polygon[i], &polygon[j], d[i], d[j]) } else { (&polygon[j], &polygon[i], d[j], d[i]) };
+                let t = da / (da - db);
+                let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES] };
+                for n in 0..4 {
+                    v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
+                }
+                for n in 0..ATTRIBUTES {
+                    v.attributes[n] = a.attributes[n] + t * (b.attributes[n] - a.attributes[n]);
+                }
+                // On the near and far planes exactly, so that depths stay within [0, 1].
+                match k {
+                    0 => v.clip[2] = 0.0,
+                    1 => v.clip[2] = v.clip[3],
+                    _ => {}
+                }
+                next.push(v);
+            }
+        }
+        polygon = next;
+    }
+    polygon
+}
+
+/// Lambert + Blinn-Phong in `f64` (flat and Gouraud shading; the kernels' per-pixel version is
+/// `programs::shade`).
+fn blinn_phong(params: &RenderParams, lights: &[Light], eye: [f64; 3], base: [f64; 4], n: [f64; 3], p: [f64; 3]) -> [f64; 4] {
+    let v = unit(sub(eye, p));
+    let mut diffuse = params.ambient;
+    let mut specular = [0.0; 3];
+    for l in lights {
+        let ndl = dot(n, l.direction);
+        if ndl > 0.0 {
+            let h = unit([l.direction[0] + v[0], l.direction[1] + v[1], l.direction[2] + v[2]]);
+            let s = dot(n, h).max(0.0).powi(params.shininess as i32);
+            for c in 0..3 {
+                diffuse[c] += ndl * l.colour[c];
+                specular[c] += s * l.colour[c];
+            }
+        }
+    }
+    let channel = |c: usize| base[c] * diffuse[c] + params.specular[c] * specular[c];
+    [channel(0), channel(1), channel(2), base[3]]
+}
+
+/// The mesh's normals, or area-weighted face normals summed per vertex (in face order, so the
+/// same on every run).
+fn vertex_normals(mesh: &Mesh) -> Vec<[f32; 3]> {
+    if let Some(n) = &mesh.normals {
+        return n.clone();
+    }
+    let mut sum = vec![[0.0f64; 3]; mesh.positions.len()];
+    for tri in &mesh.triangles {
+        let p = tri.map(|v| mesh.positions[v as usize]);
+        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        for &v in tri {
+            for c in 0..3 {
+                sum[v as usize][c] += n[c];
+            }
+        }
+    }
+    sum.into_iter().map(|n| unit(n).map(|c| c as f32)).collect()
+}
+
+/// The point the view-projection maps to `x = y = w = 0` (a perspective camera's eye).
+pub fn centre_of_projection(m: &[[f64; 4]; 4]) -> Option<[f64; 3]> {
+    let rows = [m[0], m[1], m[3]];
+    let a = rows.map(|r| [r[0], r[1], r[2]]);
+    let b = rows.map(|r| -r[3]);
+    let det = dot(a[0], cross(a[1], a[2]));
+    let scale = a.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
+    if !(det.abs() > 1e-12 * scale.powi(3)) {
+        return None;
+    }
+    // Cramer's rule.
+    let col = |k: usize| -> [[f64; 3]; 3] {
+        let mut c = a;
+        for r in 0..3 {
+            c[r][k] = b[r];
+        }
+        c
+    };
+    Some([0, 1, 2].map(|k| {
+        let c = col(k);
+        dot(c[0], cross(c[1], c[2])) / det
+    }))
+}
+
+fn validate(mesh: &Mesh, params: &RenderParams) -> Result<(), Error> {
+    for (w, h) in [(params.width, params.height)] {
+        if w == 0 || h == 0 {
+            return Err(Error::ZeroSizedRaster { width: w as u64, height: h as u64 });
+        }
+        if w > MAX_RENDER_DIM || h > MAX_RENDER_DIM {
+            return Err(Error::RasterTooLarge { width: w as u64, height: h as u64, reason: format!("a frame is at most {MAX_RENDER_DIM} pixels wide and high") });
+        }
+    }
+    for (row, r) in params.view_projection.iter().enumerate() {
+        for (column, &value) in r.iter().enumerate() {
+            if !value.is_finite() {
+                return Err(Error::NonFiniteMatrix { name: "view-projection", row, column, value });
+            }
+        }
+    }
+    if mesh.positions.is_empty() {
+        return Err(Error::EmptyScene { what: "vertices" });
+    }
+    if mesh.triangles.is_empty() {
+        return Err(Error::EmptyScene { what: "triangles" });
+    }
+    for (vertex, v) in mesh.positions.iter().enumerate() {
+        for (axis, value) in ['x', 'y', 'z'].into_iter().zip(*v) {
+            if !value.is_finite() {
+                return Err(Error::NonFiniteCoordinate { vertex, axis, value });
+            }
+        }
+    }
+    let n = mesh.positions.len();
+    for (triangle, tri) in mesh.triangles.iter().enumerate() {
+        for (corner, &index) in tri.iter().enumerate() {
+            if index as usize >= n {
+                return Err(Error::IndexOutOfRange { triangle, corner, index: index as u64, vertex_count: n });
+            }
+        }
+    }
+    check_attribute("normals", mesh.normals.as_deref(), n)?;
+    check_attribute("colours", mesh.colours.as_deref(), n)?;
+    check_attribute("texture coordinates", mesh.uvs.as_deref(), n)?;
+    Ok(())
+}
+
+fn check_attribute<const N: usize>(attribute: &'static str, values: Option<&[[f32; N]]>, vertex_count: usize) -> Result<(), Error> {
+    let Some(values) = values else { return Ok(()) };
+    if values.len() != vertex_count {
+        return Err(Error::AttributeLength { attribute, len: values.len(), vertex_count });
+    }
+    for (vertex, v) in values.iter().enumerate() {
+        if let Some(&value) = v.iter().find(|c| !c.is_finite()) {
+            return Err(Error::NonFiniteAttribute { attribute, vertex, value: value as f64 });
+        }
+    }
+    Ok(())
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let len = dot(v, v).sqrt();
+    if len > 0.0 { v.map(|c| c / len) } else { [0.0; 3] }
+}

@@ -1,0 +1,109 @@
+//! The render pipeline's pixel program: a depth test. Each fragment's depth is interpolated
+//! linearly on the screen from the vertices' `z/w` (as Vulkan does), compared with the clear
+//! value, and the passing fragment with the smallest key owns the pixel. The key is the depth
+//! (mapped to an unsigned order) above the setup slot, so that a tie in depth goes to one
+//! triangle whatever the order of the bin: the earlier one for `Less`/`Greater`, the later one
+//! for the `…Equal` functions, as a graphics API drawing the triangles in order keeps.
+//!
+//! The render pipeline's triangles carry their setup slot as their index (`Coverage::index`),
+//! so the owner layer names the slot the shade stage reads; their depth coefficients are the
+//! barycentric mode's (`FloatCoeffs`: the vertices' depths and `1/Σw`), so the depth is
+//! `Σ (w_k · c3) · z_k` in `f32`, each operation correctly rounded (see
+//! `docs/numeric-contract.md` for its bound).
+
+use crate::abi::{Coverage, DepthFunc, FrameParams, TriangleSetup};
+use crate::programs::height::barycentric_bits;
+use crate::stages::fine::PixelProgram;
+
+/// [`PixelProgram`] of the render pipeline.
+#[derive(Copy, Clone)]
+pub struct DepthProgram {
+    pub func: DepthFunc,
+    pub write: bool,
+    /// The depth buffer's clear value.
+    pub clear: f32,
+}
+
+impl DepthProgram {
+    /// The program a frame asks for.
+    #[inline]
+    pub fn of(frame: &FrameParams) -> DepthProgram {
+        DepthProgram { func: frame.depth_test.func(), write: frame.depth_test.write(), clear: f32::from_bits(frame.nodata_bits) }
+    }
+
+    /// Whether a fragment of depth `d` passes the test against the clear value.
+    #[inline]
+    pub fn passes(&self, d: f32) -> bool {
+        match self.func {
+            DepthFunc::Less => d < self.clear,
+            DepthFunc::LessEqual => d <= self.clear,
+            DepthFunc::Greater => d > self.clear,
+            DepthFunc::GreaterEqual => d >= self.clear,
+            DepthFunc::Always => true,
+        }
+    }
+}
+
+/// The depth of triangle `s` at pixel `(i, j)`, as `f32` bits.
+#[inline]
+pub fn depth_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
+    barycentric_bits(s, i, j)
+}
+
+/// `f32` bits mapped to an unsigned order (negative values below positive ones).
+#[inline]
+pub fn ordered(bits: u32) -> u32 {
+    if bits >> 31 == 1 { !bits } else { bits | 1 << 31 }
+}
+
+impl PixelProgram for DepthProgram {
+    type Setup = TriangleSetup;
+    type Staged = TriangleSetup;
+    type Key = u64;
+    type Value = u32;
+    const NO_KEY: u64 = u64::MAX;
+    const HULL_EDGES: bool = false;
+
+    #[inline(always)]
+    fn staged(setup: &TriangleSetup) -> &TriangleSetup {
+        setup
+    }
+
+    #[inline(always)]
+    fn coverage(staged: &TriangleSetup) -> &Coverage {
+        &staged.coverage
+    }
+
+    /// Depth above slot; `NO_KEY` where the fragment fails the test. Without depth writes every
+    /// fragment is tested against the clear value alone and the last passing one is kept.
+    #[inline(always)]
+    fn key(&self, s: &TriangleSetup, i: i32, j: i32) -> u64 {
+        let bits = depth_bits(s, i, j);
+        if !self.passes(f32::from_bits(bits)) {
+            return u64::MAX;
+        }
+        let slot = s.coverage.index;
+        if !self.write {
+            return !slot as u64;
+        }
+        let (depth, tie) = match self.func {
+            DepthFunc::Less => (ordered(bits), slot),
+            DepthFunc::LessEqual => (ordered(bits), !slot),
+            DepthFunc::Greater => (!ordered(bits), slot),
+            DepthFunc::GreaterEqual => (!ordered(bits), !slot),
+            DepthFunc::Always => (0, !slot),
+        };
+        (depth as u64) << 32 | tie as u64
+    }
+
+    /// The depth the pixel keeps: the owner's, or the clear value without depth writes.
+    #[inline(always)]
+    fn value(&self, setup: &TriangleSetup, i: i32, j: i32) -> u32 {
+        if self.write { depth_bits(setup, i, j) } else { self.clear.to_bits() }
+    }
+
+    #[inline(always)]
+    fn background(&self) -> u32 {
+        self.clear.to_bits()
+    }
+}

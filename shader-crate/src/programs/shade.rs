@@ -1,0 +1,209 @@
+//! The render pipeline's shade stage: one invocation per pixel, after fine raster has left the
+//! owner of every pixel (a visibility buffer), so each pixel is shaded once whatever the
+//! overdraw. It interpolates the owner's vertex attributes at the pixel centre and lights them.
+//!
+//! Every float operation here is an addition, subtraction, multiplication or comparison
+//! (correctly rounded on every Vulkan device, and never contracted: the build marks them
+//! `NoContraction`), or one of `math::float`'s correctly rounded divisions and square roots
+//! computed with integers; conversions from the exact edge functions are done by hand
+//! (`fixed_to_f32_bits`). So the colour is the same on every device.
+
+use crate::abi::{Interpolation, ShadeMode, ShadeParams, TriangleSetup, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, MAX_LIGHTS};
+use crate::math::fixed::fixed_to_f32_bits;
+use crate::math::float::{div, recip, sqrt};
+use crate::NO_OWNER;
+
+/// A pixel's shaded outputs.
+#[derive(Copy, Clone)]
+pub struct Shaded {
+    /// RGBA8, red in the low byte.
+    pub colour: u32,
+    /// The input face that owns the pixel (`NO_OWNER` where none).
+    pub face: u32,
+}
+
+/// The weights of the owner's three vertices at pixel `(i, j)` (entry `k` for the vertex
+/// opposite edge `k`), summing to one up to rounding: perspective-correct (`w_k / w_vertex`,
+/// normalised) or linear on the screen (`w_k / Σw`).
+#[inline]
+pub fn weights(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: i32) -> [f32; 3] {
+    let rect = &s.coverage.rect;
+    let (di, dj) = ((i - rect.i0) as i64, (j - rect.j0) as i64);
+    let e = &s.coverage.edges;
+    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].at(di, dj), 0));
+    let w = [weight(0), weight(1), weight(2)];
+    if interpolation == Interpolation::Screen as u32 {
+        let inv_area = s.coeffs.c[3];
+        return [w[0] * inv_area, w[1] * inv_area, w[2] * inv_area];
+    }
+    let q = [w[0] * t.inv_w[0], w[1] * t.inv_w[1], w[2] * t.inv_w[2]];
+    let r = recip(q[0] + q[1] + q[2]);
+    [q[0] * r, q[1] * r, q[2] * r]
+}
+
+/// Attribute `a` interpolated with weights `b`.
+#[inline]
+pub fn interpolate(t: &TriangleShading, b: &[f32; 3], a: usize) -> f32 {
+    b[0] * t.attributes[0][a] + b[1] * t.attributes[1][a] + b[2] * t.attributes[2][a]
+}
+
+/// Three consecutive attributes from `a`.
+#[inline]
+fn interpolate3(t: &TriangleShading, b: &[f32; 3], a: usize) -> [f32; 3] {
+    [interpolate(t, b, a), interpolate(t, b, a + 1), interpolate(t, b, a + 2)]
+}
+
+#[inline]
+fn dot(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `v / |v|` with correctly rounded root and division; zero stays zero.
+#[inline]
+pub fn normalise(v: [f32; 3]) -> [f32; 3] {
+    let len2 = dot(&v, &v);
+    if !(len2 > 0.0) || !(len2 < f32::MAX) {
+        return [0.0; 3];
+    }
+    let len = sqrt(len2);
+    if !(len > 1.0e-30) {
+        return [0.0; 3];
+    }
+    [scale_div(v[0], len), scale_div(v[1], len), scale_div(v[2], len)]
+}
+
+/// `x / d` for `d > 0` and any finite `x`, by the sign of `x`.
+#[inline]
+fn scale_div(x: f32, d: f32) -> f32 {
+    if x > 0.0 {
+        div(x, d)
+    } else if x < 0.0 {
+        -div(-x, d)
+    } else {
+        0.0
+    }
+}
+
+/// `x^n` for an integer `n`, by repeated squaring (multiplications only).
+#[inline]
+pub fn powi(x: f32, n: u32) -> f32 {
+    let (mut base, mut e, mut out) = (x, n, 1.0f32);
+    while e > 0 {
+        if e & 1 == 1 {
+            out = out * base;
+        }
+        base = base * base;
+        e >>= 1;
+    }
+    out
+}
+
+#[inline]
+fn clamp01(x: f32) -> f32 {
+    if x > 1.0 {
+        1.0
+    } else if x > 0.0 {
+        x
+    } else {
+        0.0
+    }
+}
+
+/// A channel in `[0, 1]` to 8 bits, rounded to nearest (the conversion truncates exactly).
+#[inline]
+fn unorm8(x: f32) -> u32 {
+    (clamp01(x) * 255.0 + 0.5) as u32
+}
+
+/// RGBA8 from four channels in `[0, 1]`.
+#[inline]
+pub fn rgba8(c: [f32; 4]) -> u32 {
+    unorm8(c[0]) | unorm8(c[1]) << 8 | unorm8(c[2]) << 16 | unorm8(c[3]) << 24
+}
+
+/// A colour that tells neighbouring ids apart (a 32-bit integer hash of the id), opaque.
+#[inline]
+pub fn id_colour(id: u32) -> u32 {
+    let mut h = id ^ 0x9e37_79b9;
+    h = (h ^ (h >> 16)).wrapping_mul(0x7feb_352d);
+    h = (h ^ (h >> 15)).wrapping_mul(0x846c_a68b);
+    h ^= h >> 16;
+    // Keep every channel away from black, so that no id looks like the background.
+    (h & 0x00ff_ffff) | 0x0040_4040 | 0xff00_0000
+}
+
+/// Lambert diffuse plus Blinn-Phong specular of the lights at a point with unit normal `n`,
+/// on the base colour `base`; `p` is the point in the world.
+#[inline]
+fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
+    let eye = [params.eye[0] - p[0], params.eye[1] - p[1], params.eye[2] - p[2]];
+    let v = normalise(eye);
+    let mut diffuse = [params.ambient[0], params.ambient[1], params.ambient[2]];
+    let mut specular = [0.0f32; 3];
+    let mut k = 0;
+    while k < MAX_LIGHTS {
+        if (k as u32) < params.lights {
+            let l = [params.light_dir[k][0], params.light_dir[k][1], params.light_dir[k][2]];
+            let c = &params.light_colour[k];
+            let ndl = dot(&n, &l);
+            if ndl > 0.0 {
+                diffuse = [diffuse[0] + ndl * c[0], diffuse[1] + ndl * c[1], diffuse[2] + ndl * c[2]];
+                let h = normalise([l[0] + v[0], l[1] + v[1], l[2] + v[2]]);
+                let ndh = dot(&n, &h);
+                if ndh > 0.0 {
+                    let s = powi(ndh, params.shininess);
+                    specular = [specular[0] + s * c[0], specular[1] + s * c[1], specular[2] + s * c[2]];
+                }
+            }
+        }
+        k += 1;
+    }
+    let sc = &params.specular;
+    [
+        base[0] * diffuse[0] + sc[0] * specular[0],
+        base[1] * diffuse[1] + sc[1] * specular[1],
+        base[2] * diffuse[2] + sc[2] * specular[2],
+        base[3],
+    ]
+}
+
+/// The shaded pixel `(i, j)` owned by setup slot `slot` (`NO_OWNER`: the background), whose
+/// depth is `depth_bits`.
+#[inline]
+pub fn shade_pixel(params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], slot: u32, depth_bits: u32, i: i32, j: i32) -> Shaded {
+    if slot == NO_OWNER {
+        return Shaded { colour: params.background, face: NO_OWNER };
+    }
+    let (s, t) = (&setups[slot as usize], &shading[slot as usize]);
+    let b = weights(s, t, params.interpolation, i, j);
+    let colour = match params.mode() {
+        ShadeMode::Colour => rgba8([
+            interpolate(t, &b, ATTR_COLOUR),
+            interpolate(t, &b, ATTR_COLOUR + 1),
+            interpolate(t, &b, ATTR_COLOUR + 2),
+            interpolate(t, &b, ATTR_COLOUR + 3),
+        ]),
+        ShadeMode::Phong => {
+            let base = [
+                interpolate(t, &b, ATTR_COLOUR),
+                interpolate(t, &b, ATTR_COLOUR + 1),
+                interpolate(t, &b, ATTR_COLOUR + 2),
+                interpolate(t, &b, ATTR_COLOUR + 3),
+            ];
+            let n = normalise(interpolate3(t, &b, ATTR_NORMAL));
+            rgba8(phong(params, base, n, interpolate3(t, &b, ATTR_POSITION)))
+        }
+        ShadeMode::Depth => {
+            let g = 1.0 - (f32::from_bits(depth_bits) - params.depth_view[0]) * params.depth_view[1];
+            rgba8([g, g, g, 1.0])
+        }
+        ShadeMode::Normals => {
+            let n = normalise(interpolate3(t, &b, ATTR_NORMAL));
+            rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0])
+        }
+        ShadeMode::Ids => id_colour(t.face),
+    };
+    Shaded { colour, face: t.face }
+}
+
+const _: () = assert!(ATTRIBUTES == 12 && ATTR_POSITION + 3 <= ATTRIBUTES);

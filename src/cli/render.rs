@@ -1,0 +1,136 @@
+//! `tileraster render`: a mesh to a PNG, with optional depth and triangle-id rasters.
+
+use super::progress::{note, set_quiet};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading};
+use tileraster::{Grid, Window};
+use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The mesh: `.obj`, `.ply`, `.stl`, or points (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`,
+    /// `.pts`) rendered as their Delaunay TIN.
+    input: PathBuf,
+    /// The PNG to write (RGBA).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Frame width and height in pixels.
+    #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"], default_values_t = [1280, 720])]
+    size: Vec<u32>,
+    /// A look-at camera: eye, target and up vector, in the mesh's coordinates.
+    #[arg(long, value_name = "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ", value_parser = numbers::<9>, allow_hyphen_values = true, conflicts_with = "mvp")]
+    camera: Option<[f64; 9]>,
+    /// Vertical field of view of --camera (and of the default camera), degrees.
+    #[arg(long, default_value_t = 45.0)]
+    fov: f64,
+    /// The 16 entries of a 4×4 matrix, row-major, mapping the mesh's coordinates to clip
+    /// space (Vulkan: depth 0..1, NDC y down the image).
+    #[arg(long, value_name = "M00,M01,...,M33", value_parser = numbers::<16>, allow_hyphen_values = true)]
+    mvp: Option<[f64; 16]>,
+    #[arg(long, value_enum, default_value = "back")]
+    cull: CullArg,
+    #[arg(long, value_enum, default_value = "smooth")]
+    shading: ShadingArg,
+    /// Also write the depth raster (Float32 GeoTIFF, 1 where no triangle is).
+    #[arg(long, value_name = "DEPTH.tif")]
+    depth: Option<PathBuf>,
+    /// Also write the triangle-id raster (UInt32 GeoTIFF: the input's faces in file order from
+    /// 0, 4294967295 where no triangle is).
+    #[arg(long, value_name = "IDS.tif")]
+    ids: Option<PathBuf>,
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: crate::BackendArg,
+    /// Print what the frame did (clipped, culled, rasterised, fragments, overdraw) as JSON on
+    /// stderr.
+    #[arg(long)]
+    stats: bool,
+    /// No messages on stderr but errors (and --stats when asked for).
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum CullArg {
+    Back,
+    Front,
+    None,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ShadingArg {
+    Flat,
+    Smooth,
+    Phong,
+    Depth,
+    Normals,
+    Ids,
+}
+
+/// `N` comma-separated numbers.
+fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
+    let values: Vec<f64> = s.split(',').map(|v| v.trim().parse::<f64>().map_err(|e| format!("'{v}': {e}"))).collect::<Result<_, _>>()?;
+    values.try_into().map_err(|v: Vec<f64>| format!("expected {N} comma-separated numbers, got {}", v.len()))
+}
+
+pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
+    let RenderArgs { input, output, size, camera, fov, mvp, cull, shading, depth, ids, backend, stats, quiet } = args;
+    set_quiet(quiet);
+    let (width, height) = (size[0], size[1]);
+    let read = tileraster::dem::read_scene(&input, &Default::default(), &()).map_err(|e| e.to_string())?;
+    let mesh = Mesh { positions: read.scene.vertices, triangles: read.scene.triangles, ..Default::default() };
+    let view_projection = match (mvp, camera) {
+        (Some(m), _) => std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c])),
+        (None, Some(c)) => Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], fov, &mesh)
+            .view_projection(width, height)
+            .map_err(|e| format!("--camera: {e}"))?,
+        (None, None) => Camera::framing(&mesh, width as f64 / height.max(1) as f64, fov).view_projection(width, height).map_err(|e| e.to_string())?,
+    };
+    let mut params = RenderParams::new(width, height, view_projection);
+    params.cull = match cull {
+        CullArg::Back => Cull::Back,
+        CullArg::Front => Cull::Front,
+        CullArg::None => Cull::None,
+    };
+    params.shading = match shading {
+        ShadingArg::Flat => Shading::Flat,
+        ShadingArg::Smooth => Shading::Smooth,
+        ShadingArg::Phong => Shading::Phong,
+        ShadingArg::Depth => Shading::Depth,
+        ShadingArg::Normals => Shading::Normals,
+        ShadingArg::Ids => Shading::Ids,
+    };
+    if let Some(c) = camera {
+        params.eye = Some([c[0], c[1], c[2]]);
+    }
+    let backend = crate::choose_backend(backend)?;
+    let start = Instant::now();
+    let frame = render(&mesh, &params, backend).map_err(|e| e.to_string())?;
+    let took = start.elapsed();
+    tileraster_io::write_rgba_png(&output, width, height, &frame.rgba8()).map_err(|e| e.to_string())?;
+    let grid = Grid::new(0.0, width as f64, 0.0, height as f64, width, height);
+    let window = Window::whole(&grid);
+    if let Some(path) = &depth {
+        let mut tiff = GeoTiffWriter::create(path, &grid, window, Sample::Float32 { nodata: params.clear_depth }, &GeoTiffOptions::default()).map_err(|e| e.to_string())?;
+        tiff.write_rows(&frame.depth).and_then(|()| tiff.finish()).map_err(|e| e.to_string())?;
+    }
+    if let Some(path) = &ids {
+        let mut tiff = GeoTiffWriter::create(path, &grid, window, Sample::UInt32, &GeoTiffOptions::default()).map_err(|e| e.to_string())?;
+        tiff.write_rows(&frame.ids).and_then(|()| tiff.finish()).map_err(|e| e.to_string())?;
+    }
+    note(format!(
+        "tileraster: {} triangles → {width}×{height} on the {} backend in {:.1} ms ({} rasterised, {} pixels covered) → {}",
+        mesh.triangles.len(),
+        backend.name(),
+        took.as_secs_f64() * 1e3,
+        frame.stats.geometry.rasterised,
+        frame.stats.pixels_covered,
+        output.display()
+    ));
+    if stats {
+        eprintln!("{}", frame.stats.to_json());
+    }
+    Ok(ExitCode::SUCCESS)
+}

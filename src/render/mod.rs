@@ -1,0 +1,117 @@
+//! The render pipeline as a library: a mesh, a camera and a few choices in; colour, depth and
+//! triangle ids out, the same bits on both backends.
+//!
+//! ```no_run
+//! use tileraster::render::{render, Camera, Mesh, RenderParams};
+//! use tileraster::Backend;
+//! let mesh = Mesh {
+//!     positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+//!     triangles: vec![[0, 1, 2]],
+//!     ..Default::default()
+//! };
+//! let camera = Camera::framing(&mesh, 1.0, 45.0);
+//! let params = RenderParams::new(640, 480, camera.view_projection(640, 480)?);
+//! let frame = render(&mesh, &params, Backend::Cpu)?;
+//! assert_eq!(frame.colour.len(), 640 * 480);
+//! # Ok::<(), tileraster::Error>(())
+//! ```
+//!
+//! The geometry stages (vertex transform, clipping, culling, snapping: `tileraster_core::render`)
+//! run on the host; the depth test and the shading run in the kernels (`fine_depth`, `shade`).
+
+mod camera;
+
+pub use camera::Camera;
+pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
+pub use tileraster_core::render::{prepare_render, Cull, FrontFace, GeometryCounts, Light, Mesh, RenderParams, Shading, MAX_RENDER_DIM};
+
+use crate::{Backend, Error, Stats};
+
+/// A rendered frame: row 0 at the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// RGBA8 per pixel (red in the low byte: `to_le_bytes` gives R, G, B, A).
+    pub colour: Vec<u32>,
+    /// Depth per pixel (the clear value where no triangle is).
+    pub depth: Vec<f32>,
+    /// The input face per pixel, counting the mesh's triangles from 0 (`NO_FACE` where none).
+    pub ids: Vec<u32>,
+    /// Fragments per pixel: how many rasterised triangles cover its centre (before the depth
+    /// test).
+    pub fragments: Vec<u32>,
+    pub stats: RenderStats,
+}
+
+/// The face value of a pixel no triangle covers.
+pub const NO_FACE: u32 = u32::MAX;
+
+/// What a frame did, equal on both backends.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RenderStats {
+    /// The geometry stages: clipped faces, culled and rasterised triangles.
+    pub geometry: GeometryCounts,
+    /// Fragments: pixel centres inside a rasterised triangle (counted before the depth test).
+    pub fragments: u64,
+    /// Pixels some triangle owns after the depth test.
+    pub pixels_covered: u64,
+    /// Fragments that lost the depth test (`fragments − pixels_covered`).
+    pub depth_rejected: u64,
+    /// The kernels' statistics (tiles, passes).
+    pub raster: Stats,
+}
+
+impl RenderStats {
+    /// Fragments per covered pixel.
+    pub fn overdraw(&self) -> f64 {
+        if self.pixels_covered == 0 { 0.0 } else { self.fragments as f64 / self.pixels_covered as f64 }
+    }
+
+    /// One JSON object.
+    pub fn to_json(&self) -> String {
+        let g = &self.geometry;
+        format!(
+            "{{\"clipped\":{},\"culled_frustum\":{},\"culled_back\":{},\"culled_front\":{},\"culled_zero_area\":{},\"culled_no_centre\":{},\
+             \"triangles_rasterised\":{},\"fragments\":{},\"pixels_covered\":{},\"depth_rejected\":{},\"overdraw\":{:.3},\"raster\":{}}}",
+            g.clipped,
+            g.culled_frustum,
+            g.culled_back,
+            g.culled_front,
+            g.culled_zero_area,
+            g.culled_no_centre,
+            g.rasterised,
+            self.fragments,
+            self.pixels_covered,
+            self.depth_rejected,
+            self.overdraw(),
+            self.raster.to_json()
+        )
+    }
+}
+
+impl Frame {
+    /// The colour as RGBA bytes, row by row.
+    pub fn rgba8(&self) -> Vec<u8> {
+        self.colour.iter().flat_map(|c| c.to_le_bytes()).collect()
+    }
+}
+
+/// Render `mesh` as `params` say on `backend`.
+pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
+    let (prepared, geometry) = prepare_render(mesh, params)?;
+    let raster = crate::rasterise_prepared(&prepared, backend)?;
+    let ids = raster.faces.expect("the render pipeline writes faces");
+    let covered = ids.iter().filter(|&&f| f != NO_FACE).count() as u64;
+    let per_pixel = raster.coverage.expect("the render pipeline counts fragments");
+    let fragments = per_pixel.iter().map(|&c| c as u64).sum();
+    Ok(Frame {
+        width: params.width,
+        height: params.height,
+        colour: raster.colours.expect("the render pipeline writes colours"),
+        depth: raster.values,
+        ids,
+        fragments: per_pixel,
+        stats: RenderStats { geometry, fragments, pixels_covered: covered, depth_rejected: fragments - covered, raster: raster.stats },
+    })
+}

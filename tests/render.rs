@@ -1,0 +1,310 @@
+//! The render pipeline: the same bits on both backends (colour, depth, ids, fragment counts
+//! and statistics) on every feature and in combination; depth and attributes against an f64
+//! reference; watertightness of closed meshes in perspective; bad input.
+
+mod common;
+
+use common::gpu_or_skip;
+use tileraster::render::{prepare_render, render, Camera, Cull, DepthFunc, Frame, FrontFace, Interpolation, Mesh, RenderParams, Shading, NO_FACE};
+use tileraster::{Backend, Error, Skips};
+use tileraster_kernels::math::edge::Side;
+use tileraster_kernels::programs::shade::{interpolate, weights};
+use tileraster_kernels::stages::fine::side;
+use tileraster_kernels::stages::setup::setup_triangle;
+use tileraster_testkit::meshes;
+
+/// A camera looking at the origin from `distance` along a fixed direction.
+fn view(width: u32, height: u32, eye: [f64; 3], near: f64, far: f64) -> [[f64; 4]; 4] {
+    Camera { eye, target: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near, far }.view_projection(width, height).unwrap()
+}
+
+fn cpu(mesh: &Mesh, params: &RenderParams) -> Frame {
+    render(mesh, params, Backend::Cpu).unwrap_or_else(|e| panic!("CPU backend failed: {e}"))
+}
+
+/// Panic with the first differing pixels unless the two frames are the same bits.
+fn assert_same_frame(what: &str, a: &Frame, b: &Frame) {
+    let n = a.colour.len();
+    assert_eq!((a.width, a.height), (b.width, b.height), "{what}: sizes");
+    let differing: Vec<usize> = (0..n)
+        .filter(|&k| a.colour[k] != b.colour[k] || a.depth[k].to_bits() != b.depth[k].to_bits() || a.ids[k] != b.ids[k] || a.fragments[k] != b.fragments[k])
+        .collect();
+    if !differing.is_empty() {
+        let first: Vec<String> = differing
+            .iter()
+            .take(10)
+            .map(|&k| {
+                format!(
+                    "  pixel ({}, {}): colour {:08x} vs {:08x}, depth {:e} vs {:e}, id {} vs {}, fragments {} vs {}",
+                    k % a.width as usize,
+                    k / a.width as usize,
+                    a.colour[k],
+                    b.colour[k],
+                    a.depth[k],
+                    b.depth[k],
+                    a.ids[k],
+                    b.ids[k],
+                    a.fragments[k],
+                    b.fragments[k]
+                )
+            })
+            .collect();
+        panic!("{what}: {} of {n} pixels differ; first ones:\n{}", differing.len(), first.join("\n"));
+    }
+    assert_eq!(a.stats, b.stats, "{what}: statistics differ");
+}
+
+/// The render pipeline's skip variants: all, none, and each of the two it uses turned off.
+fn render_skips() -> [(&'static str, Skips); 4] {
+    [
+        ("all skips", Skips::ALL),
+        ("no skips", Skips::NONE),
+        ("all skips but cull_window", Skips { cull_window: false, ..Skips::ALL }),
+        ("all skips but empty_tiles", Skips { empty_tiles: false, ..Skips::ALL }),
+    ]
+}
+
+/// Both backends, every skip variant: the same bits everywhere. Returns the CPU frame.
+fn assert_render_parity(name: &str, mesh: &Mesh, params: &RenderParams) -> Frame {
+    let reference = cpu(mesh, params);
+    let gpu = gpu_or_skip(name);
+    for (variant, skips) in render_skips() {
+        let params = RenderParams { skips, ..params.clone() };
+        let c = cpu(mesh, &params);
+        assert_same_frame(&format!("{name}, {variant}: CPU, all skips vs this"), &reference, &Frame { stats: reference.stats.clone(), ..c.clone() });
+        assert_eq!(reference.stats.geometry, c.stats.geometry, "{name}, {variant}: geometry counts");
+        if gpu {
+            let g = render(mesh, &params, Backend::Gpu).unwrap_or_else(|e| panic!("{name}, {variant}: GPU backend failed: {e}"));
+            assert_same_frame(&format!("{name}, {variant}: CPU vs GPU"), &c, &g);
+        }
+    }
+    reference
+}
+
+#[test]
+fn every_shading_mode_is_the_same_bits_on_both_backends() {
+    let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 24, 40);
+    let base = RenderParams::new(197, 131, view(197, 131, [2.2, -2.6, 1.4], 0.5, 8.0));
+    for shading in Shading::ALL {
+        let params = RenderParams { shading, ..base.clone() };
+        let frame = assert_render_parity(&format!("sphere, {}", shading.name()), &mesh, &params);
+        assert!(frame.stats.pixels_covered > 4000, "{}: the sphere covers {} pixels", shading.name(), frame.stats.pixels_covered);
+    }
+}
+
+#[test]
+fn depth_functions_writes_and_ties_are_the_same_bits_on_both_backends() {
+    // Interpenetrating triangles, and every triangle twice (exact depth ties between copies).
+    let mut mesh = meshes::soup(300, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.6, 7);
+    let n = mesh.triangles.len() as u32;
+    let copies: Vec<[u32; 3]> = mesh.triangles.clone();
+    mesh.triangles.extend(copies);
+    let base = RenderParams { cull: Cull::None, shading: Shading::Ids, ..RenderParams::new(160, 120, view(160, 120, [3.0, 1.0, 2.0], 0.5, 10.0)) };
+    for depth_func in DepthFunc::ALL {
+        for depth_write in [true, false] {
+            let clear_depth = if matches!(depth_func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
+            let params = RenderParams { depth_func, depth_write, clear_depth, ..base.clone() };
+            let frame = assert_render_parity(&format!("soup with ties, {} write {depth_write}", depth_func.name()), &mesh, &params);
+            // A tie goes to the copy a graphics API keeps: the first for Less/Greater (an
+            // original), the last for the …Equal functions and Always (a copy).
+            let later_wins = !depth_write || matches!(depth_func, DepthFunc::LessEqual | DepthFunc::GreaterEqual | DepthFunc::Always);
+            let ids: Vec<u32> = frame.ids.iter().copied().filter(|&id| id != NO_FACE).collect();
+            assert!(!ids.is_empty());
+            assert!(ids.iter().all(|&id| (id >= n) == later_wins), "{}, write {depth_write}: a tie went the wrong way", depth_func.name());
+        }
+    }
+}
+
+#[test]
+fn clipping_and_culling_are_the_same_bits_on_both_backends() {
+    // A terrain seen from inside it: triangles cross the near plane, the side planes and lie
+    // behind the camera.
+    let mesh = meshes::terrain(40, 100.0, 12.0);
+    let eye = [50.0, 50.0, 3.0];
+    let inside = Camera { eye, target: [90.0, 70.0, -2.0], up: [0.0, 0.0, 1.0], fov_deg: 70.0, near: 0.3, far: 60.0 }.view_projection(240, 160).unwrap();
+    for cull in [Cull::None, Cull::Back, Cull::Front] {
+        for front_face in [FrontFace::CounterClockwise, FrontFace::Clockwise] {
+            let params = RenderParams { cull, front_face, shading: Shading::Phong, eye: Some(eye), ..RenderParams::new(240, 160, inside) };
+            let frame = assert_render_parity(&format!("terrain from inside, {cull:?}, {front_face:?}"), &mesh, &params);
+            let g = frame.stats.geometry;
+            assert!(g.clipped > 0 && g.culled_frustum > 0, "{cull:?}: {g:?}");
+        }
+    }
+    // Huge triangles reaching far beyond the viewport (the guard band), and slivers.
+    let mut big = meshes::soup(40, [-50.0, -50.0, -5.0], [50.0, 50.0, 5.0], 400.0, 11);
+    big.triangles.extend(meshes::soup(200, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.002, 12).triangles.iter().map(|t| t.map(|v| v % 120)));
+    let params = RenderParams { cull: Cull::None, shading: Shading::Normals, ..RenderParams::new(128, 96, view(128, 96, [4.0, 3.0, 2.0], 0.2, 500.0)) };
+    let frame = assert_render_parity("huge triangles and slivers", &big, &params);
+    assert!(frame.stats.geometry.clipped > 0);
+}
+
+#[test]
+fn screen_linear_interpolation_and_window_edges_are_the_same_bits_on_both_backends() {
+    let mesh = meshes::sphere([0.3, 0.0, 0.0], 1.4, 12, 18);
+    // Sizes that are not multiples of the 16-pixel tile; the sphere crosses the frame's edges.
+    for (w, h) in [(33, 47), (100, 1), (1, 64)] {
+        let params = RenderParams {
+            interpolation: Interpolation::Screen,
+            shading: Shading::Phong,
+            background: [10, 20, 30, 255],
+            ..RenderParams::new(w, h, view(w, h, [2.5, -2.0, 1.0], 0.3, 9.0))
+        };
+        assert_render_parity(&format!("screen-linear sphere {w}×{h}"), &mesh, &params);
+    }
+}
+
+/// A closed mesh seen from outside: with no culling every pixel centre inside its silhouette
+/// is inside exactly one front face and one back face (no crack, no double hit), and with
+/// back faces culled exactly one.
+#[test]
+fn closed_meshes_are_watertight_in_perspective() {
+    let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 31, 57);
+    for (eye, size) in [([2.0, -2.5, 1.2], (301, 257)), ([0.1, -0.2, 3.0], (128, 128)), ([1.4, 1.1, -0.3], (257, 190))] {
+        let vp = view(size.0, size.1, eye, 0.3, 10.0);
+        let none = cpu(&mesh, &RenderParams { cull: Cull::None, ..RenderParams::new(size.0, size.1, vp) });
+        let back = cpu(&mesh, &RenderParams { cull: Cull::Back, ..RenderParams::new(size.0, size.1, vp) });
+        let mut inside = 0;
+        for k in 0..none.fragments.len() {
+            assert!(matches!(none.fragments[k], 0 | 2), "eye {eye:?}: pixel {k} is inside {} faces", none.fragments[k]);
+            assert_eq!(back.fragments[k], none.fragments[k] / 2, "eye {eye:?}: pixel {k}: front faces");
+            inside += usize::from(none.fragments[k] == 2);
+        }
+        assert!(inside > 3000, "the sphere covers {inside} pixels");
+        assert_eq!(back.stats.pixels_covered as usize, inside);
+    }
+}
+
+/// The depth at every covered pixel against the f64 value at its centre: the screen-linear
+/// interpolation of the vertices' `z/w` over the snapped triangle (Vulkan's rule), by exact
+/// barycentrics. The bound is the contract's (docs/numeric-contract.md).
+#[test]
+fn depth_is_within_its_bound_of_the_f64_reference() {
+    let mesh = meshes::soup(400, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.7, 3);
+    let params = RenderParams { cull: Cull::None, ..RenderParams::new(211, 157, view(211, 157, [2.5, 2.0, 1.5], 0.4, 12.0)) };
+    // Pixels inside exactly one triangle: there the owner is known without the depth test.
+    let (prepared, _) = prepare_render(&mesh, &params).unwrap();
+    let frame = cpu(&mesh, &params);
+    let render = prepared.render.as_ref().unwrap();
+    let mut worst: f64 = 0.0;
+    let mut checked = 0;
+    for (slot, t) in prepared.triangles.iter().enumerate() {
+        let s = setup_triangle(t, slot as u32, prepared.snap_bits);
+        let unit = 256.0;
+        let (x, y) = (t.x.map(|v| v as f64 / unit), t.y.map(|v| v as f64 / unit));
+        let area = (x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]);
+        for j in t.rect.j0..=t.rect.j1 {
+            for i in t.rect.i0..=t.rect.i1 {
+                let k = j as usize * 211 + i as usize;
+                if side(&s.coverage, i, j) != Side::Inside || frame.ids[k] != render.triangles[slot].face || frame.fragments[k] != 1 {
+                    continue;
+                }
+                let (px, py) = (i as f64 + 0.5, j as f64 + 0.5);
+                // Weight of the vertex opposite edge k: the edge function of edge k.
+                let e = |a: usize, b: usize| (x[b] - x[a]) * (py - y[a]) - (y[b] - y[a]) * (px - x[a]);
+                let z = t.coeffs.c;
+                let reference = (e(0, 1) * z[0] as f64 + e(1, 2) * z[1] as f64 + e(2, 0) * z[2] as f64) / area;
+                let err = (frame.depth[k] as f64 - reference).abs();
+                worst = worst.max(err);
+                checked += 1;
+                assert!(err <= DEPTH_BOUND, "pixel ({i}, {j}): depth {:e}, reference {reference:e}, error {err:e} > {DEPTH_BOUND:e}", frame.depth[k]);
+            }
+        }
+    }
+    assert!(checked > 3000, "only {checked} pixels checked");
+    println!("depth: {checked} pixels, largest error {worst:e} ({:.2} × 2^-24)", worst / 2f64.powi(-24));
+}
+
+/// Depth's bound against the f64 value (docs/numeric-contract.md): 8 · 2^-24 absolute, for
+/// depths in [0, 1].
+const DEPTH_BOUND: f64 = 8.0 / (1u64 << 24) as f64;
+
+/// Perspective-correct and screen-linear attributes at pixel centres, through the kernels'
+/// own functions, against the f64 interpolation (vertex `1/w` and attributes as the kernels
+/// receive them, exact barycentrics of the snapped triangle).
+#[test]
+fn attributes_are_within_their_bound_of_the_f64_reference() {
+    let mesh = meshes::soup(200, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.8, 5);
+    let params = RenderParams { cull: Cull::None, ..RenderParams::new(173, 139, view(173, 139, [2.0, 2.2, 0.8], 0.3, 12.0)) };
+    let (prepared, _) = prepare_render(&mesh, &params).unwrap();
+    let render = prepared.render.as_ref().unwrap();
+    let mut worst = [0.0f64; 2];
+    let mut checked = 0;
+    for (slot, t) in prepared.triangles.iter().enumerate() {
+        let s = setup_triangle(t, slot as u32, prepared.snap_bits);
+        let shading = &render.triangles[slot];
+        let (x, y) = (t.x.map(|v| v as f64 / 256.0), t.y.map(|v| v as f64 / 256.0));
+        for j in t.rect.j0..=t.rect.j1 {
+            for i in t.rect.i0..=t.rect.i1 {
+                if side(&s.coverage, i, j) != Side::Inside {
+                    continue;
+                }
+                let (px, py) = (i as f64 + 0.5, j as f64 + 0.5);
+                let e = [(0, 1), (1, 2), (2, 0)].map(|(a, b)| (x[b] - x[a]) * (py - y[a]) - (y[b] - y[a]) * (px - x[a]));
+                for (m, interpolation) in [Interpolation::Perspective, Interpolation::Screen].into_iter().enumerate() {
+                    let q = [0, 1, 2].map(|k| if interpolation == Interpolation::Screen { e[k] } else { e[k] * shading.inv_w[k] as f64 });
+                    let sum: f64 = q.iter().sum();
+                    let b = weights(&s, shading, interpolation as u32, i, j);
+                    for a in 0..12 {
+                        let values = [0, 1, 2].map(|k| shading.attributes[k][a] as f64);
+                        let reference: f64 = (0..3).map(|k| q[k] / sum * values[k]).sum();
+                        let scale = values.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+                        let err = (interpolate(shading, &b, a) as f64 - reference).abs();
+                        let bound = ATTRIBUTE_BOUND * scale;
+                        worst[m] = worst[m].max(if scale > 0.0 { err / scale } else { 0.0 });
+                        assert!(err <= bound, "{interpolation:?}, pixel ({i}, {j}), attribute {a}: error {err:e} > {bound:e}");
+                    }
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 10_000, "only {checked} pixels checked");
+    println!("attributes: {checked} pixel evaluations; largest error / largest vertex value: perspective {:e}, screen {:e}", worst[0], worst[1]);
+}
+
+/// Attributes' bound against the f64 value (docs/numeric-contract.md), relative to the
+/// largest of the three vertex values: 2^-20.
+const ATTRIBUTE_BOUND: f64 = 1.0 / (1u64 << 20) as f64;
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 6, 8);
+    let ok = RenderParams::new(64, 64, view(64, 64, [3.0, 0.0, 0.0], 0.5, 9.0));
+    let err = |mesh: &Mesh, params: &RenderParams| render(mesh, params, Backend::Cpu).expect_err("bad input must be refused");
+    let mut nan = ok.clone();
+    nan.view_projection[2][1] = f64::NAN;
+    assert!(matches!(err(&mesh, &nan), Error::NonFiniteMatrix { row: 2, column: 1, .. }));
+    let mut inf_vertex = mesh.clone();
+    inf_vertex.positions[5][1] = f64::INFINITY;
+    assert!(matches!(err(&inf_vertex, &ok), Error::NonFiniteCoordinate { vertex: 5, axis: 'y', .. }));
+    let mut bad_index = mesh.clone();
+    bad_index.triangles[3][2] = 10_000;
+    assert!(matches!(err(&bad_index, &ok), Error::IndexOutOfRange { triangle: 3, corner: 2, .. }));
+    let mut short = mesh.clone();
+    short.normals.as_mut().unwrap().pop();
+    assert!(matches!(err(&short, &ok), Error::AttributeLength { .. }));
+    assert!(matches!(err(&mesh, &RenderParams { width: 0, ..ok.clone() }), Error::ZeroSizedRaster { .. }));
+    assert!(matches!(err(&Mesh::default(), &ok), Error::EmptyScene { .. }));
+    let flat_camera = Camera { eye: [1.0, 1.0, 1.0], target: [1.0, 1.0, 1.0], up: [0.0, 0.0, 1.0], fov_deg: 45.0, near: 0.1, far: 10.0 };
+    assert!(matches!(flat_camera.view_projection(64, 64), Err(Error::SingularCamera { .. })));
+    let parallel_up = Camera { eye: [0.0, 0.0, 5.0], target: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 45.0, near: 0.1, far: 10.0 };
+    assert!(matches!(parallel_up.view_projection(64, 64), Err(Error::SingularCamera { .. })));
+    // An orthographic matrix has no centre of projection: the eye must be given.
+    let ortho = [[0.5, 0.0, 0.0, 0.0], [0.0, -0.5, 0.0, 0.0], [0.0, 0.0, 0.1, 0.5], [0.0, 0.0, 0.0, 1.0]];
+    assert!(matches!(err(&mesh, &RenderParams::new(64, 64, ortho)), Error::SingularCamera { .. }));
+    let frame = cpu(&mesh, &RenderParams { eye: Some([0.0, 0.0, -10.0]), ..RenderParams::new(64, 64, ortho) });
+    assert!(frame.stats.pixels_covered > 0);
+}
+
+/// A mesh entirely behind the camera draws nothing, on both backends, and says why.
+#[test]
+fn a_mesh_behind_the_camera_draws_nothing() {
+    let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 8, 12);
+    let behind = Camera { eye: [5.0, 0.0, 0.0], target: [10.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 60.0, near: 0.1, far: 20.0 };
+    let params = RenderParams { background: [1, 2, 3, 4], ..RenderParams::new(48, 40, behind.view_projection(48, 40).unwrap()) };
+    let frame = assert_render_parity("behind the camera", &mesh, &params);
+    assert_eq!(frame.stats.geometry.rasterised, 0);
+    assert_eq!(frame.stats.geometry.culled_frustum, mesh.triangles.len() as u64);
+    assert!(frame.colour.iter().all(|&c| c == u32::from_le_bytes([1, 2, 3, 4])));
+    assert!(frame.ids.iter().all(|&id| id == NO_FACE) && frame.depth.iter().all(|&d| d == 1.0));
+}

@@ -383,19 +383,82 @@ fn demo(dir: &Path, size: u32, cells: u32) -> Result<ExitCode, String> {
         return Ok(ExitCode::FAILURE);
     };
     let (count, first) = cpu.compare_bits(&gpu, 5);
+    let mut same = true;
     if cpu.stats != gpu.stats {
         println!("  statistics: NOT equal:\n    cpu {}\n    gpu {}", cpu.stats.to_json(), gpu.stats.to_json());
-        return Ok(ExitCode::FAILURE);
+        same = false;
+    } else {
+        println!("  statistics, equal on both: {}", cpu.stats.to_json());
     }
-    println!("  statistics, equal on both: {}", cpu.stats.to_json());
     if count == 0 {
         println!("  bit-identical: yes ({} cells, values compared bit for bit)", cpu.values.len());
-        Ok(ExitCode::SUCCESS)
     } else {
         println!("  bit-identical: NO, {count} cells differ; first:");
         for d in first {
             println!("    {d} (cpu vs gpu)");
         }
-        Ok(ExitCode::FAILURE)
+        same = false;
+    }
+    same &= demo_render(&scene, dir)?;
+    Ok(if same { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+}
+
+/// The demo's terrain in perspective: Phong-shaded, heights exaggerated four times and coloured
+/// by a ramp, on both backends, compared bit for bit (colour, depth and ids).
+fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
+    use tileraster::render::{render, Camera, Mesh, RenderParams, Shading};
+    const RUNS: usize = 5;
+    let (w, h) = (1280, 720);
+    let (lo, hi) = scene.vertices.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v[2]), hi.max(v[2])));
+    let exaggerate = |z: f64| lo + 4.0 * (z - lo);
+    let ramp = |t: f64| -> [f32; 4] {
+        let stops = [(0.0, [0.18, 0.43, 0.24]), (0.35, [0.47, 0.65, 0.33]), (0.6, [0.84, 0.78, 0.51]), (0.82, [0.63, 0.45, 0.31]), (1.0, [0.96, 0.96, 0.96])];
+        let k = stops.iter().rposition(|s| s.0 <= t).unwrap_or(0).min(stops.len() - 2);
+        let (a, b) = (stops[k], stops[k + 1]);
+        let f = ((t - a.0) / (b.0 - a.0)).clamp(0.0, 1.0);
+        let channel = |c: usize| (a.1[c] + f * (b.1[c] - a.1[c])) as f32;
+        [channel(0), channel(1), channel(2), 1.0]
+    };
+    let mesh = Mesh {
+        positions: scene.vertices.iter().map(|v| [v[0], v[1], exaggerate(v[2])]).collect(),
+        triangles: scene.triangles.clone(),
+        colours: Some(scene.vertices.iter().map(|v| ramp((v[2] - lo) / (hi - lo).max(1e-9))).collect()),
+        ..Default::default()
+    };
+    let camera = Camera::framing(&mesh, w as f64 / h as f64, 40.0);
+    let params = RenderParams { shading: Shading::Phong, background: [30, 34, 42, 255], ..RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?) };
+    println!("tileraster demo: the same terrain in perspective, {} triangles, Phong-shaded, {w}×{h}", mesh.triangles.len());
+    let timed_render = |backend| -> Result<(Duration, tileraster::render::Frame), String> {
+        let mut times = Vec::with_capacity(RUNS);
+        let mut last = None;
+        for _ in 0..RUNS {
+            let start = Instant::now();
+            last = Some(render(&mesh, &params, backend).map_err(|e| e.to_string())?);
+            times.push(start.elapsed());
+        }
+        times.sort();
+        Ok((times[RUNS / 2], last.expect("at least one run")))
+    };
+    let (cpu_time, cpu) = timed_render(Backend::Cpu)?;
+    println!("  cpu: {} (median of {RUNS})", ms(cpu_time));
+    let png = dir.join("demo-3d.png");
+    tileraster_io::write_rgba_png(&png, w, h, &cpu.rgba8()).map_err(|e| e.to_string())?;
+    println!("  wrote {}", png.display());
+    let Ok(adapter) = tileraster::gpu_adapter() else {
+        println!("  frames bit-identical: not checked (no GPU backend)");
+        return Ok(false);
+    };
+    let (gpu_time, gpu) = timed_render(Backend::Gpu)?;
+    println!("  gpu: {} (median of {RUNS}, {adapter})", ms(gpu_time));
+    let differing = (0..cpu.colour.len())
+        .filter(|&k| cpu.colour[k] != gpu.colour[k] || cpu.depth[k].to_bits() != gpu.depth[k].to_bits() || cpu.ids[k] != gpu.ids[k])
+        .count();
+    println!("  frame statistics: {}", cpu.stats.to_json());
+    if differing == 0 && cpu.stats == gpu.stats {
+        println!("  frames bit-identical: yes ({} pixels: colour, depth and triangle ids compared bit for bit)", cpu.colour.len());
+        Ok(true)
+    } else {
+        println!("  frames bit-identical: NO, {differing} pixels differ{}", if cpu.stats == gpu.stats { "" } else { "; statistics differ" });
+        Ok(false)
     }
 }

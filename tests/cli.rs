@@ -512,3 +512,51 @@ fn the_tin_written_is_the_one_rasterised_and_owners_index_its_faces() {
     assert_eq!(&read_tif_u32(&owner), expected.owner.as_ref().unwrap(), "owners index the written TIN's faces");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `tileraster render`: a PNG, depth and ids rasters the library's frame gives (ids counting
+/// the OBJ's faces in file order), `--stats` as JSON; bad input is an error that leaves no file.
+#[test]
+fn render_writes_the_frame_the_library_renders() {
+    use tileraster::render::{render, Mesh, RenderParams, Shading};
+    let dir = scratch("render");
+    let sphere = tileraster_testkit::meshes::sphere([1.0, 2.0, 3.0], 1.5, 10, 16);
+    let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
+    let obj = dir.join("sphere.obj");
+    write_obj(&scene, &obj);
+    let (png, depth, ids) = (dir.join("f.png"), dir.join("depth.tif"), dir.join("ids.tif"));
+    let camera = "5,-4,6,1,2,3,0,0,1";
+    let out = bin()
+        .args(["render", obj.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "96", "64", "--camera", camera, "--fov", "40"])
+        .args(["--shading", "ids", "--cull", "none", "--depth", depth.to_str().unwrap(), "--ids", ids.to_str().unwrap(), "--backend", "cpu", "--stats", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.trim().starts_with("{\"clipped\":") && stderr.contains("\"fragments\":"), "--stats: {stderr}");
+
+    let mesh = Mesh { positions: scene.vertices.clone(), triangles: scene.triangles.clone(), ..Default::default() };
+    let camera = tileraster::render::Camera::look_at([5.0, -4.0, 6.0], [1.0, 2.0, 3.0], [0.0, 0.0, 1.0], 40.0, &mesh);
+    let mut params = RenderParams::new(96, 64, camera.view_projection(96, 64).unwrap());
+    (params.shading, params.cull, params.eye) = (Shading::Ids, tileraster::render::Cull::None, Some([5.0, -4.0, 6.0]));
+    let frame = render(&mesh, &params, Backend::Cpu).unwrap();
+    let decoded = image::open(&png).unwrap().to_rgba8();
+    assert_eq!(decoded.dimensions(), (96, 64));
+    assert_eq!(decoded.as_raw(), &frame.rgba8(), "the PNG is the library's frame");
+    let written_ids = read_tif_u32(&ids);
+    assert_eq!(written_ids, frame.ids);
+    assert!(written_ids.iter().any(|&id| id == u32::MAX) && written_ids.iter().any(|&id| (id as usize) < scene.triangles.len()));
+    let depths = read_tif_values(&depth);
+    assert!(depths.iter().zip(&frame.depth).all(|(a, b)| a.to_bits() == b.to_bits()));
+
+    // Bad input: no file written.
+    let bad = dir.join("bad.png");
+    let out = bin().args(["render", obj.to_str().unwrap(), "-o", bad.to_str().unwrap(), "--size", "0", "10", "--backend", "cpu"]).output().unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("empty"), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = bin()
+        .args(["render", obj.to_str().unwrap(), "-o", bad.to_str().unwrap(), "--mvp", "1,0,0,0,0,1,0,0,0,0,1,0,0,0,nan,1", "--backend", "cpu"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("row 3, column 2"), "{stderr}");
+    assert!(!bad.exists() && !dir.join("bad.png.partial").exists());
+}

@@ -48,6 +48,9 @@ impl Camera {
 
     /// World to clip space for a `width` × `height` frame, row-major.
     pub fn view_projection(&self, width: u32, height: u32) -> Result<[[f64; 4]; 4], Error> {
+        if width == 0 || height == 0 {
+            return Err(Error::ZeroSizedRaster { width: width as u64, height: height as u64 });
+        }
         let singular = |reason: &str| Err(Error::SingularCamera { reason: reason.into() });
         let forward = sub(self.target, self.eye);
         if !(norm(forward) > 0.0) {
@@ -63,9 +66,6 @@ impl Camera {
         }
         if !(self.near > 0.0 && self.far > self.near) || !self.far.is_finite() {
             return singular("the near and far planes must satisfy 0 < near < far");
-        }
-        if width == 0 || height == 0 {
-            return Err(Error::ZeroSizedRaster { width: width as u64, height: height as u64 });
         }
         let r = scale(side, 1.0 / norm(side));
         let u = cross(r, f);

@@ -442,6 +442,9 @@ fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
     let (cpu_time, cpu) = timed_render(Backend::Cpu)?;
     println!("  cpu: {} (median of {RUNS})", ms(cpu_time));
     let png = dir.join("demo-3d.png");
+    let obj = dir.join("terrain.obj");
+    tileraster_io::write_obj(scene, &obj).map_err(|e| e.to_string())?;
+    println!("  wrote {} (the TIN, for `tileraster render`)", obj.display());
     tileraster_io::write_rgba_png(&png, w, h, &cpu.rgba8()).map_err(|e| e.to_string())?;
     println!("  wrote {}", png.display());
     let Ok(adapter) = tileraster::gpu_adapter() else {

@@ -30,6 +30,13 @@ pub struct RenderArgs {
     /// space (Vulkan: depth 0..1, NDC y down the image).
     #[arg(long, value_name = "M00,M01,...,M33", value_parser = numbers::<16>, allow_hyphen_values = true)]
     mvp: Option<[f64; 16]>,
+    /// Multiply heights (z) by this factor about the mesh's lowest point: vertical
+    /// exaggeration for terrain.
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    z_scale: f64,
+    /// Colour of pixels no triangle covers, RGBA, each 0..255.
+    #[arg(long, value_name = "R,G,B,A", value_parser = numbers::<4>, default_value = "0,0,0,0")]
+    background: [f64; 4],
     #[arg(long, value_enum, default_value = "back")]
     cull: CullArg,
     #[arg(long, value_enum, default_value = "smooth")]
@@ -76,11 +83,20 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, cull, shading, depth, ids, backend, stats, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, depth, ids, backend, stats, quiet } = args;
+    if !(z_scale.is_finite() && z_scale != 0.0) {
+        return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
+    }
     set_quiet(quiet);
     let (width, height) = (size[0], size[1]);
     let read = tileraster::dem::read_scene(&input, &Default::default(), &()).map_err(|e| e.to_string())?;
-    let mesh = Mesh { positions: read.scene.vertices, triangles: read.scene.triangles, ..Default::default() };
+    let mut mesh = Mesh { positions: read.scene.vertices, triangles: read.scene.triangles, ..Default::default() };
+    if z_scale != 1.0 {
+        let lowest = mesh.positions.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
+        for p in &mut mesh.positions {
+            p[2] = lowest + z_scale * (p[2] - lowest);
+        }
+    }
     let view_projection = match (mvp, camera) {
         (Some(m), _) => std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c])),
         (None, Some(c)) => Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], fov, &mesh)
@@ -88,7 +104,11 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
             .map_err(|e| format!("--camera: {e}"))?,
         (None, None) => Camera::framing(&mesh, width as f64 / height.max(1) as f64, fov).view_projection(width, height).map_err(|e| e.to_string())?,
     };
+    if let Some(c) = background.iter().find(|c| !(0.0..=255.0).contains(*c) || c.fract() != 0.0) {
+        return Err(format!("--background: {c} is not a whole number from 0 to 255"));
+    }
     let mut params = RenderParams::new(width, height, view_projection);
+    params.background = background.map(|c| c as u8);
     params.cull = match cull {
         CullArg::Back => Cull::Back,
         CullArg::Front => Cull::Front,

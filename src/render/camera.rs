@@ -39,11 +39,33 @@ impl Camera {
         let extent = sub(hi, lo);
         let z_up = extent[2] < 0.5 * extent[0].max(extent[1]);
         let (up, direction) = if z_up { ([0.0, 0.0, 1.0], [0.55, -0.65, 0.52]) } else { ([0.0, 1.0, 0.0], [0.5, 0.45, 0.74]) };
-        let half = (fov_deg.to_radians() / 2.0).tan().min((fov_deg.to_radians() / 2.0).tan() * aspect);
-        let distance = radius / half.atan().sin() * 1.05;
         let d = scale(direction, 1.0 / norm(direction));
-        let eye = [centre[0] + d[0] * distance, centre[1] + d[1] * distance, centre[2] + d[2] * distance];
-        Camera { eye, target: centre, up, fov_deg, near: (distance - radius).max(distance * 1e-3), far: distance + radius * 1.01 }
+        let tan_half = (fov_deg.to_radians() / 2.0).tan();
+        // Far enough that the bounding sphere fits the narrower field of view...
+        let mut distance = radius / tan_half.min(tan_half * aspect).atan().sin() * 1.05;
+        let camera_at = |distance: f64| {
+            let eye = [centre[0] + d[0] * distance, centre[1] + d[1] * distance, centre[2] + d[2] * distance];
+            Camera { eye, target: centre, up, fov_deg, near: (distance - radius).max(distance * 1e-3), far: distance + radius * 1.01 }
+        };
+        // ... then closer, until the bounding box's corners fill 90 % of the frame (the
+        // corners' spread on the screen grows about as the inverse of the distance).
+        let corners: Vec<[f64; 3]> = (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, if k & 4 == 0 { lo[2] } else { hi[2] }]).collect();
+        let (w, h) = if aspect >= 1.0 { ((1000.0 * aspect) as u32, 1000) } else { (1000, (1000.0 / aspect) as u32) };
+        for _ in 0..4 {
+            let Ok(m) = camera_at(distance).view_projection(w.max(1), h.max(1)) else { break };
+            let spread = corners
+                .iter()
+                .map(|p| {
+                    let c = [0, 1, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
+                    (c[0] / c[2]).abs().max((c[1] / c[2]).abs())
+                })
+                .fold(0.0f64, f64::max);
+            if !(spread.is_finite() && spread > 0.0) {
+                break;
+            }
+            distance *= (spread / 0.9).clamp(0.5, 1.0);
+        }
+        camera_at(distance)
     }
 
     /// World to clip space for a `width` × `height` frame, row-major.

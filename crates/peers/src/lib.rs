@@ -3,6 +3,8 @@
 //! - [`RenderPipeline`]: the triangles drawn by the GPU's fixed-function rasteriser through a
 //!   wgpu render pipeline, as a user of a hardware rasteriser would do it (f32 vertices, linear
 //!   interpolation of an f32 height attribute).
+//! - [`MeshPipeline`]: a mesh drawn by the same rasteriser with a depth buffer (or in API
+//!   order), writing triangle ids: the render pipeline's coverage reference and speed peer.
 //! - [`fill_cpu`] and [`GpuFill`]: store-bandwidth rooflines, the least work any raster call
 //!   must do (write every cell once and hand the raster to the host).
 //! - [`gdal_grid_linear`]: `gdal_grid -a linear` as an external process, when installed.
@@ -10,8 +12,10 @@
 mod device;
 mod fill;
 mod gdal;
+mod mesh;
 mod render;
 
 pub use fill::{GpuFill, fill_cpu};
 pub use gdal::{gdal_grid_linear, gdal_grid_version};
+pub use mesh::{MeshPipeline, NO_ID};
 pub use render::RenderPipeline;

@@ -1,0 +1,219 @@
+//! The hardware render pipeline for meshes: what a wgpu user draws a depth-tested mesh with.
+
+use crate::device::{self, Gpu, Grown};
+
+/// The vertex stage multiplies by one 4×4 matrix (in `f32`, as a shader does) and flips `y`
+/// (wgpu's NDC `y` points up, tileraster's, as Vulkan's, down); the fragment stage writes the
+/// triangle's id, passed flat.
+const SHADER: &str = r#"
+struct Uniforms {
+    m: mat4x4<f32>,
+};
+@group(0) @binding(0) var<uniform> u: Uniforms;
+
+struct Varyings {
+    @builtin(position) position: vec4<f32>,
+    @location(0) @interpolate(flat) id: u32,
+};
+
+@vertex
+fn vs_main(@location(0) position: vec3<f32>, @location(1) id: u32) -> Varyings {
+    let c = u.m * vec4<f32>(position, 1.0);
+    var out: Varyings;
+    out.position = vec4<f32>(c.x, -c.y, c.z, c.w);
+    out.id = id;
+    return out;
+}
+
+@fragment
+fn fs_main(v: Varyings) -> @location(0) u32 {
+    return v.id;
+}
+"#;
+
+const IDS: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Vertex {
+    position: [f32; 3],
+    id: u32,
+}
+
+/// The id of a pixel no triangle covers.
+pub const NO_ID: u32 = u32::MAX;
+
+/// A wgpu render pipeline drawing a mesh's triangles into an R32Uint target of triangle ids:
+/// with a `Depth32Float` depth buffer and the `Less` test, or with none (the last triangle drawn
+/// over a pixel keeps it, by the API's primitive order). No culling; pixel centres sampled
+/// with the device's rasterisation rules.
+pub struct MeshPipeline {
+    gpu: Gpu,
+    depth_tested: wgpu::RenderPipeline,
+    in_order: wgpu::RenderPipeline,
+    uniforms: wgpu::Buffer,
+    vertices: Grown,
+    readback: Grown,
+}
+
+impl MeshPipeline {
+    pub fn new() -> Result<Self, String> {
+        let mut gpu = device::open("tileraster-peers mesh pipeline")?;
+        let (depth_tested, in_order, uniforms) = gpu.scoped(|gpu| {
+            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("mesh peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+            let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
+            let pipeline = |depth: bool| {
+                gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some("mesh peer"),
+                    layout: None,
+                    vertex: wgpu::VertexState {
+                        module: &module,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &[Some(wgpu::VertexBufferLayout {
+                            array_stride: std::mem::size_of::<Vertex>() as u64,
+                            step_mode: wgpu::VertexStepMode::Vertex,
+                            attributes: &attributes,
+                        })],
+                    },
+                    primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
+                    depth_stencil: depth.then(|| wgpu::DepthStencilState {
+                        format: DEPTH,
+                        depth_write_enabled: Some(true),
+                        depth_compare: Some(wgpu::CompareFunction::Less),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: Default::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &module,
+                        entry_point: Some("fs_main"),
+                        compilation_options: Default::default(),
+                        targets: &[Some(wgpu::ColorTargetState { format: IDS, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
+            let uniforms = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("mesh peer matrix"),
+                size: 64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            Ok((pipeline(true), pipeline(false), uniforms))
+        })?;
+        Ok(MeshPipeline {
+            gpu,
+            depth_tested,
+            in_order,
+            uniforms,
+            vertices: Grown::new("mesh peer vertices", wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
+            readback: Grown::new("mesh peer readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST),
+        })
+    }
+
+    /// The adapter's name, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
+    pub fn adapter_name(&self) -> String {
+        self.gpu.info.name.clone()
+    }
+
+    /// Draw `triangles` (indices into `positions`) transformed by `matrix` (row-major, to clip
+    /// space with depth 0..1 and NDC `y` down) into a `width × height` target and read back the
+    /// triangle index per pixel, row 0 at the top, [`NO_ID`] where none.
+    pub fn draw_ids(&mut self, positions: &[[f32; 3]], triangles: &[[u32; 3]], matrix: &[[f32; 4]; 4], width: u32, height: u32, depth_test: bool) -> Result<Vec<u32>, String> {
+        let limits = &self.gpu.limits;
+        let max_dim = limits.max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max_dim || height > max_dim {
+            return Err(format!("a {width}×{height} target is not between 1×1 and the device's {max_dim}×{max_dim}"));
+        }
+        if let Some((t, tri)) = triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&i| i as usize >= positions.len())) {
+            return Err(format!("triangle {t} ({tri:?}) refers to a vertex beyond the {} vertices", positions.len()));
+        }
+        // One vertex per corner, each carrying its triangle's id (no primitive-id feature needed).
+        let vertices: Vec<Vertex> = triangles.iter().enumerate().flat_map(|(t, tri)| tri.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
+        let vertex_bytes = std::mem::size_of_val(vertices.as_slice()) as u64;
+        let row_bytes = width as u64 * 4;
+        let padded_row = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64);
+        let readback_bytes = padded_row * height as u64;
+        for (what, bytes) in [("vertex", vertex_bytes), ("readback", readback_bytes)] {
+            if bytes > limits.max_buffer_size {
+                return Err(format!("the {what} buffer needs {bytes} bytes, more than the device's largest buffer ({} bytes)", limits.max_buffer_size));
+            }
+        }
+        // WGSL matrices are column-major.
+        let columns: [f32; 16] = std::array::from_fn(|k| matrix[k % 4][k / 4]);
+        let device = self.gpu.device.clone();
+        let texture = |label, format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        };
+        let ids = texture("mesh peer ids", IDS);
+        let depth = depth_test.then(|| texture("mesh peer depth", DEPTH));
+        let vertex_buffer = self.vertices.get(&device, vertex_bytes.max(4));
+        let readback = self.readback.get(&device, readback_bytes);
+        let pipeline = if depth_test { self.depth_tested.clone() } else { self.in_order.clone() };
+        let uniforms = self.uniforms.clone();
+        self.gpu.scoped(|gpu| {
+            gpu.queue.write_buffer(&uniforms, 0, bytemuck::cast_slice(&columns));
+            gpu.queue.write_buffer(&vertex_buffer, 0, bytemuck::cast_slice(&vertices));
+            let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("mesh peer"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }],
+            });
+            let ids_view = ids.create_view(&Default::default());
+            let depth_view = depth.as_ref().map(|d| d.create_view(&Default::default()));
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("mesh peer"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &ids_view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color { r: NO_ID as f64, g: 0.0, b: 0.0, a: 0.0 }), store: wgpu::StoreOp::Store },
+                    })],
+                    depth_stencil_attachment: depth_view.as_ref().map(|view| wgpu::RenderPassDepthStencilAttachment {
+                        view,
+                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                if !vertices.is_empty() {
+                    pass.set_pipeline(&pipeline);
+                    pass.set_bind_group(0, &bind, &[]);
+                    pass.set_vertex_buffer(0, vertex_buffer.slice(..vertex_bytes));
+                    pass.draw(0..vertices.len() as u32, 0..1);
+                }
+            }
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo { texture: &ids, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &readback,
+                    layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row as u32), rows_per_image: Some(height) },
+                },
+                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            );
+            let mut out = Vec::with_capacity(width as usize * height as usize);
+            gpu.submit_and_read(encoder, &readback, readback_bytes, |bytes| {
+                for row in bytes.chunks_exact(padded_row as usize) {
+                    out.extend_from_slice(bytemuck::cast_slice::<u8, u32>(&row[..row_bytes as usize]));
+                }
+            })?;
+            Ok(out)
+        })
+    }
+}

@@ -137,6 +137,8 @@ pub struct Report {
     pub notes: Vec<String>,
     /// The skips section (`skip_report`).
     pub skips: String,
+    /// The render pipeline against wgpu's render pipeline (`render_report`).
+    pub render: String,
     /// Points in, GeoTIFF out, against gdal_grid (`gdal_report`).
     pub end_to_end: crate::gdal_report::EndToEnd,
     /// The cluster recipe run locally, and a grid larger than its memory (`stream_report`).
@@ -259,6 +261,7 @@ pub fn run(options: &Options) -> Result<Report, String> {
     }
     let _ = std::fs::remove_dir_all(&workdir);
     let skips = crate::skip_report::run(options.quick)?;
+    let render = crate::render_report::run(options.quick)?;
     let left_out = || "Not in this run (`--tables-only`).\n".to_string();
     let end_to_end = match (options.tables_only, options.quick) {
         (true, _) => crate::gdal_report::EndToEnd { markdown: left_out(), goals: "- Points → DEM end to end: not in this run (`--tables-only`).\n".into() },
@@ -270,7 +273,7 @@ pub fn run(options: &Options) -> Result<Report, String> {
         (false, true) => crate::stream_report::run(10_000, 2048, 256)?,
         (false, false) => crate::stream_report::run(100_000, 32_768, 1536)?,
     };
-    Ok(Report { rows, adapter, float_controls, gdal, notes, skips, end_to_end, streaming })
+    Ok(Report { rows, adapter, float_controls, gdal, notes, skips, render, end_to_end, streaming })
 }
 
 /// Writes the tables and the plot.
@@ -332,6 +335,7 @@ fn markdown(report: &Report) -> String {
     let _ = writeln!(s, "## Points in, GeoTIFF out, against gdal_grid\n\n`cargo xtask gdal-report` (the release build of the command line, `cargo build --release --bin tileraster`).\n\n{}", report.end_to_end.markdown);
     let _ = writeln!(s, "## Any raster size, and the cluster recipe\n\n`cargo xtask stream-report` (the same release build; recipes in [cluster.md](cluster.md)).\n\n{}", report.streaming);
     let _ = writeln!(s, "{}", report.skips);
+    let _ = writeln!(s, "## 3D rendering, against the render pipeline\n\n`cargo xtask render-report`.\n\n{}", report.render);
     let _ = writeln!(s, "## Run time against error\n");
     let mut case = String::new();
     for r in &report.rows {

@@ -17,6 +17,9 @@
 //!   larger than its address-space limit streamed to disk (default 100,000 points, 32768², 1536 MiB).
 //! - `cargo xtask fingerprint`: a hash per scene × mode of what `prepare` made and of the CPU
 //!   raster, to show that a change (speed work, say) changed no bit: run it before and after.
+//! - `cargo xtask render-report [--quick]`: the render pipeline against wgpu's render pipeline
+//!   on the same adapter (a 100k-triangle mesh at 1920×1080, a 1M-triangle mesh at 4096², a
+//!   fill-rate scene of overdraw 8), printed as markdown; also a section of `bench-report`.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
 //! - `cargo xtask stage-times`: a CPU call's time pass by pass (preparation, plan, each stage)
@@ -26,6 +29,7 @@ mod bench_report;
 mod delaunay_report;
 mod fingerprint;
 mod gdal_report;
+mod render_report;
 mod skip_report;
 mod stage_times;
 mod stream_report;
@@ -40,7 +44,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask stage-times\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask stage-times\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
     ExitCode::from(2)
 }
 
@@ -142,6 +146,11 @@ fn main() -> ExitCode {
         },
         ["fingerprint"] => print_markdown("fingerprint", fingerprint::run()),
         ["stage-times"] => print_markdown("stage-times", stage_times::run()),
+        ["render-report", rest @ ..] => match rest {
+            [] => print_markdown("render-report", render_report::run(false)),
+            ["--quick"] => print_markdown("render-report", render_report::run(true)),
+            _ => usage(),
+        },
         ["skip-report", rest @ ..] => match rest {
             [] => print_markdown("skip-report", skip_report::run(false)),
             ["--quick"] => print_markdown("skip-report", skip_report::run(true)),

@@ -1,0 +1,122 @@
+//! `cargo xtask render-report [--quick]`: the render pipeline's speed, side by side with wgpu's
+//! render pipeline on the same adapter (`tileraster_peers::MeshPipeline`: a depth buffer, the
+//! `Less` test, triangle ids written), all in one run. Also a section of `bench-report`.
+//!
+//! Each call is whole: tileraster's `render` (geometry stages, upload, kernels, read-back of
+//! colour, depth, ids and fragment counts) against the peer's draw (vertex upload, one draw
+//! call, read-back of the ids). tileraster runs with `Shading::Ids`, the peer's fragment work;
+//! its Phong-shaded time is given too.
+
+use crate::Timing;
+use std::fmt::Write as _;
+use std::time::Instant;
+use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading, NO_FACE};
+use tileraster::Backend;
+use tileraster_peers::{MeshPipeline, NO_ID};
+use tileraster_testkit::meshes;
+
+struct Scene {
+    name: String,
+    mesh: Mesh,
+    params: RenderParams,
+}
+
+fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
+    let mut out = Vec::new();
+    let perspective = |mesh: &Mesh, w: u32, h: u32| -> Result<RenderParams, String> {
+        let camera = Camera::framing(mesh, w as f64 / h as f64, 45.0);
+        let mut params = RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?);
+        params.eye = Some(camera.eye);
+        Ok(params)
+    };
+    // 2·n² triangles: n = 224 gives 100,352, n = 708 gives 1,002,528.
+    let sizes: &[(u32, u32, u32)] = if quick { &[(40, 320, 180)] } else { &[(224, 1920, 1080), (708, 4096, 4096)] };
+    for &(n, w, h) in sizes {
+        let mesh = meshes::terrain(n, 1000.0, 60.0);
+        let params = perspective(&mesh, w, h)?;
+        out.push(Scene { name: format!("terrain mesh, {} triangles, {w}×{h}", mesh.triangles.len()), mesh, params });
+    }
+    // Fill rate: eight full-frame layers of two triangles, drawn back to front (every layer
+    // passes the depth test in the hardware pipeline): overdraw 8.
+    let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
+    let mut mesh = Mesh::default();
+    for layer in 0..8u32 {
+        let z = 0.9 - 0.1 * layer as f64;
+        let v = mesh.positions.len() as u32;
+        mesh.positions.extend([[-1.0, -1.0, z], [1.0, -1.0, z], [1.0, 1.0, z], [-1.0, 1.0, z]]);
+        mesh.triangles.extend([[v, v + 1, v + 2], [v, v + 2, v + 3]]);
+    }
+    let identity = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, identity) };
+    out.push(Scene { name: format!("fill rate: 8 full-frame layers (16 triangles), back to front, {w}×{h}"), mesh, params });
+    Ok(out)
+}
+
+/// The times of `runs` calls after one warm-up, each call's result dropped before the next.
+fn timed<T>(runs: usize, mut f: impl FnMut() -> Result<T, String>) -> Result<(Timing, T), String> {
+    let mut last = Some(f()?);
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        drop(last.take());
+        let start = Instant::now();
+        last = Some(f()?);
+        times.push(start.elapsed().as_secs_f64());
+    }
+    Ok((Timing::of(times), last.expect("the warm-up ran")))
+}
+
+fn ms(t: &Timing) -> String {
+    format!("{:.1} ms (±{:.0} %)", t.median * 1e3, 50.0 * t.spread())
+}
+
+/// The section, in markdown.
+pub fn run(quick: bool) -> Result<String, String> {
+    let runs = if quick { 2 } else { 5 };
+    let mut peer = MeshPipeline::new()?;
+    let adapter = peer.adapter_name();
+    let gpu = tileraster::gpu_adapter().ok();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Medians of {runs} whole calls after a warm-up. tileraster draws triangle ids (`--shading ids`, the same fragment work as the \
+         peer) and, in its own column, Phong shading; the render pipeline is wgpu's on {adapter} with a Depth32Float buffer and the `Less` \
+         test, writing R32Uint triangle ids. Both read their outputs back to the host. \"ids agree\" is the share of pixels where \
+         tileraster's CPU frame and the render pipeline name the same triangle.\n"
+    );
+    let _ = writeln!(s, "| scene | tileraster cpu | tileraster cpu, phong | tileraster gpu | render pipeline | cpu vs render pipeline | cpu = gpu | ids agree |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |");
+    for scene in scenes(quick)? {
+        let ids = RenderParams { shading: Shading::Ids, ..scene.params.clone() };
+        let phong = RenderParams { shading: Shading::Phong, ..scene.params.clone() };
+        let (cpu_time, cpu) = timed(runs, || render(&scene.mesh, &ids, Backend::Cpu).map_err(|e| e.to_string()))?;
+        let (phong_time, _) = timed(runs, || render(&scene.mesh, &phong, Backend::Cpu).map_err(|e| e.to_string()))?;
+        let gpu_result = match &gpu {
+            Some(_) => Some(timed(runs, || render(&scene.mesh, &ids, Backend::Gpu).map_err(|e| e.to_string()))?),
+            None => None,
+        };
+        let positions: Vec<[f32; 3]> = scene.mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
+        let matrix = scene.params.view_projection.map(|r| r.map(|c| c as f32));
+        let (w, h) = (scene.params.width, scene.params.height);
+        let (peer_time, peer_ids) = timed(runs, || peer.draw_ids(&positions, &scene.mesh.triangles, &matrix, w, h, true))?;
+        let agree = cpu.ids.iter().zip(&peer_ids).filter(|(a, b)| (**a == NO_FACE && **b == NO_ID) || a == b).count() as f64 / peer_ids.len() as f64;
+        let (gpu_cell, same) = match &gpu_result {
+            Some((t, g)) => (ms(t), if g.colour == cpu.colour && g.ids == cpu.ids && g.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()) { "yes" } else { "**NO**" }),
+            None => ("no adapter".into(), "–"),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {:.2}× | {} | {:.4} % |",
+            scene.name,
+            ms(&cpu_time),
+            ms(&phong_time),
+            gpu_cell,
+            ms(&peer_time),
+            peer_time.median / cpu_time.median,
+            same,
+            100.0 * agree
+        );
+        eprintln!("render-report: {} done", scene.name);
+    }
+    let _ = writeln!(s, "\nA ratio above 1 means tileraster's CPU backend is ahead. The goal: at least 1 on the same cores as llvmpipe's graphics pipeline, and within 2× of a hardware pipeline on a GPU.");
+    Ok(s)
+}

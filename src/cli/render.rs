@@ -5,13 +5,14 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading};
+use tileraster::render::{read_mesh, render, Camera, Cull, RenderParams, Shading};
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// The mesh: `.obj`, `.ply`, `.stl`, or points (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`,
+    /// The mesh: `.gltf` or `.glb` (node transforms applied; normals, vertex colours and the
+    /// base colour used), `.obj`, `.ply`, `.stl`, or points (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`,
     /// `.pts`) rendered as their Delaunay TIN.
     input: PathBuf,
     /// The PNG to write (RGBA).
@@ -89,8 +90,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     }
     set_quiet(quiet);
     let (width, height) = (size[0], size[1]);
-    let read = tileraster::dem::read_scene(&input, &Default::default(), &()).map_err(|e| e.to_string())?;
-    let mut mesh = Mesh { positions: read.scene.vertices, triangles: read.scene.triangles, ..Default::default() };
+    let mut mesh = read_mesh(&input).map_err(|e| e.to_string())?;
     if z_scale != 1.0 {
         let lowest = mesh.positions.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
         for p in &mut mesh.positions {

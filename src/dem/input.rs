@@ -13,6 +13,8 @@ pub enum InputKind {
     Obj,
     Ply,
     Stl,
+    /// glTF 2.0, `.gltf` or `.glb` (its scene's triangles in world coordinates).
+    Gltf,
     /// `.las` or `.laz` points.
     Las,
     /// Delimited text points: `.csv`, `.xyz`, `.txt`, `.pts`.
@@ -27,6 +29,7 @@ impl InputKind {
             "obj" => InputKind::Obj,
             "ply" => InputKind::Ply,
             "stl" => InputKind::Stl,
+            "gltf" | "glb" => InputKind::Gltf,
             "las" | "laz" => InputKind::Las,
             "csv" | "xyz" | "txt" | "pts" => InputKind::Text,
             _ => return Err(DemError::UnsupportedInput { path: path.to_owned(), extension }),
@@ -57,7 +60,7 @@ pub struct PointsRead {
     pub triangulated: Duration,
 }
 
-/// The scene in `path`: a mesh (`.obj`, `.ply`, `.stl`; heights in z), or the Delaunay TIN of
+/// The scene in `path`: a mesh (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`; heights in z), or the Delaunay TIN of
 /// a point file (`.las`, `.laz`, or delimited text with `columns`), whose vertices are the
 /// points in file order.
 pub fn read_scene(path: &Path, columns: &PointColumns, progress: &dyn Progress) -> Result<Input, DemError> {
@@ -67,6 +70,10 @@ pub fn read_scene(path: &Path, columns: &PointColumns, progress: &dyn Progress) 
         InputKind::Obj => mesh(tileraster_io::read_obj(path)?),
         InputKind::Ply => mesh(tileraster_io::read_ply(path)?),
         InputKind::Stl => mesh(tileraster_io::read_stl(path)?),
+        InputKind::Gltf => {
+            let m = tileraster_io::read_gltf(path)?;
+            mesh(Scene::new(m.positions, m.triangles))
+        }
         InputKind::Las | InputKind::Text => {
             let start = Instant::now();
             let points = if kind == InputKind::Las { tileraster_io::read_las(path)? } else { tileraster_io::read_points(path, columns)? };

@@ -47,7 +47,7 @@ pub enum DemError {
     Triangulation { path: PathBuf, source: tileraster_tin::TinError },
     /// The input's file type is not one tileraster reads.
     #[error(
-        "{}: unsupported input type '{extension}'; give a mesh (.obj, .ply, .stl) or points (.las, .laz, or delimited text: .csv, .xyz, .txt, .pts)",
+        "{}: unsupported input type '{extension}'; give a mesh (.obj, .ply, .stl, .gltf, .glb) or points (.las, .laz, or delimited text: .csv, .xyz, .txt, .pts)",
         path.display()
     )]
     UnsupportedInput { path: PathBuf, extension: String },

@@ -25,7 +25,20 @@ pub use camera::Camera;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{prepare_render, Cull, FrontFace, GeometryCounts, Light, Mesh, RenderParams, Shading, MAX_RENDER_DIM};
 
+use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Stats};
+use std::path::Path;
+
+/// The mesh in `path`: glTF 2.0 (`.gltf`, `.glb`) with its normals, colours and texture
+/// coordinates in world coordinates; any other input `tileraster rasterise` takes (OBJ, PLY,
+/// STL, or points as their Delaunay TIN) as positions and faces.
+pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
+    if InputKind::of(path)? == InputKind::Gltf {
+        return Ok(tileraster_io::read_gltf(path)?);
+    }
+    let input = crate::dem::read_scene(path, &Default::default(), &())?;
+    Ok(Mesh { positions: input.scene.vertices, triangles: input.scene.triangles, ..Default::default() })
+}
 
 /// A rendered frame: row 0 at the top.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,4 +1,4 @@
-//! File formats: meshes (OBJ, PLY, STL) and point sets (CSV and XYZ text, LAS and LAZ) in;
+//! File formats: meshes (OBJ, PLY, STL, glTF 2.0) and point sets (CSV and XYZ text, LAS and LAZ) in;
 //! OBJ meshes (a point set's TIN),
 //! single-band GeoTIFFs (streamed band by band), VRT mosaics of them, and PNG hillshade
 //! previews out.
@@ -6,6 +6,7 @@
 //! so a failed run never leaves a partial file behind.
 
 mod geotiff;
+mod gltf_mesh;
 mod las;
 mod obj;
 mod ply;
@@ -15,6 +16,7 @@ mod stl;
 mod vrt;
 
 pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, GeoTiffOptions, GeoTiffWriter, Sample, TILE};
+pub use gltf_mesh::read_gltf;
 pub use obj::{parse_obj, read_obj, write_obj};
 pub use las::{parse_las, read_las};
 pub use ply::{parse_ply, read_ply};

@@ -1,0 +1,304 @@
+//! glTF 2.0 (`.gltf` with its buffers, or `.glb`) through the `gltf` crate: the default scene's
+//! nodes (or, without scenes, every root node), each node's mesh placed by its world transform
+//! (the product of its ancestors' matrices), every triangle primitive's positions, normals
+//! (transformed by the inverse transpose and normalised), `COLOR_0` times the material's base
+//! colour factor, and `TEXCOORD_0`. Faces count the triangles in that order: nodes depth first
+//! in document order, primitives in order, triangles in index order (strips and fans unrolled).
+//! Points, lines, required extensions this reader does not implement, and skins or morph
+//! targets are refused with an error that names them.
+
+use crate::IoError;
+use std::path::Path;
+use tileraster_core::render::Mesh;
+
+/// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates.
+pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
+    let format = |message: String| IoError::Format { path: path.to_owned(), message };
+    let gltf = gltf::Gltf::open(path).map_err(|e| format(format!("not a readable glTF 2.0 file: {e}")))?;
+    if let Some(ext) = gltf.document.extensions_required().next() {
+        return Err(format(format!("unsupported glTF feature: the file requires the extension {ext}, which this reader does not implement")));
+    }
+    let buffers = gltf::import_buffers(&gltf.document, path.parent(), gltf.blob.clone()).map_err(|e| format(format!("reading its buffers: {e}")))?;
+    let mut out = Parts::default();
+    let roots: Vec<gltf::Node> = match gltf.document.default_scene().or_else(|| gltf.document.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => {
+            // No scene: every node that is nobody's child.
+            let children: std::collections::HashSet<usize> = gltf.document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+            gltf.document.nodes().filter(|n| !children.contains(&n.index())).collect()
+        }
+    };
+    for node in roots {
+        visit(&node, IDENTITY, &buffers, &mut out, 0).map_err(format)?;
+    }
+    if out.triangles.is_empty() {
+        return Err(format("the file has no triangles in its scene".into()));
+    }
+    let vertex_count = out.positions.len();
+    Ok(Mesh {
+        positions: out.positions,
+        triangles: out.triangles,
+        normals: (out.with_normals == out.primitives).then_some(out.normals),
+        colours: (out.with_colours > 0 || out.coloured_materials > 0).then_some(out.colours),
+        uvs: (out.with_uvs > 0).then(|| {
+            let mut uvs = out.uvs;
+            uvs.resize(vertex_count, [0.0; 2]);
+            uvs
+        }),
+    })
+}
+
+type Matrix = [[f64; 4]; 4];
+const IDENTITY: Matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+
+/// What the primitives read so far add up to.
+#[derive(Default)]
+struct Parts {
+    positions: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    normals: Vec<[f32; 3]>,
+    colours: Vec<[f32; 4]>,
+    uvs: Vec<[f32; 2]>,
+    primitives: usize,
+    with_normals: usize,
+    with_colours: usize,
+    with_uvs: usize,
+    coloured_materials: usize,
+}
+
+/// glTF's column-major matrix as rows.
+fn rows(m: [[f32; 4]; 4]) -> Matrix {
+    std::array::from_fn(|r| std::array::from_fn(|c| m[c][r] as f64))
+}
+
+fn multiply(a: &Matrix, b: &Matrix) -> Matrix {
+    std::array::from_fn(|r| std::array::from_fn(|c| (0..4).map(|k| a[r][k] * b[k][c]).sum()))
+}
+
+/// Node hierarchies deeper than this are refused (a cycle, or a hostile file).
+const MAX_DEPTH: usize = 256;
+
+fn visit(node: &gltf::Node, parent: Matrix, buffers: &[gltf::buffer::Data], out: &mut Parts, depth: usize) -> Result<(), String> {
+    if depth > MAX_DEPTH {
+        return Err(format!("node {} is nested more than {MAX_DEPTH} deep (a cycle?)", node.index()));
+    }
+    let world = multiply(&parent, &rows(node.transform().matrix()));
+    if node.skin().is_some() {
+        return Err(format!("unsupported glTF feature: node {} is skinned", node.index()));
+    }
+    if let Some(mesh) = node.mesh() {
+        for primitive in mesh.primitives() {
+            add_primitive(&mesh, &primitive, &world, buffers, out)?;
+        }
+    }
+    for child in node.children() {
+        visit(&child, world, buffers, out, depth + 1)?;
+    }
+    Ok(())
+}
+
+fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix, buffers: &[gltf::buffer::Data], out: &mut Parts) -> Result<(), String> {
+    use gltf::mesh::Mode;
+    let name = || format!("mesh {}{} primitive {}", mesh.index(), mesh.name().map(|n| format!(" ('{n}')")).unwrap_or_default(), primitive.index());
+    if primitive.morph_targets().next().is_some() {
+        return Err(format!("unsupported glTF feature: {} has morph targets", name()));
+    }
+    let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let positions: Vec<[f32; 3]> = reader.read_positions().ok_or_else(|| format!("{} has no POSITION attribute", name()))?.collect();
+    let n = positions.len();
+    let base = out.positions.len();
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..n as u32).collect(),
+    };
+    if let Some(&bad) = indices.iter().find(|&&i| i as usize >= n) {
+        return Err(format!("{} refers to vertex {bad}, but has only {n}", name()));
+    }
+    let corner = |i: u32| base as u32 + i;
+    let triangles: Vec<[u32; 3]> = match primitive.mode() {
+        Mode::Triangles => indices.chunks_exact(3).map(|t| [corner(t[0]), corner(t[1]), corner(t[2])]).collect(),
+        // The specification's order: every other triangle of a strip takes its last two
+        // vertices the other way round, which keeps the winding.
+        Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
+            .map(|t| if t % 2 == 0 { [indices[t], indices[t + 1], indices[t + 2]] } else { [indices[t], indices[t + 2], indices[t + 1]] })
+            .map(|t| t.map(corner))
+            .collect(),
+        Mode::TriangleFan => (2..indices.len()).map(|k| [indices[0], indices[k - 1], indices[k]].map(corner)).collect(),
+        other => return Err(format!("unsupported glTF feature: {} draws {other:?}, not triangles", name())),
+    };
+    let m = world;
+    out.positions.extend(positions.iter().map(|p| {
+        let p = p.map(f64::from);
+        std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
+    }));
+    out.triangles.extend(triangles);
+    out.primitives += 1;
+    // Normals by the inverse transpose: the cofactor matrix of the linear part (the same
+    // direction; normalised below).
+    let cofactor: [[f64; 3]; 3] = std::array::from_fn(|r| {
+        std::array::from_fn(|c| {
+            let (r1, r2, c1, c2) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
+            m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
+        })
+    });
+    match reader.read_normals() {
+        Some(normals) => {
+            out.with_normals += 1;
+            out.normals.extend(normals.map(|v| {
+                let v = v.map(f64::from);
+                let t: [f64; 3] = std::array::from_fn(|r| cofactor[r][0] * v[0] + cofactor[r][1] * v[1] + cofactor[r][2] * v[2]);
+                let len = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+                if len > 0.0 { t.map(|c| (c / len) as f32) } else { [0.0; 3] }
+            }));
+        }
+        None => out.normals.extend(std::iter::repeat_n([0.0; 3], n)),
+    }
+    let factor = primitive.material().pbr_metallic_roughness().base_color_factor();
+    out.coloured_materials += usize::from(factor != [1.0; 4]);
+    match reader.read_colors(0) {
+        Some(colours) => {
+            out.with_colours += 1;
+            out.colours.extend(colours.into_rgba_f32().map(|c| std::array::from_fn(|k| c[k] * factor[k])));
+        }
+        None => out.colours.extend(std::iter::repeat_n(factor, n)),
+    }
+    if let Some(uvs) = reader.read_tex_coords(0) {
+        // Vertices of earlier primitives without coordinates get zeros.
+        out.uvs.resize(base, [0.0; 2]);
+        out.with_uvs += 1;
+        out.uvs.extend(uvs.into_f32());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A quad (two triangles, normals +z, colours) and its buffer, little-endian.
+    fn quad_buffer() -> Vec<u8> {
+        let positions: [[f32; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        let normals: [[f32; 3]; 4] = [[0.0, 0.0, 1.0]; 4];
+        let colours: [[f32; 4]; 4] = [[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]];
+        let indices: [u16; 6] = [0, 1, 2, 0, 2, 3];
+        let mut b = Vec::new();
+        b.extend_from_slice(bytemuck::cast_slice(&positions));
+        b.extend_from_slice(bytemuck::cast_slice(&normals));
+        b.extend_from_slice(bytemuck::cast_slice(&colours));
+        b.extend_from_slice(bytemuck::cast_slice(&indices));
+        b
+    }
+
+    /// The document: a root node translated by (10, 0, 0) and scaled by 2 with the quad, and a
+    /// child rotated 90° about z with the quad again (its material halves red); `mode` is the
+    /// second primitive's mode (4: triangles).
+    fn document(uri: Option<&str>, mode: u32, required: &str) -> String {
+        let uri = uri.map(|u| format!(r#""uri": "{u}","#)).unwrap_or_default();
+        format!(
+            r#"{{
+  "asset": {{"version": "2.0"}},
+  {required}
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [
+    {{"mesh": 0, "translation": [10, 0, 0], "scale": [2, 2, 2], "children": [1]}},
+    {{"mesh": 1, "rotation": [0, 0, 0.7071067811865476, 0.7071067811865476]}}
+  ],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0.5, 1, 1, 1]}}}}],
+  "meshes": [
+    {{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "COLOR_0": 2}}, "indices": 3}}]}},
+    {{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "COLOR_0": 2}}, "indices": 3, "material": 0, "mode": {mode}}}]}}
+  ],
+  "buffers": [{{{uri} "byteLength": 172}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 96, "byteLength": 64}},
+    {{"buffer": 0, "byteOffset": 160, "byteLength": 12}}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC4"}},
+    {{"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}}
+  ]
+}}"#
+        )
+    }
+
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("tileraster-gltf-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A `.glb`: the JSON chunk and the binary chunk, each padded to four bytes.
+    fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+        let mut json = json.as_bytes().to_vec();
+        json.resize(json.len().next_multiple_of(4), b' ');
+        let mut bin = bin.to_vec();
+        bin.resize(bin.len().next_multiple_of(4), 0);
+        let total = 12 + 8 + json.len() + 8 + bin.len();
+        let mut out = Vec::new();
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&json);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+        out
+    }
+
+    fn close(a: [f64; 3], b: [f64; 3]) -> bool {
+        (0..3).all(|k| (a[k] - b[k]).abs() < 1e-6)
+    }
+
+    fn check(mesh: &Mesh) {
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]]);
+        // The root: scaled by 2, moved by 10 in x.
+        assert!(close(mesh.positions[2], [12.0, 2.0, 0.0]), "{:?}", mesh.positions[2]);
+        // The child: rotated 90° about z (x → y), then the root's transform.
+        assert!(close(mesh.positions[5], [10.0, 2.0, 0.0]), "{:?}", mesh.positions[5]);
+        assert!(close(mesh.positions[6], [8.0, 2.0, 0.0]), "{:?}", mesh.positions[6]);
+        let normals = mesh.normals.as_ref().expect("normals");
+        assert!(normals.iter().all(|n| close(n.map(f64::from), [0.0, 0.0, 1.0])));
+        let colours = mesh.colours.as_ref().expect("colours");
+        assert_eq!(colours[0], [1.0, 0.0, 0.0, 1.0]);
+        assert_eq!(colours[4], [0.5, 0.0, 0.0, 1.0], "COLOR_0 times the base colour factor");
+        assert!(mesh.uvs.is_none());
+    }
+
+    #[test]
+    fn gltf_with_an_external_buffer_and_glb_give_the_same_mesh() {
+        let dir = scratch("both");
+        std::fs::write(dir.join("quad.bin"), quad_buffer()).unwrap();
+        std::fs::write(dir.join("quad.gltf"), document(Some("quad.bin"), 4, "")).unwrap();
+        let from_gltf = read_gltf(&dir.join("quad.gltf")).unwrap();
+        check(&from_gltf);
+        std::fs::write(dir.join("quad.glb"), glb(&document(None, 4, ""), &quad_buffer())).unwrap();
+        assert_eq!(read_gltf(&dir.join("quad.glb")).unwrap(), from_gltf);
+    }
+
+    #[test]
+    fn strips_are_unrolled_and_unsupported_features_are_named() {
+        let dir = scratch("features");
+        // A strip of indices 0 1 2 0 2 3: four triangles, every other one's last two swapped.
+        std::fs::write(dir.join("strip.glb"), glb(&document(None, 5, ""), &quad_buffer())).unwrap();
+        let strip = read_gltf(&dir.join("strip.glb")).unwrap();
+        assert_eq!(&strip.triangles[2..], &[[4, 5, 6], [5, 4, 6], [6, 4, 6], [4, 7, 6]]);
+        std::fs::write(dir.join("points.glb"), glb(&document(None, 0, ""), &quad_buffer())).unwrap();
+        let e = read_gltf(&dir.join("points.glb")).unwrap_err().to_string();
+        assert!(e.contains("unsupported glTF feature") && e.contains("Points") && e.contains("mesh 1"), "{e}");
+        let draco = r#""extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"],"#;
+        std::fs::write(dir.join("draco.glb"), glb(&document(None, 4, draco), &quad_buffer())).unwrap();
+        let e = read_gltf(&dir.join("draco.glb")).unwrap_err().to_string();
+        assert!(e.contains("KHR_draco_mesh_compression") && e.contains("draco.glb"), "{e}");
+        std::fs::write(dir.join("broken.glb"), b"glTF\x02\0\0\0garbage").unwrap();
+        assert!(read_gltf(&dir.join("broken.glb")).unwrap_err().to_string().contains("not a readable glTF"));
+        let missing = read_gltf(&dir.join("none.gltf")).unwrap_err().to_string();
+        assert!(missing.contains("none.gltf"), "{missing}");
+    }
+}

@@ -19,7 +19,7 @@ pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, GeoTif
 pub use gltf_mesh::read_gltf;
 pub use obj::{parse_obj, read_obj, write_obj};
 pub use las::{parse_las, read_las};
-pub use ply::{parse_ply, read_ply};
+pub use ply::{parse_ply, parse_ply_mesh, read_ply, read_ply_mesh};
 pub use stl::{parse_stl, read_stl};
 pub use points::{parse_points, read_points, Column, PointColumns};
 pub use preview::{write_preview_png, write_rgba_png};

@@ -1,16 +1,31 @@
 //! PLY meshes: ASCII, binary little-endian and binary big-endian. The `vertex` element's `x`,
-//! `y`, `z` properties (any numeric type) and the `face` element's index list (`vertex_indices`
-//! or `vertex_index`) are read; polygons are fanned into triangles; other elements and
-//! properties are skipped. Errors name the line (ASCII) or the element record (binary).
+//! `y`, `z` properties (any numeric type), its normals (`nx`, `ny`, `nz`) and colours (`red`,
+//! `green`, `blue`, optionally `alpha`: integers scaled from their type's range, floats as they
+//! are) where present, and the `face` element's index list (`vertex_indices` or `vertex_index`)
+//! are read; polygons are fanned into triangles; other elements and properties are skipped.
+//! Errors name the line (ASCII) or the element record (binary).
 
 use crate::IoError;
 use std::path::Path;
+use tileraster_core::render::Mesh;
 use tileraster_core::Scene;
 
-/// Read a PLY mesh.
+/// Read a PLY mesh's positions and faces.
 pub fn read_ply(path: &Path) -> Result<Scene, IoError> {
     let bytes = std::fs::read(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
     parse_ply(&bytes, path)
+}
+
+/// Read a PLY mesh with its vertex normals and colours.
+pub fn read_ply_mesh(path: &Path) -> Result<Mesh, IoError> {
+    let bytes = std::fs::read(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
+    parse_ply_mesh(&bytes, path)
+}
+
+/// Parse PLY bytes' positions and faces; `path` only names the source in errors.
+pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<Scene, IoError> {
+    let mesh = parse_ply_mesh(bytes, path)?;
+    Ok(Scene::new(mesh.positions, mesh.triangles))
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -45,6 +60,20 @@ impl Scalar {
             "double" | "float64" => Scalar::F64,
             _ => return None,
         })
+    }
+
+    /// The largest value of an integer type, by which colours of that type are scaled to
+    /// `[0, 1]`; 1 for floats.
+    fn unit(self) -> f64 {
+        match self {
+            Scalar::I8 => i8::MAX as f64,
+            Scalar::U8 => u8::MAX as f64,
+            Scalar::I16 => i16::MAX as f64,
+            Scalar::U16 => u16::MAX as f64,
+            Scalar::I32 => i32::MAX as f64,
+            Scalar::U32 => u32::MAX as f64,
+            Scalar::F32 | Scalar::F64 => 1.0,
+        }
     }
 
     fn size(self) -> usize {
@@ -87,8 +116,8 @@ struct Element {
     properties: Vec<Property>,
 }
 
-/// Parse PLY bytes; `path` only names the source in errors.
-pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<Scene, IoError> {
+/// Parse PLY bytes with vertex normals and colours; `path` only names the source in errors.
+pub fn parse_ply_mesh(bytes: &[u8], path: &Path) -> Result<Mesh, IoError> {
     let format_err = |message: String| IoError::Format { path: path.to_owned(), message };
     let line_err = |line: usize, message: String| IoError::Parse { path: path.to_owned(), line, message };
     // The header: text lines up to `end_header`.
@@ -135,6 +164,8 @@ pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<Scene, IoError> {
 
     let mut reader = Body { bytes: &bytes[body_start..], at: 0, format, line: header_lines, words: Vec::new() };
     let mut scene = Scene::default();
+    let (mut normals, mut colours) = (Vec::new(), Vec::new());
+    let (mut has_normals, mut has_colours) = (false, false);
     for element in &elements {
         let is_vertex = element.name == "vertex";
         let axis = |name: &str| element.properties.iter().position(|p| matches!(p, Property::Scalar(n, _) if n == name));
@@ -147,6 +178,15 @@ pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<Scene, IoError> {
         } else {
             [usize::MAX; 3]
         };
+        // Optional attributes: all three normal components, or all three colour channels.
+        let all = |names: &[&str]| -> Option<Vec<usize>> { if is_vertex { names.iter().map(|n| axis(n)).collect() } else { None } };
+        let normal = all(&["nx", "ny", "nz"]);
+        let colour = all(&["red", "green", "blue"]).map(|mut c| {
+            c.extend(axis("alpha"));
+            c
+        });
+        has_normals |= normal.is_some();
+        has_colours |= colour.is_some();
         let face_list = (element.name == "face")
             .then(|| element.properties.iter().position(|p| matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index")))
             .flatten();
@@ -156,12 +196,19 @@ pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<Scene, IoError> {
         for record in 0..element.count {
             reader.start_record().map_err(|m| reader.error(path, &element.name, record, m))?;
             let mut v = [0.0; 3];
+            let (mut n, mut c) = ([0.0f32; 3], [1.0f32; 4]);
             for (k, property) in element.properties.iter().enumerate() {
                 match property {
                     Property::Scalar(_, t) => {
                         let value = reader.scalar(*t).map_err(|m| reader.error(path, &element.name, record, m))?;
                         if let Some(a) = xyz.iter().position(|&p| p == k) {
                             v[a] = value;
+                        }
+                        if let Some(a) = normal.as_ref().and_then(|p| p.iter().position(|&p| p == k)) {
+                            n[a] = value as f32;
+                        }
+                        if let Some(a) = colour.as_ref().and_then(|p| p.iter().position(|&p| p == k)) {
+                            c[a] = (value / t.unit()) as f32;
                         }
                     }
                     Property::List(_, count_type, item_type) => {
@@ -190,13 +237,21 @@ pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<Scene, IoError> {
                     return Err(reader.error(path, &element.name, record, format!("coordinates {v:?} are not all finite")));
                 }
                 scene.vertices.push(v);
+                normals.push(n);
+                colours.push(c);
             }
         }
     }
     if scene.vertices.is_empty() || scene.triangles.is_empty() {
         return Err(format_err(format!("{} vertices and {} triangles: nothing to rasterise", scene.vertices.len(), scene.triangles.len())));
     }
-    Ok(scene)
+    Ok(Mesh {
+        positions: scene.vertices,
+        triangles: scene.triangles,
+        normals: has_normals.then_some(normals),
+        colours: has_colours.then_some(colours),
+        uvs: None,
+    })
 }
 
 /// The body after the header: binary values, or ASCII words line by line.
@@ -288,6 +343,17 @@ mod tests {
             let b = parse_ply(&binary(big), Path::new("b.ply")).unwrap();
             assert_eq!((&b.vertices, &b.triangles), (&ascii.vertices, &ascii.triangles), "big endian: {big}");
         }
+    }
+
+    #[test]
+    fn normals_and_colours_are_read_where_present() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0 0 1 255 0 51\n1 0 0 0 0 1 0 255 0\n0 1 0 0 0 1 0 0 255\n3 0 1 2\n";
+        let mesh = parse_ply_mesh(text.as_bytes(), Path::new("c.ply")).unwrap();
+        assert_eq!(mesh.normals.unwrap(), vec![[0.0, 0.0, 1.0]; 3]);
+        assert_eq!(mesh.colours.unwrap()[0], [1.0, 0.0, 0.2, 1.0]);
+        // Only a red channel: no colours; no normals.
+        let plain = parse_ply_mesh(ASCII.as_bytes(), Path::new("a.ply")).unwrap();
+        assert!(plain.colours.is_none() && plain.normals.is_none());
     }
 
     #[test]

@@ -12,7 +12,8 @@ use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 #[derive(Args)]
 pub struct RenderArgs {
     /// The mesh: `.gltf` or `.glb` (node transforms applied; normals, vertex colours and the
-    /// base colour used), `.obj`, `.ply`, `.stl`, or points (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`,
+    /// base colour used), `.obj` (normals, materials' diffuse colours), `.ply` (vertex normals
+    /// and colours), `.stl`, or points (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`,
     /// `.pts`) rendered as their Delaunay TIN.
     input: PathBuf,
     /// The PNG to write (RGBA).

@@ -30,12 +30,14 @@ use crate::{Backend, Error, Stats};
 use std::path::Path;
 
 /// The mesh in `path`: glTF 2.0 (`.gltf`, `.glb`) with its normals, colours and texture
-/// coordinates in world coordinates; PLY with its vertex normals and colours; any other input `tileraster rasterise` takes (OBJ, PLY,
+/// coordinates in world coordinates; PLY with its vertex normals and colours; OBJ with its normals,
+/// texture coordinates and materials' diffuse colours; any other input `tileraster rasterise` takes (OBJ, PLY,
 /// STL, or points as their Delaunay TIN) as positions and faces.
 pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
     match InputKind::of(path)? {
         InputKind::Gltf => return Ok(tileraster_io::read_gltf(path)?),
         InputKind::Ply => return Ok(tileraster_io::read_ply_mesh(path)?),
+        InputKind::Obj => return Ok(tileraster_io::read_obj_mesh(path)?),
         _ => {}
     }
     let input = crate::dem::read_scene(path, &Default::default(), &())?;

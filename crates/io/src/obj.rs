@@ -1,6 +1,7 @@
 use crate::{write_atomically, IoError};
 use std::io::Write as _;
 use std::path::Path;
+use tileraster_core::render::Mesh;
 use tileraster_core::Scene;
 
 /// Read a Wavefront OBJ mesh: `v x y z` vertices (world x, y and height z) and `f` faces
@@ -86,6 +87,144 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Scene, IoError> {
     Ok(scene)
 }
 
+/// Read an OBJ mesh with its normals (`vn`), texture coordinates (`vt`) and the diffuse
+/// colours (`Kd`, with `d` as alpha) of its materials (`mtllib`, `usemtl`): a vertex for each
+/// distinct corner (position, normal, texture coordinates, material), faces fanned into
+/// triangles in file order, as [`read_obj`] does.
+pub fn read_obj_mesh(path: &Path) -> Result<Mesh, IoError> {
+    let text = std::fs::read_to_string(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
+    parse_obj_mesh(&text, path, &|name| {
+        let mtl = path.parent().unwrap_or(Path::new(".")).join(name);
+        std::fs::read_to_string(&mtl).map_err(|source| IoError::Io { path: mtl, source })
+    })
+}
+
+/// Parse OBJ text with its attributes; `materials` reads a `mtllib` file by name.
+pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Result<String, IoError>) -> Result<Mesh, IoError> {
+    let err = |line: usize, message: String| IoError::Parse { path: path.to_owned(), line, message };
+    let (mut positions, mut normals, mut uvs) = (Vec::<[f64; 3]>::new(), Vec::<[f32; 3]>::new(), Vec::<[f32; 2]>::new());
+    let mut colours: std::collections::HashMap<String, [f32; 4]> = Default::default();
+    let mut material: Option<[f32; 4]> = None;
+    let mut corners: std::collections::HashMap<(u32, u32, u32, [u32; 4]), u32> = Default::default();
+    let mut mesh = Mesh::default();
+    let (mut out_normals, mut out_uvs, mut out_colours) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut any_normal, mut all_normals, mut any_uv, mut any_colour) = (false, true, false, false);
+    let numbers = |words: &mut std::str::SplitWhitespace, n: usize, line: usize, what: &str| -> Result<Vec<f64>, IoError> {
+        let values: Vec<f64> = words.take(n).map(|w| w.parse::<f64>().map_err(|_| err(line, format!("{what} value {w:?} is not a number")))).collect::<Result<_, _>>()?;
+        if values.len() < n || values.iter().any(|v| !v.is_finite()) {
+            return Err(err(line, format!("{what} needs {n} finite numbers")));
+        }
+        Ok(values)
+    };
+    for (n, raw) in text.lines().enumerate() {
+        let line_no = n + 1;
+        let line = raw.split('#').next().unwrap_or("").trim();
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let v = numbers(&mut words, 3, line_no, "vertex")?;
+                positions.push([v[0], v[1], v[2]]);
+            }
+            Some("vn") => {
+                let v = numbers(&mut words, 3, line_no, "normal")?;
+                normals.push([v[0] as f32, v[1] as f32, v[2] as f32]);
+            }
+            Some("vt") => {
+                let v = numbers(&mut words, 2, line_no, "texture coordinate")?;
+                uvs.push([v[0] as f32, v[1] as f32]);
+            }
+            Some("mtllib") => {
+                for name in words {
+                    let mtl = materials(name)?;
+                    parse_mtl(&mtl, &mut colours);
+                }
+            }
+            Some("usemtl") => {
+                let name = words.next().unwrap_or("");
+                material = Some(*colours.get(name).ok_or_else(|| err(line_no, format!("material {name:?} is not defined in any mtllib file")))?);
+                any_colour = true;
+            }
+            Some("f") => {
+                let resolve = |w: &str, count: usize, what: &str| -> Result<u32, IoError> {
+                    let i: i64 = w.parse().map_err(|_| err(line_no, format!("face {what} index {w:?} is not an integer")))?;
+                    let resolved = if i > 0 { i - 1 } else { count as i64 + i };
+                    if i == 0 || resolved < 0 || resolved >= count as i64 {
+                        return Err(err(line_no, format!("face {what} index {i} is out of range: {count} are defined before this line")));
+                    }
+                    Ok(resolved as u32)
+                };
+                let mut ids = Vec::new();
+                for w in words {
+                    let mut parts = w.split('/');
+                    let v = resolve(parts.next().unwrap_or(""), positions.len(), "vertex")?;
+                    let t = match parts.next() {
+                        Some(t) if !t.is_empty() => resolve(t, uvs.len(), "texture coordinate")?,
+                        _ => u32::MAX,
+                    };
+                    let vn = match parts.next() {
+                        Some(t) if !t.is_empty() => resolve(t, normals.len(), "normal")?,
+                        _ => u32::MAX,
+                    };
+                    let colour = material.unwrap_or([0.8, 0.8, 0.8, 1.0]);
+                    let key = (v, t, vn, colour.map(f32::to_bits));
+                    let next = mesh.positions.len() as u32;
+                    let id = *corners.entry(key).or_insert_with(|| {
+                        mesh.positions.push(positions[v as usize]);
+                        any_normal |= vn != u32::MAX;
+                        all_normals &= vn != u32::MAX;
+                        any_uv |= t != u32::MAX;
+                        out_normals.push(if vn == u32::MAX { [0.0; 3] } else { normals[vn as usize] });
+                        out_uvs.push(if t == u32::MAX { [0.0; 2] } else { uvs[t as usize] });
+                        out_colours.push(colour);
+                        next
+                    });
+                    ids.push(id);
+                }
+                if ids.len() < 3 {
+                    return Err(err(line_no, format!("face has {} corners; a face needs at least 3", ids.len())));
+                }
+                mesh.triangles.extend((1..ids.len() - 1).map(|k| [ids[0], ids[k], ids[k + 1]]));
+            }
+            _ => {}
+        }
+    }
+    if mesh.triangles.is_empty() {
+        return Err(IoError::Format { path: path.to_owned(), message: format!("no mesh: {} vertices and no faces found; expected `v x y z` and `f a b c` lines", positions.len()) });
+    }
+    mesh.normals = (any_normal && all_normals).then_some(out_normals);
+    mesh.uvs = any_uv.then_some(out_uvs);
+    mesh.colours = any_colour.then_some(out_colours);
+    Ok(mesh)
+}
+
+/// The diffuse colours of an MTL file's materials: `Kd r g b`, and `d` (dissolve) as alpha.
+fn parse_mtl(text: &str, colours: &mut std::collections::HashMap<String, [f32; 4]>) {
+    let mut current: Option<String> = None;
+    for raw in text.lines() {
+        let mut words = raw.split('#').next().unwrap_or("").split_whitespace();
+        let number = |w: Option<&str>| w.and_then(|w| w.parse::<f32>().ok()).filter(|v| v.is_finite());
+        match words.next() {
+            Some("newmtl") => {
+                let name = words.next().unwrap_or("").to_string();
+                colours.insert(name.clone(), [0.8, 0.8, 0.8, 1.0]);
+                current = Some(name);
+            }
+            Some("Kd") => {
+                if let (Some(name), Some(r), Some(g), Some(b)) = (&current, number(words.next()), number(words.next()), number(words.next())) {
+                    let c = colours.get_mut(name).expect("inserted at newmtl");
+                    (c[0], c[1], c[2]) = (r, g, b);
+                }
+            }
+            Some("d") => {
+                if let (Some(name), Some(a)) = (&current, number(words.next())) {
+                    colours.get_mut(name).expect("inserted at newmtl")[3] = a;
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,6 +234,28 @@ mod tests {
         let s = parse_obj("# c\nv 0 0 1\nv 1 0 2\nv 1 1 3\nv 0 1 4\nf 1/1/1 2 3 4\nf -1 -2 -3\n", Path::new("m.obj")).unwrap();
         assert_eq!(s.vertices.len(), 4);
         assert_eq!(s.triangles, vec![[0, 1, 2], [0, 2, 3], [3, 2, 1]]);
+    }
+
+    #[test]
+    fn attributes_and_materials_are_read_per_corner() {
+        let mtl = "newmtl red\nKd 1 0 0\nd 0.5\nnewmtl blue\nKd 0 0 1\n";
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nusemtl red\nf 1//1 2//1 3//1\nusemtl blue\nf 1//1 3//1 4//1\n";
+        let mesh = parse_obj_mesh(obj, Path::new("m.obj"), &|name| {
+            assert_eq!(name, "m.mtl");
+            Ok(mtl.to_string())
+        })
+        .unwrap();
+        // Corners 1 and 3 carry both materials: each becomes two vertices.
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [3, 4, 5]]);
+        assert_eq!(mesh.positions[3], [0.0, 0.0, 0.0]);
+        assert_eq!(mesh.colours.as_ref().unwrap()[0], [1.0, 0.0, 0.0, 0.5]);
+        assert_eq!(mesh.colours.as_ref().unwrap()[5], [0.0, 0.0, 1.0, 1.0]);
+        assert_eq!(mesh.normals.unwrap(), vec![[0.0, 0.0, 1.0]; 6]);
+        assert!(mesh.uvs.is_none());
+        let e = parse_obj_mesh("v 0 0 0\nusemtl missing\n", Path::new("m.obj"), &|_| unreachable!()).unwrap_err().to_string();
+        assert!(e.starts_with("m.obj:2:") && e.contains("\"missing\""), "{e}");
+        let e = parse_obj_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//2 2 3\n", Path::new("m.obj"), &|_| unreachable!()).unwrap_err().to_string();
+        assert!(e.starts_with("m.obj:4:") && e.contains("normal index 2 is out of range"), "{e}");
     }
 
     #[test]

@@ -7,6 +7,7 @@ mod common;
 use common::gpu_or_skip;
 use tileraster::render::{prepare_render, render, Camera, Cull, DepthFunc, Frame, FrontFace, Interpolation, Mesh, RenderParams, Shading, NO_FACE};
 use tileraster::{Backend, Error, Skips};
+use tileraster_cpu::FinePath;
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::programs::shade::{interpolate, weights};
 use tileraster_kernels::stages::fine::side;
@@ -64,8 +65,23 @@ fn render_skips() -> [(&'static str, Skips); 4] {
     ]
 }
 
-/// Both backends, every skip variant: the same bits everywhere. Returns the CPU frame.
+/// The CPU's specialised depth test (rows of pixels per triangle) against its plain twin (each
+/// tile as the GPU runs its workgroup): the same layers and counters.
+fn assert_plain_twin(name: &str, mesh: &Mesh, params: &RenderParams) {
+    let (prepared, _) = prepare_render(mesh, params).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let run = |path| tileraster_cpu::rasterise_with(&prepared, path).unwrap_or_else(|e| panic!("{name}, {path:?}: {e}"));
+    let (specialised, plain) = (run(FinePath::Specialised), run(FinePath::Plain));
+    common::assert_same_bits(&format!("{name}: depth, CPU specialised vs plain twin"), &specialised, &plain);
+    for (layer, a, b) in [("owner", &specialised.owner, &plain.owner), ("coverage", &specialised.coverage, &plain.coverage), ("colour", &specialised.colours, &plain.colours), ("face", &specialised.faces, &plain.faces)] {
+        assert!(a == b, "{name}: the {layer} layers of the CPU's specialised and plain twins differ");
+    }
+    assert_eq!(specialised.stats, plain.stats, "{name}: the CPU twins' statistics differ");
+}
+
+/// Both backends, every skip variant, and the CPU's two twins: the same bits everywhere.
+/// Returns the CPU frame.
 fn assert_render_parity(name: &str, mesh: &Mesh, params: &RenderParams) -> Frame {
+    assert_plain_twin(name, mesh, params);
     let reference = cpu(mesh, params);
     let gpu = gpu_or_skip(name);
     for (variant, skips) in render_skips() {
@@ -274,6 +290,12 @@ fn bad_input_is_a_typed_error() {
     let mut nan = ok.clone();
     nan.view_projection[2][1] = f64::NAN;
     assert!(matches!(err(&mesh, &nan), Error::NonFiniteMatrix { row: 2, column: 1, .. }));
+    let mut projective = ok.clone();
+    projective.model[3][2] = 0.5;
+    assert!(matches!(err(&mesh, &projective), Error::NonAffineModel { .. }));
+    let mut nan_model = ok.clone();
+    nan_model.model[0][3] = f64::INFINITY;
+    assert!(matches!(err(&mesh, &nan_model), Error::NonFiniteMatrix { name: "model", row: 0, column: 3, .. }));
     let mut inf_vertex = mesh.clone();
     inf_vertex.positions[5][1] = f64::INFINITY;
     assert!(matches!(err(&inf_vertex, &ok), Error::NonFiniteCoordinate { vertex: 5, axis: 'y', .. }));
@@ -294,6 +316,93 @@ fn bad_input_is_a_typed_error() {
     assert!(matches!(err(&mesh, &RenderParams::new(64, 64, ortho)), Error::SingularCamera { .. }));
     let frame = cpu(&mesh, &RenderParams { eye: Some([0.0, 0.0, -10.0]), ..RenderParams::new(64, 64, ortho) });
     assert!(frame.stats.pixels_covered > 0);
+}
+
+/// Blending: both backends give the same bits for every depth function, with and without
+/// depth writes, and every pixel is what the definition gives: the fragments covering its
+/// centre, taken from all of the frame's triangles in submission order, each tested against
+/// the running depth and blended source-over (the kernels' own per-fragment functions, walked
+/// here without bins).
+#[test]
+fn blending_is_in_submission_order_on_both_backends() {
+    use tileraster_kernels::programs::depth::{depth_bits, DepthProgram};
+    use tileraster_kernels::programs::shade::{fragment_colour, source_over};
+    let mut mesh = meshes::soup(150, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.8, 21);
+    for (k, c) in mesh.colours.as_mut().unwrap().iter_mut().enumerate() {
+        c[3] = [0.25, 0.5, 0.75, 1.0][k % 4];
+    }
+    let base = RenderParams { cull: Cull::None, blend: true, shading: Shading::Unlit, background: [20, 40, 60, 255], ..RenderParams::new(96, 80, view(96, 80, [2.5, 1.5, 2.0], 0.5, 9.0)) };
+    for depth_func in [DepthFunc::Less, DepthFunc::GreaterEqual, DepthFunc::Always] {
+        for depth_write in [true, false] {
+            let clear_depth = if depth_func == DepthFunc::GreaterEqual { 0.0 } else { 1.0 };
+            let params = RenderParams { depth_func, depth_write, clear_depth, ..base.clone() };
+            let frame = assert_render_parity(&format!("blended soup, {} write {depth_write}", depth_func.name()), &mesh, &params);
+            let (prepared, _) = prepare_render(&mesh, &params).unwrap();
+            let render = prepared.render.as_ref().unwrap();
+            let setups: Vec<_> = prepared.triangles.iter().enumerate().map(|(slot, t)| setup_triangle(t, slot as u32, prepared.snap_bits)).collect();
+            let mut blended = 0;
+            for j in 0..80 {
+                for i in 0..96 {
+                    let (mut colour, mut running, mut layers) = (u32::from_le_bytes(params.background), clear_depth, 0);
+                    for (slot, s) in setups.iter().enumerate() {
+                        if side(&s.coverage, i, j) != Side::Inside {
+                            continue;
+                        }
+                        let d = depth_bits(s, i, j);
+                        if (DepthProgram { func: depth_func, write: true, clear: running }).passes(f32::from_bits(d)) {
+                            colour = source_over(fragment_colour(&render.params, s, &render.triangles[slot], d, i, j), colour);
+                            layers += 1;
+                            if depth_write {
+                                running = f32::from_bits(d);
+                            }
+                        }
+                    }
+                    blended += usize::from(layers > 1);
+                    assert_eq!(frame.colour[(j * 96 + i) as usize], colour, "{}, write {depth_write}: pixel ({i}, {j})", depth_func.name());
+                }
+            }
+            assert!(blended > 500, "only {blended} pixels blend two fragments or more");
+        }
+    }
+    // A known answer: half-transparent red over an opaque blue background.
+    let quad = Mesh {
+        positions: vec![[-1.0, -1.0, 0.5], [1.0, -1.0, 0.5], [1.0, 1.0, 0.5], [-1.0, 1.0, 0.5]],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        colours: Some(vec![[1.0, 0.0, 0.0, 0.5]; 4]),
+        ..Default::default()
+    };
+    let params = RenderParams { cull: Cull::None, blend: true, shading: Shading::Unlit, background: [0, 0, 255, 255], eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(8, 8, tileraster::render::IDENTITY) };
+    let frame = assert_render_parity("half-transparent quad", &quad, &params);
+    // α = 128/255: red (255·128 + 127) / 255 = 128, blue (255·127 + 127) / 255 = 127.
+    assert!(frame.colour.iter().all(|&c| c.to_le_bytes() == [128, 0, 127, 255]), "{:08x}", frame.colour[0]);
+}
+
+/// A model matrix places the mesh as moving its vertices would: the same frame, normals
+/// included (turned by the inverse transpose), on both backends.
+#[test]
+fn a_model_matrix_is_the_same_as_moved_vertices() {
+    let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 16, 24);
+    // Scale x by 2 and turn 90° about z, then move by (0.5, -0.25, 0.1); exact in f64.
+    let model = [[0.0, -1.0, 0.0, 0.5], [2.0, 0.0, 0.0, -0.25], [0.0, 0.0, 1.0, 0.1], [0.0, 0.0, 0.0, 1.0]];
+    let moved_positions: Vec<[f64; 3]> = mesh.positions.iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
+    // Normals by the inverse transpose of the linear part: (nx, ny, nz) → (−ny/2·…): here
+    // (x, y, z) ↦ (−y, 2x, z), whose inverse transpose maps n to (−n.y, n.x/2, n.z), normalised.
+    let moved_normals = mesh.normals.as_ref().unwrap().iter().map(|n| {
+        let t = [-(n[1] as f64), n[0] as f64 / 2.0, n[2] as f64];
+        let len = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+        t.map(|c| (c / len) as f32)
+    });
+    let moved = Mesh { positions: moved_positions, normals: Some(moved_normals.collect()), ..mesh.clone() };
+    let vp = view(120, 90, [4.0, -5.0, 3.0], 1.0, 20.0);
+    let placed = RenderParams { model, shading: Shading::Phong, ..RenderParams::new(120, 90, vp) };
+    let frame = assert_render_parity("model matrix", &mesh, &placed);
+    let reference = cpu(&moved, &RenderParams { shading: Shading::Phong, ..RenderParams::new(120, 90, vp) });
+    assert_eq!(frame.ids, reference.ids);
+    assert!(frame.depth.iter().zip(&reference.depth).all(|(a, b)| a.to_bits() == b.to_bits()));
+    // Normals turned by cofactors rather than by hand may differ in their last bit: colours
+    // within one step.
+    let close = frame.colour.iter().zip(&reference.colour).all(|(a, b)| a.to_le_bytes().iter().zip(b.to_le_bytes()).all(|(x, y)| x.abs_diff(y) <= 1));
+    assert!(close && frame.stats.pixels_covered > 1000);
 }
 
 /// A mesh entirely behind the camera draws nothing, on both backends, and says why.

@@ -429,7 +429,11 @@ pub struct ShadeParams {
     pub lights: u32,
     /// Blinn-Phong exponent (an integer, raised by repeated squaring).
     pub shininess: u32,
-    pub _pad: [u32; 3],
+    /// Non-zero: fragments are blended source-over in submission order (`programs::shade`).
+    pub blend: u32,
+    /// The frame's depth test, for the blended walk (as `FrameParams::depth_test`).
+    pub depth_test: DepthTest,
+    pub _pad: u32,
     /// Ambient light, RGB.
     pub ambient: [f32; 4],
     /// Specular colour, RGB.

@@ -6,7 +6,7 @@
 use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::programs::depth::DepthProgram;
 use crate::programs::height::HeightProgram;
-use crate::programs::shade::shade_pixel;
+use crate::programs::shade::{blend_pixel, shade_pixel};
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
@@ -130,15 +130,22 @@ pub fn shade(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] params: &ShadeParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] setups: &[TriangleSetup],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] shading: &[TriangleShading],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] values: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] colours: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] faces: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] bins: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] values: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] owners: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] colours: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] faces: &mut [u32],
 ) {
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
     if inside {
         let k = fine::window_index(i, j, frame);
-        let out = shade_pixel(params, setups, shading, owners[k], values[k], i, j);
+        let out = if params.blend != 0 {
+            let (bin_start, bin_len) = fine::bin_range(offsets, wg.y * frame.tiles_x + wg.x);
+            blend_pixel(params, frame.nodata_bits, setups, shading, bins, bin_start, bin_len, i, j)
+        } else {
+            shade_pixel(params, setups, shading, owners[k], values[k], i, j)
+        };
         colours[k] = out.colour;
         faces[k] = out.face;
     }

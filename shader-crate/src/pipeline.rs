@@ -21,7 +21,7 @@
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins (cursors: its atomics)
 //!  height:  setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats
 //!  render:  setups, offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats
-//!           shade params, setups, shading, values, owners ─▶ shade ─▶ colours, faces
+//!           shade params, setups, shading, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
 //! ```
 
 use crate::{SCAN_GROUP, TILE, TRIANGLE_GROUP};
@@ -261,6 +261,8 @@ pub const STAGES: [StageInfo; 7] = [
             read(Buffer::ShadeParams),
             read(Buffer::Setups),
             read(Buffer::Shading),
+            read(Buffer::Offsets),
+            read(Buffer::Bins),
             read(Buffer::Values),
             read(Buffer::Owners),
             write(Buffer::Colours),

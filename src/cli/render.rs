@@ -43,6 +43,10 @@ pub struct RenderArgs {
     cull: CullArg,
     #[arg(long, value_enum, default_value = "smooth")]
     shading: ShadingArg,
+    /// Blend every fragment source-over onto what is below it, in the input's face order (the
+    /// colours' alpha), as a graphics API with blending on does.
+    #[arg(long)]
+    blend: bool,
     /// Also write the depth raster (Float32 GeoTIFF, 1 where no triangle is).
     #[arg(long, value_name = "DEPTH.tif")]
     depth: Option<PathBuf>,
@@ -70,6 +74,7 @@ enum CullArg {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum ShadingArg {
+    Unlit,
     Flat,
     Smooth,
     Phong,
@@ -85,7 +90,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, depth, ids, backend, stats, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, blend, depth, ids, backend, stats, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -115,7 +120,9 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         CullArg::Front => Cull::Front,
         CullArg::None => Cull::None,
     };
+    params.blend = blend;
     params.shading = match shading {
+        ShadingArg::Unlit => Shading::Unlit,
         ShadingArg::Flat => Shading::Flat,
         ShadingArg::Smooth => Shading::Smooth,
         ShadingArg::Phong => Shading::Phong,

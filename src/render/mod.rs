@@ -23,7 +23,7 @@ mod camera;
 
 pub use camera::Camera;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
-pub use tileraster_core::render::{prepare_render, Cull, FrontFace, GeometryCounts, Light, Mesh, RenderParams, Shading, MAX_RENDER_DIM};
+pub use tileraster_core::render::{prepare_render, Cull, FrontFace, GeometryCounts, Light, Mesh, RenderParams, Shading, IDENTITY, MAX_RENDER_DIM};
 
 use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Stats};

@@ -87,4 +87,7 @@ pub enum Error {
 
     #[error("the camera is singular: {reason}")]
     SingularCamera { reason: String },
+
+    #[error("the model matrix's last row is {last_row:?}; a model transform is affine: make its last row 0, 0, 0, 1 and put any projection in the view-projection matrix")]
+    NonAffineModel { last_row: [f64; 4] },
 }

@@ -27,6 +27,9 @@ use tileraster_kernels::abi::{
 };
 use tileraster_kernels::EXTENT_LIMIT_BITS;
 
+/// The identity matrix.
+pub const IDENTITY: [[f64; 4]; 4] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+
 /// Sub-pixel bits of the render pipeline's snapping (16.8 fixed point).
 pub const RENDER_SNAP_BITS: u32 = 8;
 /// Largest width or height of a rendered frame.
@@ -69,6 +72,8 @@ pub enum FrontFace {
 /// How pixels are coloured.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub enum Shading {
+    /// The vertex colours as they are, interpolated.
+    Unlit,
     /// Lit once per face (its normal, its first vertex's colour).
     Flat,
     /// Lit per vertex, colours interpolated (Gouraud).
@@ -85,10 +90,11 @@ pub enum Shading {
 }
 
 impl Shading {
-    pub const ALL: [Shading; 6] = [Shading::Flat, Shading::Smooth, Shading::Phong, Shading::Depth, Shading::Normals, Shading::Ids];
+    pub const ALL: [Shading; 7] = [Shading::Unlit, Shading::Flat, Shading::Smooth, Shading::Phong, Shading::Depth, Shading::Normals, Shading::Ids];
 
     pub fn name(self) -> &'static str {
         match self {
+            Shading::Unlit => "unlit",
             Shading::Flat => "flat",
             Shading::Smooth => "smooth",
             Shading::Phong => "phong",
@@ -112,6 +118,9 @@ pub struct Light {
 pub struct RenderParams {
     pub width: u32,
     pub height: u32,
+    /// The mesh's coordinates to the world, row-major (affine): positions by it, normals by its
+    /// inverse transpose. The identity by default.
+    pub model: [[f64; 4]; 4],
     /// World to clip space, row-major: `clip = M · (x, y, z, 1)`.
     pub view_projection: [[f64; 4]; 4],
     /// The camera's position, for specular highlights; `None`: the view-projection's centre of
@@ -124,6 +133,9 @@ pub struct RenderParams {
     pub depth_func: DepthFunc,
     pub depth_write: bool,
     pub clear_depth: f32,
+    /// Blend every fragment source-over onto what is below it, in submission order, as a
+    /// graphics API with blending on does (the depth test and writes as set).
+    pub blend: bool,
     /// RGBA8 of pixels no triangle covers.
     pub background: [u8; 4],
     /// At most `MAX_LIGHTS`.
@@ -140,6 +152,7 @@ impl RenderParams {
         RenderParams {
             width,
             height,
+            model: IDENTITY,
             view_projection,
             eye: None,
             cull: Cull::Back,
@@ -149,6 +162,7 @@ impl RenderParams {
             depth_func: DepthFunc::Less,
             depth_write: true,
             clear_depth: 1.0,
+            blend: false,
             background: [0, 0, 0, 0],
             lights: vec![Light { direction: [0.4, 0.5, 0.75], colour: [0.85, 0.85, 0.85] }],
             ambient: [0.15, 0.15, 0.15],
@@ -213,15 +227,17 @@ pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, G
         })?,
     };
     let lights: Vec<Light> = params.lights.iter().take(MAX_LIGHTS).map(|l| Light { direction: unit(l.direction), colour: l.colour }).collect();
-    let normals = vertex_normals(mesh);
     let grey = [0.8f32, 0.8, 0.8, 1.0];
     let lit = |base: [f64; 4], n: [f64; 3], p: [f64; 3]| blinn_phong(params, &lights, eye, base, n, p);
 
-    // Vertex stage.
+    // Vertex stage: the model transform, then the view-projection.
+    let model = &params.model;
+    let world: Vec<[f64; 3]> = mesh.positions.par_iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
+    let normals = vertex_normals(mesh, &world, model);
     let vertices: Vec<ClipVertex> = (0..mesh.positions.len())
         .into_par_iter()
         .map(|v| {
-            let p = mesh.positions[v];
+            let p = world[v];
             let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
             let n = normals[v].map(f64::from);
             let mut colour = mesh.colours.as_ref().map_or(grey, |c| c[v]).map(f64::from);
@@ -252,7 +268,7 @@ pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, G
                 let mut corners = tri.map(|v| vertices[v as usize]);
                 if params.shading == Shading::Flat {
                     // One colour per face: its first vertex's, lit with the face normal there.
-                    let p = tri.map(|v| mesh.positions[v as usize]);
+                    let p = tri.map(|v| world[v as usize]);
                     let n = unit(cross(sub(p[1], p[0]), sub(p[2], p[0])));
                     let base = mesh.colours.as_ref().map_or(grey, |c| c[tri[0] as usize]).map(f64::from);
                     let colour = lit(base, n, p[0]);
@@ -316,7 +332,7 @@ pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, G
 /// The kernels' shade parameters for a frame.
 fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, far): (f64, f64)) -> ShadeParams {
     let mode = match params.shading {
-        Shading::Flat | Shading::Smooth => ShadeMode::Colour,
+        Shading::Unlit | Shading::Flat | Shading::Smooth => ShadeMode::Colour,
         Shading::Phong => ShadeMode::Phong,
         Shading::Depth => ShadeMode::Depth,
         Shading::Normals => ShadeMode::Normals,
@@ -329,6 +345,8 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, f
         background: u32::from_le_bytes(params.background),
         lights: lights.len() as u32,
         shininess: params.shininess,
+        blend: u32::from(params.blend),
+        depth_test: DepthTest::new(params.depth_func, params.depth_write),
         ambient: f4(params.ambient),
         specular: f4(params.specular),
         eye: f4(eye),
@@ -523,15 +541,36 @@ fn blinn_phong(params: &RenderParams, lights: &[Light], eye: [f64; 3], base: [f6
     [channel(0), channel(1), channel(2), base[3]]
 }
 
-/// The mesh's normals, or area-weighted face normals summed per vertex (in face order, so the
-/// same on every run).
-fn vertex_normals(mesh: &Mesh) -> Vec<[f32; 3]> {
+/// The mesh's normals in the world (by the model matrix's inverse transpose: its cofactors,
+/// then normalised), or area-weighted face normals of the world positions summed per vertex
+/// (in face order, so the same on every run).
+fn vertex_normals(mesh: &Mesh, world: &[[f64; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32; 3]> {
     if let Some(n) = &mesh.normals {
-        return n.clone();
+        if *model == IDENTITY {
+            return n.clone();
+        }
+        let m = model;
+        let cofactor: [[f64; 3]; 3] = std::array::from_fn(|r| {
+            std::array::from_fn(|c| {
+                let (r1, r2, c1, c2) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
+                m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
+            })
+        });
+        // The cofactors are the determinant times the inverse transpose: a mirroring
+        // transform (negative determinant) would turn the normals inside out.
+        let det: f64 = (0..3).map(|c| m[0][c] * cofactor[0][c]).sum();
+        let cofactor = cofactor.map(|row| row.map(|v| if det < 0.0 { -v } else { v }));
+        return n
+            .par_iter()
+            .map(|v| {
+                let v = v.map(f64::from);
+                unit(std::array::from_fn(|r| cofactor[r][0] * v[0] + cofactor[r][1] * v[1] + cofactor[r][2] * v[2])).map(|c| c as f32)
+            })
+            .collect();
     }
-    let mut sum = vec![[0.0f64; 3]; mesh.positions.len()];
+    let mut sum = vec![[0.0f64; 3]; world.len()];
     for tri in &mesh.triangles {
-        let p = tri.map(|v| mesh.positions[v as usize]);
+        let p = tri.map(|v| world[v as usize]);
         let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
         for &v in tri {
             for c in 0..3 {
@@ -575,11 +614,16 @@ fn validate(mesh: &Mesh, params: &RenderParams) -> Result<(), Error> {
             return Err(Error::RasterTooLarge { width: w as u64, height: h as u64, reason: format!("a frame is at most {MAX_RENDER_DIM} pixels wide and high") });
         }
     }
-    for (row, r) in params.view_projection.iter().enumerate() {
-        for (column, &value) in r.iter().enumerate() {
-            if !value.is_finite() {
-                return Err(Error::NonFiniteMatrix { name: "view-projection", row, column, value });
+    for (name, m) in [("model", &params.model), ("view-projection", &params.view_projection)] {
+        for (row, r) in m.iter().enumerate() {
+            for (column, &value) in r.iter().enumerate() {
+                if !value.is_finite() {
+                    return Err(Error::NonFiniteMatrix { name, row, column, value });
+                }
             }
+        }
+        if name == "model" && m[3] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(Error::NonAffineModel { last_row: m[3] });
         }
     }
     if mesh.positions.is_empty() {

@@ -97,12 +97,12 @@ fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Optio
                     counters = stats.map(|c| c.into_inner() as u64);
                 }
                 Stage::FineDepth => {
-                    let stats = fine_depth(&frame, setups, &b.offsets, &b.bins, &mut raster);
+                    let stats = fine_depth(path, &frame, setups, &b.offsets, &b.bins, &mut raster);
                     counters = stats.map(|c| c.into_inner() as u64);
                 }
                 Stage::Shade => {
                     let shading = prepared.render.as_ref().expect("the render pipeline has shading");
-                    shade(&frame, &shading.params, setups, &shading.triangles, &mut raster);
+                    shade(&frame, &shading.params, setups, &shading.triangles, &b.offsets, &b.bins, &mut raster);
                 }
             }
             observe(info.stage);

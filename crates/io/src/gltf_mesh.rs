@@ -127,6 +127,10 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
         other => return Err(format!("unsupported glTF feature: {} draws {other:?}, not triangles", name())),
     };
     let m = world;
+    // A mirroring transform (negative determinant) turns counter-clockwise faces clockwise:
+    // glTF then defines the winding the other way round, so swap two corners back.
+    let linear_det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    let triangles: Vec<[u32; 3]> = if linear_det < 0.0 { triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect() } else { triangles };
     out.positions.extend(positions.iter().map(|p| {
         let p = p.map(f64::from);
         std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
@@ -141,6 +145,10 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
             m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
         })
     });
+    // The cofactors are the determinant times the inverse transpose: a mirroring transform
+    // (negative determinant) would turn the normals inside out.
+    let det: f64 = (0..3).map(|c| m[0][c] * cofactor[0][c]).sum();
+    let cofactor = cofactor.map(|row| row.map(|v| if det < 0.0 { -v } else { v }));
     match reader.read_normals() {
         Some(normals) => {
             out.with_normals += 1;

@@ -11,7 +11,10 @@
 use crate::abi::{Interpolation, ShadeMode, ShadeParams, TriangleSetup, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, MAX_LIGHTS};
 use crate::math::fixed::fixed_to_f32_bits;
 use crate::math::float::{div, recip, sqrt};
-use crate::NO_OWNER;
+use crate::math::edge::Side;
+use crate::programs::depth::{depth_bits, DepthProgram};
+use crate::stages::fine::side;
+use crate::{FULL_TILE_BIT, NO_OWNER};
 
 /// A pixel's shaded outputs.
 #[derive(Copy, Clone)]
@@ -174,9 +177,15 @@ pub fn shade_pixel(params: &ShadeParams, setups: &[TriangleSetup], shading: &[Tr
     if slot == NO_OWNER {
         return Shaded { colour: params.background, face: NO_OWNER };
     }
-    let (s, t) = (&setups[slot as usize], &shading[slot as usize]);
+    let t = &shading[slot as usize];
+    Shaded { colour: fragment_colour(params, &setups[slot as usize], t, depth_bits, i, j), face: t.face }
+}
+
+/// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`.
+#[inline]
+pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, depth_bits: u32, i: i32, j: i32) -> u32 {
     let b = weights(s, t, params.interpolation, i, j);
-    let colour = match params.mode() {
+    match params.mode() {
         ShadeMode::Colour => rgba8([
             interpolate(t, &b, ATTR_COLOUR),
             interpolate(t, &b, ATTR_COLOUR + 1),
@@ -202,8 +211,59 @@ pub fn shade_pixel(params: &ShadeParams, setups: &[TriangleSetup], shading: &[Tr
             rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0])
         }
         ShadeMode::Ids => id_colour(t.face),
-    };
-    Shaded { colour, face: t.face }
+    }
+}
+
+/// Source-over of RGBA8 `src` onto RGBA8 `dst` in 8-bit integers, rounded to nearest:
+/// colour `(c_s·a + c_d·(255 − a)) / 255`, alpha `a + a_d·(255 − a) / 255`, `a` the source's
+/// alpha.
+#[inline]
+pub fn source_over(src: u32, dst: u32) -> u32 {
+    let a = src >> 24;
+    let channel = |k: u32| ((src >> k & 0xff) * a + (dst >> k & 0xff) * (255 - a) + 127) / 255;
+    let alpha = a + ((dst >> 24) * (255 - a) + 127) / 255;
+    channel(0) | channel(8) << 8 | channel(16) << 16 | alpha << 24
+}
+
+/// The blended pixel `(i, j)`: every fragment of the tile's bin (`bin`, setup slots) whose
+/// triangle covers the centre, in submission order (ascending slot), tested against the
+/// running depth as the frame's depth test says (written back when it writes depth) and
+/// blended source-over onto the background; the face is the last fragment that passed.
+/// Each step finds the next slot by a walk over the bin: `(fragments + 1) × bin` iterations.
+#[inline]
+pub fn blend_pixel(params: &ShadeParams, clear_bits: u32, setups: &[TriangleSetup], shading: &[TriangleShading], bin: &[u32], bin_start: u32, bin_len: u32, i: i32, j: i32) -> Shaded {
+    let test = DepthProgram { func: params.depth_test.func(), write: true, clear: f32::from_bits(clear_bits) };
+    let write = params.depth_test.write();
+    let mut out = Shaded { colour: params.background, face: NO_OWNER };
+    let mut running = f32::from_bits(clear_bits);
+    // The next slot to look for is above `after` (none yet: `started` false).
+    let (mut after, mut started) = (0u32, false);
+    loop {
+        let mut next = NO_OWNER;
+        let mut k = 0;
+        while k < bin_len {
+            let slot = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
+            if (!started || slot > after) && slot < next && side(&setups[slot as usize].coverage, i, j) == Side::Inside {
+                next = slot;
+            }
+            k += 1;
+        }
+        if next == NO_OWNER {
+            return out;
+        }
+        let s = &setups[next as usize];
+        let d = depth_bits(s, i, j);
+        let against = DepthProgram { clear: running, ..test };
+        if against.passes(f32::from_bits(d)) {
+            let t = &shading[next as usize];
+            out = Shaded { colour: source_over(fragment_colour(params, s, t, d, i, j), out.colour), face: t.face };
+            if write {
+                running = f32::from_bits(d);
+            }
+        }
+        after = next;
+        started = true;
+    }
 }
 
 const _: () = assert!(ATTRIBUTES == 12 && ATTR_POSITION + 3 <= ATTRIBUTES);

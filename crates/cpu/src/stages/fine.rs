@@ -16,7 +16,7 @@ use std::simd::num::{SimdFloat, SimdInt};
 use std::simd::{Mask, Select, Simd};
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, Coverage, FrameParams, PixelRect, TriangleSetup, ValueMode};
+use tileraster_kernels::abi::{Counter, Coverage, FrameFlags, FrameParams, PixelRect, TriangleSetup, ValueMode};
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
@@ -74,10 +74,73 @@ pub fn fine_raster(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup]
     }
 }
 
-/// Twin of the `fine_depth` entry point (the render pipeline's depth test), as the GPU runs
-/// its workgroups.
-pub fn fine_depth(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
-    fine_raster_plain(&DepthProgram::of(frame), frame, setups, offsets, bins, raster)
+/// Twin of the `fine_depth` entry point (the render pipeline's depth test): the CPU's way
+/// round (the default), or as the GPU runs its workgroups.
+pub fn fine_depth(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+    let program = DepthProgram::of(frame);
+    // Render frames never take the full-tile path (the depth test needs every fragment's
+    // key); a frame that allowed it goes the GPU's way.
+    if path == FinePath::Plain || frame.flags.contains(FrameFlags::FULL_TILES) {
+        return fine_raster_plain(&program, frame, setups, offsets, bins, raster);
+    }
+    for_each_band(frame, raster, |band, stats| {
+        let mut counts = BandCounters([0; Counter::COUNT]);
+        for tx in 0..frame.tiles_x {
+            fine_depth_tile(&program, tx, frame, setups, offsets, bins, band, &mut counts);
+        }
+        counts.add_to(stats);
+    })
+}
+
+/// One `fine_depth` workgroup the CPU's way round: each triangle of the bin against its rows of
+/// the tile (`TriangleRows`' masks, the stages' `side` as integer thresholds), each centre
+/// inside it counted and its key compared with the pixel's smallest, as `fine::accumulate`
+/// does in any order; then `fine_resolve`'s outputs.
+#[allow(clippy::too_many_arguments)]
+fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
+    let ty = band.ty;
+    let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+    if fine::empty_tile(bin_len, frame) {
+        fine::count_tile(0, Counter::TilesEmpty, stats);
+        return fine_resolve_empty_tile(tx, frame, band);
+    }
+    fine::count_tile(0, Counter::TilesPartial, stats);
+    let tile = tile_in_window(tx, ty, frame);
+    const N: usize = TILE_PIXELS as usize;
+    let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
+    for &entry in &bins[bin_start as usize..][..bin_len as usize] {
+        let s = &setups[(entry & !FULL_TILE_BIT) as usize];
+        let Some(mut rows) = TriangleRows::new(s, &tile) else { continue };
+        for j in rows.j0..=rows.j1 {
+            let (mut inside, _) = rows.masks();
+            let first = ((j - tile.j0) as u32 * TILE + rows.shift) as usize;
+            while inside != 0 {
+                let n = inside.trailing_zeros();
+                inside &= inside - 1;
+                let p = first + n as usize;
+                count[p] += 1;
+                let k = program.key(s, rows.i0 + n as i32, j);
+                if k < key[p] {
+                    (key[p], owner[p], slot[p]) = (k, s.coverage.index, s.coverage.slot);
+                }
+            }
+            rows.next_row();
+        }
+    }
+    for r in tile_rows(tx, frame, band) {
+        for lx in 0..r.width {
+            let p = (r.ly * TILE) as usize + lx;
+            // `fine_resolve`: a centre no passing fragment owns is background, with a count of 0.
+            let (value, o, c) = if owner[p] != NO_OWNER { (program.value(&setups[slot[p] as usize], r.i0 + lx as i32, r.j), owner[p], count[p]) } else { (program.background(), NO_OWNER, 0) };
+            band.values[r.start + lx] = f32::from_bits(value);
+            if let Some(layer) = band.owner.as_deref_mut() {
+                layer[r.start + lx] = o;
+            }
+            if let Some(layer) = band.coverage.as_deref_mut() {
+                layer[r.start + lx] = c;
+            }
+        }
+    }
 }
 
 /// The plain twin, for any pixel program whose values are 32-bit words (the raster's values

@@ -1,12 +1,14 @@
 //! Twin of the `shade` entry point: every pixel of the frame, rows in parallel, through the
-//! kernel's `shade_pixel`.
+//! kernel's `shade_pixel` (or `blend_pixel`, over the pixel's tile's bin).
 
 use rayon::prelude::*;
 use tileraster_core::Raster;
 use tileraster_kernels::abi::{FrameParams, ShadeParams, TriangleSetup, TriangleShading};
-use tileraster_kernels::programs::shade::shade_pixel;
+use tileraster_kernels::programs::shade::{blend_pixel, shade_pixel};
+use tileraster_kernels::stages::fine;
+use tileraster_kernels::TILE;
 
-pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], raster: &mut Raster) {
+pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
     let stride = raster.window.width as usize;
     let (x0, y0) = (raster.window.x0, raster.window.y0);
     let owners = raster.owner.as_deref().expect("the render pipeline writes the owner layer");
@@ -26,7 +28,14 @@ pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup]
             let j = (y0 as usize + row) as i32;
             for x in columns.clone() {
                 let k = row * stride + x;
-                let out = shade_pixel(params, setups, shading, owners[k], depths[k].to_bits(), (x0 as usize + x) as i32, j);
+                let i = (x0 as usize + x) as i32;
+                let out = if params.blend != 0 {
+                    let tile = (j as u32 - frame.win_y0) / TILE * frame.tiles_x + (i as u32 - frame.win_x0) / TILE;
+                    let (bin_start, bin_len) = fine::bin_range(offsets, tile);
+                    blend_pixel(params, frame.nodata_bits, setups, shading, bins, bin_start, bin_len, i, j)
+                } else {
+                    shade_pixel(params, setups, shading, owners[k], depths[k].to_bits(), i, j)
+                };
                 colour_row[x] = out.colour;
                 face_row[x] = out.face;
             }

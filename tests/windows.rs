@@ -45,11 +45,15 @@ fn windows_equal_the_whole_grid() {
     }
 }
 
+/// The GPU's window limit is one setting for the process: the tests that change it take turns.
+static WINDOW_LIMIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn gpu_results_do_not_depend_on_its_windowing() {
     if !common::gpu_or_skip("gpu_results_do_not_depend_on_its_windowing") {
         return;
     }
+    let _turn = WINDOW_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
     let scene = scenes::terrain(0.0, 0.0, 1000.0, 1000.0, 50, 50, 2);
     let grid = Grid::new(0.0, 1000.0, 0.0, 1000.0, 300, 290);
     let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true });
@@ -60,6 +64,34 @@ fn gpu_results_do_not_depend_on_its_windowing() {
         let (count, first) = cpu.compare_bits(&gpu, 5);
         assert_eq!(count, 0, "window limit {limit}: {first:?}");
         assert_eq!(cpu.stats, gpu.stats, "window limit {limit}: the statistics depend on the GPU's windows");
+    }
+    tileraster::set_gpu_window_limit(4096 * 4096);
+}
+
+/// The render pipeline through the GPU's windows (its shade stage and blending per window
+/// included): the same frame as the CPU's at every window size.
+#[test]
+fn gpu_frames_do_not_depend_on_its_windowing() {
+    use tileraster::render::{render, Camera, Cull, RenderParams, Shading};
+    if !common::gpu_or_skip("gpu_frames_do_not_depend_on_its_windowing") {
+        return;
+    }
+    let _turn = WINDOW_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
+    let mut mesh = tileraster_testkit::meshes::soup(200, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.7, 17);
+    for (k, c) in mesh.colours.as_mut().unwrap().iter_mut().enumerate() {
+        c[3] = if k % 3 == 0 { 0.5 } else { 1.0 };
+    }
+    let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
+    for blend in [false, true] {
+        let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, ..RenderParams::new(150, 110, camera.view_projection(150, 110).unwrap()) };
+        let cpu = render(&mesh, &params, Backend::Cpu).unwrap();
+        for limit in [256, 1000, 16 * 150, 40_000] {
+            tileraster::set_gpu_window_limit(limit);
+            let gpu = render(&mesh, &params, Backend::Gpu).unwrap();
+            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments, "blend {blend}, window limit {limit}: the frames differ");
+            assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "blend {blend}, window limit {limit}: depths differ");
+            assert_eq!(cpu.stats, gpu.stats, "blend {blend}, window limit {limit}: statistics");
+        }
     }
     tileraster::set_gpu_window_limit(4096 * 4096);
 }

@@ -23,7 +23,7 @@ mod camera;
 
 pub use camera::Camera;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
-pub use tileraster_core::render::{prepare_render, Cull, FrontFace, GeometryCounts, Light, Mesh, RenderParams, Shading, IDENTITY, MAX_RENDER_DIM};
+pub use tileraster_core::render::{face_normals, prepare_render, validate_mesh, Cull, FrontFace, GeometryCounts, Light, Mesh, RenderParams, Shading, IDENTITY, MAX_RENDER_DIM};
 
 use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Stats};
@@ -117,7 +117,53 @@ impl Frame {
 /// Render `mesh` as `params` say on `backend`.
 pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
     let (prepared, geometry) = prepare_render(mesh, params)?;
-    let raster = crate::rasterise_prepared(&prepared, backend)?;
+    draw(&prepared, geometry, params, backend)
+}
+
+/// A mesh checked once, with its normals computed once where it has none: each frame of it
+/// (any camera, model matrix, shading or size) costs only the per-frame stages, and is bit for
+/// bit what [`render`] gives.
+///
+/// ```no_run
+/// # use tileraster::render::{Camera, Mesh, PreparedMesh, RenderParams};
+/// # use tileraster::Backend;
+/// # let mesh = Mesh::default();
+/// let prepared = PreparedMesh::new(mesh)?;
+/// for k in 0..36 {
+///     let angle = (k as f64 * 10.0).to_radians();
+///     let eye = [5.0 * angle.cos(), 5.0 * angle.sin(), 2.0];
+///     let camera = Camera::look_at(eye, [0.0; 3], [0.0, 0.0, 1.0], 45.0, prepared.mesh());
+///     let frame = prepared.render(&RenderParams::new(640, 480, camera.view_projection(640, 480)?), Backend::Gpu)?;
+/// }
+/// # Ok::<(), tileraster::Error>(())
+/// ```
+pub struct PreparedMesh {
+    mesh: Mesh,
+}
+
+impl PreparedMesh {
+    pub fn new(mut mesh: Mesh) -> Result<Self, Error> {
+        validate_mesh(&mesh)?;
+        if mesh.normals.is_none() {
+            mesh.normals = Some(face_normals(&mesh));
+        }
+        Ok(PreparedMesh { mesh })
+    }
+
+    /// The mesh, normals included.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    pub fn render(&self, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
+        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh(&self.mesh, params)?;
+        draw(&prepared, geometry, params, backend)
+    }
+}
+
+/// Rasterise and shade a prepared frame, and gather its outputs.
+fn draw(prepared: &crate::Prepared, geometry: GeometryCounts, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
+    let raster = crate::rasterise_prepared(prepared, backend)?;
     let ids = raster.faces.expect("the render pipeline writes faces");
     let covered = ids.iter().filter(|&&f| f != NO_FACE).count() as u64;
     let per_pixel = raster.coverage.expect("the render pipeline counts fragments");

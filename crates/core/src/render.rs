@@ -217,7 +217,13 @@ const CHUNK: usize = 1 << 12;
 /// Runs the geometry stages over `mesh`: the prepared scene the kernels rasterise, and what
 /// the stages did.
 pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
-    validate(mesh, params)?;
+    validate_mesh(mesh)?;
+    prepare_checked_mesh(mesh, params)
+}
+
+/// [`prepare_render`] for a mesh [`validate_mesh`] has accepted.
+pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
+    validate_params(params)?;
     let (w, h) = (params.width, params.height);
     let m = &params.view_projection;
     let eye = match params.eye {
@@ -233,7 +239,7 @@ pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, G
     // Vertex stage: the model transform, then the view-projection.
     let model = &params.model;
     let world: Vec<[f64; 3]> = mesh.positions.par_iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
-    let normals = vertex_normals(mesh, &world, model);
+    let normals = vertex_normals(mesh, model);
     let vertices: Vec<ClipVertex> = (0..mesh.positions.len())
         .into_par_iter()
         .map(|v| {
@@ -541,36 +547,46 @@ fn blinn_phong(params: &RenderParams, lights: &[Light], eye: [f64; 3], base: [f6
     [channel(0), channel(1), channel(2), base[3]]
 }
 
-/// The mesh's normals in the world (by the model matrix's inverse transpose: its cofactors,
-/// then normalised), or area-weighted face normals of the world positions summed per vertex
-/// (in face order, so the same on every run).
-fn vertex_normals(mesh: &Mesh, world: &[[f64; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32; 3]> {
-    if let Some(n) = &mesh.normals {
-        if *model == IDENTITY {
-            return n.clone();
+/// The mesh's normals in the world: its own, or (where it has none) [`face_normals`], turned by
+/// the model matrix's inverse transpose (its cofactors, with the determinant's sign) and
+/// normalised.
+fn vertex_normals(mesh: &Mesh, model: &[[f64; 4]; 4]) -> Vec<[f32; 3]> {
+    let computed;
+    let n = match &mesh.normals {
+        Some(n) => n,
+        None => {
+            computed = face_normals(mesh);
+            &computed
         }
-        let m = model;
-        let cofactor: [[f64; 3]; 3] = std::array::from_fn(|r| {
-            std::array::from_fn(|c| {
-                let (r1, r2, c1, c2) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
-                m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
-            })
-        });
-        // The cofactors are the determinant times the inverse transpose: a mirroring
-        // transform (negative determinant) would turn the normals inside out.
-        let det: f64 = (0..3).map(|c| m[0][c] * cofactor[0][c]).sum();
-        let cofactor = cofactor.map(|row| row.map(|v| if det < 0.0 { -v } else { v }));
-        return n
-            .par_iter()
-            .map(|v| {
-                let v = v.map(f64::from);
-                unit(std::array::from_fn(|r| cofactor[r][0] * v[0] + cofactor[r][1] * v[1] + cofactor[r][2] * v[2])).map(|c| c as f32)
-            })
-            .collect();
+    };
+    if *model == IDENTITY {
+        return n.clone();
     }
-    let mut sum = vec![[0.0f64; 3]; world.len()];
+    let m = model;
+    let cofactor: [[f64; 3]; 3] = std::array::from_fn(|r| {
+        std::array::from_fn(|c| {
+            let (r1, r2, c1, c2) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
+            m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
+        })
+    });
+    // The cofactors are the determinant times the inverse transpose: a mirroring transform
+    // (negative determinant) would turn the normals inside out.
+    let det: f64 = (0..3).map(|c| m[0][c] * cofactor[0][c]).sum();
+    let cofactor = cofactor.map(|row| row.map(|v| if det < 0.0 { -v } else { v }));
+    n.par_iter()
+        .map(|v| {
+            let v = v.map(f64::from);
+            unit(std::array::from_fn(|r| cofactor[r][0] * v[0] + cofactor[r][1] * v[1] + cofactor[r][2] * v[2])).map(|c| c as f32)
+        })
+        .collect()
+}
+
+/// Area-weighted face normals summed per vertex, in the mesh's coordinates and in face order
+/// (so the same on every run), normalised: the normals of a mesh that has none.
+pub fn face_normals(mesh: &Mesh) -> Vec<[f32; 3]> {
+    let mut sum = vec![[0.0f64; 3]; mesh.positions.len()];
     for tri in &mesh.triangles {
-        let p = tri.map(|v| world[v as usize]);
+        let p = tri.map(|v| mesh.positions[v as usize]);
         let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
         for &v in tri {
             for c in 0..3 {
@@ -605,7 +621,8 @@ pub fn centre_of_projection(m: &[[f64; 4]; 4]) -> Option<[f64; 3]> {
     }))
 }
 
-fn validate(mesh: &Mesh, params: &RenderParams) -> Result<(), Error> {
+/// The frame's size and matrices.
+fn validate_params(params: &RenderParams) -> Result<(), Error> {
     for (w, h) in [(params.width, params.height)] {
         if w == 0 || h == 0 {
             return Err(Error::ZeroSizedRaster { width: w as u64, height: h as u64 });
@@ -626,6 +643,11 @@ fn validate(mesh: &Mesh, params: &RenderParams) -> Result<(), Error> {
             return Err(Error::NonAffineModel { last_row: m[3] });
         }
     }
+    Ok(())
+}
+
+/// A mesh's positions, faces and attributes: finite, in range, one attribute per vertex.
+pub fn validate_mesh(mesh: &Mesh) -> Result<(), Error> {
     if mesh.positions.is_empty() {
         return Err(Error::EmptyScene { what: "vertices" });
     }

@@ -158,14 +158,27 @@ fn clipping_and_culling_are_the_same_bits_on_both_backends() {
 fn screen_linear_interpolation_and_window_edges_are_the_same_bits_on_both_backends() {
     let mesh = meshes::sphere([0.3, 0.0, 0.0], 1.4, 12, 18);
     // Sizes that are not multiples of the 16-pixel tile; the sphere crosses the frame's edges.
-    for (w, h) in [(33, 47), (100, 1), (1, 64)] {
+    for (k, (w, h)) in [(33, 47), (100, 1), (1, 64)].into_iter().enumerate() {
         let params = RenderParams {
-            interpolation: Interpolation::Screen,
+            interpolation: if k == 0 { Interpolation::Flat } else { Interpolation::Screen },
             shading: Shading::Phong,
             background: [10, 20, 30, 255],
             ..RenderParams::new(w, h, view(w, h, [2.5, -2.0, 1.0], 0.3, 9.0))
         };
-        assert_render_parity(&format!("screen-linear sphere {w}×{h}"), &mesh, &params);
+        assert_render_parity(&format!("{:?} sphere {w}×{h}", params.interpolation), &mesh, &params);
+    }
+    // Flat: every pixel of a face has its first vertex's colour, exactly.
+    let quad = Mesh {
+        positions: vec![[-1.0, -1.0, 0.5], [1.0, -1.0, 0.5], [1.0, 1.0, 0.5], [-1.0, 1.0, 0.5]],
+        triangles: vec![[0, 1, 2], [2, 3, 0]],
+        colours: Some(vec![[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]]),
+        ..Default::default()
+    };
+    let params = RenderParams { cull: Cull::None, shading: Shading::Unlit, interpolation: Interpolation::Flat, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(16, 16, tileraster::render::IDENTITY) };
+    let frame = assert_render_parity("flat quad", &quad, &params);
+    for (k, &c) in frame.colour.iter().enumerate() {
+        let want = if frame.ids[k] == 0 { [255, 0, 0, 255] } else { [0, 0, 255, 255] };
+        assert_eq!(c.to_le_bytes(), want, "pixel {k}, face {}", frame.ids[k]);
     }
 }
 

@@ -401,6 +401,9 @@ pub enum Interpolation {
     Perspective = 0,
     /// Linear on the screen (`noperspective`).
     Screen = 1,
+    /// The face's first vertex's values everywhere (`flat`; the host gives every corner of a
+    /// face, and of its clipped pieces, that vertex's attributes).
+    Flat = 2,
 }
 
 /// Directional lights the shade stage takes.

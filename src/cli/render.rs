@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use tileraster::render::{read_mesh, render, Camera, Cull, RenderParams, Shading};
+use tileraster::render::{read_mesh, render, Camera, Cull, Interpolation, RenderParams, Shading};
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
@@ -43,6 +43,10 @@ pub struct RenderArgs {
     cull: CullArg,
     #[arg(long, value_enum, default_value = "smooth")]
     shading: ShadingArg,
+    /// How attributes are interpolated across a triangle: perspective-correct, linear on the
+    /// screen (noperspective), or flat (the face's first vertex's values).
+    #[arg(long, value_enum, default_value = "perspective")]
+    interpolation: InterpolationArg,
     /// Blend every fragment source-over onto what is below it, in the input's face order (the
     /// colours' alpha), as a graphics API with blending on does.
     #[arg(long)]
@@ -73,6 +77,13 @@ enum CullArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum InterpolationArg {
+    Perspective,
+    Screen,
+    Flat,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum ShadingArg {
     Unlit,
     Flat,
@@ -90,7 +101,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, blend, depth, ids, backend, stats, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -121,6 +132,11 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         CullArg::None => Cull::None,
     };
     params.blend = blend;
+    params.interpolation = match interpolation {
+        InterpolationArg::Perspective => Interpolation::Perspective,
+        InterpolationArg::Screen => Interpolation::Screen,
+        InterpolationArg::Flat => Interpolation::Flat,
+    };
     params.shading = match shading {
         ShadingArg::Unlit => Shading::Unlit,
         ShadingArg::Flat => Shading::Flat,

@@ -272,6 +272,13 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
             for (k, tri) in faces.iter().enumerate() {
                 let face = c * CHUNK + k;
                 let mut corners = tri.map(|v| vertices[v as usize]);
+                if params.interpolation == Interpolation::Flat {
+                    // The provoking vertex (the face's first) gives every corner its values, so
+                    // clipped pieces keep them too.
+                    let first = corners[0].attributes;
+                    corners[1].attributes = first;
+                    corners[2].attributes = first;
+                }
                 if params.shading == Shading::Flat {
                     // One colour per face: its first vertex's, lit with the face normal there.
                     let p = tri.map(|v| world[v as usize]);

@@ -27,9 +27,13 @@ pub struct Shaded {
 
 /// The weights of the owner's three vertices at pixel `(i, j)` (entry `k` for the vertex
 /// opposite edge `k`), summing to one up to rounding: perspective-correct (`w_k / w_vertex`,
-/// normalised) or linear on the screen (`w_k / Σw`).
+/// normalised), linear on the screen (`w_k / Σw`), or flat (`[1, 0, 0]`).
 #[inline]
 pub fn weights(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: i32) -> [f32; 3] {
+    if interpolation == Interpolation::Flat as u32 {
+        // Every entry holds the same values: one weight of exactly one reads them unchanged.
+        return [1.0, 0.0, 0.0];
+    }
     let rect = &s.coverage.rect;
     let (di, dj) = ((i - rect.i0) as i64, (j - rect.j0) as i64);
     let e = &s.coverage.edges;

@@ -42,7 +42,7 @@ fn compare(lo: f64, hi: f64, seed: u64) -> Comparison {
     let mut out = Comparison { adapter: peer.adapter_name(), triangles: 0, covered: 0, differing: 0, near_clipped_edges: 0, first: Vec::new() };
     // A coordinate near `around` within `spread` px, on the 1/256 px lattice, a quarter of the
     // time on a pixel-centre line.
-    let mut coordinate = |rng: &mut Rng, around: f64, spread: f64| {
+    let coordinate = |rng: &mut Rng, around: f64, spread: f64| {
         let v = (around + rng.range(-spread, spread)).clamp(lo, hi);
         if rng.next_u64() % 4 == 0 { (v - 0.5).round().clamp(lo.ceil(), hi.floor() - 1.0) + 0.5 } else { (v * 256.0).round() / 256.0 }
     };

@@ -162,6 +162,18 @@ const fn write(buffer: Buffer) -> Binding {
     Binding { buffer, access: Access::ReadWrite }
 }
 
+/// What a fine-raster stage binds, whatever its pixel program.
+const FINE_BINDINGS: &[Binding] = &[
+    read(Buffer::Frame),
+    read(Buffer::Setups),
+    read(Buffer::Offsets),
+    read(Buffer::Bins),
+    write(Buffer::Values),
+    write(Buffer::Owners),
+    write(Buffer::Coverage),
+    write(Buffer::Stats),
+];
+
 /// The stages in the order they run.
 pub const STAGES: [StageInfo; 7] = [
     StageInfo {
@@ -218,16 +230,7 @@ pub const STAGES: [StageInfo; 7] = [
         scope: Scope::Window,
         workgroup: [TILE, TILE, 1],
         dispatch: Dispatch::PerTile,
-        bindings: &[
-            read(Buffer::Frame),
-            read(Buffer::Setups),
-            read(Buffer::Offsets),
-            read(Buffer::Bins),
-            write(Buffer::Values),
-            write(Buffer::Owners),
-            write(Buffer::Coverage),
-            write(Buffer::Stats),
-        ],
+        bindings: FINE_BINDINGS,
         pipelines: &[Pipeline::Height],
     },
     StageInfo {
@@ -237,16 +240,7 @@ pub const STAGES: [StageInfo; 7] = [
         scope: Scope::Window,
         workgroup: [TILE, TILE, 1],
         dispatch: Dispatch::PerTile,
-        bindings: &[
-            read(Buffer::Frame),
-            read(Buffer::Setups),
-            read(Buffer::Offsets),
-            read(Buffer::Bins),
-            write(Buffer::Values),
-            write(Buffer::Owners),
-            write(Buffer::Coverage),
-            write(Buffer::Stats),
-        ],
+        bindings: FINE_BINDINGS,
         pipelines: &[Pipeline::Render],
     },
     StageInfo {

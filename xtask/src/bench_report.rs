@@ -102,7 +102,7 @@ fn cases(quick: bool) -> Vec<Case> {
 /// is dropped before the next call, as a caller's loop over tiles or files does: a call made
 /// while the previous one's raster is still held measured up to twice as long here (fresh
 /// memory to fault in), for every engine alike.
-fn timed<T>(runs: usize, mut f: impl FnMut() -> Result<T, String>) -> Result<(Timing, T), String> {
+pub(crate) fn timed<T>(runs: usize, mut f: impl FnMut() -> Result<T, String>) -> Result<(Timing, T), String> {
     let mut last = Some(f()?);
     let mut times = Vec::with_capacity(runs);
     for _ in 0..runs {

@@ -7,9 +7,9 @@
 //! call, read-back of the ids). tileraster runs with `Shading::Ids`, the peer's fragment work;
 //! its Phong-shaded time is given too.
 
+use crate::bench_report::timed;
 use crate::Timing;
 use std::fmt::Write as _;
-use std::time::Instant;
 use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading, NO_FACE};
 use tileraster::Backend;
 use tileraster_peers::{MeshPipeline, NO_ID};
@@ -50,19 +50,6 @@ fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
     let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, identity) };
     out.push(Scene { name: format!("fill rate: 8 full-frame layers (16 triangles), back to front, {w}×{h}"), mesh, params });
     Ok(out)
-}
-
-/// The times of `runs` calls after one warm-up, each call's result dropped before the next.
-fn timed<T>(runs: usize, mut f: impl FnMut() -> Result<T, String>) -> Result<(Timing, T), String> {
-    let mut last = Some(f()?);
-    let mut times = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        drop(last.take());
-        let start = Instant::now();
-        last = Some(f()?);
-        times.push(start.elapsed().as_secs_f64());
-    }
-    Ok((Timing::of(times), last.expect("the warm-up ran")))
 }
 
 fn ms(t: &Timing) -> String {

@@ -569,23 +569,29 @@ fn vertex_normals(mesh: &Mesh, model: &[[f64; 4]; 4]) -> Vec<[f32; 3]> {
     if *model == IDENTITY {
         return n.clone();
     }
-    let m = model;
+    let normal_matrix = normal_matrix(model);
+    n.par_iter().map(|&v| transform_normal(&normal_matrix, v)).collect()
+}
+
+/// What turns normals as `m` (affine, row-major) turns positions: the cofactors of its linear
+/// part, that is its inverse transpose times the determinant, with the determinant's sign
+/// taken out so that a mirroring transform does not turn normals inside out.
+pub fn normal_matrix(m: &[[f64; 4]; 4]) -> [[f64; 3]; 3] {
     let cofactor: [[f64; 3]; 3] = std::array::from_fn(|r| {
         std::array::from_fn(|c| {
             let (r1, r2, c1, c2) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
             m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
         })
     });
-    // The cofactors are the determinant times the inverse transpose: a mirroring transform
-    // (negative determinant) would turn the normals inside out.
     let det: f64 = (0..3).map(|c| m[0][c] * cofactor[0][c]).sum();
-    let cofactor = cofactor.map(|row| row.map(|v| if det < 0.0 { -v } else { v }));
-    n.par_iter()
-        .map(|v| {
-            let v = v.map(f64::from);
-            unit(std::array::from_fn(|r| cofactor[r][0] * v[0] + cofactor[r][1] * v[1] + cofactor[r][2] * v[2])).map(|c| c as f32)
-        })
-        .collect()
+    cofactor.map(|row| row.map(|v| if det < 0.0 { -v } else { v }))
+}
+
+/// Normal `n` turned by `normal_matrix` and normalised (zero stays zero).
+pub fn transform_normal(normal_matrix: &[[f64; 3]; 3], n: [f32; 3]) -> [f32; 3] {
+    let v = n.map(f64::from);
+    let m = normal_matrix;
+    unit(std::array::from_fn(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])).map(|c| c as f32)
 }
 
 /// Area-weighted face normals summed per vertex, in the mesh's coordinates and in face order

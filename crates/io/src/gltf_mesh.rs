@@ -9,7 +9,7 @@
 
 use crate::IoError;
 use std::path::Path;
-use tileraster_core::render::Mesh;
+use tileraster_core::render::{normal_matrix, transform_normal, Mesh};
 
 /// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates.
 pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
@@ -137,27 +137,11 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     }));
     out.triangles.extend(triangles);
     out.primitives += 1;
-    // Normals by the inverse transpose: the cofactor matrix of the linear part (the same
-    // direction; normalised below).
-    let cofactor: [[f64; 3]; 3] = std::array::from_fn(|r| {
-        std::array::from_fn(|c| {
-            let (r1, r2, c1, c2) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
-            m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
-        })
-    });
-    // The cofactors are the determinant times the inverse transpose: a mirroring transform
-    // (negative determinant) would turn the normals inside out.
-    let det: f64 = (0..3).map(|c| m[0][c] * cofactor[0][c]).sum();
-    let cofactor = cofactor.map(|row| row.map(|v| if det < 0.0 { -v } else { v }));
+    let normal_matrix = normal_matrix(m);
     match reader.read_normals() {
         Some(normals) => {
             out.with_normals += 1;
-            out.normals.extend(normals.map(|v| {
-                let v = v.map(f64::from);
-                let t: [f64; 3] = std::array::from_fn(|r| cofactor[r][0] * v[0] + cofactor[r][1] * v[1] + cofactor[r][2] * v[2]);
-                let len = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
-                if len > 0.0 { t.map(|c| (c / len) as f32) } else { [0.0; 3] }
-            }));
+            out.normals.extend(normals.map(|v| transform_normal(&normal_matrix, v)));
         }
         None => out.normals.extend(std::iter::repeat_n([0.0; 3], n)),
     }

@@ -51,18 +51,7 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Scene, IoError> {
             Some("f") => {
                 let count = scene.vertices.len();
                 let corners = words
-                    .map(|w| {
-                        let first = w.split('/').next().unwrap_or("");
-                        let i: i64 = first.parse().map_err(|_| err(line_no, format!("face index {w:?} is not an integer")))?;
-                        let resolved = if i > 0 { i - 1 } else { count as i64 + i };
-                        if i == 0 || resolved < 0 || resolved >= count as i64 {
-                            return Err(err(
-                                line_no,
-                                format!("face index {i} is out of range: {count} vertices are defined before this line"),
-                            ));
-                        }
-                        Ok(resolved as u32)
-                    })
+                    .map(|w| resolve_index(w.split('/').next().unwrap_or(""), count, "vertex").map_err(|m| err(line_no, m)))
                     .collect::<Result<Vec<u32>, IoError>>()?;
                 if corners.len() < 3 {
                     return Err(err(line_no, format!("face has {} corners; a face needs at least 3", corners.len())));
@@ -85,6 +74,16 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Scene, IoError> {
         });
     }
     Ok(scene)
+}
+
+/// An OBJ index (1-based, or negative from the last defined) into `count` defined items.
+fn resolve_index(word: &str, count: usize, what: &str) -> Result<u32, String> {
+    let i: i64 = word.parse().map_err(|_| format!("face {what} index {word:?} is not an integer"))?;
+    let resolved = if i > 0 { i - 1 } else { count as i64 + i };
+    if i == 0 || resolved < 0 || resolved >= count as i64 {
+        return Err(format!("face {what} index {i} is out of range: {count} are defined before this line"));
+    }
+    Ok(resolved as u32)
 }
 
 /// Read an OBJ mesh with its normals (`vn`), texture coordinates (`vt`) and the diffuse
@@ -145,14 +144,7 @@ pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Resul
                 any_colour = true;
             }
             Some("f") => {
-                let resolve = |w: &str, count: usize, what: &str| -> Result<u32, IoError> {
-                    let i: i64 = w.parse().map_err(|_| err(line_no, format!("face {what} index {w:?} is not an integer")))?;
-                    let resolved = if i > 0 { i - 1 } else { count as i64 + i };
-                    if i == 0 || resolved < 0 || resolved >= count as i64 {
-                        return Err(err(line_no, format!("face {what} index {i} is out of range: {count} are defined before this line")));
-                    }
-                    Ok(resolved as u32)
-                };
+                let resolve = |w: &str, count: usize, what: &str| resolve_index(w, count, what).map_err(|m| err(line_no, m));
                 let mut ids = Vec::new();
                 for w in words {
                     let mut parts = w.split('/');

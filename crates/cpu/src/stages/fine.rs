@@ -788,8 +788,7 @@ use tileraster_testkit::scenes;
     /// The exact height's `f32` bits mapped to an unsigned order, then the index.
     fn depth_key(s: &TriangleSetup, i: i32, j: i32) -> u64 {
         let bits = height::plane_value_bits(&s.plane, &s.coverage.rect, i, j);
-        let ordered = if bits >> 31 == 1 { !bits } else { bits | 1 << 31 };
-        (ordered as u64) << 32 | s.coverage.index as u64
+        (tileraster_kernels::programs::depth::ordered(bits) as u64) << 32 | s.coverage.index as u64
     }
 
     /// The generic stage with a depth-keyed program gives, at every pixel, what a brute-force

@@ -544,7 +544,7 @@ fn render_writes_the_frame_the_library_renders() {
     assert_eq!(decoded.as_raw(), &frame.rgba8(), "the PNG is the library's frame");
     let written_ids = read_tif_u32(&ids);
     assert_eq!(written_ids, frame.ids);
-    assert!(written_ids.iter().any(|&id| id == u32::MAX) && written_ids.iter().any(|&id| (id as usize) < scene.triangles.len()));
+    assert!(written_ids.contains(&u32::MAX) && written_ids.iter().any(|&id| (id as usize) < scene.triangles.len()));
     let depths = read_tif_values(&depth);
     assert!(depths.iter().zip(&frame.depth).all(|(a, b)| a.to_bits() == b.to_bits()));
 

@@ -44,7 +44,7 @@ fn compare(lo: f64, hi: f64, seed: u64) -> Comparison {
     // time on a pixel-centre line.
     let coordinate = |rng: &mut Rng, around: f64, spread: f64| {
         let v = (around + rng.range(-spread, spread)).clamp(lo, hi);
-        if rng.next_u64() % 4 == 0 { (v - 0.5).round().clamp(lo.ceil(), hi.floor() - 1.0) + 0.5 } else { (v * 256.0).round() / 256.0 }
+        if rng.next_u64().is_multiple_of(4) { (v - 0.5).round().clamp(lo.ceil(), hi.floor() - 1.0) + 0.5 } else { (v * 256.0).round() / 256.0 }
     };
     for frame in 0..FRAMES {
         let mut pixels = Vec::with_capacity(3 * PER_FRAME);

@@ -75,12 +75,12 @@ impl Camera {
         }
         let singular = |reason: &str| Err(Error::SingularCamera { reason: reason.into() });
         let forward = sub(self.target, self.eye);
-        if !(norm(forward) > 0.0) {
+        if norm(forward).is_nan() || norm(forward) <= 0.0 {
             return singular("the eye and the target are the same point; move the eye");
         }
         let f = scale(forward, 1.0 / norm(forward));
         let side = cross(f, self.up);
-        if !(norm(side) > 1e-12 * norm(self.up)) {
+        if norm(side).is_nan() || norm(side) <= 1e-12 * norm(self.up) {
             return singular("the up vector is parallel to the viewing direction (or zero); choose another up");
         }
         if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {

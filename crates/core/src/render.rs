@@ -617,7 +617,7 @@ pub fn centre_of_projection(m: &[[f64; 4]; 4]) -> Option<[f64; 3]> {
     let b = rows.map(|r| -r[3]);
     let det = dot(a[0], cross(a[1], a[2]));
     let scale = a.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
-    if !(det.abs() > 1e-12 * scale.powi(3)) {
+    if det.is_nan() || det.abs() <= 1e-12 * scale.powi(3) {
         return None;
     }
     // Cramer's rule.
@@ -636,13 +636,12 @@ pub fn centre_of_projection(m: &[[f64; 4]; 4]) -> Option<[f64; 3]> {
 
 /// The frame's size and matrices.
 fn validate_params(params: &RenderParams) -> Result<(), Error> {
-    for (w, h) in [(params.width, params.height)] {
-        if w == 0 || h == 0 {
-            return Err(Error::ZeroSizedRaster { width: w as u64, height: h as u64 });
-        }
-        if w > MAX_RENDER_DIM || h > MAX_RENDER_DIM {
-            return Err(Error::RasterTooLarge { width: w as u64, height: h as u64, reason: format!("a frame is at most {MAX_RENDER_DIM} pixels wide and high") });
-        }
+    let (w, h) = (params.width, params.height);
+    if w == 0 || h == 0 {
+        return Err(Error::ZeroSizedRaster { width: w as u64, height: h as u64 });
+    }
+    if w > MAX_RENDER_DIM || h > MAX_RENDER_DIM {
+        return Err(Error::RasterTooLarge { width: w as u64, height: h as u64, reason: format!("a frame is at most {MAX_RENDER_DIM} pixels wide and high") });
     }
     for (name, m) in [("model", &params.model), ("view-projection", &params.view_projection)] {
         for (row, r) in m.iter().enumerate() {

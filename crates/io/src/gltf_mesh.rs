@@ -116,7 +116,7 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     }
     let corner = |i: u32| base as u32 + i;
     let triangles: Vec<[u32; 3]> = match primitive.mode() {
-        Mode::Triangles => indices.chunks_exact(3).map(|t| [corner(t[0]), corner(t[1]), corner(t[2])]).collect(),
+        Mode::Triangles => indices.as_chunks::<3>().0.iter().map(|t| t.map(corner)).collect(),
         // The specification's order: every other triangle of a strip takes its last two
         // vertices the other way round, which keeps the winding.
         Mode::TriangleStrip => (0..indices.len().saturating_sub(2))

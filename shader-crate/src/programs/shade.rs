@@ -69,11 +69,12 @@ fn dot(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 #[inline]
 pub fn normalise(v: [f32; 3]) -> [f32; 3] {
     let len2 = dot(&v, &v);
-    if !(len2 > 0.0) || !(len2 < f32::MAX) {
+    // Zero, NaN, or too long to square: no direction.
+    if len2.is_nan() || len2 <= 0.0 || len2 >= f32::MAX {
         return [0.0; 3];
     }
     let len = sqrt(len2);
-    if !(len > 1.0e-30) {
+    if len <= 1.0e-30 {
         return [0.0; 3];
     }
     [scale_div(v[0], len), scale_div(v[1], len), scale_div(v[2], len)]
@@ -97,9 +98,9 @@ pub fn powi(x: f32, n: u32) -> f32 {
     let (mut base, mut e, mut out) = (x, n, 1.0f32);
     while e > 0 {
         if e & 1 == 1 {
-            out = out * base;
+            out *= base;
         }
-        base = base * base;
+        base *= base;
         e >>= 1;
     }
     out
@@ -235,6 +236,7 @@ pub fn source_over(src: u32, dst: u32) -> u32 {
 /// blended source-over onto the background; the face is the last fragment that passed.
 /// Each step finds the next slot by a walk over the bin: `(fragments + 1) × bin` iterations.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 pub fn blend_pixel(params: &ShadeParams, clear_bits: u32, setups: &[TriangleSetup], shading: &[TriangleShading], bin: &[u32], bin_start: u32, bin_len: u32, i: i32, j: i32) -> Shaded {
     let test = DepthProgram { func: params.depth_test.func(), write: true, clear: f32::from_bits(clear_bits) };
     let write = params.depth_test.write();

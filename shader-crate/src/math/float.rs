@@ -9,6 +9,11 @@
 //! Domain: positive, normal, finite operands, and results in the normal range (what the render
 //! pipeline feeds them: sums of positive weights, squared lengths). Outside it they return
 //! `+0` for zero or an underflowing result and `+∞` for an overflowing one.
+//!
+//! Natively the CPU's own division and square root give the same bits faster wherever the
+//! operands and the result are in that domain: IEEE 754 rounds them correctly too (Rust
+//! guarantees it), and a correctly rounded result is unique. The SPIR-V build always computes
+//! by hand; the tests hold the by-hand versions to the CPU's operations.
 
 /// The significand with its implicit bit (24 bits) and the biased exponent of a positive
 /// normal `f32`.
@@ -41,6 +46,19 @@ fn normal(bits: u32) -> bool {
 /// `a / b`, correctly rounded, for positive normal `a` and `b`.
 #[inline]
 pub fn div(a: f32, b: f32) -> f32 {
+    #[cfg(not(target_arch = "spirv"))]
+    if normal(a.to_bits()) && normal(b.to_bits()) {
+        let q = a / b;
+        if normal(q.to_bits()) {
+            return q;
+        }
+    }
+    div_by_hand(a, b)
+}
+
+/// [`div`] with integer operations only.
+#[inline]
+pub fn div_by_hand(a: f32, b: f32) -> f32 {
     let (ab, bb) = (a.to_bits(), b.to_bits());
     if !normal(ab) || !normal(bb) {
         return if ab == 0 { 0.0 } else { f32::from_bits(0x7f80_0000) };
@@ -70,6 +88,17 @@ pub fn recip(x: f32) -> f32 {
 /// `√x`, correctly rounded, for positive normal `x` (`+0` for `+0`).
 #[inline]
 pub fn sqrt(x: f32) -> f32 {
+    // The root of a positive normal number is a positive normal number.
+    #[cfg(not(target_arch = "spirv"))]
+    if normal(x.to_bits()) {
+        return x.sqrt();
+    }
+    sqrt_by_hand(x)
+}
+
+/// [`sqrt`] with integer operations only.
+#[inline]
+pub fn sqrt_by_hand(x: f32) -> f32 {
     let bits = x.to_bits();
     if !normal(bits) {
         return if bits == 0 { 0.0 } else { f32::from_bits(0x7f80_0000) };
@@ -138,7 +167,8 @@ mod tests {
                 if !want.is_normal() {
                     continue;
                 }
-                assert_eq!(div(a, b).to_bits(), want.to_bits(), "{a:e} / {b:e}");
+                assert_eq!(div_by_hand(a, b).to_bits(), want.to_bits(), "{a:e} / {b:e}");
+                assert_eq!(div(a, b).to_bits(), want.to_bits(), "native: {a:e} / {b:e}");
                 checked += 1;
             }
         }
@@ -147,11 +177,20 @@ mod tests {
 
     #[test]
     fn square_root_is_the_ieee_root() {
-        for x in samples() {
-            assert_eq!(sqrt(x).to_bits(), x.sqrt().to_bits(), "√{x:e}");
+        for x in samples().into_iter().chain([1.0f32, 2.0, 4.0, 0.25, 3.0, f32::MAX, f32::MIN_POSITIVE]) {
+            assert_eq!(sqrt_by_hand(x).to_bits(), x.sqrt().to_bits(), "√{x:e}");
+            assert_eq!(sqrt(x).to_bits(), x.sqrt().to_bits(), "native: √{x:e}");
         }
-        for x in [1.0f32, 2.0, 4.0, 0.25, 3.0, f32::MAX, f32::MIN_POSITIVE] {
-            assert_eq!(sqrt(x).to_bits(), x.sqrt().to_bits(), "√{x:e}");
+    }
+
+    /// Outside the domain both paths give the by-hand results: zero, infinity.
+    #[test]
+    fn both_paths_agree_outside_the_domain() {
+        for (a, b) in [(0.0f32, 3.0f32), (1e-30, 1e30), (1e30, 1e-30), (f32::MIN_POSITIVE, 4.0), (1.0, f32::from_bits(1))] {
+            assert_eq!(div(a, b).to_bits(), div_by_hand(a, b).to_bits(), "{a:e} / {b:e}");
+        }
+        for x in [0.0f32, f32::from_bits(1), f32::INFINITY] {
+            assert_eq!(sqrt(x).to_bits(), sqrt_by_hand(x).to_bits(), "√{x:e}");
         }
     }
 

@@ -209,6 +209,21 @@ impl GeometryCounts {
 struct ClipVertex {
     clip: [f64; 4],
     attributes: [f64; ATTRIBUTES],
+    /// Bit `k`: outside clipping plane `k` (`Viewport::planes`).
+    outside: u8,
+    /// Where it snaps on the screen, when inside every clipping plane.
+    screen: (i64, i64),
+}
+
+impl ClipVertex {
+    /// A vertex at `clip` with `attributes`: which planes it is outside, and where it snaps if
+    /// none (the same for every face that shares it, so computed once).
+    fn new(clip: [f64; 4], attributes: [f64; ATTRIBUTES], viewport: &Viewport) -> Self {
+        let planes = viewport.planes();
+        let outside = (0..planes.len()).fold(0u8, |m, k| m | u8::from(distance(&planes, k, &clip) < 0.0) << k);
+        let screen = if outside == 0 { viewport.snap(&clip) } else { (0, 0) };
+        ClipVertex { clip, attributes, outside, screen }
+    }
 }
 
 /// Faces per task of the geometry stages; tasks keep face order.
@@ -236,6 +251,7 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
     let grey = [0.8f32, 0.8, 0.8, 1.0];
     let lit = |base: [f64; 4], n: [f64; 3], p: [f64; 3]| blinn_phong(params, &lights, eye, base, n, p);
 
+    let viewport = Viewport::new(w, h);
     // Vertex stage: the model transform, then the view-projection.
     let model = &params.model;
     let world: Vec<[f64; 3]> = mesh.positions.par_iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
@@ -256,11 +272,10 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
             attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
             attributes[ATTR_POSITION..ATTR_POSITION + 3].copy_from_slice(&p);
             attributes[ATTR_UV..ATTR_UV + 2].copy_from_slice(&uv);
-            ClipVertex { clip, attributes }
+            ClipVertex::new(clip, attributes, &viewport)
         })
         .collect();
 
-    let viewport = Viewport::new(w, h);
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
     let pieces: Vec<(Vec<(TriangleInput, TriangleShading)>, GeometryCounts)> = mesh
         .triangles
@@ -433,15 +448,22 @@ fn geometry(corners: &[ClipVertex; 3], face: u32, params: &RenderParams, viewpor
         counts.culled_frustum += 1;
         return;
     }
-    let planes = viewport.planes();
-    let needs_clipping = (0..planes.len()).any(|k| c.iter().any(|v| distance(&planes, k, v) < 0.0));
-    let polygon = if needs_clipping { clip_polygon(corners, &planes) } else { corners.to_vec() };
+    if corners.iter().all(|v| v.outside == 0) {
+        return triangles(corners, &corners.map(|v| v.screen), face, params, grid, out, counts);
+    }
+    let polygon = clip_polygon(corners, &viewport.planes());
     if polygon.len() < 3 {
         counts.culled_frustum += 1;
         return;
     }
-    counts.clipped += u64::from(needs_clipping);
+    counts.clipped += 1;
     let snapped: Vec<(i64, i64)> = polygon.iter().map(|v| viewport.snap(&v.clip)).collect();
+    triangles(&polygon, &snapped, face, params, grid, out, counts);
+}
+
+/// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
+/// snapped to `snapped`, and push what reaches the rasteriser.
+fn triangles(polygon: &[ClipVertex], snapped: &[(i64, i64)], face: u32, params: &RenderParams, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
     for k in 1..polygon.len() - 1 {
         let mut v = [0, k, k + 1];
         let (mut x, mut y) = (v.map(|i| snapped[i].0), v.map(|i| snapped[i].1));
@@ -512,7 +534,7 @@ fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) -> Vec<ClipVe
             if (d[i] >= 0.0) != (d[j] >= 0.0) {
                 let (a, b, da, db) = if d[i] >= 0.0 { (&polygon[i], &polygon[j], d[i], d[j]) } else { (&polygon[j], &polygon[i], d[j], d[i]) };
                 let t = da / (da - db);
-                let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES] };
+                let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, screen: (0, 0) };
                 for n in 0..4 {
                     v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
                 }

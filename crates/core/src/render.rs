@@ -211,19 +211,43 @@ struct ClipVertex {
     attributes: [f64; ATTRIBUTES],
     /// Bit `k`: outside clipping plane `k` (`Viewport::planes`).
     outside: u8,
-    /// Where it snaps on the screen, when inside every clipping plane.
-    screen: (i64, i64),
+    /// What the kernels take of it, when inside every clipping plane (computed once for every
+    /// face that shares it).
+    projected: Projected,
 }
 
 impl ClipVertex {
-    /// A vertex at `clip` with `attributes`: which planes it is outside, and where it snaps if
-    /// none (the same for every face that shares it, so computed once).
     fn new(clip: [f64; 4], attributes: [f64; ATTRIBUTES], viewport: &Viewport) -> Self {
         let planes = viewport.planes();
         let outside = (0..planes.len()).fold(0u8, |m, k| m | u8::from(distance(&planes, k, &clip) < 0.0) << k);
-        let screen = if outside == 0 { viewport.snap(&clip) } else { (0, 0) };
-        ClipVertex { clip, attributes, outside, screen }
+        let mut v = ClipVertex { clip, attributes, outside, projected: Projected::default() };
+        if outside == 0 {
+            v.projected = v.project(viewport);
+        }
+        v
     }
+
+    /// Its snapped screen position, depth, `1/w` and attributes in `f32`.
+    fn project(&self, viewport: &Viewport) -> Projected {
+        let c = &self.clip;
+        Projected {
+            screen: viewport.snap(c),
+            depth: (c[2] / c[3]).clamp(0.0, 1.0) as f32,
+            inv_w: (1.0 / c[3]) as f32,
+            attributes: self.attributes.map(|a| a as f32),
+        }
+    }
+}
+
+/// A vertex inside every clipping plane as the kernels take it.
+#[derive(Clone, Copy, Default)]
+struct Projected {
+    /// Snapped, in `2^-RENDER_SNAP_BITS` px, `y` down.
+    screen: (i64, i64),
+    /// `z/w`, in [0, 1].
+    depth: f32,
+    inv_w: f32,
+    attributes: [f32; ATTRIBUTES],
 }
 
 /// Faces per task of the geometry stages; tasks keep face order.
@@ -284,15 +308,15 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
         .map(|(c, faces)| {
             let mut out = Vec::with_capacity(faces.len());
             let mut counts = GeometryCounts::default();
+            let mut flattened = [ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() }; 3];
             for (k, tri) in faces.iter().enumerate() {
                 let face = c * CHUNK + k;
-                let mut corners = tri.map(|v| vertices[v as usize]);
+                let mut corners = tri.map(|v| &vertices[v as usize]);
+                // Flat modes give every corner (and so every clipped piece) one set of values.
+                let mut flat: Option<[f64; ATTRIBUTES]> = None;
                 if params.interpolation == Interpolation::Flat {
-                    // The provoking vertex (the face's first) gives every corner its values, so
-                    // clipped pieces keep them too.
-                    let first = corners[0].attributes;
-                    corners[1].attributes = first;
-                    corners[2].attributes = first;
+                    // The provoking vertex: the face's first.
+                    flat = Some(corners[0].attributes);
                 }
                 if params.shading == Shading::Flat {
                     // One colour per face: its first vertex's, lit with the face normal there.
@@ -300,38 +324,55 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
                     let n = unit(cross(sub(p[1], p[0]), sub(p[2], p[0])));
                     let base = mesh.colours.as_ref().map_or(grey, |c| c[tri[0] as usize]).map(f64::from);
                     let colour = lit(base, n, p[0]);
-                    for v in &mut corners {
-                        v.attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
-                        v.attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+                    for a in 0..3 {
+                        let mut values = flat.unwrap_or(corners[a].attributes);
+                        values[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
+                        values[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+                        flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
                     }
+                    corners = [&flattened[0], &flattened[1], &flattened[2]];
+                } else if let Some(values) = flat {
+                    for a in 0..3 {
+                        flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
+                    }
+                    corners = [&flattened[0], &flattened[1], &flattened[2]];
                 }
-                geometry(&corners, face as u32, params, &viewport, &grid, &mut out, &mut counts);
+                geometry(corners, face as u32, params, &viewport, &grid, &mut out, &mut counts);
             }
             (out, counts)
         })
         .collect();
-    let mut counts = GeometryCounts::default();
+    let counts = pieces.iter().fold(GeometryCounts::default(), |sum, p| sum.add(p.1));
     let total: usize = pieces.iter().map(|p| p.0.len()).sum();
-    let mut triangles = Vec::with_capacity(total);
-    let mut shading = Vec::with_capacity(total);
-    for (piece, c) in pieces {
-        counts = counts.add(c);
-        for (mut input, s) in piece {
-            // The setup slot is the index: the depth key's tie-break and the owner layer's value.
-            input.index = triangles.len() as u32;
-            triangles.push(input);
-            shading.push(s);
-        }
-    }
-    counts.rasterised = triangles.len() as u64;
-    if triangles.len() >= u32::MAX as usize {
+    if total >= u32::MAX as usize {
         return Err(Error::RasterTooLarge {
             width: w as u64,
             height: h as u64,
-            reason: format!("clipping left {} triangles, more than the 2^32 − 1 a frame indexes", triangles.len()),
+            reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
         });
     }
 
+    // The chunks' triangles one after the other, copied in place on all cores. The setup slot
+    // is the index: the depth key's tie-break and the owner layer's value.
+    let out_of_memory = |what| move |reason| Error::OutOfMemory { what, reason };
+    let mut triangles: Vec<TriangleInput> = crate::zeroed_cells(total).map_err(out_of_memory("the frame's triangles"))?;
+    let mut shading: Vec<TriangleShading> = crate::zeroed_cells(total).map_err(out_of_memory("the frame's triangles"))?;
+    let mut parts = Vec::with_capacity(pieces.len());
+    let (mut rest_t, mut rest_s, mut start) = (&mut triangles[..], &mut shading[..], 0);
+    for (piece, _) in &pieces {
+        let (t, tail_t) = rest_t.split_at_mut(piece.len());
+        let (s, tail_s) = rest_s.split_at_mut(piece.len());
+        parts.push((start, t, s, piece));
+        (rest_t, rest_s, start) = (tail_t, tail_s, start + piece.len());
+    }
+    parts.into_par_iter().for_each(|(start, t, s, piece)| {
+        for (k, (input, shade)) in piece.iter().enumerate() {
+            t[k] = TriangleInput { index: (start + k) as u32, ..*input };
+            s[k] = *shade;
+        }
+    });
+    let mut counts = counts;
+    counts.rasterised = total as u64;
     let shade = shade_params(params, &lights, eye, depth_range(&vertices));
     let skips = Skips { full_tiles: false, overlap_free: false, ..params.skips };
     let grid_params = Params {
@@ -440,7 +481,7 @@ fn distance(planes: &[[f64; 4]; 7], k: usize, c: &[f64; 4]) -> f64 {
 }
 
 /// Clip, cull, snap one face and push what reaches the rasteriser.
-fn geometry(corners: &[ClipVertex; 3], face: u32, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
+fn geometry(corners: [&ClipVertex; 3], face: u32, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
     // Wholly outside one plane of the view frustum: nothing to clip.
     let c = corners.map(|v| v.clip);
     let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
@@ -449,24 +490,24 @@ fn geometry(corners: &[ClipVertex; 3], face: u32, params: &RenderParams, viewpor
         return;
     }
     if corners.iter().all(|v| v.outside == 0) {
-        return triangles(corners, &corners.map(|v| v.screen), face, params, grid, out, counts);
+        return triangles(&corners.map(|v| v.projected), face, params, grid, out, counts);
     }
-    let polygon = clip_polygon(corners, &viewport.planes());
+    let polygon = clip_polygon(&corners.map(|v| *v), &viewport.planes());
     if polygon.len() < 3 {
         counts.culled_frustum += 1;
         return;
     }
     counts.clipped += 1;
-    let snapped: Vec<(i64, i64)> = polygon.iter().map(|v| viewport.snap(&v.clip)).collect();
-    triangles(&polygon, &snapped, face, params, grid, out, counts);
+    let projected: Vec<Projected> = polygon.iter().map(|v| v.project(viewport)).collect();
+    triangles(&projected, face, params, grid, out, counts);
 }
 
 /// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
-/// snapped to `snapped`, and push what reaches the rasteriser.
-fn triangles(polygon: &[ClipVertex], snapped: &[(i64, i64)], face: u32, params: &RenderParams, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
+/// and push what reaches the rasteriser.
+fn triangles(polygon: &[Projected], face: u32, params: &RenderParams, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
     for k in 1..polygon.len() - 1 {
         let mut v = [0, k, k + 1];
-        let (mut x, mut y) = (v.map(|i| snapped[i].0), v.map(|i| snapped[i].1));
+        let (mut x, mut y) = (v.map(|i| polygon[i].screen.0), v.map(|i| polygon[i].screen.1));
         let area = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
         if area == 0 {
             counts.culled_zero_area += 1;
@@ -501,10 +542,10 @@ fn triangles(polygon: &[ClipVertex], snapped: &[(i64, i64)], face: u32, params: 
         // Entry k of the kernels' per-vertex data belongs to the vertex opposite edge k.
         let opposite = [v[2], v[0], v[1]];
         let area = area.unsigned_abs() as f64;
-        let depth = |i: usize| (polygon[i].clip[2] / polygon[i].clip[3]).clamp(0.0, 1.0) as f32;
+        let depth = |i: usize| polygon[i].depth;
         let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), (1.0 / area) as f32] };
-        let inv_w = |i: usize| (1.0 / polygon[i].clip[3]) as f32;
-        let attributes = opposite.map(|i| polygon[i].attributes.map(|a| a as f32));
+        let inv_w = |i: usize| polygon[i].inv_w;
+        let attributes = opposite.map(|i| polygon[i].attributes);
         out.push((
             TriangleInput { x, y, rect, coeffs, ..Default::default() },
             TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face, _pad: [0; 3] },
@@ -534,7 +575,7 @@ fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) -> Vec<ClipVe
             if (d[i] >= 0.0) != (d[j] >= 0.0) {
                 let (a, b, da, db) = if d[i] >= 0.0 { (&polygon[i], &polygon[j], d[i], d[j]) } else { (&polygon[j], &polygon[i], d[j], d[i]) };
                 let t = da / (da - db);
-                let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, screen: (0, 0) };
+                let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() };
                 for n in 0..4 {
                     v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
                 }

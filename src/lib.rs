@@ -130,7 +130,7 @@ impl PreparedScene {
     }
 }
 
-pub use tileraster_gpu::{set_window_limit as set_gpu_window_limit, Adapter};
+pub use tileraster_gpu::{set_binding_limit as set_gpu_binding_limit, set_window_limit as set_gpu_window_limit, Adapter};
 
 /// The Vulkan adapter [`Backend::Gpu`] uses, or why there is none.
 pub fn gpu_adapter() -> Result<Adapter, Error> {

@@ -95,3 +95,82 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
     }
     tileraster::set_gpu_window_limit(4096 * 4096);
 }
+
+/// Scenes too large for one binding are set up in parts (each window with the triangles
+/// that reach it): the same bits as the CPU's. A lowered binding limit brings a small scene
+/// there; every limit here is below the scene's setups, which the backend refused before it
+/// could set a scene up in parts.
+#[test]
+fn gpu_scenes_in_parts_equal_the_cpu() {
+    use tileraster::render::{render, Camera, Cull, RenderParams, Shading};
+    use tileraster_kernels::abi::{TriangleSetup, TriangleShading};
+    if !common::gpu_or_skip("gpu_scenes_in_parts_equal_the_cpu") {
+        return;
+    }
+    let _turn = WINDOW_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
+    let setup = std::mem::size_of::<TriangleSetup>() as u64;
+
+    // The heightfield: 5,000 triangles, owner and coverage layers.
+    let scene = scenes::terrain(0.0, 0.0, 1000.0, 1000.0, 50, 50, 2);
+    let grid = Grid::new(0.0, 1000.0, 0.0, 1000.0, 300, 290);
+    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true });
+    let cpu = rasterise(&scene, &params, Backend::Cpu).unwrap();
+    for limit in [32 << 10, 64 << 10, 256 << 10] {
+        assert!(5_000 * setup > limit);
+        tileraster::set_gpu_binding_limit(limit);
+        let gpu = rasterise(&scene, &params, Backend::Gpu);
+        tileraster::set_gpu_binding_limit(u64::MAX);
+        let gpu = gpu.unwrap_or_else(|e| panic!("binding limit {limit}: {e}"));
+        let (count, first) = cpu.compare_bits(&gpu, 5);
+        assert_eq!(count, 0, "binding limit {limit}: {first:?}");
+        assert_eq!(cpu.stats, gpu.stats, "binding limit {limit}: statistics");
+    }
+
+    // The render pipeline: a sphere seen from outside and a soup of overlapping triangles
+    // with exact depth ties (every triangle drawn twice), opaque and blended.
+    let sphere = tileraster_testkit::meshes::sphere([0.0; 3], 1.0, 30, 57);
+    let mut soup = tileraster_testkit::meshes::soup(60, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.5, 5);
+    let n = soup.triangles.len();
+    soup.triangles.extend_from_within(..n);
+    for (k, c) in soup.colours.as_mut().unwrap().iter_mut().enumerate() {
+        c[3] = if k % 2 == 0 { 0.5 } else { 1.0 };
+    }
+    let shading = std::mem::size_of::<TriangleShading>() as u64;
+    let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
+    for (name, mesh, limit) in [("sphere", &sphere, 64u64 << 10), ("soup", &soup, 12 << 10)] {
+        assert!(mesh.triangles.len() as u64 * shading > limit, "{name}: the limit must split the scene");
+        for blend in [false, true] {
+            let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, ..RenderParams::new(190, 150, camera.view_projection(190, 150).unwrap()) };
+            let cpu = render(mesh, &params, Backend::Cpu).unwrap();
+            tileraster::set_gpu_binding_limit(limit);
+            let gpu = render(mesh, &params, Backend::Gpu);
+            tileraster::set_gpu_binding_limit(u64::MAX);
+            let gpu = gpu.unwrap_or_else(|e| panic!("{name}, blend {blend}: {e}"));
+            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments, "{name}, blend {blend}: the frames differ");
+            assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}, blend {blend}: depths differ");
+            assert_eq!(cpu.stats, gpu.stats, "{name}, blend {blend}: statistics");
+        }
+    }
+}
+
+/// A single tile reached by more triangles than one binding holds is a typed error naming
+/// the tile, not a panic or a partial frame.
+#[test]
+fn gpu_tile_beyond_its_binding_is_an_error() {
+    use tileraster::render::{render, Cull, Mesh, RenderParams, IDENTITY};
+    if !common::gpu_or_skip("gpu_tile_beyond_its_binding_is_an_error") {
+        return;
+    }
+    let _turn = WINDOW_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
+    // 64 copies of one triangle over the whole frame: every tile is reached by all of them.
+    let positions = vec![[-4.0, -4.0, 0.5], [4.0, -4.0, 0.5], [0.0, 6.0, 0.5]];
+    let mesh = Mesh { positions, triangles: vec![[0, 1, 2]; 64], normals: None, colours: None, uvs: None };
+    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(40, 40, IDENTITY) };
+    tileraster::set_gpu_binding_limit(4 << 10);
+    let result = render(&mesh, &params, Backend::Gpu);
+    tileraster::set_gpu_binding_limit(u64::MAX);
+    match result {
+        Err(tileraster::Error::RasterTooLarge { reason, .. }) => assert!(reason.contains("the tile at (0, 0)") && reason.contains("64 triangles"), "{reason}"),
+        other => panic!("expected RasterTooLarge, got {:?}", other.map(|f| f.stats)),
+    }
+}

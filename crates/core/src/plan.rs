@@ -249,6 +249,12 @@ fn tile_aligned(r: &PixelRect, window: &Window) -> Window {
 impl Plan {
     /// Kernel parameters for rasterising `part` of the active window.
     pub fn frame(&self, prepared: &Prepared, part: Window) -> FrameParams {
+        self.frame_listing(prepared, part, &self.listed)
+    }
+
+    /// Kernel parameters for rasterising `part` with the binning stages taking `listed` (setup
+    /// slots of `prepared`'s triangles; the plan's list, or the part of it that reaches `part`).
+    pub fn frame_listing(&self, prepared: &Prepared, part: Window, listed: &[u32]) -> FrameParams {
         let tiles_x = part.width.div_ceil(TILE);
         let tiles_y = part.height.div_ceil(TILE);
         let mut frame = FrameParams {
@@ -258,7 +264,7 @@ impl Plan {
             win_h: part.height,
             tiles_x,
             tiles_y,
-            triangles: self.listed.len() as u32,
+            triangles: listed.len() as u32,
             snap_bits: prepared.snap_bits,
             nodata_bits: prepared.params.nodata.to_bits(),
             outputs: prepared.params.output_set(),
@@ -270,7 +276,7 @@ impl Plan {
             depth_test: prepared.render.as_ref().map_or(DepthTest::default(), |s| s.depth_test),
         };
         // Enough bands for the tallest listed triangle in the part.
-        let rows = self.listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
+        let rows = listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
         frame.bin_parts = rows.unwrap_or(1).div_ceil(frame.bin_part_rows).max(1);
         frame
     }
@@ -279,7 +285,12 @@ impl Plan {
     /// rectangle; binning leaves out the tiles a triangle cannot reach): the size to allocate
     /// before the bins are filled.
     pub fn bin_capacity(&self, prepared: &Prepared, frame: &FrameParams) -> u64 {
-        self.listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, frame).tile_count() as u64).sum()
+        Self::bin_capacity_listing(prepared, frame, &self.listed)
+    }
+
+    /// [`Self::bin_capacity`] with the binning stages taking `listed`.
+    pub fn bin_capacity_listing(prepared: &Prepared, frame: &FrameParams, listed: &[u32]) -> u64 {
+        listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, frame).tile_count() as u64).sum()
     }
 
     /// The call's raster: zeroed, with nodata (and no owner) already written outside the

@@ -4,9 +4,9 @@ use rayon::prelude::*;
 use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
+use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, PixelRect, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, Scope, StageBuffers, StageInfo, STAGES};
-use tileraster_kernels::{BIN_PART_TILES, TILE, TRIANGLE_GROUP};
+use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
 /// big enough to keep a GPU busy, small enough to bound the per-window buffers.
@@ -16,6 +16,17 @@ static WINDOW_LIMIT: AtomicU64 = AtomicU64::new(4096 * 4096);
 /// result; this trades memory for dispatch overhead, and lets tests exercise many windows.
 pub fn set_window_limit(pixels: u64) {
     WINDOW_LIMIT.store(pixels.max((TILE * TILE) as u64), Ordering::Relaxed);
+}
+
+/// Largest buffer the backend binds, in bytes, below what the device allows: `u64::MAX`
+/// unless a test lowers it (see [`set_binding_limit`]).
+static BINDING_LIMIT: AtomicU64 = AtomicU64::new(u64::MAX);
+
+/// Bind at most `bytes` per buffer (at least one tile's layer), below the device's own limit.
+/// Like windows, this never changes a result: it lets tests reach, on small scenes, the
+/// windows and the scene parts that large scenes need on devices with small bindings.
+pub fn set_binding_limit(bytes: u64) {
+    BINDING_LIMIT.store(bytes.max((TILE * TILE * 4) as u64), Ordering::Relaxed);
 }
 
 static CONTEXT: OnceLock<Result<Mutex<GpuContext>, Error>> = OnceLock::new();
@@ -92,7 +103,9 @@ pub fn stage_buffers(prepared: &Prepared) -> Result<Option<StageBuffers>, Error>
     }
     let mut resident = None;
     ctx.rasterise(prepared, &plan, &mut resident)?;
-    let setups = resident.expect("rasterise sets the scene up").setups;
+    let Some(Resident { setups, .. }) = resident else {
+        return Err(Error::Gpu("the scene is set up in parts: read its stage buffers window by window".into()));
+    };
     ctx.read_stage_buffers(prepared.triangles.len() as u64, frame.tile_count() as u64, &setups).map(Some)
 }
 
@@ -233,7 +246,13 @@ impl GpuContext {
 
     /// Largest buffer a kernel may bind.
     fn max_binding(&self) -> u64 {
-        self.gpu.max_storage_binding()
+        self.gpu.max_storage_binding().min(BINDING_LIMIT.load(Ordering::Relaxed))
+    }
+
+    /// Whether `triangles` triangles' setups (and the render pipeline's shading) fit one
+    /// binding each, so that the whole scene can be set up once and stay resident.
+    fn scene_fits(&self, prepared: &Prepared, triangles: u64) -> bool {
+        triangles * scene_bytes_per_triangle(prepared) <= self.max_binding()
     }
 
     fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
@@ -267,6 +286,9 @@ impl GpuContext {
         Ok(raster)
     }
 
+    /// Rasterise `active` window by window. A scene whose setups fit one binding is set up
+    /// once and kept (`resident`); a larger one is set up in parts, each window with only the
+    /// triangles that reach it (see [`Part`]).
     fn rasterise_windows(
         &mut self,
         prepared: &Prepared,
@@ -277,41 +299,61 @@ impl GpuContext {
         counters: &mut [u64; Counter::COUNT],
     ) -> Result<(), Error> {
         let max_pixels = self.max_window_pixels(prepared);
-        if resident.is_none() {
-            *resident = Some(self.upload_and_setup(prepared)?);
+        let whole = self.scene_fits(prepared, prepared.triangles.len() as u64);
+        if whole && resident.is_none() {
+            *resident = Some(self.upload_and_setup(prepared, None)?);
         }
-        let setups = resident.as_ref().expect("just set up").setups.clone();
-        let shading = resident.as_ref().and_then(|r| r.shading.clone());
         let shade_params = prepared.render.as_ref().map(|s| {
             let buf = self.buffers.shade_params.get(&self.gpu.device, std::mem::size_of::<ShadeParams>() as u64);
             self.gpu.queue.write_buffer(&buf, 0, bytemuck::bytes_of(&s.params));
             buf
         });
-        let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &setups, shading: shading.as_ref(), shade_params: shade_params.as_ref() };
-        // The window's list of triangles, once for all its dispatches.
-        let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
-        let listed_buf = self.buffers.listed.get(&self.gpu.device, listed.len() as u64);
-        self.gpu.queue.write_buffer(&listed_buf, 0, listed);
+        // The window's list of triangles, once for all its dispatches (a resident scene's).
+        let listed_buf = whole.then(|| {
+            let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
+            let buf = self.buffers.listed.get(&self.gpu.device, listed.len() as u64);
+            self.gpu.queue.write_buffer(&buf, 0, listed);
+            buf
+        });
         let mut pending = windows(&active, max_pixels);
         pending.reverse();
         while let Some(window) = pending.pop() {
-            let frame = plan.frame(prepared, window);
-            let entries = plan.bin_capacity(prepared, &frame);
-            if entries * 4 > self.max_binding() || entries > u32::MAX as u64 {
-                // Too many triangle–tile pairs for one binding: split the window in two.
-                if window.height <= TILE {
-                    return Err(Error::RasterTooLarge {
-                        width: window.width as u64,
-                        height: window.height as u64,
-                        reason: format!("one row of tiles already has {entries} triangle–tile pairs, more than the GPU binds"),
-                    });
+            // A scene in parts: the triangles reaching this window, set up on their own.
+            let part = if whole {
+                None
+            } else {
+                let slots: Vec<u32> = plan.listed.par_iter().copied().filter(|&s| reaches(&prepared.triangles[s as usize].rect, &window)).collect();
+                if !self.scene_fits(prepared, slots.len() as u64) {
+                    let bytes = slots.len() as u64 * scene_bytes_per_triangle(prepared);
+                    split(&mut pending, window, || format!("{} triangles reach it, {bytes} bytes of setup, more than the GPU binds at once ({} bytes)", slots.len(), self.max_binding()))?;
+                    continue;
                 }
-                let top = (window.height / 2).next_multiple_of(TILE);
-                pending.push(Window { y0: window.y0 + top, height: window.height - top, ..window });
-                pending.push(Window { height: top, ..window });
+                Some(slots)
+            };
+            let listed = part.as_deref().unwrap_or(&plan.listed);
+            let frame = plan.frame_listing(prepared, window, listed);
+            let entries = Plan::bin_capacity_listing(prepared, &frame, listed);
+            if entries * 4 > self.max_binding() || entries > u32::MAX as u64 {
+                split(&mut pending, window, || format!("{entries} triangle–tile pairs, more than the GPU binds"))?;
                 continue;
             }
-            let window_counters = self.rasterise_window(&frame, entries, &scene, &listed_buf, raster)?;
+            let window_counters = match &part {
+                None => {
+                    let r = resident.as_ref().expect("a whole scene is set up before its windows");
+                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref() };
+                    self.rasterise_window(&frame, entries, &scene, listed_buf.as_ref().expect("listed with the whole scene"), None, raster)?
+                }
+                Some(slots) => {
+                    let r = self.upload_and_setup(prepared, Some(slots))?;
+                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref() };
+                    // The part's setups are its own slots 0, 1, ...: the binning stages take them all.
+                    let local: Vec<u32> = (0..slots.len() as u32).collect();
+                    let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
+                    self.gpu.queue.write_buffer(&listed_buf, 0, bytemuck::cast_slice(&local));
+                    let owners = (prepared.pipeline() == Pipeline::Render).then_some(slots.as_slice());
+                    self.rasterise_window(&frame, entries, &scene, &listed_buf, owners, raster)?
+                }
+            };
             for (total, c) in counters.iter_mut().zip(window_counters) {
                 *total += c as u64;
             }
@@ -361,22 +403,25 @@ impl GpuContext {
         Ok(())
     }
 
-    /// Upload the prepared triangles and run the scene stages over them: the setups stay on
-    /// the device.
-    fn upload_and_setup(&mut self, prepared: &Prepared) -> Result<Resident, Error> {
-        let n = prepared.triangles.len() as u64;
-        let setup_bytes = n * std::mem::size_of::<TriangleSetup>() as u64;
-        if setup_bytes > self.max_binding() {
-            return Err(Error::RasterTooLarge {
-                width: prepared.window.width as u64,
-                height: prepared.window.height as u64,
-                reason: format!(
-                    "{n} triangles need {setup_bytes} bytes of triangle setup, more than the GPU binds at once \
-                     ({} bytes); use the CPU backend",
-                    self.max_binding()
-                ),
-            });
-        }
+    /// Upload the prepared triangles (all of them, or the setup slots `part` lists, which then
+    /// take the slots 0, 1, ... in that order) and run the scene stages over them: the setups
+    /// stay on the device.
+    ///
+    /// In a part, the render pipeline's triangles carry their new slot as their index (its
+    /// shade stage reads the setups by the owner layer, see `programs::depth`): the order of
+    /// the slots is the scene's, so depth ties and blending go the same way, and the owner
+    /// layer is mapped back to the scene's slots as it is read.
+    fn upload_and_setup(&mut self, prepared: &Prepared, part: Option<&[u32]>) -> Result<Resident, Error> {
+        let n = part.map_or(prepared.triangles.len(), <[u32]>::len) as u64;
+        let renumber = prepared.pipeline() == Pipeline::Render;
+        let inputs_part: Option<Vec<TriangleInput>> = part.map(|slots| {
+            slots.par_iter().enumerate().map(|(k, &s)| {
+                let t = prepared.triangles[s as usize];
+                TriangleInput { index: if renumber { k as u32 } else { t.index }, ..t }
+            }).collect()
+        });
+        let shading_part: Option<Vec<TriangleShading>> =
+            part.zip(prepared.render.as_ref()).map(|(slots, r)| slots.par_iter().map(|&s| r.triangles[s as usize]).collect());
         let mut frame = FrameParams { triangles: n as u32, snap_bits: prepared.snap_bits, ..Default::default() };
         let groups = Self::dispatch_triangles(&mut frame, n as u32);
         let device = &self.gpu.device;
@@ -394,11 +439,11 @@ impl GpuContext {
             })
         };
         let inputs = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
-        self.gpu.queue.write_buffer(&inputs, 0, bytemuck::cast_slice(&prepared.triangles));
+        self.gpu.queue.write_buffer(&inputs, 0, bytemuck::cast_slice(inputs_part.as_deref().unwrap_or(&prepared.triangles)));
         let setups = storage("triangle setups", slots * std::mem::size_of::<TriangleSetup>() as u64);
         let shading = prepared.render.as_ref().map(|s| {
             let buf = storage("triangle shading", slots * std::mem::size_of::<TriangleShading>() as u64);
-            self.gpu.queue.write_buffer(&buf, 0, bytemuck::cast_slice(&s.triangles));
+            self.gpu.queue.write_buffer(&buf, 0, bytemuck::cast_slice(shading_part.as_deref().unwrap_or(&s.triangles)));
             buf
         });
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -420,6 +465,7 @@ impl GpuContext {
         entries: u64,
         scene: &SceneBuffers,
         listed: &wgpu::Buffer,
+        owner_slots: Option<&[u32]>,
         raster: &mut Raster,
     ) -> Result<[u32; Counter::COUNT], Error> {
         let mut frame = *frame;
@@ -454,6 +500,7 @@ impl GpuContext {
         let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes + 2 * shaded_bytes);
 
         let mut counters = [0u32; Counter::COUNT];
+        let mut owner_out_of_range = false;
         let mut encoder = device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&counts, 0, Some(tiles * 4));
         encoder.clear_buffer(&cursors, 0, Some(tiles * 4));
@@ -499,7 +546,17 @@ impl GpuContext {
                 let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
                 copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
                 if let Some(owner) = raster.owner.as_mut() {
-                    copy_rows(owner_words, &frame, width, x0, y0, owner);
+                    match owner_slots {
+                        Some(slots) => {
+                            let scene_slots: Option<Vec<u32>> =
+                                owner_words.par_iter().map(|&o| if o == NO_OWNER { Some(o) } else { slots.get(o as usize).copied() }).collect();
+                            match scene_slots {
+                                Some(scene_slots) => copy_rows(&scene_slots, &frame, width, x0, y0, owner),
+                                None => owner_out_of_range = true,
+                            }
+                        }
+                        None => copy_rows(owner_words, &frame, width, x0, y0, owner),
+                    }
                 }
                 if let Some(coverage) = raster.coverage.as_mut() {
                     copy_rows(coverage_words, &frame, width, x0, y0, coverage);
@@ -510,6 +567,9 @@ impl GpuContext {
                 }
             })
             .map_err(|e| Error::Gpu(format!("reading the raster back: {e}")))?;
+        if owner_out_of_range {
+            return Err(Error::Gpu(format!("the window at ({}, {}) names a triangle beyond its {} setups", frame.win_x0, frame.win_y0, frame.triangles)));
+        }
         Ok(counters)
     }
 }
@@ -591,6 +651,40 @@ fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &Sta
         cache: None,
     });
     StagePipeline { pipeline, layout }
+}
+
+/// Bytes one triangle of `prepared` takes in the biggest of its scene bindings: its input,
+/// its setup, or the render pipeline's shading.
+fn scene_bytes_per_triangle(prepared: &Prepared) -> u64 {
+    let shading = if prepared.render.is_some() { std::mem::size_of::<TriangleShading>() } else { 0 };
+    std::mem::size_of::<TriangleInput>().max(std::mem::size_of::<TriangleSetup>()).max(shading) as u64
+}
+
+/// Whether a triangle's pixel rectangle reaches `window`.
+fn reaches(rect: &PixelRect, window: &Window) -> bool {
+    rect.i0 <= (window.x0 + window.width - 1) as i32 && rect.i1 >= window.x0 as i32 && rect.j0 <= (window.y0 + window.height - 1) as i32 && rect.j1 >= window.y0 as i32
+}
+
+/// Put `window`'s two halves on `pending` (the top or left one next): into bands of tile rows,
+/// or, once it is one tile row high, into blocks of tile columns. A single tile that is still
+/// too much is an error, with `why` it is.
+fn split(pending: &mut Vec<Window>, window: Window, why: impl FnOnce() -> String) -> Result<(), Error> {
+    if window.height > TILE {
+        let top = (window.height / 2).next_multiple_of(TILE);
+        pending.push(Window { y0: window.y0 + top, height: window.height - top, ..window });
+        pending.push(Window { height: top, ..window });
+    } else if window.width > TILE {
+        let left = (window.width / 2).next_multiple_of(TILE);
+        pending.push(Window { x0: window.x0 + left, width: window.width - left, ..window });
+        pending.push(Window { width: left, ..window });
+    } else {
+        return Err(Error::RasterTooLarge {
+            width: window.width as u64,
+            height: window.height as u64,
+            reason: format!("the tile at ({}, {}) is too much for this GPU: {}; use the CPU backend", window.x0, window.y0, why()),
+        });
+    }
+    Ok(())
 }
 
 /// Cut `area` into tile-aligned bands of full width (or tile-aligned blocks when one row of

@@ -1,13 +1,15 @@
 //! The GPU backend: the kernels compiled to SPIR-V by rust-gpu (see `build.rs`), dispatched
 //! through wgpu. One context per process keeps the device, the pipelines and the buffers
-//! across calls; rasters larger than the device's buffer limits are cut into windows, which
-//! changes no bit of the result (every pixel depends only on the triangles covering it).
+//! across calls; rasters larger than the device's buffer limits are cut into windows, and
+//! scenes whose triangles do not fit one binding are set up window by window with the
+//! triangles that reach each, which changes no bit of the result (every pixel depends only on
+//! the triangles covering it, and keeps their order).
 
 mod context;
 pub mod device;
 mod float_controls;
 
-pub use context::{adapter, rasterise, rasterise_planned, set_window_limit, stage_buffers, Adapter, Resident};
+pub use context::{adapter, rasterise, rasterise_planned, set_binding_limit, set_window_limit, stage_buffers, Adapter, Resident};
 pub use float_controls::{f32_probe, FloatControls};
 
 /// The kernels as compiled by rust-gpu, every float arithmetic result marked `NoContraction`

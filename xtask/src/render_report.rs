@@ -79,10 +79,7 @@ pub fn run(quick: bool) -> Result<String, String> {
         let (cpu_time, cpu) = timed(runs, || render(&scene.mesh, &ids, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (phong_time, _) = timed(runs, || render(&scene.mesh, &phong, Backend::Cpu).map_err(|e| e.to_string()))?;
         // A frame the GPU backend refuses (its limits) is reported, not fatal.
-        let gpu_result = match &gpu {
-            Some(_) => Some(timed(runs, || render(&scene.mesh, &ids, Backend::Gpu).map_err(|e| e.to_string()))),
-            None => None,
-        };
+        let gpu_result = gpu.as_ref().map(|_| timed(runs, || render(&scene.mesh, &ids, Backend::Gpu).map_err(|e| e.to_string())));
         let positions: Vec<[f32; 3]> = scene.mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
         let matrix = scene.params.view_projection.map(|r| r.map(|c| c as f32));
         let (w, h) = (scene.params.width, scene.params.height);

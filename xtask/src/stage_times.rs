@@ -15,7 +15,7 @@ use tileraster_testkit::{meshes, scenes};
 /// A scene to time: a heightfield onto a grid, or a mesh in perspective.
 enum Case {
     Height(Scene, Grid),
-    Render(Mesh, RenderParams),
+    Render(Mesh, Box<RenderParams>),
 }
 
 impl Case {
@@ -49,7 +49,7 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     let camera = Camera::framing(&mesh, 1920.0 / 1080.0, 45.0);
     let base = RenderParams { eye: Some(camera.eye), ..RenderParams::new(1920, 1080, camera.view_projection(1920, 1080).map_err(|e| e.to_string())?) };
     for shading in [Shading::Ids, Shading::Phong] {
-        cases.push((format!("render: terrain mesh, 100352 triangles, 1920×1080, {}", shading.name()), Case::Render(mesh.clone(), RenderParams { shading, ..base.clone() })));
+        cases.push((format!("render: terrain mesh, 100352 triangles, 1920×1080, {}", shading.name()), Case::Render(mesh.clone(), Box::new(RenderParams { shading, ..base.clone() }))));
     }
     Ok(cases)
 }

@@ -44,7 +44,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask stage-times\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask stage-times [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
     ExitCode::from(2)
 }
 
@@ -145,7 +145,8 @@ fn main() -> ExitCode {
             None => usage(),
         },
         ["fingerprint"] => print_markdown("fingerprint", fingerprint::run()),
-        ["stage-times"] => print_markdown("stage-times", stage_times::run()),
+        ["stage-times"] => print_markdown("stage-times", stage_times::run(None)),
+        ["stage-times", only] => print_markdown("stage-times", stage_times::run(Some(only))),
         ["render-report", rest @ ..] => match rest {
             [] => print_markdown("render-report", render_report::run(false)),
             ["--quick"] => print_markdown("render-report", render_report::run(true)),

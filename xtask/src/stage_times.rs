@@ -77,12 +77,13 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     Ok(laps)
 }
 
-pub fn run() -> Result<String, String> {
+/// The table, over the cases whose name contains `only` (all of them without it).
+pub fn run(only: Option<&str>) -> Result<String, String> {
     const RUNS: usize = 15;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut s = format!("CPU backend ({threads} threads; heightfields in exact mode); median ms per pass of {RUNS} calls after a warm-up.\n");
     let mut header = None;
-    for (name, case) in cases()? {
+    for (name, case) in cases()?.into_iter().filter(|(name, _)| only.is_none_or(|o| name.contains(o))) {
         let names: Vec<&str> = ["prepare", "plan"].into_iter().chain(stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
         if header.as_ref() != Some(&names) {
             let _ = writeln!(s, "\n| scene | {} |", names.join(" | "));

@@ -92,6 +92,11 @@ pub enum Shading {
 impl Shading {
     pub const ALL: [Shading; 7] = [Shading::Unlit, Shading::Flat, Shading::Smooth, Shading::Phong, Shading::Depth, Shading::Normals, Shading::Ids];
 
+    /// Whether the shade stage reads the interpolated attributes (colour, normal, position).
+    pub fn reads_attributes(self) -> bool {
+        !matches!(self, Shading::Depth | Shading::Ids)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Shading::Unlit => "unlit",
@@ -279,12 +284,17 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
     // Vertex stage: the model transform, then the view-projection.
     let model = &params.model;
     let world: Vec<[f64; 3]> = mesh.positions.par_iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
-    let normals = vertex_normals(mesh, model);
+    // The depth and id views read no attribute: they carry zeros, and no normal is computed.
+    let attributes_used = params.shading.reads_attributes();
+    let normals = if attributes_used { vertex_normals(mesh, model) } else { Vec::new() };
     let vertices: Vec<ClipVertex> = (0..mesh.positions.len())
         .into_par_iter()
         .map(|v| {
             let p = world[v];
             let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
+            if !attributes_used {
+                return ClipVertex::new(clip, [0.0; ATTRIBUTES], &viewport);
+            }
             let n = normals[v].map(f64::from);
             let mut colour = mesh.colours.as_ref().map_or(grey, |c| c[v]).map(f64::from);
             if params.shading == Shading::Smooth {
@@ -301,49 +311,56 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
         .collect();
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
-    let pieces: Vec<(Vec<(TriangleInput, TriangleShading)>, GeometryCounts)> = mesh
+    // One chunk of faces through clipping, culling and snapping, in face order.
+    let chunk = |c: usize, faces: &[[u32; 3]], emit: &mut Emit<'_>, counts: &mut GeometryCounts| {
+        let mut flattened = [ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() }; 3];
+        for (k, tri) in faces.iter().enumerate() {
+            let face = c * CHUNK + k;
+            let mut corners = tri.map(|v| &vertices[v as usize]);
+            // Flat modes give every corner (and so every clipped piece) one set of values
+            // (attributes only: counting needs none of it).
+            let mut flat: Option<[f64; ATTRIBUTES]> = None;
+            if params.interpolation == Interpolation::Flat {
+                // The provoking vertex: the face's first.
+                flat = Some(corners[0].attributes);
+            }
+            let counting = emit.counting();
+            if !counting && params.shading == Shading::Flat {
+                // One colour per face: its first vertex's, lit with the face normal there.
+                let p = tri.map(|v| world[v as usize]);
+                let n = unit(cross(sub(p[1], p[0]), sub(p[2], p[0])));
+                let base = mesh.colours.as_ref().map_or(grey, |c| c[tri[0] as usize]).map(f64::from);
+                let colour = lit(base, n, p[0]);
+                for a in 0..3 {
+                    let mut values = flat.unwrap_or(corners[a].attributes);
+                    values[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
+                    values[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+                    flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
+                }
+                corners = [&flattened[0], &flattened[1], &flattened[2]];
+            } else if let Some(values) = flat.filter(|_| !counting) {
+                for a in 0..3 {
+                    flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
+                }
+                corners = [&flattened[0], &flattened[1], &flattened[2]];
+            }
+            geometry(corners, face as u32, params, &viewport, &grid, emit, counts);
+        }
+    };
+    // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,
+    // the second writes them straight into their place, on all cores.
+    let counted: Vec<(usize, GeometryCounts)> = mesh
         .triangles
         .par_chunks(CHUNK)
         .enumerate()
         .map(|(c, faces)| {
-            let mut out = Vec::with_capacity(faces.len());
-            let mut counts = GeometryCounts::default();
-            let mut flattened = [ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() }; 3];
-            for (k, tri) in faces.iter().enumerate() {
-                let face = c * CHUNK + k;
-                let mut corners = tri.map(|v| &vertices[v as usize]);
-                // Flat modes give every corner (and so every clipped piece) one set of values.
-                let mut flat: Option<[f64; ATTRIBUTES]> = None;
-                if params.interpolation == Interpolation::Flat {
-                    // The provoking vertex: the face's first.
-                    flat = Some(corners[0].attributes);
-                }
-                if params.shading == Shading::Flat {
-                    // One colour per face: its first vertex's, lit with the face normal there.
-                    let p = tri.map(|v| world[v as usize]);
-                    let n = unit(cross(sub(p[1], p[0]), sub(p[2], p[0])));
-                    let base = mesh.colours.as_ref().map_or(grey, |c| c[tri[0] as usize]).map(f64::from);
-                    let colour = lit(base, n, p[0]);
-                    for a in 0..3 {
-                        let mut values = flat.unwrap_or(corners[a].attributes);
-                        values[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
-                        values[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
-                        flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
-                    }
-                    corners = [&flattened[0], &flattened[1], &flattened[2]];
-                } else if let Some(values) = flat {
-                    for a in 0..3 {
-                        flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
-                    }
-                    corners = [&flattened[0], &flattened[1], &flattened[2]];
-                }
-                geometry(corners, face as u32, params, &viewport, &grid, &mut out, &mut counts);
-            }
-            (out, counts)
+            let (mut emit, mut counts) = (Emit::Count(0), GeometryCounts::default());
+            chunk(c, faces, &mut emit, &mut counts);
+            (emit.count(), counts)
         })
         .collect();
-    let counts = pieces.iter().fold(GeometryCounts::default(), |sum, p| sum.add(p.1));
-    let total: usize = pieces.iter().map(|p| p.0.len()).sum();
+    let counts = counted.iter().fold(GeometryCounts::default(), |sum, p| sum.add(p.1));
+    let total: usize = counted.iter().map(|p| p.0).sum();
     if total >= u32::MAX as usize {
         return Err(Error::RasterTooLarge {
             width: w as u64,
@@ -351,25 +368,20 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
             reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
         });
     }
-
-    // The chunks' triangles one after the other, copied in place on all cores. The setup slot
-    // is the index: the depth key's tie-break and the owner layer's value.
     let out_of_memory = |what| move |reason| Error::OutOfMemory { what, reason };
     let mut triangles: Vec<TriangleInput> = crate::zeroed_cells(total).map_err(out_of_memory("the frame's triangles"))?;
     let mut shading: Vec<TriangleShading> = crate::zeroed_cells(total).map_err(out_of_memory("the frame's triangles"))?;
-    let mut parts = Vec::with_capacity(pieces.len());
-    let (mut rest_t, mut rest_s, mut start) = (&mut triangles[..], &mut shading[..], 0);
-    for (piece, _) in &pieces {
-        let (t, tail_t) = rest_t.split_at_mut(piece.len());
-        let (s, tail_s) = rest_s.split_at_mut(piece.len());
-        parts.push((start, t, s, piece));
-        (rest_t, rest_s, start) = (tail_t, tail_s, start + piece.len());
+    let mut parts = Vec::with_capacity(counted.len());
+    let (mut rest_t, mut rest_s, mut first_slot) = (&mut triangles[..], &mut shading[..], 0);
+    for &(n, _) in &counted {
+        let (t, tail_t) = rest_t.split_at_mut(n);
+        let (s, tail_s) = rest_s.split_at_mut(n);
+        parts.push(Emit::Fill { triangles: t, shading: s, next: 0, first_slot });
+        (rest_t, rest_s, first_slot) = (tail_t, tail_s, first_slot + n);
     }
-    parts.into_par_iter().for_each(|(start, t, s, piece)| {
-        for (k, (input, shade)) in piece.iter().enumerate() {
-            t[k] = TriangleInput { index: (start + k) as u32, ..*input };
-            s[k] = *shade;
-        }
+    mesh.triangles.par_chunks(CHUNK).enumerate().zip(parts).for_each(|((c, faces), mut emit)| {
+        chunk(c, faces, &mut emit, &mut GeometryCounts::default());
+        debug_assert_eq!(emit.count(), counted[c].0, "the filling pass puts what the counting pass counted");
     });
     let mut counts = counts;
     counts.rasterised = total as u64;
@@ -481,7 +493,7 @@ fn distance(planes: &[[f64; 4]; 7], k: usize, c: &[f64; 4]) -> f64 {
 }
 
 /// Clip, cull, snap one face and push what reaches the rasteriser.
-fn geometry(corners: [&ClipVertex; 3], face: u32, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
+fn geometry(corners: [&ClipVertex; 3], face: u32, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     // Wholly outside one plane of the view frustum: nothing to clip.
     let c = corners.map(|v| v.clip);
     let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
@@ -504,7 +516,7 @@ fn geometry(corners: [&ClipVertex; 3], face: u32, params: &RenderParams, viewpor
 
 /// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
 /// and push what reaches the rasteriser.
-fn triangles(polygon: &[Projected], face: u32, params: &RenderParams, grid: &Grid, out: &mut Vec<(TriangleInput, TriangleShading)>, counts: &mut GeometryCounts) {
+fn triangles(polygon: &[Projected], face: u32, params: &RenderParams, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     for k in 1..polygon.len() - 1 {
         let mut v = [0, k, k + 1];
         let (mut x, mut y) = (v.map(|i| polygon[i].screen.0), v.map(|i| polygon[i].screen.1));
@@ -539,17 +551,53 @@ fn triangles(polygon: &[Projected], face: u32, params: &RenderParams, grid: &Gri
         }
         let extent = (x.iter().max().unwrap() - x.iter().min().unwrap()).max(y.iter().max().unwrap() - y.iter().min().unwrap());
         debug_assert!(((extent >> RENDER_SNAP_BITS) + 2) << RENDER_SNAP_BITS < 1 << EXTENT_LIMIT_BITS, "the guard band bounds every triangle");
-        // Entry k of the kernels' per-vertex data belongs to the vertex opposite edge k.
-        let opposite = [v[2], v[0], v[1]];
-        let area = area.unsigned_abs() as f64;
-        let depth = |i: usize| polygon[i].depth;
-        let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), (1.0 / area) as f32] };
-        let inv_w = |i: usize| polygon[i].inv_w;
-        let attributes = opposite.map(|i| polygon[i].attributes);
-        out.push((
-            TriangleInput { x, y, rect, coeffs, ..Default::default() },
-            TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face, _pad: [0; 3] },
-        ));
+        out.put(|| {
+            // Entry k of the kernels' per-vertex data belongs to the vertex opposite edge k.
+            let opposite = [v[2], v[0], v[1]];
+            let area = area.unsigned_abs() as f64;
+            let depth = |i: usize| polygon[i].depth;
+            let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), (1.0 / area) as f32] };
+            let inv_w = |i: usize| polygon[i].inv_w;
+            let attributes = opposite.map(|i| polygon[i].attributes);
+            (
+                TriangleInput { x, y, rect, coeffs, ..Default::default() },
+                TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face, _pad: [0; 3] },
+            )
+        });
+    }
+}
+
+/// Where the geometry stages put the triangles that reach the rasteriser: the first pass
+/// counts a chunk's, the second writes them into the chunk's place in the frame's arrays.
+enum Emit<'a> {
+    Count(usize),
+    Fill { triangles: &'a mut [TriangleInput], shading: &'a mut [TriangleShading], next: usize, first_slot: usize },
+}
+
+impl Emit<'_> {
+    fn counting(&self) -> bool {
+        matches!(self, Emit::Count(_))
+    }
+
+    /// Triangles put so far.
+    fn count(&self) -> usize {
+        match self {
+            Emit::Count(n) | Emit::Fill { next: n, .. } => *n,
+        }
+    }
+
+    /// Put the next triangle; `make` builds it only where it is written.
+    fn put(&mut self, make: impl FnOnce() -> (TriangleInput, TriangleShading)) {
+        match self {
+            Emit::Count(n) => *n += 1,
+            Emit::Fill { triangles, shading, next, first_slot } => {
+                let (t, s) = make();
+                // The setup slot is the index: the depth key's tie-break and the owner layer's value.
+                triangles[*next] = TriangleInput { index: (*first_slot + *next) as u32, ..t };
+                shading[*next] = s;
+                *next += 1;
+            }
+        }
     }
 }
 

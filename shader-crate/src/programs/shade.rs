@@ -189,15 +189,20 @@ pub fn shade_pixel(params: &ShadeParams, setups: &[TriangleSetup], shading: &[Tr
 /// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`.
 #[inline]
 pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, depth_bits: u32, i: i32, j: i32) -> u32 {
-    let b = weights(s, t, params.interpolation, i, j);
+    // The interpolation weights (a correctly rounded division each) only where the mode
+    // interpolates attributes.
     match params.mode() {
-        ShadeMode::Colour => rgba8([
-            interpolate(t, &b, ATTR_COLOUR),
-            interpolate(t, &b, ATTR_COLOUR + 1),
-            interpolate(t, &b, ATTR_COLOUR + 2),
-            interpolate(t, &b, ATTR_COLOUR + 3),
-        ]),
+        ShadeMode::Colour => {
+            let b = weights(s, t, params.interpolation, i, j);
+            rgba8([
+                interpolate(t, &b, ATTR_COLOUR),
+                interpolate(t, &b, ATTR_COLOUR + 1),
+                interpolate(t, &b, ATTR_COLOUR + 2),
+                interpolate(t, &b, ATTR_COLOUR + 3),
+            ])
+        }
         ShadeMode::Phong => {
+            let b = weights(s, t, params.interpolation, i, j);
             let base = [
                 interpolate(t, &b, ATTR_COLOUR),
                 interpolate(t, &b, ATTR_COLOUR + 1),
@@ -212,6 +217,7 @@ pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShad
             rgba8([g, g, g, 1.0])
         }
         ShadeMode::Normals => {
+            let b = weights(s, t, params.interpolation, i, j);
             let n = normalise(interpolate3(t, &b, ATTR_NORMAL));
             rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0])
         }

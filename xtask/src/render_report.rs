@@ -10,7 +10,7 @@
 use crate::bench_report::timed;
 use crate::Timing;
 use std::fmt::Write as _;
-use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading, NO_FACE};
+use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading, IDENTITY, NO_FACE};
 use tileraster::Backend;
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::meshes;
@@ -39,15 +39,8 @@ fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
     // Fill rate: eight full-frame layers of two triangles, drawn back to front (every layer
     // passes the depth test in the hardware pipeline): overdraw 8.
     let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
-    let mut mesh = Mesh::default();
-    for layer in 0..8u32 {
-        let z = 0.9 - 0.1 * layer as f64;
-        let v = mesh.positions.len() as u32;
-        mesh.positions.extend([[-1.0, -1.0, z], [1.0, -1.0, z], [1.0, 1.0, z], [-1.0, 1.0, z]]);
-        mesh.triangles.extend([[v, v + 1, v + 2], [v, v + 2, v + 3]]);
-    }
-    let identity = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
-    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, identity) };
+    let mesh = meshes::fill_layers(8);
+    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, IDENTITY) };
     out.push(Scene { name: format!("fill rate: 8 full-frame layers (16 triangles), back to front, {w}×{h}"), mesh, params });
     Ok(out)
 }

@@ -7,7 +7,7 @@
 
 use std::fmt::Write;
 use std::time::Instant;
-use tileraster::render::{prepare_render, Camera, Mesh, RenderParams, Shading};
+use tileraster::render::{prepare_render, Camera, Cull, Mesh, RenderParams, Shading, IDENTITY};
 use tileraster::{Grid, Params, Prepared, Scene};
 use tileraster_core::kernels::pipeline::{stages, Pipeline};
 use tileraster_testkit::{meshes, scenes};
@@ -51,6 +51,8 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     for shading in [Shading::Ids, Shading::Phong] {
         cases.push((format!("render: terrain mesh, 100352 triangles, 1920×1080, {}", shading.name()), Case::Render(mesh.clone(), Box::new(RenderParams { shading, ..base.clone() }))));
     }
+    let fill = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), shading: Shading::Ids, ..RenderParams::new(1920, 1080, IDENTITY) };
+    cases.push(("render: fill rate, 8 full-frame layers, 1920×1080, ids".into(), Case::Render(meshes::fill_layers(8), Box::new(fill))));
     Ok(cases)
 }
 

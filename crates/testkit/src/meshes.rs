@@ -85,3 +85,17 @@ pub fn terrain(n: u32, extent: f64, height: f64) -> Mesh {
     }
     Mesh { positions, triangles, ..Default::default() }
 }
+
+/// Fill rate: `layers` full-frame squares of two triangles each in clip space (use the
+/// identity matrix), the nearest last, so that every layer passes a `Less` depth test drawn
+/// in order: overdraw `layers`.
+pub fn fill_layers(layers: u32) -> Mesh {
+    let mut mesh = Mesh::default();
+    for layer in 0..layers {
+        let z = 0.9 - 0.8 * layer as f64 / layers as f64;
+        let v = mesh.positions.len() as u32;
+        mesh.positions.extend([[-1.0, -1.0, z], [1.0, -1.0, z], [1.0, 1.0, z], [-1.0, 1.0, z]]);
+        mesh.triangles.extend([[v, v + 1, v + 2], [v, v + 2, v + 3]]);
+    }
+    mesh
+}

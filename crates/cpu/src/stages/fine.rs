@@ -12,11 +12,11 @@
 
 use rayon::prelude::*;
 use std::simd::cmp::{SimdPartialEq, SimdPartialOrd};
-use std::simd::num::{SimdFloat, SimdInt};
+use std::simd::num::{SimdFloat, SimdInt, SimdUint};
 use std::simd::{Mask, Select, Simd};
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, Coverage, FrameFlags, FrameParams, PixelRect, TriangleSetup, ValueMode};
+use tileraster_kernels::abi::{Counter, Coverage, DepthFunc, FrameFlags, FrameParams, PixelRect, TriangleSetup, ValueMode};
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
@@ -83,13 +83,48 @@ pub fn fine_depth(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup],
     if path == FinePath::Plain || frame.flags.contains(FrameFlags::FULL_TILES) {
         return fine_raster_plain(&program, frame, setups, offsets, bins, raster);
     }
+    fine_depth_using(wide_vectors(), &program, frame, setups, offsets, bins, raster)
+}
+
+/// The specialised depth test: a row of 16 lanes at a time with the wide-vector build
+/// (`wide` only where the CPU has it: without it the lanes' 64-bit conversions and
+/// comparisons are emulated, slower than one centre at a time), else centre by centre.
+fn fine_depth_using(wide: bool, program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
     for_each_band(frame, raster, |band, stats| {
-        let mut counts = BandCounters([0; Counter::COUNT]);
-        for tx in 0..frame.tiles_x {
-            fine_depth_tile(&program, tx, frame, setups, offsets, bins, band, &mut counts);
+        if wide {
+            // SAFETY: callers pass `wide` only when `wide_vectors` found the features.
+            unsafe { fine_depth_band_wide(program, frame, setups, offsets, bins, band, stats) }
+        } else {
+            let mut counts = BandCounters([0; Counter::COUNT]);
+            for tx in 0..frame.tiles_x {
+                fine_depth_tile(program, tx, frame, setups, offsets, bins, band, &mut counts);
+            }
+            counts.add_to(stats);
         }
-        counts.add_to(stats);
     })
+}
+
+/// Every `fine_depth` workgroup of one row of tiles, rows of lanes at a time, compiled for
+/// AVX-512 (`vcvtqq2ps` converts eight 64-bit edge functions to `f32` at once, correctly
+/// rounded as the scalar conversion is; the products and sums are the scalar ones, lane by
+/// lane).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+fn fine_depth_band_wide(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+    let mut counts = BandCounters([0; Counter::COUNT]);
+    for tx in 0..frame.tiles_x {
+        fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, band, &mut counts);
+    }
+    counts.add_to(stats);
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+unsafe fn fine_depth_band_wide(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+    let mut counts = BandCounters([0; Counter::COUNT]);
+    for tx in 0..frame.tiles_x {
+        fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, band, &mut counts);
+    }
+    counts.add_to(stats);
 }
 
 /// One `fine_depth` workgroup the CPU's way round: each triangle of the bin against its rows of
@@ -127,11 +162,24 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
             rows.next_row();
         }
     }
+    resolve_depth_tile(program, tx, frame, setups, band, &key, &owner, &slot, &count);
+}
+
+/// `fine_resolve` of a depth-test tile from its pixels' smallest keys, owners, setup slots and
+/// counts (tile pixel order): a centre no passing fragment owns is background, with a count
+/// of 0. The owner's depth is read back from its key where the key holds it.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn resolve_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, key: &[u64], owner: &[u32], slot: &[u32], count: &[u32]) {
     for r in tile_rows(tx, frame, band) {
         for lx in 0..r.width {
             let p = (r.ly * TILE) as usize + lx;
-            // `fine_resolve`: a centre no passing fragment owns is background, with a count of 0.
-            let (value, o, c) = if owner[p] != NO_OWNER { (program.value(&setups[slot[p] as usize], r.i0 + lx as i32, r.j), owner[p], count[p]) } else { (program.background(), NO_OWNER, 0) };
+            let (value, o, c) = if owner[p] != NO_OWNER {
+                let value = depth_of_key(program, key[p]).unwrap_or_else(|| program.value(&setups[slot[p] as usize], r.i0 + lx as i32, r.j));
+                (value, owner[p], count[p])
+            } else {
+                (program.background(), NO_OWNER, 0)
+            };
             band.values[r.start + lx] = f32::from_bits(value);
             if let Some(layer) = band.owner.as_deref_mut() {
                 layer[r.start + lx] = o;
@@ -141,6 +189,50 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
             }
         }
     }
+}
+
+/// [`fine_depth_tile`] 16 lanes at a time: each row of a triangle in the tile gives all its
+/// centres' keys at once (`depth_keys`), and the pixels inside it take them where smaller,
+/// with their counts, as `fine::accumulate` does in any order.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
+    let ty = band.ty;
+    let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+    if fine::empty_tile(bin_len, frame) {
+        fine::count_tile(0, Counter::TilesEmpty, stats);
+        return fine_resolve_empty_tile(tx, frame, band);
+    }
+    fine::count_tile(0, Counter::TilesPartial, stats);
+    let tile = tile_in_window(tx, ty, frame);
+    // The tile's pixel states, one row of lanes past its end: a row of a triangle starting
+    // `shift` pixels into the tile's last row reads and writes (masked) 16 lanes from there.
+    const N: usize = (TILE_PIXELS + TILE) as usize;
+    const L: usize = TILE as usize;
+    let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
+    for &entry in &bins[bin_start as usize..][..bin_len as usize] {
+        let s = &setups[(entry & !FULL_TILE_BIT) as usize];
+        let Some(mut rows) = TriangleRows::new(s, &tile) else { continue };
+        let (index, setup_slot) = (Simd::splat(s.coverage.index), Simd::splat(s.coverage.slot));
+        for j in rows.j0..=rows.j1 {
+            let at = rows.at();
+            let (inside, _) = rows.masks_at(&at);
+            if inside != 0 {
+                let first = ((j - tile.j0) as u32 * TILE + rows.shift) as usize;
+                let keys = depth_keys(program, s, &at);
+                let old = Simd::<u64, L>::from_slice(&key[first..]);
+                let better = Mask::<i64, L>::from_bitmask(inside) & keys.simd_lt(old);
+                better.select(keys, old).copy_to_slice(&mut key[first..first + L]);
+                let better: Mask<i32, L> = better.cast();
+                better.select(index, Simd::from_slice(&owner[first..])).copy_to_slice(&mut owner[first..first + L]);
+                better.select(setup_slot, Simd::from_slice(&slot[first..])).copy_to_slice(&mut slot[first..first + L]);
+                let inside = Mask::<i32, L>::from_bitmask(inside).select(Simd::splat(1), Simd::splat(0));
+                (Simd::<u32, L>::from_slice(&count[first..]) + inside).copy_to_slice(&mut count[first..first + L]);
+            }
+            rows.next_row();
+        }
+    }
+    resolve_depth_tile(program, tx, frame, setups, band, &key, &owner, &slot, &count);
 }
 
 /// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
@@ -405,7 +497,18 @@ impl<'a> TriangleRows<'a> {
     /// the CPU has one; written as scalar loops, they became OR-reductions).
     #[inline(always)]
     fn masks(&self) -> (u64, u64) {
-        let at = [0, 1, 2].map(|k| Lanes::splat(self.w[k]) + self.along[k]);
+        self.masks_at(&self.at())
+    }
+
+    /// The current row's edge functions, lane by lane (exact: see the type's note).
+    #[inline(always)]
+    fn at(&self) -> [Lanes; 3] {
+        [0, 1, 2].map(|k| Lanes::splat(self.w[k]) + self.along[k])
+    }
+
+    /// [`Self::masks`] of the edge functions `at` (the current row's).
+    #[inline(always)]
+    fn masks_at(&self, at: &[Lanes; 3]) -> (u64, u64) {
         let zero = Lanes::splat(0);
         let inside = ((at[0] - self.threshold[0]) | (at[1] - self.threshold[1]) | (at[2] - self.threshold[2])).simd_ge(zero).to_bitmask() & self.lanes;
         let closed = (at[0] | at[1] | at[2]).simd_ge(zero).to_bitmask();
@@ -648,6 +751,60 @@ fn lane_steps(step: i64) -> Lanes {
     Lanes::splat(step) * LANE
 }
 
+/// The value `DepthProgram::value` gives the owner of a pixel whose smallest key is `key`,
+/// where the key holds it: without depth writes the clear value; with them the depth bits
+/// above the tie (`programs::depth::ordered` undone, and the complement the `Greater`
+/// functions take); `None` for `Always`, whose keys hold no depth.
+#[inline(always)]
+fn depth_of_key(program: &DepthProgram, key: u64) -> Option<u32> {
+    if !program.write {
+        return Some(program.clear.to_bits());
+    }
+    let ordered = match program.func {
+        DepthFunc::Less | DepthFunc::LessEqual => (key >> 32) as u32,
+        DepthFunc::Greater | DepthFunc::GreaterEqual => !(key >> 32) as u32,
+        DepthFunc::Always => return None,
+    };
+    Some(if ordered >> 31 == 1 { ordered & !(1 << 31) } else { !ordered })
+}
+
+/// `DepthProgram::key` of triangle `s` at the 16 centres of a row whose edge functions are
+/// `at` (`TriangleRows::at`): the depth is `programs::depth::depth_bits` lane by lane (each
+/// edge function converted to `f32` once, correctly rounded, as `fixed_to_f32_bits` does;
+/// then the same products and sums in the same order), the test and the key as the scalar
+/// key builds them.
+#[inline(always)]
+fn depth_keys(program: &DepthProgram, s: &TriangleSetup, at: &[Lanes; 3]) -> Simd<u64, { TILE as usize }> {
+    let c = &s.coeffs.c;
+    let weight = |k: usize| at[k].cast::<f32>() * Simd::splat(c[3]);
+    let depth = weight(0) * Simd::splat(c[0]) + weight(1) * Simd::splat(c[1]) + weight(2) * Simd::splat(c[2]);
+    let clear = Simd::splat(program.clear);
+    let passes = match program.func {
+        DepthFunc::Less => depth.simd_lt(clear),
+        DepthFunc::LessEqual => depth.simd_le(clear),
+        DepthFunc::Greater => depth.simd_gt(clear),
+        DepthFunc::GreaterEqual => depth.simd_ge(clear),
+        DepthFunc::Always => Mask::splat(true),
+    };
+    let index = s.coverage.index;
+    let keys = if !program.write {
+        Simd::splat(!index as u64)
+    } else {
+        let bits = depth.to_bits();
+        // `programs::depth::ordered`: negative values below positive ones.
+        let ordered = (bits >> 31).simd_eq(Simd::splat(1)).select(!bits, bits | Simd::splat(1 << 31));
+        let (depth, tie) = match program.func {
+            DepthFunc::Less => (ordered, index),
+            DepthFunc::LessEqual => (ordered, !index),
+            DepthFunc::Greater => (!ordered, index),
+            DepthFunc::GreaterEqual => (!ordered, !index),
+            DepthFunc::Always => (Simd::splat(0), !index),
+        };
+        depth.cast::<u64>() << 32 | Simd::splat(tie as u64)
+    };
+    passes.cast::<i64>().select(keys, Simd::splat(DepthProgram::NO_KEY))
+}
+
 /// `value` into the elements of `layer` whose bit is set in `mask`.
 #[inline(always)]
 fn write_masked(layer: &mut [u32], mask: u64, value: u32) {
@@ -730,7 +887,7 @@ mod tests {
     use super::*;
     use tileraster_kernels::pipeline::StageBuffers;
     use tileraster_core::{prepare, Grid, Mode, Outputs, Params, Skips};
-use tileraster_testkit::scenes;
+    use tileraster_testkit::scenes;
     use tileraster_kernels::abi::Coverage;
 
     /// What the stages before fine raster leave for a scene's whole window.
@@ -854,6 +1011,65 @@ use tileraster_testkit::scenes;
             }
         }
         assert!(seen.iter().all(|&n| n > 0), "every side seen: {seen:?}");
+    }
+
+    /// The depth test in rows of lanes (the wide-vector build) gives the same bits as centre
+    /// by centre and as the plain twin: every depth function, with and without depth writes,
+    /// on a soup of crossing triangles drawn twice (exact depth ties) and on full-frame layers.
+    #[test]
+    fn depth_test_in_lanes_changes_no_bit() {
+        use tileraster_core::render::{prepare_render, Cull, RenderParams, IDENTITY};
+        use tileraster_testkit::meshes;
+        if !wide_vectors() {
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "SKIPPED depth_test_in_lanes_changes_no_bit: this CPU lacks AVX-512 F/DQ/VL");
+            return;
+        }
+        let mut soup = meshes::soup(300, [-1.2, -1.2, 0.1], [1.2, 1.2, 0.9], 0.5, 9);
+        let n = soup.triangles.len();
+        soup.triangles.extend_from_within(..n);
+        for mesh in [soup, meshes::fill_layers(5)] {
+            for func in DepthFunc::ALL {
+                for write in [true, false] {
+                    // The `Greater` functions pass against a clear value of 0.
+                    let clear_depth = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
+                    let params = RenderParams { cull: Cull::None, depth_func: func, depth_write: write, clear_depth, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(203, 157, IDENTITY) };
+                    let (prepared, _) = prepare_render(&mesh, &params).unwrap();
+                    let plan = prepared.plan(prepared.window, false).unwrap();
+                    let frame = plan.frame(&prepared, plan.active.unwrap());
+                    let StageBuffers { setups, offsets, bins, .. } = crate::stage_buffers(&prepared).unwrap().unwrap();
+                    let program = DepthProgram::of(&frame);
+                    let run = |path: Option<bool>| {
+                        let mut raster = plan.allocate_raster(&prepared).unwrap();
+                        match path {
+                            Some(wide) => fine_depth_using(wide, &program, &frame, &setups, &offsets, &bins, &mut raster),
+                            None => fine_raster_plain(&program, &frame, &setups, &offsets, &bins, &mut raster),
+                        };
+                        raster
+                    };
+                    let (lanes, centres, plain) = (run(Some(true)), run(Some(false)), run(None));
+                    assert_eq!(lanes.compare_bits(&centres, 4), (0, vec![]), "{func:?}, write {write}: lanes against centres");
+                    assert_eq!(lanes.compare_bits(&plain, 4), (0, vec![]), "{func:?}, write {write}: lanes against the plain twin");
+                    assert!(lanes.coverage.as_ref().unwrap().iter().any(|&c| c > 1), "{func:?}, write {write}: fragments overlap where they pass");
+                }
+            }
+        }
+    }
+
+    /// A key's depth read back is the depth it was built from, for every sign and size.
+    #[test]
+    fn depth_of_key_undoes_the_key() {
+        use tileraster_kernels::programs::depth::ordered;
+        for depth in [-f32::INFINITY, -3.5, -f32::MIN_POSITIVE / 2.0, -0.0, 0.0, 1e-40, 0.25, 1.0, f32::MAX] {
+            let bits = depth.to_bits();
+            for func in [DepthFunc::Less, DepthFunc::LessEqual, DepthFunc::Greater, DepthFunc::GreaterEqual] {
+                let program = DepthProgram { func, write: true, clear: 0.5 };
+                let above = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { !ordered(bits) } else { ordered(bits) };
+                assert_eq!(depth_of_key(&program, (above as u64) << 32 | 7), Some(bits), "{depth} under {func:?}");
+            }
+        }
+        assert_eq!(depth_of_key(&DepthProgram { func: DepthFunc::Always, write: true, clear: 0.5 }, 0), None);
+        assert_eq!(depth_of_key(&DepthProgram { func: DepthFunc::Less, write: false, clear: 0.5 }, 3), Some(0.5f32.to_bits()));
     }
 
     /// The wide-vector build of fine raster gives the same bits as the plain one.

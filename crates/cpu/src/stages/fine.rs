@@ -133,14 +133,7 @@ unsafe fn fine_depth_band_wide(program: &DepthProgram, frame: &FrameParams, setu
 /// does in any order; then `fine_resolve`'s outputs.
 #[allow(clippy::too_many_arguments)]
 fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
-    let ty = band.ty;
-    let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
-    if fine::empty_tile(bin_len, frame) {
-        fine::count_tile(0, Counter::TilesEmpty, stats);
-        return fine_resolve_empty_tile(tx, frame, band);
-    }
-    fine::count_tile(0, Counter::TilesPartial, stats);
-    let tile = tile_in_window(tx, ty, frame);
+    let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
     const N: usize = TILE_PIXELS as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
     for &entry in &bins[bin_start as usize..][..bin_len as usize] {
@@ -163,6 +156,21 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
         }
     }
     resolve_depth_tile(program, tx, frame, setups, band, &key, &owner, &slot, &count);
+}
+
+/// The start of a `fine_depth` workgroup: a tile with an empty bin is resolved to the
+/// background (`None`); any other is counted partial, and its bin's range and its pixels are
+/// returned.
+#[inline(always)]
+fn depth_tile_bin(tx: u32, frame: &FrameParams, offsets: &[u32], band: &mut Band, stats: &mut BandCounters) -> Option<(u32, u32, PixelRect)> {
+    let (bin_start, bin_len) = fine::bin_range(offsets, band.ty * frame.tiles_x + tx);
+    if fine::empty_tile(bin_len, frame) {
+        fine::count_tile(0, Counter::TilesEmpty, stats);
+        fine_resolve_empty_tile(tx, frame, band);
+        return None;
+    }
+    fine::count_tile(0, Counter::TilesPartial, stats);
+    Some((bin_start, bin_len, tile_in_window(tx, band.ty, frame)))
 }
 
 /// `fine_resolve` of a depth-test tile from its pixels' smallest keys, owners, setup slots and
@@ -197,14 +205,7 @@ fn resolve_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setu
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
-    let ty = band.ty;
-    let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
-    if fine::empty_tile(bin_len, frame) {
-        fine::count_tile(0, Counter::TilesEmpty, stats);
-        return fine_resolve_empty_tile(tx, frame, band);
-    }
-    fine::count_tile(0, Counter::TilesPartial, stats);
-    let tile = tile_in_window(tx, ty, frame);
+    let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
     // The tile's pixel states, one row of lanes past its end: a row of a triangle starting
     // `shift` pixels into the tile's last row reads and writes (masked) 16 lanes from there.
     const N: usize = (TILE_PIXELS + TILE) as usize;

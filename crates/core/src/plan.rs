@@ -281,6 +281,13 @@ impl Plan {
         frame
     }
 
+    /// The plan's triangles whose rectangle reaches `part` (of the active window), in the
+    /// plan's order: all that binning `part` can take.
+    pub fn listed_reaching(&self, prepared: &Prepared, part: Window) -> Vec<u32> {
+        let area = PixelRect { i0: part.x0 as i32, j0: part.y0 as i32, i1: (part.x0 + part.width - 1) as i32, j1: (part.y0 + part.height - 1) as i32 };
+        self.listed.par_iter().copied().filter(|&s| !intersect(&prepared.triangles[s as usize].rect, &area).is_empty()).collect()
+    }
+
     /// Most (triangle, tile) entries binning can write for `frame` (every tile of every listed
     /// rectangle; binning leaves out the tiles a triangle cannot reach): the size to allocate
     /// before the bins are filled.

@@ -4,7 +4,7 @@ use rayon::prelude::*;
 use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, PixelRect, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
+use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, Scope, StageBuffers, StageInfo, STAGES};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
@@ -288,7 +288,7 @@ impl GpuContext {
 
     /// Rasterise `active` window by window. A scene whose setups fit one binding is set up
     /// once and kept (`resident`); a larger one is set up in parts, each window with only the
-    /// triangles that reach it (see [`Part`]).
+    /// triangles that reach it (see [`Self::upload_and_setup`]).
     fn rasterise_windows(
         &mut self,
         prepared: &Prepared,
@@ -322,7 +322,7 @@ impl GpuContext {
             let part = if whole {
                 None
             } else {
-                let slots: Vec<u32> = plan.listed.par_iter().copied().filter(|&s| reaches(&prepared.triangles[s as usize].rect, &window)).collect();
+                let slots = plan.listed_reaching(prepared, window);
                 if !self.scene_fits(prepared, slots.len() as u64) {
                     let bytes = slots.len() as u64 * scene_bytes_per_triangle(prepared);
                     split(&mut pending, window, || format!("{} triangles reach it, {bytes} bytes of setup, more than the GPU binds at once ({} bytes)", slots.len(), self.max_binding()))?;
@@ -658,11 +658,6 @@ fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &Sta
 fn scene_bytes_per_triangle(prepared: &Prepared) -> u64 {
     let shading = if prepared.render.is_some() { std::mem::size_of::<TriangleShading>() } else { 0 };
     std::mem::size_of::<TriangleInput>().max(std::mem::size_of::<TriangleSetup>()).max(shading) as u64
-}
-
-/// Whether a triangle's pixel rectangle reaches `window`.
-fn reaches(rect: &PixelRect, window: &Window) -> bool {
-    rect.i0 <= (window.x0 + window.width - 1) as i32 && rect.i1 >= window.x0 as i32 && rect.j0 <= (window.y0 + window.height - 1) as i32 && rect.j1 >= window.y0 as i32
 }
 
 /// Put `window`'s two halves on `pending` (the top or left one next): into bands of tile rows,

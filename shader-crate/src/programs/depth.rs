@@ -31,6 +31,44 @@ impl DepthProgram {
         DepthProgram { func: frame.depth_test.func(), write: frame.depth_test.write(), clear: f32::from_bits(frame.nodata_bits) }
     }
 
+    /// How this program's keys order passing fragments by depth: the nearest first (`Less…`),
+    /// the farthest first (`Greater…`), or not at all (`Always`, and without depth writes,
+    /// where every fragment is tested against the clear value alone).
+    #[inline]
+    pub fn depth_order(&self) -> DepthOrder {
+        match self.func {
+            _ if !self.write => DepthOrder::Ignored,
+            DepthFunc::Less | DepthFunc::LessEqual => DepthOrder::Ascending,
+            DepthFunc::Greater | DepthFunc::GreaterEqual => DepthOrder::Descending,
+            DepthFunc::Always => DepthOrder::Ignored,
+        }
+    }
+
+    /// Whether a tie in the key's depth goes to the later triangle (the key's lower half is
+    /// the slot's complement): for the `…Equal` functions, `Always`, and without depth writes,
+    /// as a graphics API drawing in order keeps the last fragment that passes; `Less` and
+    /// `Greater` keep the first.
+    #[inline]
+    pub fn later_wins(&self) -> bool {
+        !self.write || !matches!(self.func, DepthFunc::Less | DepthFunc::Greater)
+    }
+
+    /// The value [`PixelProgram::value`] gives the owner of a pixel whose smallest key is
+    /// `key`, where the key tells it: without depth writes the clear value, with them the depth
+    /// the key holds; `None` where it holds none (`Always`).
+    #[inline]
+    pub fn value_of_key(&self, key: u64) -> Option<u32> {
+        if !self.write {
+            return Some(self.clear.to_bits());
+        }
+        let upper = (key >> 32) as u32;
+        match self.depth_order() {
+            DepthOrder::Ascending => Some(unordered(upper)),
+            DepthOrder::Descending => Some(unordered(!upper)),
+            DepthOrder::Ignored => None,
+        }
+    }
+
     /// Whether a fragment of depth `d` passes the test against the clear value.
     #[inline]
     pub fn passes(&self, d: f32) -> bool {
@@ -55,6 +93,25 @@ pub fn depth_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
 pub fn ordered(bits: u32) -> u32 {
     if bits >> 31 == 1 { !bits } else { bits | 1 << 31 }
 }
+
+/// The `f32` bits [`ordered`] maps to `order`.
+#[inline]
+pub fn unordered(order: u32) -> u32 {
+    if order >> 31 == 1 { order & !(1 << 31) } else { !order }
+}
+
+/// How a key's upper half orders the depths of passing fragments.
+#[repr(u32)]
+#[derive(Copy, Clone, PartialEq, Eq)]
+pub enum DepthOrder {
+    /// The nearest (smallest) depth wins: [`ordered`] bits.
+    Ascending,
+    /// The farthest wins: the complement of the [`ordered`] bits.
+    Descending,
+    /// The key holds no depth (`Always`, or no depth writes).
+    Ignored,
+}
+
 
 impl PixelProgram for DepthProgram {
     type Setup = TriangleSetup;
@@ -82,17 +139,13 @@ impl PixelProgram for DepthProgram {
         if !self.passes(f32::from_bits(bits)) {
             return u64::MAX;
         }
-        let slot = s.coverage.index;
-        if !self.write {
-            return !slot as u64;
-        }
-        let (depth, tie) = match self.func {
-            DepthFunc::Less => (ordered(bits), slot),
-            DepthFunc::LessEqual => (ordered(bits), !slot),
-            DepthFunc::Greater => (!ordered(bits), slot),
-            DepthFunc::GreaterEqual => (!ordered(bits), !slot),
-            DepthFunc::Always => (0, !slot),
+        let depth = match self.depth_order() {
+            DepthOrder::Ascending => ordered(bits),
+            DepthOrder::Descending => !ordered(bits),
+            DepthOrder::Ignored => 0,
         };
+        let slot = s.coverage.index;
+        let tie = if self.later_wins() { !slot } else { slot };
         (depth as u64) << 32 | tie as u64
     }
 

@@ -20,7 +20,7 @@ use tileraster_kernels::abi::{Counter, Coverage, DepthFunc, FrameFlags, FramePar
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::math::fixed::converts_natively;
 use tileraster_kernels::memory::Counters;
-use tileraster_kernels::programs::depth::DepthProgram;
+use tileraster_kernels::programs::depth::{DepthOrder, DepthProgram};
 use tileraster_kernels::programs::height::{self, HeightProgram};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
@@ -111,15 +111,17 @@ fn fine_depth_using(wide: bool, program: &DepthProgram, frame: &FrameParams, set
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
 fn fine_depth_band_wide(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
-    let mut counts = BandCounters([0; Counter::COUNT]);
-    for tx in 0..frame.tiles_x {
-        fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, band, &mut counts);
-    }
-    counts.add_to(stats);
+    fine_depth_band_rows(program, frame, setups, offsets, bins, band, stats)
 }
 
 #[cfg(not(target_arch = "x86_64"))]
 unsafe fn fine_depth_band_wide(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+    fine_depth_band_rows(program, frame, setups, offsets, bins, band, stats)
+}
+
+/// Every `fine_depth` workgroup of one row of tiles, rows of lanes at a time.
+#[inline(always)]
+fn fine_depth_band_rows(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
     let mut counts = BandCounters([0; Counter::COUNT]);
     for tx in 0..frame.tiles_x {
         fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, band, &mut counts);
@@ -183,7 +185,7 @@ fn resolve_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setu
         for lx in 0..r.width {
             let p = (r.ly * TILE) as usize + lx;
             let (value, o, c) = if owner[p] != NO_OWNER {
-                let value = depth_of_key(program, key[p]).unwrap_or_else(|| program.value(&setups[slot[p] as usize], r.i0 + lx as i32, r.j));
+                let value = program.value_of_key(key[p]).unwrap_or_else(|| program.value(&setups[slot[p] as usize], r.i0 + lx as i32, r.j));
                 (value, owner[p], count[p])
             } else {
                 (program.background(), NO_OWNER, 0)
@@ -752,23 +754,6 @@ fn lane_steps(step: i64) -> Lanes {
     Lanes::splat(step) * LANE
 }
 
-/// The value `DepthProgram::value` gives the owner of a pixel whose smallest key is `key`,
-/// where the key holds it: without depth writes the clear value; with them the depth bits
-/// above the tie (`programs::depth::ordered` undone, and the complement the `Greater`
-/// functions take); `None` for `Always`, whose keys hold no depth.
-#[inline(always)]
-fn depth_of_key(program: &DepthProgram, key: u64) -> Option<u32> {
-    if !program.write {
-        return Some(program.clear.to_bits());
-    }
-    let ordered = match program.func {
-        DepthFunc::Less | DepthFunc::LessEqual => (key >> 32) as u32,
-        DepthFunc::Greater | DepthFunc::GreaterEqual => !(key >> 32) as u32,
-        DepthFunc::Always => return None,
-    };
-    Some(if ordered >> 31 == 1 { ordered & !(1 << 31) } else { !ordered })
-}
-
 /// `DepthProgram::key` of triangle `s` at the 16 centres of a row whose edge functions are
 /// `at` (`TriangleRows::at`): the depth is `programs::depth::depth_bits` lane by lane (each
 /// edge function converted to `f32` once, correctly rounded, as `fixed_to_f32_bits` does;
@@ -787,22 +772,17 @@ fn depth_keys(program: &DepthProgram, s: &TriangleSetup, at: &[Lanes; 3]) -> Sim
         DepthFunc::GreaterEqual => depth.simd_ge(clear),
         DepthFunc::Always => Mask::splat(true),
     };
-    let index = s.coverage.index;
-    let keys = if !program.write {
-        Simd::splat(!index as u64)
-    } else {
-        let bits = depth.to_bits();
-        // `programs::depth::ordered`: negative values below positive ones.
-        let ordered = (bits >> 31).simd_eq(Simd::splat(1)).select(!bits, bits | Simd::splat(1 << 31));
-        let (depth, tie) = match program.func {
-            DepthFunc::Less => (ordered, index),
-            DepthFunc::LessEqual => (ordered, !index),
-            DepthFunc::Greater => (!ordered, index),
-            DepthFunc::GreaterEqual => (!ordered, !index),
-            DepthFunc::Always => (Simd::splat(0), !index),
-        };
-        depth.cast::<u64>() << 32 | Simd::splat(tie as u64)
+    let bits = depth.to_bits();
+    // `programs::depth::ordered`: negative values below positive ones.
+    let ordered = || (bits >> 31).simd_eq(Simd::splat(1)).select(!bits, bits | Simd::splat(1 << 31));
+    let depth = match program.depth_order() {
+        DepthOrder::Ascending => ordered(),
+        DepthOrder::Descending => !ordered(),
+        DepthOrder::Ignored => Simd::splat(0),
     };
+    let index = s.coverage.index;
+    let tie = if program.later_wins() { !index } else { index };
+    let keys = depth.cast::<u64>() << 32 | Simd::splat(tie as u64);
     passes.cast::<i64>().select(keys, Simd::splat(DepthProgram::NO_KEY))
 }
 
@@ -1059,18 +1039,18 @@ mod tests {
 
     /// A key's depth read back is the depth it was built from, for every sign and size.
     #[test]
-    fn depth_of_key_undoes_the_key() {
+    fn value_of_key_undoes_the_key() {
         use tileraster_kernels::programs::depth::ordered;
         for depth in [-f32::INFINITY, -3.5, -f32::MIN_POSITIVE / 2.0, -0.0, 0.0, 1e-40, 0.25, 1.0, f32::MAX] {
             let bits = depth.to_bits();
             for func in [DepthFunc::Less, DepthFunc::LessEqual, DepthFunc::Greater, DepthFunc::GreaterEqual] {
                 let program = DepthProgram { func, write: true, clear: 0.5 };
                 let above = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { !ordered(bits) } else { ordered(bits) };
-                assert_eq!(depth_of_key(&program, (above as u64) << 32 | 7), Some(bits), "{depth} under {func:?}");
+                assert_eq!(program.value_of_key((above as u64) << 32 | 7), Some(bits), "{depth} under {func:?}");
             }
         }
-        assert_eq!(depth_of_key(&DepthProgram { func: DepthFunc::Always, write: true, clear: 0.5 }, 0), None);
-        assert_eq!(depth_of_key(&DepthProgram { func: DepthFunc::Less, write: false, clear: 0.5 }, 3), Some(0.5f32.to_bits()));
+        assert_eq!(DepthProgram { func: DepthFunc::Always, write: true, clear: 0.5 }.value_of_key(0), None);
+        assert_eq!(DepthProgram { func: DepthFunc::Less, write: false, clear: 0.5 }.value_of_key(3), Some(0.5f32.to_bits()));
     }
 
     /// The wide-vector build of fine raster gives the same bits as the plain one.

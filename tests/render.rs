@@ -418,19 +418,54 @@ fn a_model_matrix_is_the_same_as_moved_vertices() {
     assert!(close && frame.stats.pixels_covered > 1000);
 }
 
-/// A prepared mesh (checked once, normals computed once) gives every frame bit for bit as
-/// `render` does, for meshes with and without normals, with and without a model matrix.
+/// A prepared mesh (checked once, normals computed once, its frames' memory kept) gives every
+/// frame bit for bit as `render` does, for meshes with and without normals, with and without a
+/// model matrix; frames of one prepared mesh that follow each other at other sizes, shadings,
+/// cameras (the mesh filling the frame, then in a corner of it) and backgrounds, into new
+/// frames and into one reused frame, keep nothing of the frame before.
 #[test]
 fn a_prepared_mesh_renders_what_render_does() {
     use tileraster::render::PreparedMesh;
     let with_normals = meshes::sphere([0.0, 0.0, 0.0], 1.0, 12, 20);
     let without = meshes::soup(100, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.6, 9);
     let model = [[1.5, 0.0, 0.0, 0.0], [0.0, 1.0, 0.3, 0.0], [0.0, 0.0, 0.8, 0.2], [0.0, 0.0, 0.0, 1.0]];
+    let gpu = gpu_or_skip("a prepared mesh");
     for mesh in [with_normals, without] {
-        let prepared = PreparedMesh::new(mesh.clone()).unwrap();
-        for (eye, m) in [([3.0, -2.0, 1.0], tileraster::render::IDENTITY), ([-2.0, 3.0, 2.0], model)] {
-            let params = RenderParams { model: m, shading: Shading::Phong, cull: Cull::None, ..RenderParams::new(80, 60, view(80, 60, eye, 0.5, 9.0)) };
-            assert_same_frame("prepared mesh vs render", &prepared.render(&params, Backend::Cpu).unwrap(), &cpu(&mesh, &params));
+        let mut prepared = PreparedMesh::new(mesh.clone()).unwrap();
+        let mut reused = Frame::default();
+        let frames = [
+            (80, 60, [3.0, -2.0, 1.0], tileraster::render::IDENTITY, Shading::Phong, [0, 0, 0, 0], false),
+            (80, 60, [-2.0, 3.0, 2.0], model, Shading::Phong, [0, 0, 0, 0], false),
+            // Larger, then smaller with the mesh far off in a corner (an active window smaller
+            // than the frame), then blended.
+            (131, 97, [2.0, 2.5, -1.5], tileraster::render::IDENTITY, Shading::Smooth, [9, 8, 7, 255], false),
+            (64, 48, [12.0, 9.0, 6.0], tileraster::render::IDENTITY, Shading::Ids, [1, 2, 3, 4], false),
+            (90, 70, [2.5, -2.0, 1.0], model, Shading::Unlit, [0, 0, 40, 255], true),
+        ];
+        for (k, (w, h, eye, m, shading, background, blend)) in frames.into_iter().enumerate() {
+            let mut v = view(w, h, eye, 0.5, 30.0);
+            if k == 3 {
+                // Shift the projection so that the mesh lands near the frame's top-left corner.
+                for c in 0..4 {
+                    v[0][c] -= 0.7 * v[3][c];
+                    v[1][c] -= 0.7 * v[3][c];
+                }
+            }
+            let params = RenderParams { model: m, shading, background, blend, cull: Cull::None, ..RenderParams::new(w, h, v) };
+            let name = format!("frame {k}");
+            let expected = cpu(&mesh, &params);
+            assert_same_frame(&format!("{name}: prepared mesh vs render"), &prepared.render(&params, Backend::Cpu).unwrap(), &expected);
+            prepared.render_into(&params, Backend::Cpu, &mut reused).unwrap();
+            assert_same_frame(&format!("{name}: prepared mesh into a reused frame vs render"), &reused, &expected);
+            if gpu {
+                prepared.render_into(&params, Backend::Gpu, &mut reused).unwrap();
+                assert_same_frame(&format!("{name}: prepared mesh on the GPU vs render on the CPU"), &reused, &expected);
+            }
+            if k == 3 {
+                let covered = expected.ids.iter().enumerate().filter(|&(_, &id)| id != NO_FACE).map(|(p, _)| (p % w as usize, p / w as usize));
+                let (right, bottom) = covered.fold((0, 0), |(r, b), (x, y)| (r.max(x), b.max(y)));
+                assert!(expected.stats.pixels_covered > 20 && right < w as usize / 2 && bottom < h as usize / 2, "frame 3 puts the mesh in a corner (it reaches {right}, {bottom})");
+            }
         }
     }
     assert!(matches!(PreparedMesh::new(Mesh::default()), Err(Error::EmptyScene { .. })));

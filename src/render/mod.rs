@@ -23,10 +23,12 @@ mod camera;
 
 pub use camera::Camera;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
-pub use tileraster_core::render::{face_normals, prepare_render, validate_mesh, Cull, FrontFace, GeometryCounts, Light, Mesh, RenderParams, Shading, IDENTITY, MAX_RENDER_DIM};
+pub use tileraster_core::render::{face_normals, prepare_render, validate_mesh, Cull, FrontFace, GeometryCounts, GeometryMemory, Light, Mesh, RenderParams, Shading, IDENTITY, MAX_RENDER_DIM};
 
 use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Stats};
+use rayon::prelude::*;
+use tileraster_core::{Layers, Raster};
 use std::path::Path;
 
 /// The mesh in `path`: glTF 2.0 (`.gltf`, `.glb`) with its normals, colours and texture
@@ -45,7 +47,7 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
 }
 
 /// A rendered frame: row 0 at the top.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Frame {
     pub width: u32,
     pub height: u32,
@@ -65,7 +67,7 @@ pub struct Frame {
 pub const NO_FACE: u32 = u32::MAX;
 
 /// What a frame did, equal on both backends.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct RenderStats {
     /// The geometry stages: clipped faces, culled and rasterised triangles.
     pub geometry: GeometryCounts,
@@ -117,28 +119,42 @@ impl Frame {
 /// Render `mesh` as `params` say on `backend`.
 pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
     let (prepared, geometry) = prepare_render(mesh, params)?;
-    draw(&prepared, geometry, params, backend)
+    let raster = crate::rasterise_prepared(&prepared, backend)?;
+    Ok(frame_of(raster, geometry, params, &mut None))
 }
 
-/// A mesh checked once, with its normals computed once where it has none: each frame of it
-/// (any camera, model matrix, shading or size) costs only the per-frame stages, and is bit for
-/// bit what [`render`] gives.
+/// A mesh checked once, with its normals computed once where it has none, and the memory its
+/// frames work in: each frame of it (any camera, model matrix, shading or size) costs only the
+/// per-frame stages, reuses the last frame's memory instead of faulting fresh pages in, and is
+/// bit for bit what [`render`] gives. [`PreparedMesh::render_into`] reuses the output layers
+/// of a frame too.
 ///
 /// ```no_run
-/// # use tileraster::render::{Camera, Mesh, PreparedMesh, RenderParams};
+/// # use tileraster::render::{Camera, Frame, Mesh, PreparedMesh, RenderParams};
 /// # use tileraster::Backend;
 /// # let mesh = Mesh::default();
-/// let prepared = PreparedMesh::new(mesh)?;
+/// let mut prepared = PreparedMesh::new(mesh)?;
+/// let mut frame = Frame::default();
 /// for k in 0..36 {
 ///     let angle = (k as f64 * 10.0).to_radians();
 ///     let eye = [5.0 * angle.cos(), 5.0 * angle.sin(), 2.0];
 ///     let camera = Camera::look_at(eye, [0.0; 3], [0.0, 0.0, 1.0], 45.0, prepared.mesh());
-///     let frame = prepared.render(&RenderParams::new(640, 480, camera.view_projection(640, 480)?), Backend::Gpu)?;
+///     prepared.render_into(&RenderParams::new(640, 480, camera.view_projection(640, 480)?), Backend::Cpu, &mut frame)?;
 /// }
 /// # Ok::<(), tileraster::Error>(())
 /// ```
 pub struct PreparedMesh {
     mesh: Mesh,
+    memory: FrameMemory,
+}
+
+/// What a frame's stages work in, kept between the frames of a [`PreparedMesh`].
+#[derive(Default)]
+struct FrameMemory {
+    geometry: GeometryMemory,
+    cpu: tileraster_cpu::Workspace,
+    /// The owner layer (setup slots), which the frame does not return.
+    owner: Option<Vec<u32>>,
 }
 
 impl PreparedMesh {
@@ -147,7 +163,7 @@ impl PreparedMesh {
         if mesh.normals.is_none() {
             mesh.normals = Some(face_normals(&mesh));
         }
-        Ok(PreparedMesh { mesh })
+        Ok(PreparedMesh { mesh, memory: FrameMemory::default() })
     }
 
     /// The mesh, normals included.
@@ -155,20 +171,41 @@ impl PreparedMesh {
         &self.mesh
     }
 
-    pub fn render(&self, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh(&self.mesh, params)?;
-        draw(&prepared, geometry, params, backend)
+    /// A frame in new output layers; the stages' intermediates reuse the last frame's memory.
+    pub fn render(&mut self, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
+        let mut frame = Frame::default();
+        self.render_into(params, backend, &mut frame)?;
+        Ok(frame)
+    }
+
+    /// A frame into `frame`, whose layers (of any earlier frame, any size) are reused. On an
+    /// error `frame` is left empty.
+    pub fn render_into(&mut self, params: &RenderParams, backend: Backend, frame: &mut Frame) -> Result<(), Error> {
+        let memory = &mut self.memory;
+        let spare = std::mem::take(frame);
+        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(&self.mesh, params, &mut memory.geometry)?;
+        let raster = match backend {
+            Backend::Cpu => {
+                memory.cpu.recycle(Layers { values: Some(spare.depth), owner: memory.owner.take(), coverage: Some(spare.fragments), colours: Some(spare.colour), faces: Some(spare.ids) });
+                tileraster_cpu::rasterise_in(&prepared, &mut memory.cpu)
+            }
+            Backend::Gpu => crate::rasterise_prepared(&prepared, backend),
+        };
+        memory.geometry.recycle(prepared);
+        *frame = frame_of(raster?, geometry, params, &mut memory.owner);
+        Ok(())
     }
 }
 
-/// Rasterise and shade a prepared frame, and gather its outputs.
-fn draw(prepared: &crate::Prepared, geometry: GeometryCounts, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-    let raster = crate::rasterise_prepared(prepared, backend)?;
+/// The frame a rasterised and shaded raster holds, with its statistics; the owner layer goes
+/// to `owner`.
+fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams, owner: &mut Option<Vec<u32>>) -> Frame {
     let ids = raster.faces.expect("the render pipeline writes faces");
-    let covered = ids.iter().filter(|&&f| f != NO_FACE).count() as u64;
     let per_pixel = raster.coverage.expect("the render pipeline counts fragments");
-    let fragments = per_pixel.iter().map(|&c| c as u64).sum();
-    Ok(Frame {
+    let covered = ids.par_iter().filter(|&&f| f != NO_FACE).count() as u64;
+    let fragments = per_pixel.par_iter().map(|&c| c as u64).sum();
+    *owner = raster.owner;
+    Frame {
         width: params.width,
         height: params.height,
         colour: raster.colours.expect("the render pipeline writes colours"),
@@ -176,5 +213,5 @@ fn draw(prepared: &crate::Prepared, geometry: GeometryCounts, params: &RenderPar
         ids,
         fragments: per_pixel,
         stats: RenderStats { geometry, fragments, pixels_covered: covered, depth_rejected: fragments - covered, raster: raster.stats },
-    })
+    }
 }

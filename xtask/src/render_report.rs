@@ -5,12 +5,14 @@
 //! Each call is whole: tileraster's `render` (geometry stages, upload, kernels, read-back of
 //! colour, depth, ids and fragment counts) against the peer's draw (vertex upload, one draw
 //! call, read-back of the ids). tileraster runs with `Shading::Ids`, the peer's fragment work;
-//! its Phong-shaded time is given too.
+//! its Phong-shaded time is given too. The peer keeps its render target and buffers between
+//! draws; so does tileraster's prepared form (`PreparedMesh::render_into`, its frames' memory
+//! and output layers kept), timed beside the one-shot `render`.
 
 use crate::bench_report::timed;
 use crate::Timing;
 use std::fmt::Write as _;
-use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading, IDENTITY, NO_FACE};
+use tileraster::render::{render, Camera, Cull, Frame, Mesh, PreparedMesh, RenderParams, Shading, IDENTITY, NO_FACE};
 use tileraster::Backend;
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::meshes;
@@ -59,18 +61,31 @@ pub fn run(quick: bool) -> Result<String, String> {
     let _ = writeln!(
         s,
         "Medians of {runs} whole calls after a warm-up. tileraster draws triangle ids (`--shading ids`, the same fragment work as the \
-         peer) and, in its own column, Phong shading; the render pipeline is wgpu's on {adapter} with a Depth32Float buffer and the `Less` \
+         peer) and, in its own columns, Phong shading; \"prepared\" is `PreparedMesh::render_into`, which keeps the frames' memory and \
+         output layers between calls as the peer keeps its render target and buffers; the render pipeline is wgpu's on {adapter} with a Depth32Float buffer and the `Less` \
          test, writing R32Uint triangle ids. Both read their outputs back to the host. \"ids agree\" is the share of pixels where \
          tileraster's CPU frame and the render pipeline name the same triangle.\n"
     );
-    let _ = writeln!(s, "| scene | tileraster cpu | tileraster cpu, phong | tileraster gpu | render pipeline | cpu vs render pipeline | cpu = gpu | ids agree |");
-    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |");
+    let _ = writeln!(
+        s,
+        "| scene | tileraster cpu | cpu, prepared | cpu, phong | cpu, phong, prepared | tileraster gpu | render pipeline | cpu vs render pipeline (prepared) | cpu = gpu | ids agree |"
+    );
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |");
     let mut notes = Vec::new();
     for scene in scenes(quick)? {
         let ids = RenderParams { shading: Shading::Ids, ..scene.params.clone() };
         let phong = RenderParams { shading: Shading::Phong, ..scene.params.clone() };
         let (cpu_time, cpu) = timed(runs, || render(&scene.mesh, &ids, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (phong_time, _) = timed(runs, || render(&scene.mesh, &phong, Backend::Cpu).map_err(|e| e.to_string()))?;
+        // The prepared form: one frame's memory and layers reused by every call.
+        let mut prepared = PreparedMesh::new(scene.mesh.clone()).map_err(|e| e.to_string())?;
+        let mut frame = Frame::default();
+        let mut into = |params: &RenderParams, frame: &mut Frame| timed(runs, || prepared.render_into(params, Backend::Cpu, frame).map_err(|e| e.to_string()));
+        let (prepared_time, ()) = into(&ids, &mut frame)?;
+        if frame.ids != cpu.ids || frame.colour != cpu.colour {
+            return Err(format!("{}: the prepared frame differs from render's", scene.name));
+        }
+        let (prepared_phong_time, ()) = into(&phong, &mut frame)?;
         // A frame the GPU backend refuses (its limits) is reported, not fatal.
         let gpu_result = gpu.as_ref().map(|_| timed(runs, || render(&scene.mesh, &ids, Backend::Gpu).map_err(|e| e.to_string())));
         let positions: Vec<[f32; 3]> = scene.mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
@@ -88,13 +103,16 @@ pub fn run(quick: bool) -> Result<String, String> {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {:.2}× | {} | {:.4} % |",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.2}× ({:.2}×) | {} | {:.4} % |",
             scene.name,
             ms(&cpu_time),
+            ms(&prepared_time),
             ms(&phong_time),
+            ms(&prepared_phong_time),
             gpu_cell,
             ms(&peer_time),
             peer_time.median / cpu_time.median,
+            peer_time.median / prepared_time.median,
             same,
             100.0 * agree
         );

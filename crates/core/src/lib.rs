@@ -21,6 +21,6 @@ pub use grid::{Grid, Mode, Outputs, Params, Skip, Skips, MAX_GRID_DIM};
 pub use overlap::overlap_free;
 pub use plan::{Pass, Plan, Stats};
 pub use prepare::{prepare, Prepared, RenderInputs, Window};
-pub use raster::{zeroed_cells, Difference, Raster};
+pub use raster::{zeroed_cells, Difference, Layers, Raster};
 pub use scene::Scene;
 pub use tileraster_kernels as kernels;

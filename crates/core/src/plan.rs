@@ -3,7 +3,7 @@
 //! of the window they can cover (the rest is nodata with no kernel work), the specialisations
 //! the kernels may use, and the statistics the host already knows.
 
-use crate::raster::try_zeroed;
+use crate::raster::{try_zeroed, Layers};
 use rayon::prelude::*;
 use crate::{Error, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
@@ -303,6 +303,14 @@ impl Plan {
     /// The call's raster: zeroed, with nodata (and no owner) already written outside the
     /// active window.
     pub fn allocate_raster(&self, prepared: &Prepared) -> Result<Raster, Error> {
+        self.allocate_raster_reusing(prepared, Layers::default())
+    }
+
+    /// [`Plan::allocate_raster`], taking the layers of `spare` (an earlier call's raster) where
+    /// it has them instead of fresh memory: a frame after the first then faults no page in.
+    /// Their old contents are harmless: the stages write every pixel of the active window, and
+    /// the rest is filled here.
+    pub fn allocate_raster_reusing(&self, prepared: &Prepared, spare: Layers) -> Result<Raster, Error> {
         let window = self.window;
         let n = usize::try_from(window.pixel_count()).map_err(|_| Error::RasterTooLarge {
             width: window.width as u64,
@@ -310,15 +318,17 @@ impl Plan {
             reason: "the pixel count does not fit this machine's address space".into(),
         })?;
         let outputs = prepared.params.outputs;
+        let render = prepared.render.is_some();
+        let Layers { values, owner, coverage, colours, faces } = spare;
         let mut raster = Raster {
             grid: prepared.params.grid,
             window,
             nodata: prepared.params.nodata,
-            values: try_zeroed(n, &window)?,
-            owner: if outputs.owner { Some(try_zeroed(n, &window)?) } else { None },
-            coverage: if outputs.coverage { Some(try_zeroed(n, &window)?) } else { None },
-            colours: if prepared.render.is_some() { Some(try_zeroed(n, &window)?) } else { None },
-            faces: if prepared.render.is_some() { Some(try_zeroed(n, &window)?) } else { None },
+            values: reuse_layer(true, values, n, &window)?.expect("the values layer is always there"),
+            owner: reuse_layer(outputs.owner, owner, n, &window)?,
+            coverage: reuse_layer(outputs.coverage, coverage, n, &window)?,
+            colours: reuse_layer(render, colours, n, &window)?,
+            faces: reuse_layer(render, faces, n, &window)?,
             snap_bits: prepared.snap_bits,
             stats: Stats::default(),
         };
@@ -326,8 +336,8 @@ impl Plan {
         Ok(raster)
     }
 
-    /// Nodata outside the active window (the coverage count there is the zero it starts with),
-    /// and the background colour with no face.
+    /// Nodata outside the active window, no coverage there, and the background colour with no
+    /// face.
     fn fill_inactive(&self, raster: &mut Raster, background: u32) {
         let w = self.window;
         let a = self.active.unwrap_or(Window { x0: w.x0, y0: w.y0, width: 0, height: 0 });
@@ -352,6 +362,9 @@ impl Plan {
         if let Some(owner) = raster.owner.as_mut() {
             fill(owner, NO_OWNER);
         }
+        if let Some(coverage) = raster.coverage.as_mut() {
+            fill(coverage, 0);
+        }
         if let Some(colours) = raster.colours.as_mut() {
             fill(colours, background);
         }
@@ -367,5 +380,20 @@ impl Plan {
         stats.tiles_full = counters[Counter::TilesFull as usize];
         stats.tiles_partial = counters[Counter::TilesPartial as usize];
         stats
+    }
+}
+
+/// A layer of `n` cells if `wanted`: `spare` where there is one (only growth is written, with
+/// zeroes; a layer of the same size is taken as it is), else fresh zeroed memory.
+fn reuse_layer<T: bytemuck::Zeroable + Clone>(wanted: bool, spare: Option<Vec<T>>, n: usize, window: &Window) -> Result<Option<Vec<T>>, Error> {
+    if !wanted {
+        return Ok(None);
+    }
+    match spare {
+        Some(mut layer) => {
+            layer.resize(n, T::zeroed());
+            Ok(Some(layer))
+        }
+        None => try_zeroed(n, window).map(Some),
     }
 }

@@ -22,6 +22,23 @@ pub struct Raster {
     pub stats: Stats,
 }
 
+/// A raster's layers as memory for a later call's raster (`Plan::allocate_raster_reusing`).
+#[derive(Debug, Default)]
+pub struct Layers {
+    pub values: Option<Vec<f32>>,
+    pub owner: Option<Vec<u32>>,
+    pub coverage: Option<Vec<u32>>,
+    pub colours: Option<Vec<u32>>,
+    pub faces: Option<Vec<u32>>,
+}
+
+impl Raster {
+    /// Its layers, as memory for a later call.
+    pub fn into_layers(self) -> Layers {
+        Layers { values: Some(self.values), owner: self.owner, coverage: self.coverage, colours: self.colours, faces: self.faces }
+    }
+}
+
 /// A zeroed `Vec`, or a clear error instead of an abort when memory runs out. Zeroed memory
 /// comes straight from the allocator (as for `vec![0; n]`), so large rasters are not written
 /// twice: the pages are zero until the kernels' first store.

@@ -267,6 +267,44 @@ pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, G
 
 /// [`prepare_render`] for a mesh [`validate_mesh`] has accepted.
 pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
+    prepare_checked_mesh_in(mesh, params, &mut GeometryMemory::default())
+}
+
+/// The geometry stages' memory, kept between frames: the vertices through the vertex stage and
+/// the arrays of the frame's triangles ([`GeometryMemory::recycle`] takes them back from the
+/// frame). A frame that reuses it writes into pages already mapped instead of faulting fresh
+/// ones in; its bits are the same.
+#[derive(Default)]
+pub struct GeometryMemory {
+    world: Vec<[f64; 3]>,
+    vertices: Vec<ClipVertex>,
+    triangles: Vec<TriangleInput>,
+    shading: Vec<TriangleShading>,
+}
+
+impl GeometryMemory {
+    /// Take back the triangle arrays of a frame prepared in this memory.
+    pub fn recycle(&mut self, prepared: Prepared) {
+        self.triangles = prepared.triangles;
+        if let Some(render) = prepared.render {
+            self.shading = render.triangles;
+        }
+    }
+}
+
+/// `v` with `len` entries: its old ones where it has them (they are all overwritten by the
+/// caller), zeroes for the rest.
+fn reuse<T: bytemuck::Zeroable + Clone>(mut v: Vec<T>, len: usize, what: &'static str) -> Result<Vec<T>, Error> {
+    if v.capacity() < len {
+        // Fresh zeroed pages rather than a copy of the old entries.
+        return crate::zeroed_cells(len).map_err(|reason| Error::OutOfMemory { what, reason });
+    }
+    v.resize(len, T::zeroed());
+    Ok(v)
+}
+
+/// [`prepare_checked_mesh`] in `memory`.
+pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
     validate_params(params)?;
     let (w, h) = (params.width, params.height);
     let m = &params.view_projection;
@@ -283,11 +321,14 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
     let viewport = Viewport::new(w, h);
     // Vertex stage: the model transform, then the view-projection.
     let model = &params.model;
-    let world: Vec<[f64; 3]> = mesh.positions.par_iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
+    let world = &mut memory.world;
+    mesh.positions.par_iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect_into_vec(world);
+    let world = &*world;
     // The depth and id views read no attribute: they carry zeros, and no normal is computed.
     let attributes_used = params.shading.reads_attributes();
     let normals = if attributes_used { vertex_normals(mesh, model) } else { Vec::new() };
-    let vertices: Vec<ClipVertex> = (0..mesh.positions.len())
+    let vertices = &mut memory.vertices;
+    (0..mesh.positions.len())
         .into_par_iter()
         .map(|v| {
             let p = world[v];
@@ -308,7 +349,8 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
             attributes[ATTR_UV..ATTR_UV + 2].copy_from_slice(&uv);
             ClipVertex::new(clip, attributes, &viewport)
         })
-        .collect();
+        .collect_into_vec(vertices);
+    let vertices = &*vertices;
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
     // One chunk of faces through clipping, culling and snapping, in face order.
@@ -368,9 +410,8 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepa
             reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
         });
     }
-    let out_of_memory = |what| move |reason| Error::OutOfMemory { what, reason };
-    let mut triangles: Vec<TriangleInput> = crate::zeroed_cells(total).map_err(out_of_memory("the frame's triangles"))?;
-    let mut shading: Vec<TriangleShading> = crate::zeroed_cells(total).map_err(out_of_memory("the frame's triangles"))?;
+    let mut triangles = reuse(std::mem::take(&mut memory.triangles), total, "the frame's triangles")?;
+    let mut shading = reuse(std::mem::take(&mut memory.shading), total, "the frame's triangles")?;
     let mut parts = Vec::with_capacity(counted.len());
     let (mut rest_t, mut rest_s, mut first_slot) = (&mut triangles[..], &mut shading[..], 0);
     for &(n, _) in &counted {

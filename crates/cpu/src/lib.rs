@@ -6,10 +6,10 @@
 
 mod stages;
 
-pub use stages::{bin_count, bin_fill, bin_scan, fine_depth, fine_raster, setup, shade, FinePath};
+pub use stages::{bin_count, bin_fill, bin_scan, fine_depth, fine_raster, setup, setup_into, shade, FinePath};
 pub use tileraster_kernels::pipeline::StageBuffers;
 
-use tileraster_core::{Error, Plan, Prepared, Raster};
+use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{Counter, TriangleSetup};
 use tileraster_kernels::pipeline::{stages, Stage};
 
@@ -24,20 +24,47 @@ pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
     rasterise_with(prepared, FinePath::default())
 }
 
+/// Memory a call works in, kept between calls of different scenes (the frames of a
+/// `PreparedMesh`): the setups and the raster's layers. A call that takes them writes into
+/// pages already mapped instead of faulting fresh ones in; its bits are the same.
+#[derive(Default)]
+pub struct Workspace {
+    setups: Vec<TriangleSetup>,
+    layers: Layers,
+}
+
+impl Workspace {
+    /// Keep these layers (of a raster the caller is done with) for the next call.
+    pub fn recycle(&mut self, layers: Layers) {
+        self.layers = layers;
+    }
+}
+
+/// [`rasterise`] in `workspace`: its setups and layers where it has them.
+pub fn rasterise_in(prepared: &Prepared, workspace: &mut Workspace) -> Result<Raster, Error> {
+    let plan = prepared.plan(prepared.window, false)?;
+    let mut resident = None;
+    let raster = rasterise_planned_with(prepared, &plan, &mut resident, FinePath::default(), &mut |_| {}, Some(workspace));
+    if let Some(Resident { setups }) = resident {
+        workspace.setups = setups;
+    }
+    raster
+}
+
 /// [`rasterise`] with a chosen fine-raster twin (the tests compare the two).
 pub fn rasterise_with(prepared: &Prepared, path: FinePath) -> Result<Raster, Error> {
-    rasterise_planned_with(prepared, &prepared.plan(prepared.window, false)?, &mut None, path, &mut |_| {})
+    rasterise_planned_with(prepared, &prepared.plan(prepared.window, false)?, &mut None, path, &mut |_| {}, None)
 }
 
 /// Run `plan`, setting the scene up first unless `resident` already holds it.
 pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
-    rasterise_planned_with(prepared, plan, resident, FinePath::default(), &mut |_| {})
+    rasterise_planned_with(prepared, plan, resident, FinePath::default(), &mut |_| {}, None)
 }
 
 /// [`rasterise_planned`] with no resident scene, calling `observe` as each stage of the table
 /// finishes (how `cargo xtask stage-times` splits a call's time by stage).
 pub fn rasterise_observed(prepared: &Prepared, plan: &Plan, observe: &mut dyn FnMut(Stage)) -> Result<Raster, Error> {
-    rasterise_planned_with(prepared, plan, &mut None, FinePath::default(), observe)
+    rasterise_planned_with(prepared, plan, &mut None, FinePath::default(), observe, None)
 }
 
 /// The buffers the stages before fine raster leave for the preparation's window, as the GPU
@@ -62,8 +89,17 @@ struct WindowBuffers {
     bins: Vec<u32>,
 }
 
-fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, path: FinePath, observe: &mut dyn FnMut(Stage)) -> Result<Raster, Error> {
-    let mut raster = plan.allocate_raster(prepared)?;
+/// The stages of `plan` in the table's order. With a `workspace`, the raster takes its layers
+/// and the setup stage its memory (`resident` must then start empty).
+fn rasterise_planned_with(
+    prepared: &Prepared,
+    plan: &Plan,
+    resident: &mut Option<Resident>,
+    path: FinePath,
+    observe: &mut dyn FnMut(Stage),
+    mut workspace: Option<&mut Workspace>,
+) -> Result<Raster, Error> {
+    let mut raster = plan.allocate_raster_reusing(prepared, workspace.as_mut().map(|w| std::mem::take(&mut w.layers)).unwrap_or_default())?;
     let mut counters = [0u64; Counter::COUNT];
     if let Some(active) = plan.active {
         let frame = plan.frame(prepared, active);
@@ -83,7 +119,9 @@ fn rasterise_planned_with(prepared: &Prepared, plan: &Plan, resident: &mut Optio
             match info.stage {
                 Stage::Setup => {
                     if resident.is_none() {
-                        *resident = Some(Resident { setups: setup(prepared, &frame) });
+                        let mut setups = workspace.as_mut().map(|w| std::mem::take(&mut w.setups)).unwrap_or_default();
+                        setup_into(prepared, &frame, &mut setups);
+                        *resident = Some(Resident { setups });
                     }
                 }
                 Stage::BinCount => b.counts = bin_count(&frame, setups, &plan.listed),

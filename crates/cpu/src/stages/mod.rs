@@ -11,7 +11,7 @@ pub use bin::{bin_count, bin_fill};
 pub use fine::{fine_depth, fine_raster, FinePath};
 pub use shade::shade;
 pub use scan::bin_scan;
-pub use setup::setup;
+pub use setup::{setup, setup_into};
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::memory::{Counters, Slots};

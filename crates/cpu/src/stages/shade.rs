@@ -1,9 +1,13 @@
 //! Twin of the `shade` entry point: every pixel of the frame, rows in parallel, through the
 //! kernel's `shade_pixel` (or `blend_pixel`, over the pixel's tile's bin).
+//!
+//! The id view reads nothing of a pixel but its owner (`fragment_colour`'s `Ids` arm): there a
+//! run of pixels with the same owner is shaded once, with the kernel's function, so the bits
+//! are the GPU's.
 
 use rayon::prelude::*;
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{FrameParams, ShadeParams, TriangleSetup, TriangleShading};
+use tileraster_kernels::abi::{FrameParams, ShadeMode, ShadeParams, TriangleSetup, TriangleShading};
 use tileraster_kernels::programs::shade::{blend_pixel, shade_pixel};
 use tileraster_kernels::stages::fine;
 use tileraster_kernels::TILE;
@@ -18,6 +22,7 @@ pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup]
     };
     let first_row = (frame.win_y0 - y0) as usize;
     let columns = (frame.win_x0 - x0) as usize..(frame.win_x0 - x0 + frame.win_w) as usize;
+    let by_owner = params.blend == 0 && params.mode() == ShadeMode::Ids;
     colours
         .par_chunks_mut(stride)
         .zip(faces.par_chunks_mut(stride))
@@ -26,6 +31,21 @@ pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup]
         .take(frame.win_h as usize)
         .for_each(|(row, (colour_row, face_row))| {
             let j = (y0 as usize + row) as i32;
+            if by_owner {
+                let mut last = None;
+                for x in columns.clone() {
+                    let k = row * stride + x;
+                    let owner = owners[k];
+                    let out = match last {
+                        Some((o, out)) if o == owner => out,
+                        _ => shade_pixel(params, setups, shading, owner, depths[k].to_bits(), (x0 as usize + x) as i32, j),
+                    };
+                    last = Some((owner, out));
+                    colour_row[x] = out.colour;
+                    face_row[x] = out.face;
+                }
+                return;
+            }
             for x in columns.clone() {
                 let k = row * stride + x;
                 let i = (x0 as usize + x) as i32;

@@ -446,9 +446,11 @@ fn a_prepared_mesh_renders_what_render_does() {
             let mut v = view(w, h, eye, 0.5, 30.0);
             if k == 3 {
                 // Shift the projection so that the mesh lands near the frame's top-left corner.
-                for c in 0..4 {
-                    v[0][c] -= 0.7 * v[3][c];
-                    v[1][c] -= 0.7 * v[3][c];
+                let w_row = v[3];
+                for row in &mut v[..2] {
+                    for (x, w) in row.iter_mut().zip(w_row) {
+                        *x -= 0.7 * w;
+                    }
                 }
             }
             let params = RenderParams { model: m, shading, background, blend, cull: Cull::None, ..RenderParams::new(w, h, v) };

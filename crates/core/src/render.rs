@@ -426,7 +426,7 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
     });
     let mut counts = counts;
     counts.rasterised = total as u64;
-    let shade = shade_params(params, &lights, eye, depth_range(&vertices));
+    let shade = shade_params(params, &lights, eye, depth_range(vertices));
     let skips = Skips { full_tiles: false, overlap_free: false, ..params.skips };
     let grid_params = Params {
         grid,

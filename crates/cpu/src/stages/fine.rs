@@ -25,6 +25,8 @@ use tileraster_kernels::programs::height::{self, HeightProgram};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
 
+use super::occlusion;
+
 /// One band of `TILE` raster rows: the part of each output layer a row of the frame's tiles
 /// writes. The frame may be part of the raster's window (the rest is already nodata).
 struct Band<'a> {
@@ -138,9 +140,12 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
     let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
     const N: usize = TILE_PIXELS as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
-    for &entry in &bins[bin_start as usize..][..bin_len as usize] {
+    let bin = &bins[bin_start as usize..][..bin_len as usize];
+    let occluding = occlusion::occluding_key(program, setups, bin, &tile);
+    for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
         let Some(mut rows) = TriangleRows::new(s, &tile) else { continue };
+        let hidden = occlusion::hidden(program, s, &tile, occluding);
         for j in rows.j0..=rows.j1 {
             let (mut inside, _) = rows.masks();
             let first = ((j - tile.j0) as u32 * TILE + rows.shift) as usize;
@@ -149,6 +154,9 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
                 inside &= inside - 1;
                 let p = first + n as usize;
                 count[p] += 1;
+                if hidden {
+                    continue;
+                }
                 let k = program.key(s, rows.i0 + n as i32, j);
                 if k < key[p] {
                     (key[p], owner[p], slot[p]) = (k, s.coverage.index, s.coverage.slot);
@@ -182,20 +190,24 @@ fn depth_tile_bin(tx: u32, frame: &FrameParams, offsets: &[u32], band: &mut Band
 #[inline(always)]
 fn resolve_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, key: &[u64], owner: &[u32], slot: &[u32], count: &[u32]) {
     for r in tile_rows(tx, frame, band) {
-        for lx in 0..r.width {
-            let p = (r.ly * TILE) as usize + lx;
-            let (value, o, c) = if owner[p] != NO_OWNER {
-                let value = program.value_of_key(key[p]).unwrap_or_else(|| program.value(&setups[slot[p] as usize], r.i0 + lx as i32, r.j));
-                (value, owner[p], count[p])
+        // The row's pixel states, and its part of each layer: straight loops, no bounds checks.
+        let p = (r.ly * TILE) as usize;
+        let (key, owner, slot, count) = (&key[p..][..r.width], &owner[p..][..r.width], &slot[p..][..r.width], &count[p..][..r.width]);
+        let values = &mut band.values[r.start..][..r.width];
+        for (lx, value) in values.iter_mut().enumerate() {
+            let bits = if owner[lx] != NO_OWNER {
+                program.value_of_key(key[lx]).unwrap_or_else(|| program.value(&setups[slot[lx] as usize], r.i0 + lx as i32, r.j))
             } else {
-                (program.background(), NO_OWNER, 0)
+                program.background()
             };
-            band.values[r.start + lx] = f32::from_bits(value);
-            if let Some(layer) = band.owner.as_deref_mut() {
-                layer[r.start + lx] = o;
-            }
-            if let Some(layer) = band.coverage.as_deref_mut() {
-                layer[r.start + lx] = c;
+            *value = f32::from_bits(bits);
+        }
+        if let Some(layer) = band.owner.as_deref_mut() {
+            layer[r.start..][..r.width].copy_from_slice(owner);
+        }
+        if let Some(layer) = band.coverage.as_deref_mut() {
+            for ((c, &o), &n) in layer[r.start..][..r.width].iter_mut().zip(owner).zip(count) {
+                *c = if o != NO_OWNER { n } else { 0 };
             }
         }
     }
@@ -213,22 +225,28 @@ fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, se
     const N: usize = (TILE_PIXELS + TILE) as usize;
     const L: usize = TILE as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
-    for &entry in &bins[bin_start as usize..][..bin_len as usize] {
+    let bin = &bins[bin_start as usize..][..bin_len as usize];
+    let occluding = occlusion::occluding_key(program, setups, bin, &tile);
+    for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
         let Some(mut rows) = TriangleRows::new(s, &tile) else { continue };
         let (index, setup_slot) = (Simd::splat(s.coverage.index), Simd::splat(s.coverage.slot));
+        let hidden = occlusion::hidden(program, s, &tile, occluding);
         for j in rows.j0..=rows.j1 {
             let at = rows.at();
             let (inside, _) = rows.masks_at(&at);
             if inside != 0 {
                 let first = ((j - tile.j0) as u32 * TILE + rows.shift) as usize;
-                let keys = depth_keys(program, s, &at);
-                let old = Simd::<u64, L>::from_slice(&key[first..]);
-                let better = Mask::<i64, L>::from_bitmask(inside) & keys.simd_lt(old);
-                better.select(keys, old).copy_to_slice(&mut key[first..first + L]);
-                let better: Mask<i32, L> = better.cast();
-                better.select(index, Simd::from_slice(&owner[first..])).copy_to_slice(&mut owner[first..first + L]);
-                better.select(setup_slot, Simd::from_slice(&slot[first..])).copy_to_slice(&mut slot[first..first + L]);
+                // A hidden triangle's fragments are counted; it owns none, so it needs no keys.
+                if !hidden {
+                    let keys = depth_keys(program, s, &at);
+                    let old = Simd::<u64, L>::from_slice(&key[first..]);
+                    let better = Mask::<i64, L>::from_bitmask(inside) & keys.simd_lt(old);
+                    better.select(keys, old).copy_to_slice(&mut key[first..first + L]);
+                    let better: Mask<i32, L> = better.cast();
+                    better.select(index, Simd::from_slice(&owner[first..])).copy_to_slice(&mut owner[first..first + L]);
+                    better.select(setup_slot, Simd::from_slice(&slot[first..])).copy_to_slice(&mut slot[first..first + L]);
+                }
                 let inside = Mask::<i32, L>::from_bitmask(inside).select(Simd::splat(1), Simd::splat(0));
                 (Simd::<u32, L>::from_slice(&count[first..]) + inside).copy_to_slice(&mut count[first..first + L]);
             }
@@ -996,7 +1014,11 @@ mod tests {
 
     /// The depth test in rows of lanes (the wide-vector build) gives the same bits as centre
     /// by centre and as the plain twin: every depth function, with and without depth writes,
-    /// on a soup of crossing triangles drawn twice (exact depth ties) and on full-frame layers.
+    /// on a soup of crossing triangles drawn twice (exact depth ties), on full-frame layers
+    /// drawn back to front and front to back, and on full-frame layers whose depths cross
+    /// (slopes in both directions, so that tiles' early depth rejection decides on bounds that
+    /// vary across the tile). Both specialised paths reject hidden triangles early; the plain
+    /// twin does not.
     #[test]
     fn depth_test_in_lanes_changes_no_bit() {
         use tileraster_core::render::{prepare_render, Cull, RenderParams, IDENTITY};
@@ -1009,7 +1031,16 @@ mod tests {
         let mut soup = meshes::soup(300, [-1.2, -1.2, 0.1], [1.2, 1.2, 0.9], 0.5, 9);
         let n = soup.triangles.len();
         soup.triangles.extend_from_within(..n);
-        for mesh in [soup, meshes::fill_layers(5)] {
+        let back_to_front = meshes::fill_layers(5);
+        let mut front_to_back = back_to_front.clone();
+        front_to_back.triangles.reverse();
+        let mut crossing = tileraster_core::render::Mesh::default();
+        for (k, (left, right)) in [(0.2, 0.8), (0.8, 0.2), (0.5, 0.5), (0.1, 0.6), (0.45, 0.55)].into_iter().enumerate() {
+            let v = 4 * k as u32;
+            crossing.positions.extend([[-1.0, -1.0, left], [1.0, -1.0, right], [1.0, 1.0, right], [-1.0, 1.0, left]]);
+            crossing.triangles.extend([[v, v + 1, v + 2], [v, v + 2, v + 3]]);
+        }
+        for mesh in [soup, back_to_front, front_to_back, crossing] {
             for func in DepthFunc::ALL {
                 for write in [true, false] {
                     // The `Greater` functions pass against a clear value of 0.

@@ -3,6 +3,7 @@
 
 mod bin;
 mod fine;
+mod occlusion;
 mod scan;
 mod setup;
 mod shade;

@@ -3,7 +3,7 @@
 //! of the window they can cover (the rest is nodata with no kernel work), the specialisations
 //! the kernels may use, and the statistics the host already knows.
 
-use crate::raster::{try_zeroed, Layers};
+use crate::raster::{reuse_cells, Layers};
 use rayon::prelude::*;
 use crate::{Error, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
@@ -383,17 +383,10 @@ impl Plan {
     }
 }
 
-/// A layer of `n` cells if `wanted`: `spare` where there is one (only growth is written, with
-/// zeroes; a layer of the same size is taken as it is), else fresh zeroed memory.
+/// A layer of `n` cells if `wanted`, in `spare`'s memory where it has it.
 fn reuse_layer<T: bytemuck::Zeroable + Clone>(wanted: bool, spare: Option<Vec<T>>, n: usize, window: &Window) -> Result<Option<Vec<T>>, Error> {
     if !wanted {
         return Ok(None);
     }
-    match spare {
-        Some(mut layer) => {
-            layer.resize(n, T::zeroed());
-            Ok(Some(layer))
-        }
-        None => try_zeroed(n, window).map(Some),
-    }
+    reuse_cells(spare, n).map(Some).map_err(|reason| Error::RasterTooLarge { width: window.width as u64, height: window.height as u64, reason })
 }

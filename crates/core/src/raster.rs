@@ -1,4 +1,4 @@
-use crate::{Error, Grid, Stats, Window};
+use crate::{Grid, Stats, Window};
 
 /// The result of a call: Float32 heights for a window of the grid (the whole grid unless a
 /// window was asked for), row-major, row 0 at the window's top (north).
@@ -32,18 +32,18 @@ pub struct Layers {
     pub faces: Option<Vec<u32>>,
 }
 
-impl Raster {
-    /// Its layers, as memory for a later call.
-    pub fn into_layers(self) -> Layers {
-        Layers { values: Some(self.values), owner: self.owner, coverage: self.coverage, colours: self.colours, faces: self.faces }
-    }
-}
 
-/// A zeroed `Vec`, or a clear error instead of an abort when memory runs out. Zeroed memory
-/// comes straight from the allocator (as for `vec![0; n]`), so large rasters are not written
-/// twice: the pages are zero until the kernels' first store.
-pub(crate) fn try_zeroed<T: bytemuck::Zeroable>(len: usize, window: &Window) -> Result<Vec<T>, Error> {
-    zeroed_cells(len).map_err(|reason| Error::RasterTooLarge { width: window.width as u64, height: window.height as u64, reason })
+/// `len` cells in `spare`'s memory where it holds them (its old entries kept, zeroes after
+/// them: for arrays the caller overwrites), else fresh zeroed memory as [`zeroed_cells`] gives
+/// (rather than a copy of the old entries into a larger allocation).
+pub fn reuse_cells<T: bytemuck::Zeroable + Clone>(spare: Option<Vec<T>>, len: usize) -> Result<Vec<T>, String> {
+    match spare {
+        Some(mut cells) if cells.capacity() >= len => {
+            cells.resize(len, T::zeroed());
+            Ok(cells)
+        }
+        _ => zeroed_cells(len),
+    }
 }
 
 /// `len` zeroed cells the way a raster's layers are allocated (what a store-bandwidth

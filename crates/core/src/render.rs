@@ -292,17 +292,6 @@ impl GeometryMemory {
     }
 }
 
-/// `v` with `len` entries: its old ones where it has them (they are all overwritten by the
-/// caller), zeroes for the rest.
-fn reuse<T: bytemuck::Zeroable + Clone>(mut v: Vec<T>, len: usize, what: &'static str) -> Result<Vec<T>, Error> {
-    if v.capacity() < len {
-        // Fresh zeroed pages rather than a copy of the old entries.
-        return crate::zeroed_cells(len).map_err(|reason| Error::OutOfMemory { what, reason });
-    }
-    v.resize(len, T::zeroed());
-    Ok(v)
-}
-
 /// [`prepare_checked_mesh`] in `memory`.
 pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
     validate_params(params)?;
@@ -410,8 +399,9 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
             reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
         });
     }
-    let mut triangles = reuse(std::mem::take(&mut memory.triangles), total, "the frame's triangles")?;
-    let mut shading = reuse(std::mem::take(&mut memory.shading), total, "the frame's triangles")?;
+    let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
+    let mut triangles = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.triangles)), total).map_err(out_of_memory)?;
+    let mut shading = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.shading)), total).map_err(out_of_memory)?;
     let mut parts = Vec::with_capacity(counted.len());
     let (mut rest_t, mut rest_s, mut first_slot) = (&mut triangles[..], &mut shading[..], 0);
     for &(n, _) in &counted {

@@ -60,11 +60,10 @@ fn key(program: &DepthProgram, s: &TriangleSetup, d: f32) -> u64 {
     (depth as u64) << 32 | tie as u64
 }
 
-/// Bounds of triangle `s`'s keys over the centres of `tile`, where it passes the test.
-fn key_bounds(program: &DepthProgram, s: &TriangleSetup, tile: &PixelRect) -> Option<(u64, u64)> {
-    let (low, high) = depth_bounds(s, tile)?;
+/// Bounds of triangle `s`'s keys where its depth lies in `[low, high]` and passes the test.
+fn key_bounds(program: &DepthProgram, s: &TriangleSetup, (low, high): (f32, f32)) -> (u64, u64) {
     let (a, b) = (key(program, s, low), key(program, s, high));
-    Some((a.min(b), a.max(b)))
+    (a.min(b), a.max(b))
 }
 
 /// The largest key any pixel of `tile` can end with, given its bin: the smallest upper key
@@ -75,10 +74,8 @@ pub(super) fn occluding_key(program: &DepthProgram, setups: &[TriangleSetup], bi
     let mut bound = DepthProgram::NO_KEY;
     for &entry in bin.iter().filter(|&&e| e & FULL_TILE_BIT != 0) {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
-        if let (Some((_, upper)), Some((low, high))) = (key_bounds(program, s, tile), depth_bounds(s, tile)) {
-            if program.passes(low) && program.passes(high) {
-                bound = bound.min(upper);
-            }
+        if let Some((low, high)) = depth_bounds(s, tile).filter(|&(low, high)| program.passes(low) && program.passes(high)) {
+            bound = bound.min(key_bounds(program, s, (low, high)).1);
         }
     }
     bound
@@ -87,7 +84,7 @@ pub(super) fn occluding_key(program: &DepthProgram, setups: &[TriangleSetup], bi
 /// Whether triangle `s` owns no pixel of `tile` because its keys there are all above
 /// `occluding` (from [`occluding_key`]).
 pub(super) fn hidden(program: &DepthProgram, s: &TriangleSetup, tile: &PixelRect, occluding: u64) -> bool {
-    occluding != DepthProgram::NO_KEY && key_bounds(program, s, tile).is_some_and(|(lower, _)| lower > occluding)
+    occluding != DepthProgram::NO_KEY && depth_bounds(s, tile).is_some_and(|depths| key_bounds(program, s, depths).0 > occluding)
 }
 
 #[cfg(test)]

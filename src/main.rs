@@ -146,6 +146,7 @@ struct RasteriseArgs {
 
 fn main() -> ExitCode {
     give_vulkan_a_runtime_dir();
+    stop_cleanly_when_interrupted();
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(message) => {
@@ -309,6 +310,33 @@ fn give_vulkan_a_runtime_dir() {
         // SAFETY: called first thing in `main`, before any other thread exists.
         unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
     }
+}
+
+/// Ctrl-C (SIGINT) or SIGTERM: stop at once, remove every partial file, leave each
+/// destination as it was (a file already renamed into place is complete), say so in one line,
+/// and exit with the shell's status for the signal (130, 143). A thread of its own waits for
+/// the signal, so a run is stopped mid-band, not at the next band.
+fn stop_cleanly_when_interrupted() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
+        Ok(signals) => signals,
+        Err(e) => return eprintln!("tileraster: warning: cannot handle interrupts ({e}); an interrupted run may leave *{} files", tileraster_io::PARTIAL_SUFFIX),
+    };
+    std::thread::spawn(move || {
+        let Some(signal) = signals.forever().next() else { return };
+        // Held until the process exits: no file is created or renamed into place after this.
+        let abandoned = tileraster_io::abandon_partial_files();
+        let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
+        let removed = match abandoned.removed.as_slice() {
+            [] => "no partial file to remove".to_string(),
+            files => format!("removed {}", files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", ")),
+        };
+        // Start a fresh line: a progress bar or the terminal's ^C may be on this one.
+        use std::io::IsTerminal;
+        let fresh = if std::io::stderr().is_terminal() { "\r\x1b[2K" } else { "" };
+        eprintln!("{fresh}tileraster: interrupted by {name}: stopped, {removed}");
+        std::process::exit(128 + signal);
+    });
 }
 
 fn choose_backend(arg: BackendArg) -> Result<Backend, String> {

@@ -558,5 +558,72 @@ fn render_writes_the_frame_the_library_renders() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && stderr.contains("row 3, column 2"), "{stderr}");
-    assert!(!bad.exists() && !dir.join("bad.png.partial").exists());
+    assert!(!bad.exists() && !dir.join("bad.png.tileraster-partial").exists());
+}
+
+/// Ctrl-C (SIGINT) or SIGTERM mid-band stops the run at once: every partial file is removed,
+/// the destinations are left as they were, one line says so, and the status is the shell's
+/// (130, 143).
+#[test]
+fn an_interrupted_run_leaves_nothing_behind() {
+    use std::time::{Duration, Instant};
+    let scene = scenes::terrain(0.0, 0.0, 1000.0, 1000.0, 60, 60, 5);
+    let (dir, obj) = mesh_file("interrupted", &scene);
+    let (tif, owner) = (dir.join("dem.tif"), dir.join("owner.tif"));
+    std::fs::write(&owner, b"an earlier run's file").unwrap();
+    for (signal, name, status) in [(libc::SIGINT, "SIGINT", 130), (libc::SIGTERM, "SIGTERM", 143)] {
+        // 16384² cells in bands of 64 MiB: 1 GiB of heights and as much of owners.
+        let mut child = bin()
+            .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu", "--memory", "64"])
+            .args(["--owner", owner.to_str().unwrap(), "--txe", "0", "1000", "--tye", "0", "1000", "--outsize", "16384", "16384"])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let partial = dir.join("dem.tif.tileraster-partial");
+        let start = Instant::now();
+        // Mid-band: some of the heights written, not all.
+        while std::fs::metadata(&partial).map_or(true, |m| m.len() < 64 << 20) {
+            assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be interrupted");
+            assert!(start.elapsed() < Duration::from_secs(120), "no partial file appeared");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        // SAFETY: a plain kill(2) of our own child.
+        assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
+        let exited = Instant::now();
+        let code = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break status.code();
+            }
+            if exited.elapsed() > Duration::from_secs(30) {
+                child.kill().ok();
+                panic!("{name}: the run did not stop within 30 s");
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        let stderr = std::io::read_to_string(child.stderr.take().unwrap()).unwrap();
+        assert_eq!(code, Some(status), "{name}: {stderr}");
+        let last = stderr.lines().last().unwrap_or_default();
+        assert!(last.starts_with(&format!("tileraster: interrupted by {name}: stopped, removed ")), "{last}");
+        assert!(last.contains("dem.tif.tileraster-partial") && last.contains("owner.tif.tileraster-partial"), "{last}");
+        let mut left: Vec<String> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        left.sort();
+        assert_eq!(left, ["m.obj", "owner.tif"], "{name}: only the input and the untouched destination remain");
+        assert_eq!(std::fs::read(&owner).unwrap(), b"an earlier run's file", "{name}: the destination is untouched");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A partial file orphaned by SIGKILL or a power cut carries tileraster's suffix, and the next
+/// run to the same destination replaces it.
+#[test]
+fn an_orphaned_partial_file_is_replaced_by_the_next_run() {
+    let (dir, obj) = mesh_file("orphan", &scenes::terrain(0.0, 0.0, 100.0, 100.0, 4, 4, 1));
+    let tif = dir.join("dem.tif");
+    let orphan = dir.join("dem.tif.tileraster-partial");
+    std::fs::write(&orphan, vec![7u8; 1 << 20]).unwrap();
+    let out = rasterise_cli(&obj, &tif, &["--txe", "0", "100", "--tye", "0", "100", "--outsize", "64", "64"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!orphan.exists() && tif.exists());
+    assert_eq!(read_tif_values(&tif).len(), 64 * 64);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -26,6 +26,7 @@ pub use preview::{write_preview_png, write_rgba_png};
 pub use vrt::{parse_part, read_part, write_mosaic_vrt, Mosaic, Part};
 
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
 
 /// A file could not be read, parsed or written.
 #[derive(Debug, thiserror::Error)]
@@ -38,9 +39,39 @@ pub enum IoError {
     Format { path: PathBuf, message: String },
 }
 
-/// A file written as `<name>.partial` beside its destination: [`commit`](Self::commit) makes
-/// it durable and renames it into place; dropped before that (an error, a panic), it is
-/// removed, so a failed run leaves no partial file behind.
+/// The suffix of a file being written: `dem.tif` is written as `dem.tif.tileraster-partial`
+/// beside its destination. One orphaned by SIGKILL or a power cut is recognisable by it, and
+/// the next run to the same destination replaces it.
+pub const PARTIAL_SUFFIX: &str = ".tileraster-partial";
+
+/// The partial files this process is writing, so that an interrupted run can remove them
+/// ([`abandon_partial_files`]). A file is listed from its creation until it is renamed into
+/// place or removed, both done under the lock.
+static IN_PROGRESS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn in_progress() -> MutexGuard<'static, Vec<PathBuf>> {
+    IN_PROGRESS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The partial files an interrupted process removed, and the lock that keeps any other file
+/// from being created or renamed into place while it is held: a process exits holding it.
+pub struct Abandoned {
+    pub removed: Vec<PathBuf>,
+    _held: MutexGuard<'static, Vec<PathBuf>>,
+}
+
+/// Remove every partial file this process is writing (for a signal handler, which then exits
+/// holding the returned lock). A destination is never touched: each was either renamed into
+/// place whole before this, or never will be.
+pub fn abandon_partial_files() -> Abandoned {
+    let mut held = in_progress();
+    let removed: Vec<PathBuf> = held.drain(..).filter(|tmp| std::fs::remove_file(tmp).is_ok()).collect();
+    Abandoned { removed, _held: held }
+}
+
+/// A file written as `<name>.tileraster-partial` beside its destination:
+/// [`commit`](Self::commit) makes it durable and renames it into place; dropped before that
+/// (an error, a panic), it is removed, so a failed run leaves no partial file behind.
 pub(crate) struct PartialFile {
     path: PathBuf,
     tmp: PathBuf,
@@ -51,9 +82,12 @@ pub(crate) struct PartialFile {
 impl PartialFile {
     pub(crate) fn create(path: &Path) -> Result<Self, IoError> {
         let mut tmp_name = path.file_name().unwrap_or_default().to_owned();
-        tmp_name.push(".partial");
+        tmp_name.push(PARTIAL_SUFFIX);
         let tmp = path.with_file_name(tmp_name);
+        let mut listed = in_progress();
+        // Truncates an orphan of an earlier run.
         let file = std::fs::File::create(&tmp).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
+        listed.push(tmp.clone());
         Ok(PartialFile { path: path.to_owned(), tmp, out: std::io::BufWriter::with_capacity(1 << 20, file), committed: false })
     }
 
@@ -70,7 +104,13 @@ impl PartialFile {
         let io = |source| IoError::Io { path: self.path.clone(), source };
         std::io::Write::flush(&mut self.out).map_err(io)?;
         self.out.get_ref().sync_all().map_err(io)?;
+        let mut listed = in_progress();
+        if !listed.contains(&self.tmp) {
+            // Abandoned by an interrupt: the process is exiting.
+            return Err(io(std::io::Error::new(std::io::ErrorKind::Interrupted, "interrupted")));
+        }
         std::fs::rename(&self.tmp, &self.path).map_err(io)?;
+        listed.retain(|p| *p != self.tmp);
         self.committed = true;
         Ok(())
     }
@@ -79,7 +119,11 @@ impl PartialFile {
 impl Drop for PartialFile {
     fn drop(&mut self) {
         if !self.committed {
-            let _ = std::fs::remove_file(&self.tmp);
+            let mut listed = in_progress();
+            if let Some(k) = listed.iter().position(|p| *p == self.tmp) {
+                listed.swap_remove(k);
+                let _ = std::fs::remove_file(&self.tmp);
+            }
         }
     }
 }

@@ -581,7 +581,7 @@ mod tests {
         let dir = scratch("refused");
         let r = raster(10, 10);
         let path = dir.join("x.tif");
-        let partial = dir.join("x.tif.partial");
+        let partial = dir.join("x.tif.tileraster-partial");
         let options = GeoTiffOptions::default();
         let create = || GeoTiffWriter::create(&path, &r.grid, r.window, Sample::Float32 { nodata: 0.0 }, &options).unwrap();
         let mut w = create();

@@ -74,19 +74,34 @@ struct RasteriseArgs {
     /// Output GeoTIFF.
     #[arg(short, long)]
     output: PathBuf,
-    /// Grid x extent, as gdal_grid's -txe.
-    #[arg(long, num_args = 2, value_names = ["XMIN", "XMAX"], allow_negative_numbers = true, required = true)]
-    txe: Vec<f64>,
-    /// Grid y extent, as gdal_grid's -tye (row 0 is at YMAX).
-    #[arg(long, num_args = 2, value_names = ["YMIN", "YMAX"], allow_negative_numbers = true, required = true)]
-    tye: Vec<f64>,
+    /// Grid x extent, as gdal_grid's -txe (default: the input's).
+    #[arg(long, num_args = 2, value_names = ["XMIN", "XMAX"], allow_negative_numbers = true)]
+    txe: Option<Vec<f64>>,
+    /// Grid y extent, as gdal_grid's -tye (row 0 is at YMAX; default: the input's).
+    #[arg(long, num_args = 2, value_names = ["YMIN", "YMAX"], allow_negative_numbers = true)]
+    tye: Option<Vec<f64>>,
     /// Raster size in cells, as gdal_grid's -outsize (or give --tr).
     #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"], required_unless_present = "tr", conflicts_with = "tr")]
     outsize: Option<Vec<u32>>,
-    /// Cell size in world units, as gdal_grid's -tr: the size is each extent over its
-    /// cell size, rounded to the nearest whole cell, and the extent is kept.
+    /// Cell size in world units, as gdal_grid's -tr: with --txe and --tye, the size is each
+    /// extent over its cell size, rounded to the nearest whole cell, and the extent is kept;
+    /// with the input's extent, cells are exactly this size from its west and north edges
+    /// (as gdalwarp's -tr).
     #[arg(long, num_args = 2, value_names = ["XRES", "YRES"])]
     tr: Option<Vec<f64>>,
+    /// Align the extent to whole multiples of the cell size (GDAL's -tap; needs --tr): the
+    /// least edges are rounded down and the greatest up, so the grid covers the extent.
+    #[arg(long, requires = "tr")]
+    tap: bool,
+    /// LAS/LAZ: keep only points of these classifications (repeatable, or a comma list):
+    /// `--class 2` keeps ground points for a bare-earth DEM.
+    #[arg(long = "class", value_name = "CLASS", value_delimiter = ',')]
+    classes: Vec<u8>,
+    /// Leave out triangles with an edge longer than this (map units, measured in x and y),
+    /// so water bodies and gaps in the data stay nodata instead of being bridged. --owner
+    /// and --tin then count the triangles kept.
+    #[arg(long, value_name = "LENGTH", allow_negative_numbers = true)]
+    max_edge: Option<f64>,
     /// Rasterise only this window of the grid (pixel offsets and size); its cells are bit
     /// for bit the whole run's, and the GeoTIFF is georeferenced to the window.
     #[arg(long, num_args = 4, value_names = ["XOFF", "YOFF", "XSIZE", "YSIZE"], conflicts_with = "part")]
@@ -182,7 +197,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
 
 /// `tileraster rasterise`: read, triangulate if points, rasterise in bands, write.
 fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
-    let RasteriseArgs { input, columns, output, txe, tye, outsize, tr, window, part, owner, tin, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } = *args;
+    let RasteriseArgs { input, columns, output, txe, tye, outsize, tr, tap, classes, max_edge, window, part, owner, tin, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } = *args;
     set_quiet(quiet);
     let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
     for option in &creation_options {
@@ -193,18 +208,18 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         (None, Some(tr)) => GridSize::Resolution { x: tr[0], y: tr[1] },
         (None, None) => return Err("give the raster size with --outsize WIDTH HEIGHT or the cell size with --tr XRES YRES".into()),
     };
-    let grid = GridSpec { txe: [txe[0], txe[1]], tye: [tye[0], tye[1]], size }.grid().map_err(|e| match size {
+    let spec = GridSpec { txe: txe.map(|v| [v[0], v[1]]), tye: tye.map(|v| [v[0], v[1]]), size, tap };
+    let grid_error = |e: dem::DemError| match size {
         GridSize::Resolution { .. } => format!("--tr: {e}"),
         GridSize::Cells { .. } => e.to_string(),
-    })?;
-    let window = match (window, part) {
-        (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
-        (None, Some((k, n))) => dem::part_window(&grid, k, n).map_err(|e| format!("--part {k}/{n}: {e}"))?,
-        (None, None) => Window::whole(&grid),
     };
+    // A grid given whole is checked before the input is read; one that takes the input's
+    // extent, after.
+    let given = (spec.txe.is_some() && spec.tye.is_some()).then(|| spec.grid()).transpose().map_err(grid_error)?;
     let progress = Progress::start();
     progress.stage(format!("reading {}", input.display()));
-    let read = dem::read_scene(&input, &columns.unwrap_or_default(), &progress).map_err(|e| e.to_string())?;
+    let options = dem::ReadOptions { columns: columns.unwrap_or_default(), classes, max_edge };
+    let read = dem::read_scene(&input, &options, &progress).map_err(|e| e.to_string())?;
     if let Some(points) = &read.points {
         note(format!(
             "tileraster: {} points from {} in {}{} → Delaunay TIN of {} triangles in {}",
@@ -215,10 +230,25 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
                 0 => String::new(),
                 n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
             },
-            read.scene.triangles.len(),
+            read.scene.triangles.len() + read.long_triangles,
             ms(points.triangulated)
         ));
     }
+    if let Some(max_edge) = max_edge {
+        note(format!("tileraster: --max-edge {max_edge}: {} triangles with a longer edge left out, {} kept", read.long_triangles, read.scene.triangles.len()));
+    }
+    let grid = match given {
+        Some(grid) => grid,
+        None => spec.grid_for(&read.scene).map_err(grid_error)?,
+    };
+    if given.is_none() || tap {
+        note(format!("tileraster: extent x {} to {}, y {} to {}: {}×{} cells of {} × {}", grid.xmin, grid.xmax, grid.ymin, grid.ymax, grid.width, grid.height, grid.dx(), grid.dy()));
+    }
+    let window = match (window, part) {
+        (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
+        (None, Some((k, n))) => dem::part_window(&grid, k, n).map_err(|e| format!("--part {k}/{n}: {e}"))?,
+        (None, None) => Window::whole(&grid),
+    };
     let scene = read.scene;
     let backend = choose_backend(backend)?;
     let mut skips = Skips::ALL;

@@ -627,3 +627,85 @@ fn an_orphaned_partial_file_is_replaced_by_the_next_run() {
     assert_eq!(read_tif_values(&tif).len(), 64 * 64);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+fn tif_layout(tif: &Path) -> (u32, u32, Vec<f64>, Vec<f64>) {
+    let mut d = Decoder::new(std::io::BufReader::new(std::fs::File::open(tif).unwrap())).unwrap();
+    let (w, h) = d.dimensions().unwrap();
+    (w, h, d.get_tag_f64_vec(Tag::ModelTiepointTag).unwrap(), d.get_tag_f64_vec(Tag::ModelPixelScaleTag).unwrap())
+}
+
+/// `tileraster rasterise ground.laz -o dem.tif --tr 1 1`: the extent is the input's (of the
+/// points kept), cells exactly 1 × 1 from its west and north edges; `--tap` aligns it;
+/// `--class 2` keeps the ground points; `--max-edge` leaves the gap between two patches
+/// nodata instead of bridging it.
+#[test]
+fn the_inputs_extent_classes_and_the_longest_edge() {
+    let dir = scratch("extent");
+    let mut rng = scenes::Rng::new(21);
+    // Ground in two patches, 100 apart; vegetation above and between them.
+    let mut points = Vec::new();
+    for k in 0..1200 {
+        let patch = if k % 2 == 0 { 10.0 } else { 210.0 };
+        let (x, y) = (patch + rng.range(0.0, 90_000.0).round() / 1000.0, 5.0 + rng.range(0.0, 80_000.0).round() / 1000.0);
+        points.push(([x, y, (x * 0.1 + y * 0.05 * 1000.0).round() / 1000.0], 2u8));
+        if k % 3 == 0 {
+            points.push(([rng.range(0.0, 320_000.0).round() / 1000.0, rng.range(0.0, 100_000.0).round() / 1000.0, 60.0], 5));
+        }
+    }
+    let las = dir.join("p.laz");
+    let mut builder = las::Builder::from((1, 4));
+    builder.point_format.is_compressed = true;
+    let mut writer = las::Writer::from_path(&las, builder.into_header().unwrap()).unwrap();
+    for &(p, class) in &points {
+        let classification = las::point::Classification::new(class).unwrap();
+        writer.write_point(las::Point { x: p[0], y: p[1], z: p[2], classification, ..Default::default() }).unwrap();
+    }
+    writer.close().unwrap();
+    drop(writer);
+    let ground: Vec<[f64; 3]> = points.iter().filter(|p| p.1 == 2).map(|p| p.0).collect();
+    let span = |axis: usize| ground.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], p| [lo.min(p[axis]), hi.max(p[axis])]);
+    let ([xmin, xmax], [ymin, ymax]) = (span(0), span(1));
+    let (width, height) = (((xmax - xmin) + 0.5).floor() as u32, ((ymax - ymin) + 0.5).floor() as u32);
+
+    let tif = dir.join("dem.tif");
+    let out = rasterise_cli(&las, &tif, &["--tr", "1", "1", "--class", "2"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(tif_layout(&tif), (width, height, vec![0.0, 0.0, 0.0, xmin, ymax, 0.0], vec![1.0, 1.0, 0.0]));
+    let tin = tileraster_tin::triangulate(&ground).unwrap().scene;
+    let grid = Grid::new(xmin, xmin + width as f64, ymax - height as f64, ymax, width, height);
+    let expected = rasterise(&tin, &Params::new(grid).with_nodata(-9999.0), Backend::Cpu).unwrap();
+    assert_same_bits(&read_tif_values(&tif), &expected.values, "the ground points' TIN");
+
+    // Aligned to whole metres, covering the extent.
+    let out = rasterise_cli(&las, &tif, &["--tr", "1", "1", "--class", "2", "--tap"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (w, h, tie, _) = tif_layout(&tif);
+    assert_eq!((w, h, tie[3], tie[4]), ((xmax.ceil() - xmin.floor()) as u32, (ymax.ceil() - ymin.floor()) as u32, xmin.floor(), ymax.ceil()));
+
+    // The gap between the patches: bridged by long triangles, nodata without them.
+    let gap = |values: &[f32], w: u32, tie: &[f64]| {
+        let column = (155.0 - tie[3]) as u32;
+        (0..h).filter(|&row| values[(row * w + column) as usize] != -9999.0).count()
+    };
+    assert!(gap(&read_tif_values(&tif), w, &tie) > 50, "without --max-edge the gap is bridged");
+    let out = rasterise_cli(&las, &tif, &["--tr", "1", "1", "--class", "2", "--tap", "--max-edge", "20"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && stderr.contains("triangles with a longer edge left out"), "{stderr}");
+    assert_eq!(gap(&read_tif_values(&tif), w, &tie), 0, "--max-edge 20 leaves the gap nodata");
+
+    // Bad uses are refused with what to do.
+    let refused = |args: &[&str], expected: &str| {
+        let out = rasterise_cli(&las, &dir.join("refused.tif"), args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(!dir.join("refused.tif").exists());
+    };
+    refused(&["--tr", "1", "1", "--class", "7"], "no point is of class 7 (the file holds class 2: 1200 points, class 5: 400 points)");
+    refused(&["--tr", "1", "1", "--max-edge", "-3"], "--max-edge is -3");
+    refused(&["--outsize", "10", "10", "--tap"], "--tr");
+    let csv = dir.join("p.csv");
+    std::fs::write(&csv, "0 0 1\n10 0 2\n0 10 3\n").unwrap();
+    let out = rasterise_cli(&csv, &dir.join("refused.tif"), &["--tr", "1", "1", "--class", "2"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--class filters LAS/LAZ points"), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_dir_all(&dir).ok();
+}

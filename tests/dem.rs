@@ -25,7 +25,7 @@ fn a_window_streamed_in_bands_is_the_single_call_bit_for_bit() {
     tileraster_io::write_obj(&scene, &dir.join("terrain.obj")).unwrap();
     let input = dem::read_scene(&dir.join("terrain.obj"), &Default::default(), &()).unwrap();
     assert!(input.points.is_none(), "a mesh is read as it is");
-    let grid = GridSpec { txe: [x0 - 50.0, x0 + 1050.0], tye: [y0, y0 + 1000.0], size: GridSize::Resolution { x: 1.5, y: 1.25 } }.grid().unwrap();
+    let grid = GridSpec { txe: Some([x0 - 50.0, x0 + 1050.0]), tye: Some([y0, y0 + 1000.0]), size: GridSize::Resolution { x: 1.5, y: 1.25 }, tap: false }.grid().unwrap();
     assert_eq!((grid.width, grid.height), (733, 800));
     let window = Window { x0: 20, y0: 30, width: 700, height: 700 };
     let params = Params::new(grid).with_nodata(-9999.0);
@@ -56,7 +56,7 @@ fn bad_dem_input_gets_a_typed_error_and_leaves_no_file() {
     let collinear = dir.join("line.csv");
     std::fs::write(&collinear, "x,y,z\n0,0,1\n1,1,2\n2,2,3\n").unwrap();
     assert!(matches!(dem::read_scene(&collinear, &Default::default(), &()), Err(DemError::Triangulation { .. })));
-    let spec = GridSpec { txe: [0.0, 10.0], tye: [0.0, 10.0], size: GridSize::Cells { width: 0, height: 10 } };
+    let spec = GridSpec { txe: Some([0.0, 10.0]), tye: Some([0.0, 10.0]), size: GridSize::Cells { width: 0, height: 10 }, tap: false };
     assert!(matches!(spec.grid(), Err(DemError::Raster(_))));
     // A scene the rasteriser refuses: nothing is written.
     let grid = GridSpec { size: GridSize::Cells { width: 10, height: 10 }, ..spec }.grid().unwrap();

@@ -1,16 +1,22 @@
 //! gdal_grid's grid semantics: the extent is kept, the size given in cells or derived from a
-//! cell size; row 0 lies at the top (`tye[1]`).
+//! cell size; row 0 lies at the top (`tye[1]`). Without an extent the input's is taken, as
+//! gdal_grid does, and `--tap` aligns it to the cell size, as GDAL's tools do.
 
 use super::DemError;
-use crate::{Grid, Window, MAX_GRID_DIM};
+use crate::{Grid, Scene, Window, MAX_GRID_DIM};
 
 /// A grid as gdal_grid's flags give it: `-txe XMIN XMAX`, `-tye YMIN YMAX`, and `-outsize` or
-/// `-tr`.
+/// `-tr`, with GDAL's `-tap`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GridSpec {
-    pub txe: [f64; 2],
-    pub tye: [f64; 2],
+    /// The x extent; `None`: the input's (its vertices' or points' least and greatest x).
+    pub txe: Option<[f64; 2]>,
+    /// The y extent; `None`: the input's.
+    pub tye: Option<[f64; 2]>,
     pub size: GridSize,
+    /// Align the extent to whole multiples of the cell size (`-tap`; needs a cell size):
+    /// the least one is rounded down, the greatest up, so the grid covers the extent.
+    pub tap: bool,
 }
 
 /// How the grid's size is given.
@@ -18,19 +24,51 @@ pub struct GridSpec {
 pub enum GridSize {
     /// Cells along x and y (`-outsize`).
     Cells { width: u32, height: u32 },
-    /// Cell size in world units (`-tr`): each extent over its cell size, rounded to the
-    /// nearest whole cell; the extent is kept.
+    /// Cell size in world units (`-tr`). With an extent given (and no `tap`), gdal_grid's
+    /// rule: each extent over its cell size, rounded to the nearest whole cell, and the extent
+    /// kept. Otherwise cells of exactly this size from the extent's west and north edges, as
+    /// many as round the extent to whole cells (gdalwarp's rule for `-tr` without `-te`).
     Resolution { x: f64, y: f64 },
 }
 
 impl GridSpec {
-    /// The grid, validated.
+    /// The grid of an extent given in full; [`grid_for`](Self::grid_for) takes a missing one
+    /// from the input.
     pub fn grid(&self) -> Result<Grid, DemError> {
-        let [xmin, xmax] = self.txe;
-        let [ymin, ymax] = self.tye;
+        match (self.txe, self.tye) {
+            (Some(txe), Some(tye)) => self.grid_over(txe, tye, true),
+            _ => Err(DemError::NoExtent),
+        }
+    }
+
+    /// The grid, with the extent `scene`'s vertices span where none is given.
+    pub fn grid_for(&self, scene: &Scene) -> Result<Grid, DemError> {
+        let span = |axis: usize| {
+            scene.vertices.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(v[axis]), hi.max(v[axis])])
+        };
+        let given = self.txe.is_some() && self.tye.is_some();
+        self.grid_over(self.txe.unwrap_or_else(|| span(0)), self.tye.unwrap_or_else(|| span(1)), given)
+    }
+
+    fn grid_over(&self, [mut xmin, mut xmax]: [f64; 2], [mut ymin, mut ymax]: [f64; 2], given: bool) -> Result<Grid, DemError> {
         let (width, height) = match self.size {
+            GridSize::Cells { .. } if self.tap => return Err(DemError::TapNeedsResolution),
             GridSize::Cells { width, height } => (width, height),
-            GridSize::Resolution { x, y } => (cells_for(xmax - xmin, x, 'x')?, cells_for(ymax - ymin, y, 'y')?),
+            GridSize::Resolution { x, y } => {
+                positive(x, 'x')?;
+                positive(y, 'y')?;
+                if self.tap {
+                    (xmin, xmax) = ((xmin / x).floor() * x, (xmax / x).ceil() * x);
+                    (ymin, ymax) = ((ymin / y).floor() * y, (ymax / y).ceil() * y);
+                }
+                let (width, height) = (cells_for(xmax - xmin, x, 'x')?, cells_for(ymax - ymin, y, 'y')?);
+                if !given || self.tap {
+                    // Exactly the cell size, from the west and north edges.
+                    xmax = xmin + width as f64 * x;
+                    ymin = ymax - height as f64 * y;
+                }
+                (width, height)
+            }
         };
         let grid = Grid::new(xmin, xmax, ymin, ymax, width, height);
         grid.validate()?;
@@ -38,11 +76,15 @@ impl GridSpec {
     }
 }
 
+fn positive(res: f64, axis: char) -> Result<(), DemError> {
+    match res.is_finite() && res > 0.0 {
+        true => Ok(()),
+        false => Err(DemError::CellSize { axis, res }),
+    }
+}
+
 /// gdal_grid's `-tr`: cells along an extent, `floor(extent / res + 0.5)`.
 fn cells_for(extent: f64, res: f64, axis: char) -> Result<u32, DemError> {
-    if !(res.is_finite() && res > 0.0) {
-        return Err(DemError::CellSize { axis, res });
-    }
     let cells = (extent / res + 0.5).floor();
     if !(1.0..=MAX_GRID_DIM as f64).contains(&cells) {
         return Err(DemError::CellCount { axis, extent, res, cells });
@@ -67,7 +109,7 @@ mod tests {
 
     #[test]
     fn cell_sizes_round_to_whole_cells_and_keep_the_extent() {
-        let spec = GridSpec { txe: [0.0, 10.0], tye: [5.0, 8.0], size: GridSize::Resolution { x: 0.3, y: 0.7 } };
+        let spec = GridSpec { txe: Some([0.0, 10.0]), tye: Some([5.0, 8.0]), size: GridSize::Resolution { x: 0.3, y: 0.7 }, tap: false };
         let grid = spec.grid().unwrap();
         // 10 / 0.3 = 33.3 → 33; 3 / 0.7 = 4.29 → 4.
         assert_eq!((grid.width, grid.height, grid.xmin, grid.xmax, grid.ymin, grid.ymax), (33, 4, 0.0, 10.0, 5.0, 8.0));
@@ -75,6 +117,29 @@ mod tests {
         assert!(matches!(bad.grid(), Err(DemError::CellSize { axis: 'x', .. })));
         let huge = GridSpec { size: GridSize::Resolution { x: 1.0, y: 1e-9 }, ..spec };
         assert!(matches!(huge.grid(), Err(DemError::CellCount { axis: 'y', .. })));
+    }
+
+    /// Without an extent the input's is taken: kept whole with a size in cells (gdal_grid),
+    /// from its west and north edges in cells of exactly the size asked with `--tr`
+    /// (gdalwarp); `--tap` aligns either to the cell size and covers it.
+    #[test]
+    fn the_inputs_extent_is_taken_when_none_is_given() {
+        let scene = Scene::new(vec![[10.3, 20.6, 0.0], [15.2, 20.1, 0.0], [12.0, 24.45, 0.0]], vec![[0, 1, 2]]);
+        let cells = GridSpec { txe: None, tye: None, size: GridSize::Cells { width: 7, height: 9 }, tap: false };
+        let g = cells.grid_for(&scene).unwrap();
+        assert_eq!((g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height), (10.3, 15.2, 20.1, 24.45, 7, 9));
+        assert!(matches!(cells.grid(), Err(DemError::NoExtent)));
+        // 4.9 / 0.5 = 9.8 → 10 cells from x 10.3; 4.35 / 0.5 = 8.7 → 9 cells down from y 24.45.
+        let tr = GridSpec { size: GridSize::Resolution { x: 0.5, y: 0.5 }, ..cells };
+        let g = tr.grid_for(&scene).unwrap();
+        assert_eq!((g.xmin, g.ymax, g.width, g.height, g.dx(), g.dy()), (10.3, 24.45, 10, 9, 0.5, 0.5));
+        // Aligned: x 10 to 15.5, y 20 to 24.5.
+        let g = GridSpec { tap: true, ..tr }.grid_for(&scene).unwrap();
+        assert_eq!((g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height), (10.0, 15.5, 20.0, 24.5, 11, 9));
+        // A given extent is aligned too; the other axis still comes from the input.
+        let g = GridSpec { txe: Some([0.2, 3.9]), tap: true, ..tr }.grid_for(&scene).unwrap();
+        assert_eq!((g.xmin, g.xmax, g.width, g.ymin, g.ymax), (0.0, 4.0, 8, 20.0, 24.5));
+        assert!(matches!(GridSpec { tap: true, ..cells }.grid_for(&scene), Err(DemError::TapNeedsResolution)));
     }
 
     #[test]

@@ -42,11 +42,26 @@ impl InputKind {
     }
 }
 
+/// How [`read_scene`] reads and filters its input.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadOptions {
+    /// Delimited text: which columns hold x, y and z.
+    pub columns: PointColumns,
+    /// LAS/LAZ: keep only the points of these classifications (`--class 2`: ground); all when
+    /// empty.
+    pub classes: Vec<u8>,
+    /// Leave out every triangle with an edge longer than this (in map units, measured in x
+    /// and y), so that water bodies and gaps in the data stay nodata instead of being bridged.
+    pub max_edge: Option<f64>,
+}
+
 /// A scene read from a file.
 pub struct Input {
     pub scene: Scene,
     /// For a point file, what reading and triangulating it did.
     pub points: Option<PointsRead>,
+    /// Triangles left out by [`ReadOptions::max_edge`].
+    pub long_triangles: usize,
 }
 
 /// What reading and triangulating a point file did.
@@ -61,11 +76,26 @@ pub struct PointsRead {
 }
 
 /// The scene in `path`: a mesh (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`; heights in z), or the Delaunay TIN of
-/// a point file (`.las`, `.laz`, or delimited text with `columns`), whose vertices are the
-/// points in file order.
-pub fn read_scene(path: &Path, columns: &PointColumns, progress: &dyn Progress) -> Result<Input, DemError> {
+/// a point file (`.las`, `.laz`, or delimited text with `options.columns`), whose vertices are
+/// the points kept, in file order; then without the triangles `options.max_edge` leaves out
+/// (the others keep their order).
+pub fn read_scene(path: &Path, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
     let kind = InputKind::of(path)?;
-    let mesh = |scene| Ok(Input { scene, points: None });
+    if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
+        return Err(DemError::MaxEdge(max_edge));
+    }
+    if kind == InputKind::Text && !options.classes.is_empty() {
+        return Err(DemError::ClassesOfText { path: path.to_owned() });
+    }
+    let mut input = read(path, kind, options, progress)?;
+    if let Some(max_edge) = options.max_edge {
+        input.long_triangles = drop_long_triangles(&mut input.scene, max_edge);
+    }
+    Ok(input)
+}
+
+fn read(path: &Path, kind: InputKind, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
+    let mesh = |scene| Ok(Input { scene, points: None, long_triangles: 0 });
     match kind {
         InputKind::Obj => mesh(tileraster_io::read_obj(path)?),
         InputKind::Ply => mesh(tileraster_io::read_ply(path)?),
@@ -76,12 +106,47 @@ pub fn read_scene(path: &Path, columns: &PointColumns, progress: &dyn Progress) 
         }
         InputKind::Las | InputKind::Text => {
             let start = Instant::now();
-            let points = if kind == InputKind::Las { tileraster_io::read_las(path)? } else { tileraster_io::read_points(path, columns)? };
+            let points = match kind {
+                InputKind::Las => tileraster_io::read_las_classes(path, &options.classes)?,
+                _ => tileraster_io::read_points(path, &options.columns)?,
+            };
             let read = start.elapsed();
             progress.stage(&format!("triangulating {} points", points.len()));
             let tin = tileraster_tin::triangulate(&points).map_err(|source| DemError::Triangulation { path: path.to_owned(), source })?;
             let points = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
-            Ok(Input { scene: tin.scene, points: Some(points) })
+            Ok(Input { scene: tin.scene, points: Some(points), long_triangles: 0 })
         }
+    }
+}
+
+/// Leave out the triangles with an edge longer than `max_edge` in x and y; returns how many.
+pub fn drop_long_triangles(scene: &mut Scene, max_edge: f64) -> usize {
+    let before = scene.triangles.len();
+    let vertices = &scene.vertices;
+    let longest = max_edge * max_edge;
+    let short = |a: u32, b: u32| {
+        let (p, q) = (vertices[a as usize], vertices[b as usize]);
+        (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) <= longest
+    };
+    scene.triangles.retain(|&[a, b, c]| short(a, b) && short(b, c) && short(c, a));
+    before - scene.triangles.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_triangles_are_left_out_and_the_rest_keep_their_order() {
+        // Two small triangles either side of a long thin one bridging a gap.
+        let vertices = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [10.0, 0.0, 0.0], [10.0, 1.0, 0.0], [9.0, 1.0, 0.0]];
+        let mut scene = Scene::new(vertices, vec![[0, 1, 2], [1, 3, 2], [3, 4, 5]]);
+        // Edges of exactly the limit stay: sqrt(2) for the small ones.
+        assert_eq!(drop_long_triangles(&mut scene.clone(), 2f64.sqrt()), 1);
+        assert_eq!(drop_long_triangles(&mut scene, 5.0), 1);
+        assert_eq!(scene.triangles, [[0, 1, 2], [3, 4, 5]]);
+        // Height does not count: the edge is measured in x and y.
+        let mut tall = Scene::new(vec![[0.0, 0.0, 0.0], [1.0, 0.0, 100.0], [0.0, 1.0, -100.0]], vec![[0, 1, 2]]);
+        assert_eq!(drop_long_triangles(&mut tall, 1.5), 0);
     }
 }

@@ -12,7 +12,7 @@
 //! use tileraster::dem::{self, Destinations, GridSpec, GridSize};
 //! use tileraster::{Backend, Params};
 //! use std::path::Path;
-//! let grid = GridSpec { txe: [0.0, 1000.0], tye: [0.0, 1000.0], size: GridSize::Resolution { x: 0.5, y: 0.5 } }.grid()?;
+//! let grid = GridSpec { txe: Some([0.0, 1000.0]), tye: Some([0.0, 1000.0]), size: GridSize::Resolution { x: 0.5, y: 0.5 }, tap: false }.grid()?;
 //! let input = dem::read_scene(Path::new("points.laz"), &Default::default(), &())?;
 //! let window = tileraster::Window::whole(&grid);
 //! let (budget, _) = dem::default_memory_budget();
@@ -27,7 +27,7 @@ mod input;
 mod stream;
 
 pub use grid::{part_window, GridSize, GridSpec};
-pub use input::{read_scene, Input, InputKind, PointsRead};
+pub use input::{read_scene, Input, InputKind, PointsRead, ReadOptions};
 pub use stream::{band_rows, bytes_per_cell, default_memory_budget, write_dem, Destinations, Run, PREVIEW_SIDE};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
 
@@ -57,6 +57,18 @@ pub enum DemError {
     /// A cell size gives too few or too many cells along its extent.
     #[error("{extent} / {res} gives {cells} cells along {axis}; it must be between 1 and {}", crate::MAX_GRID_DIM)]
     CellCount { axis: char, extent: f64, res: f64, cells: f64 },
+    /// Neither the extent nor an input to take it from.
+    #[error("no extent: give --txe XMIN XMAX and --tye YMIN YMAX, or an input to take the extent from")]
+    NoExtent,
+    /// `--tap` with a size in cells.
+    #[error("--tap aligns the extent to the cell size: give the cell size with --tr XRES YRES instead of --outsize")]
+    TapNeedsResolution,
+    /// `--max-edge` is not a positive length.
+    #[error("--max-edge is {0}; give the longest edge to keep, a positive length in map units")]
+    MaxEdge(f64),
+    /// `--class` on a file that has no classifications.
+    #[error("{}: --class filters LAS/LAZ points by classification; delimited text has none", path.display())]
+    ClassesOfText { path: PathBuf },
     /// Part `k` of `n` lies beyond the grid's rows.
     #[error("the grid's {rows} rows make only {parts} parts of {part_rows} rows; give fewer parts")]
     NoSuchPart { k: u32, n: u32, rows: u32, parts: u32, part_rows: u32 },

@@ -12,20 +12,26 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Read the points of a LAS or LAZ file.
 pub fn read_las(path: &Path) -> Result<Vec<[f64; 3]>, IoError> {
+    read_las_classes(path, &[])
+}
+
+/// Read the points of a LAS or LAZ file whose classification is one of `classes` (all points
+/// when it is empty): `&[2]` keeps the ground points, the usual step before a bare-earth DEM.
+pub fn read_las_classes(path: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, IoError> {
     let file = std::fs::File::open(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
-    read_from(BufReader::new(file), path)
+    read_from(BufReader::new(file), path, classes)
 }
 
 /// Parse LAS or LAZ bytes; `origin` only names the source in errors.
 pub fn parse_las(bytes: &[u8], origin: &Path) -> Result<Vec<[f64; 3]>, IoError> {
-    read_from(Cursor::new(bytes.to_vec()), origin)
+    read_from(Cursor::new(bytes.to_vec()), origin, &[])
 }
 
 /// Stack of the thread that decodes, and how deep into it `laz` may be when it reads.
 const DECODING_STACK: usize = 256 << 20;
 const DECODING_DEPTH: usize = 16 << 20;
 
-fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Path) -> Result<Vec<[f64; 3]>, IoError> {
+fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, IoError> {
     let io = |source| IoError::Io { path: origin.to_owned(), source };
     let len = source.seek(SeekFrom::End(0)).map_err(io)?;
     let plan = vet(&mut source, len).map_err(|e| unreadable(origin, e))?;
@@ -38,6 +44,7 @@ fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Pat
     // located in `laz` unwind.)
     silence_laz_panics();
     let path = origin.to_owned();
+    let classes = classes.to_vec();
     let decoding = std::thread::Builder::new()
         .name(DECODER_THREAD.into())
         .stack_size(DECODING_STACK)
@@ -47,7 +54,7 @@ fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Pat
             let guard = Guard { source, at: 0, plan, next: 0, armed: armed.clone(), base: stack_address() };
             let mut reader = las::Reader::new(guard).map_err(|e| unreadable(&path, e))?;
             armed.store(true, Ordering::Relaxed);
-            points(&mut reader, len, &fail)
+            points(&mut reader, len, &classes, &fail)
         })
         .map_err(io)?;
     decoding.join().unwrap_or_else(|panic| {
@@ -79,17 +86,29 @@ fn unreadable(path: &Path, e: impl std::fmt::Display) -> IoError {
     IoError::Format { path: path.to_owned(), message: format!("not a readable LAS/LAZ file: {e}") }
 }
 
-fn points(reader: &mut las::Reader, len: u64, fail: &dyn Fn(String) -> IoError) -> Result<Vec<[f64; 3]>, IoError> {
+fn points(reader: &mut las::Reader, len: u64, classes: &[u8], fail: &dyn Fn(String) -> IoError) -> Result<Vec<[f64; 3]>, IoError> {
     let header = reader.header();
     // No more than the input's bytes hold uncompressed (a LAZ file's grow past that).
     let record_len = u64::from(header.point_format().len()).max(1);
     let mut points = Vec::with_capacity(header.number_of_points().min(len / record_len) as usize);
+    // Points of each classification, for the error when none is kept.
+    let mut seen = [0u64; 256];
     for (record, point) in reader.points().enumerate() {
         let p = point.map_err(|e| fail(format!("point record {record}: {e}")))?;
+        let class = u8::from(p.classification);
+        seen[class as usize] += 1;
+        if !(classes.is_empty() || classes.contains(&class)) {
+            continue;
+        }
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             return Err(fail(format!("point record {record}: ({}, {}, {}) is not finite", p.x, p.y, p.z)));
         }
         points.push([p.x, p.y, p.z]);
+    }
+    if points.is_empty() && seen.iter().any(|&n| n > 0) {
+        let held: Vec<String> = (0..256).filter(|&c| seen[c] > 0).map(|c| format!("class {c}: {} points", seen[c])).collect();
+        let asked: Vec<String> = classes.iter().map(u8::to_string).collect();
+        return Err(fail(format!("no point is of class {} (the file holds {}); choose other classes or leave --class out", asked.join(" or "), held.join(", "))));
     }
     if points.is_empty() {
         return Err(fail("the file holds no points".into()));
@@ -400,6 +419,36 @@ mod tests {
         let garbage = dir.join("g.las");
         std::fs::write(&garbage, b"LASF but not really").unwrap();
         assert!(read_las(&garbage).unwrap_err().to_string().starts_with(&format!("{}: not a readable LAS/LAZ file", garbage.display())));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// `--class`: only the points of the classes asked for, in file order; none of them is an
+    /// error that lists the classes the file holds.
+    #[test]
+    fn classes_filter_the_points() {
+        let dir = std::env::temp_dir().join(format!("tileraster-las-classes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let points = grid_points(60);
+        let class = |k: usize| [1u8, 2, 2, 9][k % 4];
+        for name in ["c.las", "c.laz"] {
+            let path = dir.join(name);
+            let mut builder = las::Builder::from((1, 4));
+            builder.point_format.is_compressed = name.ends_with('z');
+            builder.transforms = las::Vector { x: las::Transform { scale: 0.01, offset: 1000.0 }, y: las::Transform { scale: 0.01, offset: 2000.0 }, z: las::Transform { scale: 0.01, offset: 0.0 } };
+            let mut writer = las::Writer::from_path(&path, builder.into_header().unwrap()).unwrap();
+            for (k, p) in points.iter().enumerate() {
+                let classification = las::point::Classification::new(class(k)).unwrap();
+                writer.write_point(las::Point { x: p[0], y: p[1], z: p[2], classification, ..Default::default() }).unwrap();
+            }
+            writer.close().unwrap();
+            drop(writer);
+            let of = |classes: &[u8]| points.iter().enumerate().filter(|(k, _)| classes.contains(&class(*k))).map(|(_, p)| *p).collect::<Vec<_>>();
+            assert_eq!(read_las_classes(&path, &[2]).unwrap(), of(&[2]), "{name}");
+            assert_eq!(read_las_classes(&path, &[9, 2]).unwrap(), of(&[2, 9]), "{name}");
+            assert_eq!(read_las_classes(&path, &[]).unwrap(), points, "{name}");
+            let e = read_las_classes(&path, &[6, 7]).unwrap_err().to_string();
+            assert!(e.contains("no point is of class 6 or 7 (the file holds class 1: 15 points, class 2: 30 points, class 9: 15 points)"), "{e}");
+        }
         std::fs::remove_dir_all(&dir).ok();
     }
 

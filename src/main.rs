@@ -10,7 +10,7 @@ use cli::progress::{note, set_quiet, Progress};
 use tileraster::dem::{self, Destinations, GridSize, GridSpec};
 use tileraster::{rasterise, Backend, Grid, Mode, Params, Raster, Skip, Skips, Window};
 use tileraster_testkit::scenes;
-use tileraster_io::{GeoTiffOptions, PointColumns};
+use tileraster_io::{GeoTiffOptions, PointColumns, Sample};
 
 #[derive(Parser)]
 #[command(name = "tileraster", version, about = "Deterministic triangle rasteriser: bit-identical heightfields on CPU and GPU")]
@@ -130,17 +130,28 @@ struct RasteriseArgs {
     quiet: bool,
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
-    /// Value of cells no triangle covers (written as the GDAL_NODATA tag).
-    #[arg(long, default_value = "-9999", allow_negative_numbers = true)]
-    nodata: f32,
+    /// Value of cells no triangle covers (written as the GDAL_NODATA tag; default -9999).
+    #[arg(long, allow_negative_numbers = true)]
+    nodata: Option<f32>,
+    /// gdal_grid's -a: linear[:radius=R][:nodata=V]. Cells outside every triangle take the z
+    /// of the nearest input point within R, as gdal_grid 3.6 picks it (R < 0, bare `linear`'s
+    /// default: at any distance; R = 0: nodata, as without this flag); nodata=V is --nodata.
+    #[arg(long = "algorithm", short = 'a', value_name = "linear[:radius=R][:nodata=V]", allow_hyphen_values = true)]
+    algorithm: Option<dem::Linear>,
     /// The CRS, as an EPSG code (gdal_grid's -a_srs), written as GeoKeys.
     #[arg(long = "a_srs", value_name = "EPSG:CODE", value_parser = tileraster_io::parse_epsg)]
     a_srs: Option<u16>,
     /// A GeoTIFF creation option, as gdal_grid's -co (repeatable): TILED=YES (256 × 256
-    /// tiles), COMPRESS=DEFLATE, BIGTIFF=YES|NO|IF_NEEDED (default IF_NEEDED). Output
-    /// streamed in bands is tiled unless TILED=NO is given.
+    /// tiles), COMPRESS=DEFLATE|ZSTD, PREDICTOR=2|3|YES (with compression; YES: 3 for heights,
+    /// 2 for owners), BIGTIFF=YES|NO|IF_NEEDED (default IF_NEEDED), COG=YES. Output streamed
+    /// in bands is tiled unless TILED=NO is given.
     #[arg(long = "co", value_name = "NAME=VALUE")]
     creation_options: Vec<String>,
+    /// The output format, as gdal_translate's -of: GTiff (the default) or COG, a
+    /// cloud-optimised GeoTIFF (as --co COG=YES): tiled, with averaged overviews, its
+    /// directories ahead of the data as GDAL's COG driver lays them out.
+    #[arg(long = "of", value_name = "GTiff|COG")]
+    format: Option<String>,
     /// Also write a hillshaded PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -197,11 +208,24 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
 
 /// `tileraster rasterise`: read, triangulate if points, rasterise in bands, write.
 fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
-    let RasteriseArgs { input, columns, output, txe, tye, outsize, tr, tap, classes, max_edge, window, part, owner, tin, memory, quiet, backend, nodata, a_srs, creation_options, preview, mode, stats, no_skip } = *args;
+    let RasteriseArgs { input, columns, output, txe, tye, outsize, tr, tap, classes, max_edge, window, part, owner, tin, memory, quiet, backend, nodata, algorithm, a_srs, creation_options, format, preview, mode, stats, no_skip } = *args;
     set_quiet(quiet);
+    let linear = algorithm.unwrap_or_default();
+    let nodata = match (nodata, linear.nodata) {
+        (Some(a), Some(b)) if a.to_bits() != b.to_bits() => return Err(format!("--nodata {a} and --algorithm's nodata={b} differ; give one")),
+        (a, b) => a.or(b).unwrap_or(-9999.0),
+    };
     let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
     for option in &creation_options {
         tiff.apply(option)?;
+    }
+    if let Some(format) = &format {
+        tiff.apply_format(format)?;
+    }
+    // Options a file's sample type refuses, refused before anything is read.
+    tiff.check(Sample::Float32 { nodata }).map_err(|e| format!("{}: {e}", output.display()))?;
+    if let Some(owner) = &owner {
+        tiff.check(Sample::UInt32).map_err(|e| format!("{}: {e}", owner.display()))?;
     }
     let size = match (outsize, tr) {
         (Some(size), _) => GridSize::Cells { width: size[0], height: size[1] },
@@ -218,7 +242,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     let given = (spec.txe.is_some() && spec.tye.is_some()).then(|| spec.grid()).transpose().map_err(grid_error)?;
     let progress = Progress::start();
     progress.stage(format!("reading {}", input.display()));
-    let options = dem::ReadOptions { columns: columns.unwrap_or_default(), classes, max_edge };
+    let options = dem::ReadOptions { columns: columns.unwrap_or_default(), classes, max_edge, keep_points: linear.radius != 0.0 };
     let read = dem::read_scene(&input, &options, &progress).map_err(|e| e.to_string())?;
     if let Some(points) = &read.points {
         note(format!(
@@ -250,6 +274,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         (None, None) => Window::whole(&grid),
     };
     let scene = read.scene;
+    let fallback = dem::Fallback::new(read.points_read.as_deref().unwrap_or(&scene.vertices), linear.radius);
     let backend = choose_backend(backend)?;
     let mut skips = Skips::ALL;
     for &skip in &no_skip {
@@ -258,7 +283,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     let layers = tileraster::Outputs { owner: owner.is_some(), coverage: false };
     let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(layers);
     let (budget, set_by) = memory.map_or_else(dem::default_memory_budget, |mib| (mib << 20, "--memory"));
-    let band_rows = dem::band_rows(&window, dem::bytes_per_cell(owner.is_some(), backend), budget);
+    let band_rows = dem::band_rows(&window, dem::bytes_per_cell(owner.is_some() || fallback.is_some(), backend), budget);
     if band_rows < window.height {
         if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
             tiff.tiled = true;
@@ -273,7 +298,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     }
     let files = Destinations { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
     let start = Instant::now();
-    let run = dem::write_dem(&scene, &params, window, backend, band_rows, &files, &progress).map_err(|e| e.to_string())?;
+    let run = dem::write_dem(&scene, &params, window, backend, band_rows, &files, fallback.as_ref(), &progress).map_err(|e| e.to_string())?;
     if let Some(path) = &tin {
         tileraster_io::write_obj(&scene, path).map_err(|e| e.to_string())?;
     }
@@ -295,6 +320,9 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         },
         output.display()
     ));
+    if fallback.is_some() {
+        note(format!("tileraster: --algorithm linear:radius={}: {} cells outside every triangle took the nearest point's z", linear.radius, run.filled));
+    }
     if stats {
         for band in &run.bands {
             eprintln!("{}", band.to_json());

@@ -709,3 +709,76 @@ fn the_inputs_extent_classes_and_the_longest_edge() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--class filters LAS/LAZ points"), "{}", String::from_utf8_lossy(&out.stderr));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--of COG`: a cloud-optimised GeoTIFF that GDAL's validator accepts, the same bytes when
+/// streamed in bands as in one, and (owner layers too) the same on both backends.
+#[test]
+fn cloud_optimised_geotiffs_validate_and_do_not_depend_on_bands() {
+    let scene = scenes::terrain(0.0, 0.0, 600.0, 900.0, 9, 13, 8);
+    let (dir, obj) = mesh_file("cog", &scene);
+    let grid = ["--txe", "-20", "610", "--tye", "-5", "905", "--outsize", "700", "1100"];
+    let cog = ["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=YES"];
+    let (single, banded, owner) = (dir.join("single.tif"), dir.join("banded.tif"), dir.join("owner.tif"));
+    let out = rasterise_cli(&obj, &single, &[&grid[..], &cog[..]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = rasterise_cli(&obj, &banded, &[&grid[..], &cog[..], &["--memory", "1", "--owner", owner.to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && stderr.contains("5 bands"), "{stderr}");
+    assert!(std::fs::read(&single).unwrap() == std::fs::read(&banded).unwrap(), "banded and single COGs differ");
+    assert_same_bits(&read_tif_values(&banded), &read_tif_values(&dir.join("single.tif")), "COG values");
+    let has_validator = Command::new("/usr/bin/python3").args(["-c", "import osgeo_utils"]).output().is_ok_and(|o| o.status.success());
+    if !has_validator && std::env::var_os("TILERASTER_SKIP_GDAL").is_some_and(|v| v == "1") {
+        eprintln!("SKIPPED: GDAL's COG validator is not installed and TILERASTER_SKIP_GDAL=1");
+    } else {
+        assert!(has_validator, "GDAL's Python utilities are not installed: apt-get install python3-gdal, or set TILERASTER_SKIP_GDAL=1");
+        for file in [&banded, &owner] {
+            let check = Command::new("/usr/bin/python3")
+                .args(["-m", "osgeo_utils.samples.validate_cloud_optimized_geotiff", "--full-check=yes"])
+                .arg(file)
+                .output()
+                .unwrap();
+            let said = String::from_utf8_lossy(&check.stdout).to_string() + &String::from_utf8_lossy(&check.stderr);
+            assert!(check.status.success() && said.contains("is a valid cloud optimized GeoTIFF") && !said.contains("arning"), "{}: {said}", file.display());
+        }
+    }
+    // Predictor 3 is for floating point: refused for the owner file before anything is read.
+    let out = rasterise_cli(&obj, &dir.join("p3.tif"), &[&grid[..], &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=3", "--owner", dir.join("p3-owner.tif").to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("p3-owner.tif") && stderr.contains("PREDICTOR=2"), "{stderr}");
+    assert!(!dir.join("p3.tif").exists() && !dir.join("p3-owner.tif").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `--algorithm linear:radius=R:nodata=V`, gdal_grid's spelling: cells outside the TIN take
+/// the nearest point's z within R; its nodata is --nodata; other algorithms are refused.
+#[test]
+fn the_linear_algorithms_radius_fills_cells_outside_the_tin() {
+    let dir = scratch("linear");
+    let csv = dir.join("p.csv");
+    std::fs::write(&csv, "x,y,z\n10,10,1\n30,10,2\n10,30,3\n30,30,4\n").unwrap();
+    let grid = ["--txe", "0", "40", "--tye", "0", "40", "--outsize", "40", "40"];
+    let tif = dir.join("dem.tif");
+    let run = |args: &[&str]| {
+        let out = rasterise_cli(&csv, &tif, &[&grid[..], args].concat());
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        read_tif_values(&tif)
+    };
+    let at = |values: &[f32], x: usize, y: usize| values[(39 - y) * 40 + x];
+    let plain = run(&[]);
+    assert_eq!(at(&plain, 0, 0), -9999.0);
+    let inside = |values: &[f32]| (0..values.len()).filter(|&k| plain[k] != -9999.0).all(|k| values[k] == plain[k]);
+    let all = run(&["-a", "linear"]);
+    assert_eq!((at(&all, 0, 0), at(&all, 39, 39), at(&all, 39, 0)), (1.0, 4.0, 2.0), "bare linear: any distance");
+    assert!(all.iter().all(|&v| v != -9999.0) && inside(&all));
+    let near = run(&["--algorithm", "linear:radius=5:nodata=-1"]);
+    assert_eq!((at(&near, 0, 0), at(&near, 6, 6), at(&near, 39, 39), at(&near, 34, 34)), (-1.0, 1.0, -1.0, 4.0));
+    assert!(inside(&near));
+    for (args, expected) in [
+        (&["-a", "invdist:power=2"][..], "give linear[:radius=R][:nodata=V]"),
+        (&["-a", "linear:nodata=0", "--nodata", "5"], "differ; give one"),
+    ] {
+        let out = rasterise_cli(&csv, &tif, &[&grid[..], args].concat());
+        assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains(expected), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

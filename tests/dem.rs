@@ -34,7 +34,7 @@ fn a_window_streamed_in_bands_is_the_single_call_bit_for_bit() {
     assert_eq!(rows, 256);
     let (heights, owner) = (dir.join("dem.tif"), dir.join("owner.tif"));
     let files = Destinations { heights: &heights, owner: Some(&owner), preview: None, tiff: Default::default() };
-    let run = dem::write_dem(&input.scene, &params, window, Backend::Cpu, rows, &files, &()).unwrap();
+    let run = dem::write_dem(&input.scene, &params, window, Backend::Cpu, rows, &files, None, &()).unwrap();
     assert_eq!(run.bands.len(), 3);
     let single = rasterise_window(&scene, &params.with_outputs(Outputs { owner: true, coverage: false }), Some(window), Backend::Cpu).unwrap();
     let DecodingResult::F32(values) = read_tif(&heights) else { panic!("heights are not Float32") };
@@ -63,7 +63,7 @@ fn bad_dem_input_gets_a_typed_error_and_leaves_no_file() {
     let empty = tileraster::Scene::new(vec![], vec![]);
     let tif = dir.join("never.tif");
     let files = Destinations { heights: &tif, owner: None, preview: None, tiff: Default::default() };
-    let result = dem::write_dem(&empty, &Params::new(grid), Window::whole(&grid), Backend::Cpu, 10, &files, &());
+    let result = dem::write_dem(&empty, &Params::new(grid), Window::whole(&grid), Backend::Cpu, 10, &files, None, &());
     assert!(matches!(result, Err(DemError::Raster(_))), "{result:?}");
     assert!(!tif.exists());
     std::fs::remove_dir_all(&dir).ok();

@@ -181,13 +181,13 @@ fn las_files_never_panic_and_are_refused_or_read_consistently() {
 /// a CRS, UInt32 owners.
 fn part_files() -> Vec<Vec<u8>> {
     use tileraster::{Grid, Window};
-    use tileraster_io::{BigTiff, GeoTiffOptions, GeoTiffWriter, Sample};
+    use tileraster_io::{BigTiff, Compression, GeoTiffOptions, GeoTiffWriter, Sample};
     let dir = std::env::temp_dir().join(format!("tileraster-fuzz-parts-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let grid = Grid::new(500_000.0, 500_300.0, 5_000_000.0, 5_000_200.0, 30, 20);
     let cases = [
         (Sample::Float32 { nodata: -9999.0 }, GeoTiffOptions::default()),
-        (Sample::Float32 { nodata: f32::NAN }, GeoTiffOptions { tiled: true, deflate: true, epsg: Some(32633), ..Default::default() }),
+        (Sample::Float32 { nodata: f32::NAN }, GeoTiffOptions { tiled: true, compress: Compression::Deflate, epsg: Some(32633), ..Default::default() }),
         (Sample::UInt32, GeoTiffOptions { bigtiff: BigTiff::Yes, epsg: Some(4326), ..Default::default() }),
     ];
     let files = cases

@@ -53,6 +53,9 @@ pub struct ReadOptions {
     /// Leave out every triangle with an edge longer than this (in map units, measured in x
     /// and y), so that water bodies and gaps in the data stay nodata instead of being bridged.
     pub max_edge: Option<f64>,
+    /// Keep a point file's points, repeats included, in [`Input::points_read`] (for
+    /// [`Fallback`](super::Fallback), which searches them as gdal_grid does).
+    pub keep_points: bool,
 }
 
 /// A scene read from a file.
@@ -62,6 +65,9 @@ pub struct Input {
     pub points: Option<PointsRead>,
     /// Triangles left out by [`ReadOptions::max_edge`].
     pub long_triangles: usize,
+    /// A point file's points in file order, repeats included, when
+    /// [`ReadOptions::keep_points`] asks for them.
+    pub points_read: Option<Vec<[f64; 3]>>,
 }
 
 /// What reading and triangulating a point file did.
@@ -95,7 +101,7 @@ pub fn read_scene(path: &Path, options: &ReadOptions, progress: &dyn Progress) -
 }
 
 fn read(path: &Path, kind: InputKind, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
-    let mesh = |scene| Ok(Input { scene, points: None, long_triangles: 0 });
+    let mesh = |scene| Ok(Input { scene, points: None, long_triangles: 0, points_read: None });
     match kind {
         InputKind::Obj => mesh(tileraster_io::read_obj(path)?),
         InputKind::Ply => mesh(tileraster_io::read_ply(path)?),
@@ -113,8 +119,8 @@ fn read(path: &Path, kind: InputKind, options: &ReadOptions, progress: &dyn Prog
             let read = start.elapsed();
             progress.stage(&format!("triangulating {} points", points.len()));
             let tin = tileraster_tin::triangulate(&points).map_err(|source| DemError::Triangulation { path: path.to_owned(), source })?;
-            let points = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
-            Ok(Input { scene: tin.scene, points: Some(points), long_triangles: 0 })
+            let summary = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
+            Ok(Input { scene: tin.scene, points: Some(summary), long_triangles: 0, points_read: options.keep_points.then_some(points) })
         }
     }
 }

@@ -4,6 +4,8 @@
 //! - [`GridSpec`] is a grid as gdal_grid's `-txe`, `-tye` and `-outsize` or `-tr` give it;
 //!   [`part_window`] is band K of N of its rows, for cluster jobs.
 //! - [`read_scene`] reads a mesh, or builds the Delaunay TIN of a point file, by file type.
+//! - [`Linear`] and [`Fallback`]: gdal_grid's `linear:radius=R`, the nearest point's z in
+//!   cells outside every triangle.
 //! - [`write_dem`] rasterises a window in bands of rows that fit a memory budget
 //!   ([`band_rows`], [`default_memory_budget`]) and streams them to GeoTIFFs: memory holds one
 //!   band whatever the grid's size, and every band's cells are the whole grid's there.
@@ -18,16 +20,18 @@
 //! let (budget, _) = dem::default_memory_budget();
 //! let rows = dem::band_rows(&window, dem::bytes_per_cell(false, Backend::Cpu), budget);
 //! let files = Destinations { heights: Path::new("dem.tif"), owner: None, preview: None, tiff: Default::default() };
-//! dem::write_dem(&input.scene, &Params::new(grid), window, Backend::Cpu, rows, &files, &())?;
+//! dem::write_dem(&input.scene, &Params::new(grid), window, Backend::Cpu, rows, &files, None, &())?;
 //! # Ok::<(), tileraster::dem::DemError>(())
 //! ```
 
 mod grid;
 mod input;
+mod linear;
 mod stream;
 
 pub use grid::{part_window, GridSize, GridSpec};
-pub use input::{read_scene, Input, InputKind, PointsRead, ReadOptions};
+pub use input::{drop_long_triangles, read_scene, Input, InputKind, PointsRead, ReadOptions};
+pub use linear::{Fallback, Linear};
 pub use stream::{band_rows, bytes_per_cell, default_memory_budget, write_dem, Destinations, Run, PREVIEW_SIDE};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
 

@@ -3,7 +3,7 @@
 //! grid's size. Every band's cells are the whole grid's there, so the files do not depend
 //! on how the window was cut.
 
-use super::{DemError, Progress};
+use super::{DemError, Fallback, Progress};
 use crate::{Backend, Grid, Params, PreparedScene, Raster, Scene, Stats, Window};
 use std::path::Path;
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample, TILE};
@@ -26,6 +26,8 @@ pub struct Run {
     /// Each band's statistics, top to bottom.
     pub bands: Vec<Stats>,
     pub snap_bits: u32,
+    /// Cells outside every triangle that the fallback filled.
+    pub filled: u64,
 }
 
 /// The longest side of a preview; larger windows are sampled every few cells.
@@ -50,8 +52,10 @@ pub fn band_rows(window: &Window, bytes_per_cell: u64, budget: u64) -> u32 {
 }
 
 /// Rasterise `window` of `params.grid` on `backend` in bands of `band_rows` rows (see
-/// [`band_rows`]), each written to `outputs` before the next is drawn. An owner file turns
-/// the owner layer on.
+/// [`band_rows`]), each written to `outputs` before the next is drawn, with the cells outside
+/// every triangle filled by `fallback` when given. An owner file or a fallback turns the
+/// owner layer on (count it in [`bytes_per_cell`]).
+#[allow(clippy::too_many_arguments)]
 pub fn write_dem(
     scene: &Scene,
     params: &Params,
@@ -59,21 +63,25 @@ pub fn write_dem(
     backend: Backend,
     band_rows: u32,
     outputs: &Destinations,
+    fallback: Option<&Fallback>,
     progress: &dyn Progress,
 ) -> Result<Run, DemError> {
     let mut params = *params;
-    params.outputs.owner |= outputs.owner.is_some();
+    params.outputs.owner |= outputs.owner.is_some() || fallback.is_some();
     let prepared = crate::prepare(scene, &params, Some(window))?;
     let mut scene = PreparedScene::from_prepared(prepared, backend);
     let grid = &params.grid;
     let mut heights = GeoTiffWriter::create(outputs.heights, grid, window, Sample::Float32 { nodata: params.nodata }, &outputs.tiff)?;
     let mut owner = outputs.owner.map(|path| GeoTiffWriter::create(path, grid, window, Sample::UInt32, &outputs.tiff)).transpose()?;
     let mut preview = outputs.preview.map(|_| Sampled::new(grid, window, params.nodata));
-    let mut run = Run { bands: Vec::new(), snap_bits: 0 };
+    let mut run = Run { bands: Vec::new(), snap_bits: 0, filled: 0 };
     progress.rows("rasterising", window.height as u64);
     for y in (0..window.height).step_by(band_rows as usize) {
         let band = Window { x0: window.x0, y0: window.y0 + y, width: window.width, height: band_rows.min(window.height - y) };
-        let raster = scene.rasterise_window(band)?;
+        let mut raster = scene.rasterise_window(band)?;
+        if let Some(fallback) = fallback {
+            run.filled += fallback.fill(&mut raster);
+        }
         heights.write_rows(&raster.values)?;
         if let (Some(file), Some(layer)) = (&mut owner, raster.owner.as_deref()) {
             file.write_rows(layer)?;

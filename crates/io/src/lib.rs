@@ -1,10 +1,11 @@
 //! File formats: meshes (OBJ, PLY, STL, glTF 2.0) and point sets (CSV and XYZ text, LAS and LAZ) in;
 //! OBJ meshes (a point set's TIN),
-//! single-band GeoTIFFs (streamed band by band), VRT mosaics of them, and PNG hillshade
+//! single-band GeoTIFFs and COGs (streamed band by band), VRT mosaics of them, and PNG hillshade
 //! previews out.
 //! Writers go through a temporary file in the destination's folder and rename it into place,
 //! so a failed run never leaves a partial file behind.
 
+mod cog;
 mod geotiff;
 mod gltf_mesh;
 mod las;
@@ -15,7 +16,7 @@ mod preview;
 mod stl;
 mod vrt;
 
-pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, GeoTiffOptions, GeoTiffWriter, Sample, TILE};
+pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, Compression, GeoTiffOptionError, GeoTiffOptions, GeoTiffWriter, Predictor, Sample, TILE};
 pub use gltf_mesh::read_gltf;
 pub use obj::{parse_obj, parse_obj_mesh, read_obj, read_obj_mesh, write_obj};
 pub use las::{parse_las, read_las, read_las_classes};
@@ -37,6 +38,9 @@ pub enum IoError {
     Parse { path: PathBuf, line: usize, message: String },
     #[error("{path}: {message}")]
     Format { path: PathBuf, message: String },
+    /// GeoTIFF creation options that do not go together, or not with the file's samples.
+    #[error("{path}: {source}")]
+    Options { path: PathBuf, source: GeoTiffOptionError },
 }
 
 /// The suffix of a file being written: `dem.tif` is written as `dem.tif.tileraster-partial`

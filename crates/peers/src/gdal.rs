@@ -30,6 +30,18 @@ pub fn gdal_grid_linear(
     nodata: f32,
     workdir: &Path,
 ) -> Result<(Vec<f32>, f64), String> {
+    gdal_grid_linear_radius(points, grid, 0.0, nodata, workdir)
+}
+
+/// [`gdal_grid_linear`] with `-a linear:radius=<radius>:nodata=<nodata>`: outside the hull,
+/// the nearest point's z within `radius` (any distance when negative).
+pub fn gdal_grid_linear_radius(
+    points: &[[f64; 3]],
+    grid: &Grid,
+    radius: f64,
+    nodata: f32,
+    workdir: &Path,
+) -> Result<(Vec<f32>, f64), String> {
     grid.validate().map_err(|e| e.to_string())?;
     if let Some((i, p)) = points.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
         return Err(format!("point {i} ({p:?}) has a non-finite coordinate"));
@@ -74,7 +86,7 @@ pub fn gdal_grid_linear(
     let mut command = Command::new("gdal_grid");
     command
         .arg("-q")
-        .args(["-a", &format!("linear:radius=0:nodata={nodata}")])
+        .args(["-a", &format!("linear:radius={radius}:nodata={nodata}")])
         .args(["-zfield", "Z"])
         .args(["-txe", &grid.xmin.to_string(), &grid.xmax.to_string()])
         .args(["-tye", &grid.ymin.to_string(), &grid.ymax.to_string()])

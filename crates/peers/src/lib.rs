@@ -16,6 +16,6 @@ mod mesh;
 mod render;
 
 pub use fill::{GpuFill, fill_cpu};
-pub use gdal::{gdal_grid_linear, gdal_grid_version};
+pub use gdal::{gdal_grid_linear, gdal_grid_linear_radius, gdal_grid_version};
 pub use mesh::{MeshPipeline, NO_ID};
 pub use render::RenderPipeline;

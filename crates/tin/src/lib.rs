@@ -9,6 +9,9 @@
 //! of them in input order is kept with its z, the others are dropped and counted. The
 //! triangulation has no randomness, so the same input gives the same TIN.
 
+pub mod nearest;
+
+pub use nearest::NearestPoints;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use tileraster_core::Scene;
 

@@ -1,0 +1,437 @@
+//! `tileraster._native`: the library for Python. numpy arrays in (copied once into the
+//! scene), numpy arrays out (the library's buffers handed over, not copied), the library's
+//! errors as `TilerasterError` with the same messages, and every long call interruptible
+//! by Ctrl-C. `tileraster/__init__.py` normalises arguments and documents the API.
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tileraster::dem::{self, GridSize, GridSpec};
+use tileraster::{Backend, Mode, Outputs, Params, PreparedScene, Raster as RustRaster, Scene as RustScene, Stats, Window};
+use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
+
+create_exception!(tileraster, TilerasterError, PyValueError, "What tileraster refused, with what was wrong and how to fix it.");
+
+fn error(e: impl std::fmt::Display) -> PyErr {
+    TilerasterError::new_err(e.to_string())
+}
+
+/// A grid as gdal_grid's flags give it (see `tileraster.Grid`).
+#[pyclass(frozen, module = "tileraster._native")]
+#[derive(Clone)]
+struct Grid {
+    spec: GridSpec,
+}
+
+#[pymethods]
+impl Grid {
+    #[new]
+    #[pyo3(signature = (*, txe = None, tye = None, outsize = None, tr = None, tap = false))]
+    fn new(txe: Option<(f64, f64)>, tye: Option<(f64, f64)>, outsize: Option<(u32, u32)>, tr: Option<(f64, f64)>, tap: bool) -> PyResult<Grid> {
+        let size = match (outsize, tr) {
+            (Some((width, height)), None) => GridSize::Cells { width, height },
+            (None, Some((x, y))) => GridSize::Resolution { x, y },
+            _ => return Err(error("give the raster size as outsize=(width, height) or the cell size as tr=(xres, yres), one of them")),
+        };
+        let spec = GridSpec { txe: txe.map(|(a, b)| [a, b]), tye: tye.map(|(a, b)| [a, b]), size, tap };
+        if tap && outsize.is_some() {
+            return Err(error(dem::DemError::TapNeedsResolution));
+        }
+        if spec.txe.is_some() && spec.tye.is_some() {
+            spec.grid().map_err(error)?;
+        }
+        Ok(Grid { spec })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("tileraster.Grid({:?})", self.spec)
+    }
+}
+
+/// A triangle mesh: vertices (x, y, z) and triangles (three vertex indices each).
+#[pyclass(frozen, module = "tileraster._native")]
+struct Scene {
+    scene: Arc<RustScene>,
+}
+
+#[pymethods]
+impl Scene {
+    #[new]
+    fn new(vertices: PyReadonlyArray2<'_, f64>, triangles: PyReadonlyArray2<'_, i64>) -> PyResult<Scene> {
+        Ok(Scene { scene: Arc::new(RustScene::new(vertices_of(&vertices, "vertices")?, triangles_of(&triangles)?)) })
+    }
+
+    /// The Delaunay TIN of points (x, y, z); of points with equal x, y the first is kept.
+    #[staticmethod]
+    fn from_points(py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<Scene> {
+        let points = vertices_of(&points, "points")?;
+        let tin = interruptible(py, move |_| tileraster_tin::triangulate(&points))?.map_err(error)?;
+        Ok(Scene { scene: Arc::new(tin.scene) })
+    }
+
+    #[getter]
+    fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(self.scene.vertices.iter().flatten().copied().collect(), 3).into_pyarray(py)
+    }
+
+    #[getter]
+    fn triangles<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
+        rows(self.scene.triangles.iter().flatten().copied().collect(), 3).into_pyarray(py)
+    }
+
+    /// This mesh without the triangles that have an edge longer than `max_edge` in x and y.
+    fn without_long_edges(&self, max_edge: f64) -> PyResult<Scene> {
+        if !(max_edge.is_finite() && max_edge > 0.0) {
+            return Err(error(dem::DemError::MaxEdge(max_edge)));
+        }
+        let mut scene = (*self.scene).clone();
+        dem::drop_long_triangles(&mut scene, max_edge);
+        Ok(Scene { scene: Arc::new(scene) })
+    }
+
+    fn __len__(&self) -> usize {
+        self.scene.triangles.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("tileraster.Scene({} vertices, {} triangles)", self.scene.vertices.len(), self.scene.triangles.len())
+    }
+}
+
+fn rows<T>(flat: Vec<T>, width: usize) -> Array2<T> {
+    let height = flat.len() / width.max(1);
+    Array2::from_shape_vec((height, width), flat).expect("whole rows")
+}
+
+fn vertices_of(array: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 3]>> {
+    let shape = array.shape();
+    if shape[1] != 3 {
+        return Err(error(format!("{what} has shape {shape:?}; give an (N, 3) array of x, y, z")));
+    }
+    let flat = array.as_slice().map_err(error)?;
+    Ok(flat.chunks_exact(3).map(|v| [v[0], v[1], v[2]]).collect())
+}
+
+fn triangles_of(array: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
+    let shape = array.shape();
+    if shape[1] != 3 {
+        return Err(error(format!("triangles has shape {shape:?}; give an (M, 3) array of vertex indices")));
+    }
+    let flat = array.as_slice().map_err(error)?;
+    let index = |k: usize| {
+        u32::try_from(flat[k]).map_err(|_| error(format!("triangle {} has vertex index {}; indices are 0-based and at most {}", k / 3, flat[k], u32::MAX)))
+    };
+    (0..flat.len() / 3).map(|t| Ok([index(3 * t)?, index(3 * t + 1)?, index(3 * t + 2)?])).collect()
+}
+
+/// How a call runs: its backend and the `Params` beyond the grid.
+struct Settings {
+    backend: Backend,
+    mode: Mode,
+    nodata: f32,
+    owner: bool,
+}
+
+impl Settings {
+    fn new(backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Settings> {
+        let backend = match backend {
+            "cpu" => Backend::Cpu,
+            "gpu" => Backend::Gpu,
+            // A hardware GPU if there is one; a CPU implementation of Vulkan is slower than the CPU backend.
+            "auto" => match tileraster::gpu_adapter() {
+                Ok(adapter) if !adapter.software => Backend::Gpu,
+                _ => Backend::Cpu,
+            },
+            other => return Err(error(format!("backend '{other}': give \"cpu\", \"gpu\" or \"auto\""))),
+        };
+        Ok(Settings { backend, mode: mode.parse().map_err(error)?, nodata, owner })
+    }
+
+    fn params(&self, grid: tileraster::Grid) -> Params {
+        Params::new(grid).with_nodata(self.nodata).with_mode(self.mode).with_outputs(Outputs { owner: self.owner, coverage: false })
+    }
+}
+
+fn window_of(window: Option<(u32, u32, u32, u32)>) -> Option<Window> {
+    window.map(|(x0, y0, width, height)| Window { x0, y0, width, height })
+}
+
+/// Run `work` on a thread of its own while this one waits without the GIL and checks for
+/// signals: Ctrl-C raises `KeyboardInterrupt` at once and sets the flag `work` is given,
+/// which banded work checks between bands to stop.
+fn interruptible<T: Send + 'static>(py: Python<'_>, work: impl FnOnce(&AtomicBool) -> T + Send + 'static) -> PyResult<T> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = cancel.clone();
+    let (send, mut receive) = mpsc::channel();
+    std::thread::Builder::new()
+        .name("tileraster".into())
+        .spawn(move || {
+            let _ = send.send(work(&flag));
+        })
+        .map_err(error)?;
+    loop {
+        let (received, back) = py.detach(move || (receive.recv_timeout(Duration::from_millis(50)), receive));
+        receive = back;
+        match received {
+            Ok(result) => return Ok(result),
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(interrupt) = py.check_signals() {
+                    cancel.store(true, Ordering::Relaxed);
+                    return Err(interrupt);
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => return Err(error("the rasterising thread stopped without a result (a panic: please report it)")),
+        }
+    }
+}
+
+/// Cells a call rasterises at once: larger windows run in bands of rows, so that Ctrl-C
+/// stops them between bands. Every band's cells are the whole window's there.
+const BAND_CELLS: u64 = 1 << 24;
+
+/// Rasterise `window` of a prepared scene in bands, stopping when `cancel` is set.
+fn rasterise_banded(prepared: &mut PreparedScene, window: Window, cancel: &AtomicBool) -> Result<Option<(RustRaster, Vec<Stats>)>, tileraster::Error> {
+    let band_rows = dem::band_rows(&window, 1, BAND_CELLS);
+    if band_rows >= window.height {
+        let raster = prepared.rasterise_window(window)?;
+        let stats = vec![raster.stats.clone()];
+        return Ok(Some((raster, stats)));
+    }
+    let mut whole: Option<RustRaster> = None;
+    let mut stats = Vec::new();
+    for y in (0..window.height).step_by(band_rows as usize) {
+        if cancel.load(Ordering::Relaxed) {
+            return Ok(None);
+        }
+        let band = prepared.rasterise_window(Window { y0: window.y0 + y, height: band_rows.min(window.height - y), ..window })?;
+        stats.push(band.stats.clone());
+        match &mut whole {
+            None => {
+                // The whole window's layers, allocated once.
+                let cells = window.pixel_count() as usize;
+                let mut values = Vec::with_capacity(cells);
+                values.extend_from_slice(&band.values);
+                let owner = band.owner.as_ref().map(|part| {
+                    let mut owner = Vec::with_capacity(cells);
+                    owner.extend_from_slice(part);
+                    owner
+                });
+                whole = Some(RustRaster { window, values, owner, ..band });
+            }
+            Some(raster) => {
+                raster.values.extend_from_slice(&band.values);
+                if let (Some(all), Some(part)) = (&mut raster.owner, &band.owner) {
+                    all.extend_from_slice(part);
+                }
+            }
+        }
+    }
+    Ok(whole.map(|raster| (raster, stats)))
+}
+
+/// A rasterised window: heights (and owner triangles) as numpy arrays, with its
+/// georeferencing (see `tileraster.Raster`).
+#[pyclass(frozen, module = "tileraster._native")]
+struct Raster {
+    #[pyo3(get)]
+    values: Py<PyArray2<f32>>,
+    #[pyo3(get)]
+    owner: Option<Py<PyArray2<u32>>>,
+    #[pyo3(get)]
+    nodata: f32,
+    /// What the call did and skipped: one dict per band it ran in.
+    #[pyo3(get)]
+    bands: Py<PyList>,
+    grid: tileraster::Grid,
+    window: Window,
+}
+
+impl Raster {
+    fn new(py: Python<'_>, raster: RustRaster, stats: &[Stats]) -> PyResult<Raster> {
+        let width = raster.window.width as usize;
+        let bands = PyList::empty(py);
+        for band in stats {
+            bands.append(stats_dict(py, band)?)?;
+        }
+        Ok(Raster {
+            values: rows(raster.values, width).into_pyarray(py).unbind(),
+            owner: raster.owner.map(|owner| rows(owner, width).into_pyarray(py).unbind()),
+            nodata: raster.nodata,
+            bands: bands.unbind(),
+            grid: raster.grid,
+            window: raster.window,
+        })
+    }
+
+    /// The window's west and north edges and its cell size.
+    fn corner(&self) -> (f64, f64, f64, f64) {
+        let (dx, dy) = (self.grid.dx(), self.grid.dy());
+        (self.grid.xmin + self.window.x0 as f64 * dx, self.grid.ymax - self.window.y0 as f64 * dy, dx, dy)
+    }
+}
+
+fn stats_dict<'py>(py: Python<'py>, stats: &Stats) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    dict.set_item("tiles_total", stats.tiles_total)?;
+    dict.set_item("tiles_empty_skipped", stats.tiles_empty_skipped)?;
+    dict.set_item("tiles_full", stats.tiles_full)?;
+    dict.set_item("tiles_partial", stats.tiles_partial)?;
+    dict.set_item("triangles_culled", stats.triangles_culled)?;
+    dict.set_item("triangles_flat", stats.triangles_flat)?;
+    dict.set_item("triangles_binned", stats.triangles_binned)?;
+    dict.set_item("overlap_free", stats.overlap_free)?;
+    dict.set_item("passes", stats.passes.iter().map(|p| p.name()).collect::<Vec<_>>())?;
+    dict.set_item("bytes_uploaded", stats.bytes_uploaded)?;
+    Ok(dict)
+}
+
+#[pymethods]
+impl Raster {
+    /// rasterio's affine transform, as (a, b, c, d, e, f): `Affine(*raster.transform)`.
+    #[getter]
+    fn transform(&self) -> (f64, f64, f64, f64, f64, f64) {
+        let (west, north, dx, dy) = self.corner();
+        (dx, 0.0, west, 0.0, -dy, north)
+    }
+
+    /// GDAL's geotransform: (west, dx, 0, north, 0, -dy).
+    #[getter]
+    fn geotransform(&self) -> (f64, f64, f64, f64, f64, f64) {
+        let (west, north, dx, dy) = self.corner();
+        (west, dx, 0.0, north, 0.0, -dy)
+    }
+
+    /// (west, south, east, north), as rasterio's bounds.
+    #[getter]
+    fn bounds(&self) -> (f64, f64, f64, f64) {
+        let (west, north, dx, dy) = self.corner();
+        (west, north - self.window.height as f64 * dy, west + self.window.width as f64 * dx, north)
+    }
+
+    /// The grid's (xmin, xmax, ymin, ymax, width, height), and the window's (x0, y0, width, height) in it.
+    #[getter]
+    fn grid(&self) -> ((f64, f64, f64, f64, u32, u32), (u32, u32, u32, u32)) {
+        let (g, w) = (&self.grid, &self.window);
+        ((g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height), (w.x0, w.y0, w.width, w.height))
+    }
+
+    /// Write the heights (or the owner triangles, `owner=True`) as the command line writes
+    /// them: a GeoTIFF with gdal_grid's georeferencing and nodata tag. `epsg` sets the CRS;
+    /// `creation_options` are the command line's `--co` (TILED=YES, COMPRESS=DEFLATE, ...).
+    #[pyo3(signature = (path, *, epsg = None, creation_options = Vec::new(), owner = false))]
+    fn write(&self, py: Python<'_>, path: PathBuf, epsg: Option<u16>, creation_options: Vec<String>, owner: bool) -> PyResult<()> {
+        let mut options = GeoTiffOptions { epsg, ..Default::default() };
+        for option in &creation_options {
+            options.apply(option).map_err(error)?;
+        }
+        match (owner, &self.owner) {
+            (false, _) => {
+                let values = self.values.bind(py).readonly();
+                write_layer(&path, self, Sample::Float32 { nodata: self.nodata }, &options, values.as_slice().map_err(error)?)
+            }
+            (true, Some(layer)) => write_layer(&path, self, Sample::UInt32, &options, layer.bind(py).readonly().as_slice().map_err(error)?),
+            (true, None) => Err(error("this raster has no owner layer: rasterise with owner=True")),
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        let (west, south, east, north) = self.bounds();
+        format!("tileraster.Raster({}×{} cells, x {west} to {east}, y {south} to {north})", self.window.width, self.window.height)
+    }
+}
+
+fn write_layer<T: numpy::Element + bytemuck::Pod>(path: &std::path::Path, raster: &Raster, sample: Sample, options: &GeoTiffOptions, cells: &[T]) -> PyResult<()> {
+    let mut file = GeoTiffWriter::create(path, &raster.grid, raster.window, sample, options).map_err(error)?;
+    file.write_rows(cells).map_err(error)?;
+    file.finish().map_err(error)
+}
+
+/// A scene prepared for a grid once, to rasterise many windows of it.
+#[pyclass(frozen, module = "tileraster._native")]
+struct Prepared {
+    inner: Arc<Mutex<PreparedScene>>,
+}
+
+#[pymethods]
+impl Prepared {
+    #[new]
+    #[pyo3(signature = (scene, grid, *, backend = "auto", mode = "exact", nodata = -9999.0, owner = false))]
+    fn new(py: Python<'_>, scene: &Scene, grid: &Grid, backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Prepared> {
+        let settings = Settings::new(backend, mode, nodata, owner)?;
+        let (scene, spec) = (scene.scene.clone(), grid.spec);
+        let prepared = interruptible(py, move |_| -> PyResult<PreparedScene> {
+            let grid = spec.grid_for(&scene).map_err(error)?;
+            PreparedScene::new(&scene, &settings.params(grid), settings.backend).map_err(error)
+        })??;
+        Ok(Prepared { inner: Arc::new(Mutex::new(prepared)) })
+    }
+
+    /// Rasterise a window (x0, y0, width, height) of the grid, or the whole grid.
+    #[pyo3(signature = (window = None))]
+    fn rasterise(&self, py: Python<'_>, window: Option<(u32, u32, u32, u32)>) -> PyResult<Raster> {
+        let inner = self.inner.clone();
+        let window = window_of(window);
+        let done = interruptible(py, move |cancel| {
+            let mut prepared = inner.lock().unwrap_or_else(|e| e.into_inner());
+            let window = window.unwrap_or(prepared.prepared().window);
+            rasterise_banded(&mut prepared, window, cancel)
+        })?;
+        let (raster, stats) = done.map_err(error)?.ok_or_else(|| error("interrupted"))?;
+        Raster::new(py, raster, &stats)
+    }
+
+    /// The grid it was prepared for, as `Raster.grid` gives it.
+    #[getter]
+    fn grid(&self) -> (f64, f64, f64, f64, u32, u32) {
+        let g = self.inner.lock().unwrap_or_else(|e| e.into_inner()).prepared().params.grid;
+        (g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height)
+    }
+}
+
+/// Rasterise `scene` onto `grid` (its extent from the scene where the grid has none), the
+/// whole grid or one window of it.
+#[pyfunction]
+#[pyo3(signature = (scene, grid, *, backend = "auto", mode = "exact", nodata = -9999.0, owner = false, window = None))]
+#[allow(clippy::too_many_arguments)]
+fn rasterise(py: Python<'_>, scene: &Scene, grid: &Grid, backend: &str, mode: &str, nodata: f32, owner: bool, window: Option<(u32, u32, u32, u32)>) -> PyResult<Raster> {
+    let settings = Settings::new(backend, mode, nodata, owner)?;
+    let (scene, spec, window) = (scene.scene.clone(), grid.spec, window_of(window));
+    let done = interruptible(py, move |cancel| -> PyResult<_> {
+        let params = settings.params(spec.grid_for(&scene).map_err(error)?);
+        let mut prepared = PreparedScene::from_prepared(tileraster::prepare(&scene, &params, window).map_err(error)?, settings.backend);
+        let window = prepared.prepared().window;
+        rasterise_banded(&mut prepared, window, cancel).map_err(error)
+    })??;
+    let (raster, stats) = done.ok_or_else(|| error("interrupted"))?;
+    Raster::new(py, raster, &stats)
+}
+
+/// The backend "auto" picks here, and the Vulkan adapter if there is one.
+#[pyfunction]
+fn backends() -> (String, Option<String>) {
+    match tileraster::gpu_adapter() {
+        Ok(adapter) if !adapter.software => ("gpu".into(), Some(adapter.to_string())),
+        Ok(adapter) => ("cpu".into(), Some(adapter.to_string())),
+        Err(_) => ("cpu".into(), None),
+    }
+}
+
+#[pymodule]
+fn _native(module: &Bound<'_, PyModule>) -> PyResult<()> {
+    module.add("TilerasterError", module.py().get_type::<TilerasterError>())?;
+    module.add_class::<Grid>()?;
+    module.add_class::<Scene>()?;
+    module.add_class::<Raster>()?;
+    module.add_class::<Prepared>()?;
+    module.add_function(wrap_pyfunction!(rasterise, module)?)?;
+    module.add_function(wrap_pyfunction!(backends, module)?)?;
+    Ok(())
+}

@@ -1,0 +1,74 @@
+"""tileraster: deterministic rasterisation of TINs and point clouds to DEMs.
+
+The same cells, bit for bit, on the CPU backend and on any Vulkan GPU, with gdal_grid's grid
+semantics. Arrays come in as numpy arrays and go out as numpy arrays::
+
+    import numpy as np, tileraster
+    grid = tileraster.Grid(tr=(1.0, 1.0))                 # the points' extent, 1 m cells
+    dem = tileraster.points_to_dem(points, grid)          # points: (N, 3) x, y, z
+    dem.values                                            # float32, (rows, columns), row 0 north
+    dem.transform                                         # rasterio's Affine(*dem.transform)
+    dem.write("dem.tif", epsg=32633)                      # the command line's GeoTIFF
+
+Errors raise ``TilerasterError`` (a ``ValueError``) with the library's message, and Ctrl-C
+stops a long call with ``KeyboardInterrupt``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._native import Grid, Prepared, Raster, Scene, TilerasterError, backends
+from ._native import rasterise as _rasterise
+
+__all__ = ["Grid", "Prepared", "Raster", "Scene", "TilerasterError", "backends", "rasterise", "points_to_dem", "tin"]
+
+
+def _rows_of_three(array, dtype, what: str) -> np.ndarray:
+    """`array` as a C-ordered (N, 3) array of `dtype`: no copy when it already is one."""
+    a = np.asarray(array)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise TilerasterError(f"{what} has shape {a.shape}; give an (N, 3) array")
+    if dtype is np.int64 and a.size and a.dtype.kind not in "iu":
+        raise TilerasterError(f"{what} has dtype {a.dtype}; give integer vertex indices")
+    return np.ascontiguousarray(a, dtype=dtype)
+
+
+def _scene(vertices, triangles) -> Scene:
+    return Scene(_rows_of_three(vertices, np.float64, "vertices"), _rows_of_three(triangles, np.int64, "triangles"))
+
+
+def tin(points, *, max_edge: float | None = None) -> Scene:
+    """The Delaunay TIN of ``points`` ((N, 3) x, y, z), as the command line builds it: of points
+    with equal x, y the first is kept. ``max_edge`` leaves out triangles with an edge longer
+    than that (map units, in x and y), so gaps stay nodata. Its ``triangles`` are what owner
+    rasters index."""
+    scene = Scene.from_points(_rows_of_three(points, np.float64, "points"))
+    return scene if max_edge is None else scene.without_long_edges(max_edge)
+
+
+def rasterise(vertices, triangles, grid: Grid, *, backend: str = "auto", mode: str = "exact", nodata: float = -9999.0,
+              owner: bool = False, window: tuple[int, int, int, int] | None = None) -> Raster:
+    """Rasterise a mesh ((N, 3) vertices, (M, 3) triangles; or a ``Scene`` as ``vertices``
+    with ``triangles=None``) onto ``grid``.
+
+    - ``backend``: ``"cpu"``, ``"gpu"`` (a Vulkan adapter; lavapipe counts) or ``"auto"`` (a
+      hardware GPU if there is one, else the CPU). Both give the same bits.
+    - ``mode``: ``"exact"`` (correctly rounded), ``"plane-f32"`` or ``"barycentric"``.
+    - ``owner=True`` also returns ``Raster.owner``: the index of the triangle each cell's value
+      comes from (uint32; 4294967295 where none).
+    - ``window=(x0, y0, width, height)``: only that window of the grid, its cells bit for bit
+      the whole grid's there.
+    """
+    scene = vertices if isinstance(vertices, Scene) and triangles is None else _scene(vertices, triangles)
+    return _rasterise(scene, grid, backend=backend, mode=mode, nodata=float(nodata), owner=owner, window=window)
+
+
+def points_to_dem(points, grid: Grid, *, backend: str = "auto", mode: str = "exact", nodata: float = -9999.0,
+                  owner: bool = False, window: tuple[int, int, int, int] | None = None,
+                  max_edge: float | None = None) -> Raster:
+    """A DEM from points ((N, 3) x, y, z): their Delaunay TIN (see ``tin``) rasterised onto
+    ``grid``, as ``tileraster rasterise points.laz`` makes it. Filter classes with numpy
+    first (``xyz[las.classification == 2]``). Arguments as ``rasterise``."""
+    return _rasterise(tin(points, max_edge=max_edge), grid, backend=backend, mode=mode, nodata=float(nodata), owner=owner,
+                      window=window)

@@ -302,6 +302,31 @@ impl Raster {
         (dx, 0.0, west, 0.0, -dy, north)
     }
 
+    /// What the call did and skipped, as the command line's `--stats` prints it; for a call
+    /// run in several bands (see `bands`), their counts added up, `passes` the first band's,
+    /// and `"bands"` their number.
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let bands = self.bands.bind(py);
+        let first = bands.get_item(0)?.cast_into::<PyDict>()?.copy()?;
+        if bands.len() > 1 {
+            for key in ["tiles_total", "tiles_empty_skipped", "tiles_full", "tiles_partial", "triangles_culled", "triangles_flat", "triangles_binned", "bytes_uploaded"] {
+                let mut total = 0u64;
+                for band in bands.iter() {
+                    total += band.get_item(key)?.extract::<u64>()?;
+                }
+                first.set_item(key, total)?;
+            }
+            let mut overlap_free = true;
+            for band in bands.iter() {
+                overlap_free &= band.get_item("overlap_free")?.extract::<bool>()?;
+            }
+            first.set_item("overlap_free", overlap_free)?;
+        }
+        first.set_item("bands", bands.len())?;
+        Ok(first)
+    }
+
     /// GDAL's geotransform: (west, dx, 0, north, 0, -dy).
     #[getter]
     fn geotransform(&self) -> (f64, f64, f64, f64, f64, f64) {
@@ -397,21 +422,54 @@ impl Prepared {
 }
 
 /// Rasterise `scene` onto `grid` (its extent from the scene where the grid has none), the
-/// whole grid or one window of it.
+/// whole grid or one window of it; with `radius` (gdal_grid's `linear:radius`), cells outside
+/// every triangle take the z of the nearest of `points` (every input point, repeats too).
 #[pyfunction]
-#[pyo3(signature = (scene, grid, *, backend = "auto", mode = "exact", nodata = -9999.0, owner = false, window = None))]
+#[pyo3(signature = (scene, grid, *, backend = "auto", mode = "exact", nodata = -9999.0, owner = false, window = None, points = None, radius = 0.0))]
 #[allow(clippy::too_many_arguments)]
-fn rasterise(py: Python<'_>, scene: &Scene, grid: &Grid, backend: &str, mode: &str, nodata: f32, owner: bool, window: Option<(u32, u32, u32, u32)>) -> PyResult<Raster> {
-    let settings = Settings::new(backend, mode, nodata, owner)?;
+fn rasterise(
+    py: Python<'_>,
+    scene: &Scene,
+    grid: &Grid,
+    backend: &str,
+    mode: &str,
+    nodata: f32,
+    owner: bool,
+    window: Option<(u32, u32, u32, u32)>,
+    points: Option<PyReadonlyArray2<'_, f64>>,
+    radius: f64,
+) -> PyResult<Raster> {
+    if radius.is_nan() {
+        return Err(error("radius is NaN; give a number (negative: any distance, 0: none)"));
+    }
+    // The fallback reads the owner layer: it is computed, and dropped if not asked for.
+    let settings = Settings::new(backend, mode, nodata, owner || radius != 0.0)?;
+    let points = match (points, radius != 0.0) {
+        (Some(points), true) => Some(vertices_of(&points, "points")?),
+        (None, true) => Some(self_points(&scene.scene)),
+        (_, false) => None,
+    };
     let (scene, spec, window) = (scene.scene.clone(), grid.spec, window_of(window));
     let done = interruptible(py, move |cancel| -> PyResult<_> {
         let params = settings.params(spec.grid_for(&scene).map_err(error)?);
         let mut prepared = PreparedScene::from_prepared(tileraster::prepare(&scene, &params, window).map_err(error)?, settings.backend);
         let window = prepared.prepared().window;
-        rasterise_banded(&mut prepared, window, cancel).map_err(error)
+        let Some((mut raster, stats)) = rasterise_banded(&mut prepared, window, cancel).map_err(error)? else { return Ok(None) };
+        if let Some(fallback) = points.and_then(|points| dem::Fallback::new(&points, radius)) {
+            fallback.fill(&mut raster);
+        }
+        if !owner {
+            raster.owner = None;
+        }
+        Ok(Some((raster, stats)))
     })??;
     let (raster, stats) = done.ok_or_else(|| error("interrupted"))?;
     Raster::new(py, raster, &stats)
+}
+
+/// A mesh's own vertices, the points its fallback searches when none are given.
+fn self_points(scene: &RustScene) -> Vec<[f64; 3]> {
+    scene.vertices.clone()
 }
 
 /// The backend "auto" picks here, and the Vulkan adapter if there is one.

@@ -91,6 +91,13 @@ def test_points_give_the_command_lines_dem(tmp_path):
     dem.write(tmp_path / "py.tif")
     assert (tmp_path / "py.tif").read_bytes() == (tmp_path / "cli.tif").read_bytes()
     assert dem.transform[0] == 2 and dem.transform[2] % 2 == 0 and dem.transform[5] % 2 == 0
+    # gdal_grid's linear:radius, as the command line's -a.
+    cli("rasterise", csv, "-o", tmp_path / "cli-r.tif", "--backend", "cpu", "--tr", "2", "2", "--tap", "--max-edge", "40", "-a",
+        "linear:radius=30")
+    near = tileraster.points_to_dem(points, tileraster.Grid(tr=(2, 2), tap=True), backend="cpu", max_edge=40, radius=30)
+    near.write(tmp_path / "py-r.tif")
+    assert (tmp_path / "py-r.tif").read_bytes() == (tmp_path / "cli-r.tif").read_bytes()
+    assert (near.values != -9999).sum() > (dem.values != -9999).sum() and near.owner is None
     tin = tileraster.tin(points)
     assert len(tin.vertices) == len(vertices) and len(tin) > 0
     assert np.array_equal(tileraster.rasterise(tin, None, tileraster.Grid(tr=(2, 2), tap=True), backend="cpu").values,
@@ -154,6 +161,7 @@ def test_windows_prepared_scenes_and_georeferencing():
     assert prepared.rasterise().values.tobytes() == whole.values.tobytes()
     [stats] = whole.bands
     assert stats["tiles_total"] == 19 * 12 and "fine_raster" in stats["passes"], stats  # 16 × 16-cell tiles
+    assert whole.stats == {**stats, "bands": 1}
 
 
 def test_large_windows_run_in_bands_with_the_same_cells():
@@ -161,6 +169,8 @@ def test_large_windows_run_in_bands_with_the_same_cells():
     grid = tileraster.Grid(txe=(0, 1000), tye=(0, 600), outsize=(4100, 4200))
     whole = tileraster.rasterise(vertices, triangles, grid, backend="cpu")
     assert len(whole.bands) == 2, "17.2M cells run in two bands"
+    assert whole.stats["bands"] == 2
+    assert whole.stats["tiles_total"] == sum(b["tiles_total"] for b in whole.bands) == 257 * 263
     top = tileraster.rasterise(vertices, triangles, grid, backend="cpu", window=(0, 0, 4100, 2100))
     assert np.array_equal(whole.values[:2100], top.values)
 

@@ -66,9 +66,16 @@ def rasterise(vertices, triangles, grid: Grid, *, backend: str = "auto", mode: s
 
 def points_to_dem(points, grid: Grid, *, backend: str = "auto", mode: str = "exact", nodata: float = -9999.0,
                   owner: bool = False, window: tuple[int, int, int, int] | None = None,
-                  max_edge: float | None = None) -> Raster:
+                  max_edge: float | None = None, radius: float = 0.0) -> Raster:
     """A DEM from points ((N, 3) x, y, z): their Delaunay TIN (see ``tin``) rasterised onto
     ``grid``, as ``tileraster rasterise points.laz`` makes it. Filter classes with numpy
-    first (``xyz[las.classification == 2]``). Arguments as ``rasterise``."""
+    first (``xyz[las.classification == 2]``). Arguments as ``rasterise``, and:
+
+    - ``max_edge``: the command line's ``--max-edge``;
+    - ``radius``: gdal_grid's ``linear:radius``: cells outside every triangle take the z of the
+      nearest point within ``radius`` as gdal_grid 3.6 picks it (negative: any distance;
+      0, the default: they stay nodata).
+    """
+    points = _rows_of_three(points, np.float64, "points")
     return _rasterise(tin(points, max_edge=max_edge), grid, backend=backend, mode=mode, nodata=float(nodata), owner=owner,
-                      window=window)
+                      window=window, points=points, radius=float(radius))

@@ -168,5 +168,69 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
         if bigtiff { "BigTIFF" } else { "classic TIFF" },
         checked.join("; ")
     );
+
+    // The same run as a cloud-optimised GeoTIFF: each level's tiles spill to an unnamed
+    // temporary file until the directories, which come first, can be written.
+    let cog = dir.join("big-cog.tif");
+    eprintln!("stream-report: {size}² as a COG under ulimit -v {limit_mib} MiB ...");
+    let mut command = rasterise(&cog, size, &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=YES"]);
+    // SAFETY: as above.
+    unsafe {
+        command.pre_exec(move || {
+            let rlimit = libc::rlimit { rlim_cur: limit, rlim_max: limit };
+            match libc::setrlimit(libc::RLIMIT_AS, &rlimit) {
+                0 => Ok(()),
+                _ => Err(std::io::Error::last_os_error()),
+            }
+        });
+    }
+    let m = measure(&mut command)?;
+    let validator = match Command::new("/usr/bin/python3").args(["-m", "osgeo_utils.samples.validate_cloud_optimized_geotiff", "--full-check=yes"]).arg(&cog).output() {
+        Ok(out) if out.status.success() => String::from_utf8_lossy(&out.stdout).trim().replace('\n', " "),
+        Ok(out) => format!("**refused**: {}", String::from_utf8_lossy(&out.stdout).trim().replace('\n', " ")),
+        Err(e) => format!("not run ({e})"),
+    };
+    let mut checked = Vec::new();
+    for (x0, y0) in [(0, 0), (size / 2 / 256 * 256, size / 3 / 256 * 256), (size - 1024, size - 1024)] {
+        let differ = same_bits(&read_tiled_window(&cog, x0, y0, 1024)?, &read_tiled_window(&big, x0, y0, 1024)?);
+        checked.push(format!("({x0}, {y0}): {differ} differ"));
+    }
+    let _ = writeln!(
+        s,
+        "**A COG larger than memory.** The same run with `--of COG --co COMPRESS=DEFLATE --co PREDICTOR=YES`, under the same limit: {:.1} s, \
+         peak resident memory {}, a {} file; GDAL's validator (`--full-check=yes`): {validator}. Three 1024² windows against the tiled file's: {}.\n",
+        m.seconds,
+        mib(m.peak_rss),
+        mib(std::fs::metadata(&cog).map_err(|e| e.to_string())?.len()),
+        checked.join("; ")
+    );
+
+    // Interrupted: SIGINT, then SIGTERM, 1.5 s into the streamed run (as in issue reports
+    // before runs cleaned up after themselves): the time to exit, the status, what is left.
+    for (signal, name) in [(libc::SIGINT, "SIGINT"), (libc::SIGTERM, "SIGTERM")] {
+        let out = dir.join("interrupted.tif");
+        let mut child = rasterise(&out, size, &["--memory", "64"]).stderr(std::process::Stdio::piped()).spawn().map_err(|e| e.to_string())?;
+        std::thread::sleep(std::time::Duration::from_millis(1500));
+        let partial = std::fs::metadata(dir.join("interrupted.tif.tileraster-partial")).map(|m| m.len()).unwrap_or(0);
+        // SAFETY: kill(2) of our own child.
+        unsafe { libc::kill(child.id() as libc::pid_t, signal) };
+        let sent = Instant::now();
+        let status = child.wait().map_err(|e| e.to_string())?;
+        let exited = sent.elapsed();
+        let left: Vec<String> = std::fs::read_dir(dir)
+            .map_err(|e| e.to_string())?
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|name| name.starts_with("interrupted"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "**Interrupted by {name}** 1.5 s into a run of the same points onto {size}² cells with `--memory 64` ({} written to the partial file by then): \
+             exited {:.0} ms after the signal with status {}, leaving {}.\n",
+            mib(partial),
+            exited.as_secs_f64() * 1e3,
+            status.code().map_or("none".into(), |c| c.to_string()),
+            if left.is_empty() { "no file".to_string() } else { left.join(", ") }
+        );
+    }
     Ok(s)
 }

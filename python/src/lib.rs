@@ -117,7 +117,7 @@ fn vertices_of(array: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f
         return Err(error(format!("{what} has shape {shape:?}; give an (N, 3) array of x, y, z")));
     }
     let flat = array.as_slice().map_err(error)?;
-    Ok(flat.chunks_exact(3).map(|v| [v[0], v[1], v[2]]).collect())
+    Ok(flat.as_chunks::<3>().0.to_vec())
 }
 
 fn triangles_of(array: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
@@ -278,6 +278,9 @@ impl Raster {
     }
 }
 
+/// A grid as Python sees it: (xmin, xmax, ymin, ymax, width, height).
+type GridTuple = (f64, f64, f64, f64, u32, u32);
+
 fn stats_dict<'py>(py: Python<'py>, stats: &Stats) -> PyResult<Bound<'py, PyDict>> {
     let dict = PyDict::new(py);
     dict.set_item("tiles_total", stats.tiles_total)?;
@@ -343,7 +346,7 @@ impl Raster {
 
     /// The grid's (xmin, xmax, ymin, ymax, width, height), and the window's (x0, y0, width, height) in it.
     #[getter]
-    fn grid(&self) -> ((f64, f64, f64, f64, u32, u32), (u32, u32, u32, u32)) {
+    fn grid(&self) -> (GridTuple, (u32, u32, u32, u32)) {
         let (g, w) = (&self.grid, &self.window);
         ((g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height), (w.x0, w.y0, w.width, w.height))
     }
@@ -415,7 +418,7 @@ impl Prepared {
 
     /// The grid it was prepared for, as `Raster.grid` gives it.
     #[getter]
-    fn grid(&self) -> (f64, f64, f64, f64, u32, u32) {
+    fn grid(&self) -> GridTuple {
         let g = self.inner.lock().unwrap_or_else(|e| e.into_inner()).prepared().params.grid;
         (g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height)
     }

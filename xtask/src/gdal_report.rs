@@ -231,9 +231,9 @@ fn cog_comparison(plain_run: &mut Command, plain: &Path, dir: &Path) -> Result<S
     };
     let same = read_values(&ours)?.iter().map(|v| v.to_bits()).eq(read_values(&theirs)?.iter().map(|v| v.to_bits()));
     let (plain_s, ours_s, gdal_s) = (median(t_plain), median(t_ours), median(t_gdal));
-    let mut s = format!(
+    let mut s = String::from(
         "\n**Cloud-optimised GeoTIFF** of the same raster, deflate with the floating-point predictor, averaged overviews, medians of 3 interleaved runs:\n\n\
-         | | time | size | GDAL's validator |\n| --- | ---: | ---: | --- |\n"
+         | | time | size | GDAL's validator |\n| --- | ---: | ---: | --- |\n",
     );
     let _ = writeln!(s, "| tileraster rasterise, plain GeoTIFF (for reference) | {:.0} ms | {:.1} MB | |", plain_s * 1e3, size(plain)? as f64 / 1e6);
     let _ = writeln!(

@@ -710,8 +710,8 @@ fn the_inputs_extent_classes_and_the_longest_edge() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// `--of COG`: a cloud-optimised GeoTIFF that GDAL's validator accepts, the same bytes when
-/// streamed in bands as in one, and (owner layers too) the same on both backends.
+/// `--of COG`: a cloud-optimised GeoTIFF that GDAL's validator accepts (the owner file too),
+/// the same bytes when streamed in bands as in one.
 #[test]
 fn cloud_optimised_geotiffs_validate_and_do_not_depend_on_bands() {
     let scene = scenes::terrain(0.0, 0.0, 600.0, 900.0, 9, 13, 8);

@@ -52,6 +52,20 @@ fn read_tiled_window(path: &Path, x0: u32, y0: u32, size: u32) -> Result<Vec<f32
     Ok(cells)
 }
 
+/// Run `command` with its address space limited to `limit` bytes (`ulimit -v`).
+fn limit_address_space(command: &mut Command, limit: u64) {
+    // SAFETY: between fork and exec, only setrlimit, which is async-signal-safe.
+    unsafe {
+        command.pre_exec(move || {
+            let rlimit = libc::rlimit { rlim_cur: limit, rlim_max: limit };
+            match libc::setrlimit(libc::RLIMIT_AS, &rlimit) {
+                0 => Ok(()),
+                _ => Err(std::io::Error::last_os_error()),
+            }
+        });
+    }
+}
+
 pub fn run(points: usize, size: u32, limit_mib: u64) -> Result<String, String> {
     let bin = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/release/tileraster");
     if !bin.exists() {
@@ -132,16 +146,7 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     eprintln!("stream-report: {size}² under ulimit -v {limit_mib} MiB ...");
     // Tiled even when it fits in one band, so its windows can be read tile by tile.
     let mut command = rasterise(&big, size, &["--co", "TILED=YES"]);
-    // SAFETY: between fork and exec, only setrlimit, which is async-signal-safe.
-    unsafe {
-        command.pre_exec(move || {
-            let rlimit = libc::rlimit { rlim_cur: limit, rlim_max: limit };
-            match libc::setrlimit(libc::RLIMIT_AS, &rlimit) {
-                0 => Ok(()),
-                _ => Err(std::io::Error::last_os_error()),
-            }
-        });
-    }
+    limit_address_space(&mut command, limit);
     let m = measure(command.arg("--stats"))?;
     let bands = m.stderr.lines().filter(|l| l.starts_with('{')).count();
     let file = std::fs::metadata(&big).map_err(|e| e.to_string())?.len();
@@ -174,16 +179,7 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     let cog = dir.join("big-cog.tif");
     eprintln!("stream-report: {size}² as a COG under ulimit -v {limit_mib} MiB ...");
     let mut command = rasterise(&cog, size, &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=YES"]);
-    // SAFETY: as above.
-    unsafe {
-        command.pre_exec(move || {
-            let rlimit = libc::rlimit { rlim_cur: limit, rlim_max: limit };
-            match libc::setrlimit(libc::RLIMIT_AS, &rlimit) {
-                0 => Ok(()),
-                _ => Err(std::io::Error::last_os_error()),
-            }
-        });
-    }
+    limit_address_space(&mut command, limit);
     let m = measure(&mut command)?;
     let validator = match Command::new("/usr/bin/python3").args(["-m", "osgeo_utils.samples.validate_cloud_optimized_geotiff", "--full-check=yes"]).arg(&cog).output() {
         Ok(out) if out.status.success() => String::from_utf8_lossy(&out.stdout).trim().replace('\n', " "),

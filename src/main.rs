@@ -98,8 +98,8 @@ struct RasteriseArgs {
     #[arg(long = "class", value_name = "CLASS", value_delimiter = ',')]
     classes: Vec<u8>,
     /// Leave out triangles with an edge longer than this (map units, measured in x and y),
-    /// so water bodies and gaps in the data stay nodata instead of being bridged. --owner
-    /// and --tin then count the triangles kept.
+    /// so water bodies and gaps in the data stay nodata instead of being bridged (unless -a
+    /// linear's radius reaches across them). --owner and --tin then count the triangles kept.
     #[arg(long, value_name = "LENGTH", allow_negative_numbers = true)]
     max_edge: Option<f64>,
     /// Rasterise only this window of the grid (pixel offsets and size); its cells are bit
@@ -135,7 +135,9 @@ struct RasteriseArgs {
     nodata: Option<f32>,
     /// gdal_grid's -a: linear[:radius=R][:nodata=V]. Cells outside every triangle take the z
     /// of the nearest input point within R, as gdal_grid 3.6 picks it (R < 0, bare `linear`'s
-    /// default: at any distance; R = 0: nodata, as without this flag); nodata=V is --nodata.
+    /// default: at any distance; R = 0: nodata, as without this flag), gaps opened by
+    /// --max-edge included (give a radius shorter than the gaps to keep them). nodata=V is
+    /// --nodata; without either, -9999 (gdal_grid's linear writes 0 and no nodata tag).
     #[arg(long = "algorithm", short = 'a', value_name = "linear[:radius=R][:nodata=V]", allow_hyphen_values = true)]
     algorithm: Option<dem::Linear>,
     /// The CRS, as an EPSG code (gdal_grid's -a_srs), written as GeoKeys.
@@ -216,11 +218,19 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         (a, b) => a.or(b).unwrap_or(-9999.0),
     };
     let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
+    // The format first, so that a creation option that contradicts it is refused.
+    if let Some(format) = &format {
+        tiff.apply_format(format)?;
+    }
     for option in &creation_options {
         tiff.apply(option)?;
     }
-    if let Some(format) = &format {
-        tiff.apply_format(format)?;
+    // Each file its own path: two writers of one file would corrupt it.
+    let files = [("-o", Some(&output)), ("--owner", owner.as_ref()), ("--preview", preview.as_ref()), ("--tin", tin.as_ref())];
+    for (k, (flag, path)) in files.iter().enumerate() {
+        if let Some((other, _)) = files[..k].iter().find(|(_, p)| p.is_some() && p == path) {
+            return Err(format!("{flag} {} is also {other}'s file; give each output its own path", path.expect("found equal to a given path").display()));
+        }
     }
     // Options a file's sample type refuses, refused before anything is read.
     tiff.check(Sample::Float32 { nodata }).map_err(|e| format!("{}: {e}", output.display()))?;
@@ -237,9 +247,21 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         GridSize::Resolution { .. } => format!("--tr: {e}"),
         GridSize::Cells { .. } => e.to_string(),
     };
-    // A grid given whole is checked before the input is read; one that takes the input's
-    // extent, after.
+    let window_of = |grid: &Grid| -> Result<Window, String> {
+        let window = match (&window, part) {
+            (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
+            (None, Some((k, n))) => dem::part_window(grid, k, n).map_err(|e| format!("--part {k}/{n}: {e}"))?,
+            (None, None) => Window::whole(grid),
+        };
+        window.validate(grid).map_err(|e| format!("--window: {e}"))?;
+        Ok(window)
+    };
+    // A grid given whole, and its window, are checked before the input is read; one that takes
+    // the input's extent, after.
     let given = (spec.txe.is_some() && spec.tye.is_some()).then(|| spec.grid()).transpose().map_err(grid_error)?;
+    if let Some(grid) = &given {
+        window_of(grid)?;
+    }
     let progress = Progress::start();
     progress.stage(format!("reading {}", input.display()));
     let options = dem::ReadOptions { columns: columns.unwrap_or_default(), classes, max_edge, keep_points: linear.radius != 0.0 };
@@ -268,11 +290,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     if given.is_none() || tap {
         note(format!("tileraster: extent x {} to {}, y {} to {}: {}×{} cells of {} × {}", grid.xmin, grid.xmax, grid.ymin, grid.ymax, grid.width, grid.height, grid.dx(), grid.dy()));
     }
-    let window = match (window, part) {
-        (Some(w), _) => Window { x0: w[0], y0: w[1], width: w[2], height: w[3] },
-        (None, Some((k, n))) => dem::part_window(&grid, k, n).map_err(|e| format!("--part {k}/{n}: {e}"))?,
-        (None, None) => Window::whole(&grid),
-    };
+    let window = window_of(&grid)?;
     let scene = read.scene;
     let fallback = dem::Fallback::new(read.points_read.as_deref().unwrap_or(&scene.vertices), linear.radius);
     let backend = choose_backend(backend)?;
@@ -370,30 +388,42 @@ fn give_vulkan_a_runtime_dir() {
     }
 }
 
-/// Ctrl-C (SIGINT) or SIGTERM: stop at once, remove every partial file, leave each
-/// destination as it was (a file already renamed into place is complete), say so in one line,
-/// and exit with the shell's status for the signal (130, 143). A thread of its own waits for
-/// the signal, so a run is stopped mid-band, not at the next band.
+/// Ctrl-C (SIGINT), SIGTERM or a closed terminal (SIGHUP): stop at once, remove every
+/// partial file, leave each destination as it was (a file already renamed into place is
+/// complete), say so in one line, and end by the signal itself, as a process without a handler
+/// would: a shell then reports 130, 143 or 129 and stops a script's loop. A thread of its own
+/// waits for the signal, so a run is stopped mid-band, not at the next band.
 fn stop_cleanly_when_interrupted() {
-    use signal_hook::consts::{SIGINT, SIGTERM};
-    let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
         Ok(signals) => signals,
         Err(e) => return eprintln!("tileraster: warning: cannot handle interrupts ({e}); an interrupted run may leave *{} files", tileraster_io::PARTIAL_SUFFIX),
     };
     std::thread::spawn(move || {
         let Some(signal) = signals.forever().next() else { return };
-        // Held until the process exits: no file is created or renamed into place after this.
+        // Held until the process ends: no file is created or renamed into place after this.
         let abandoned = tileraster_io::abandon_partial_files();
-        let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
-        let removed = match abandoned.removed.as_slice() {
+        let name = match signal {
+            SIGINT => "SIGINT",
+            SIGTERM => "SIGTERM",
+            _ => "SIGHUP",
+        };
+        let mut said = match abandoned.removed.as_slice() {
             [] => "no partial file to remove".to_string(),
             files => format!("removed {}", files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", ")),
         };
+        for (file, e) in &abandoned.not_removed {
+            said += &format!("; could not remove {} ({e})", file.display());
+        }
         // Start a fresh line: a progress bar or the terminal's ^C may be on this one.
         use std::io::IsTerminal;
         let fresh = if std::io::stderr().is_terminal() { "\r\x1b[2K" } else { "" };
-        eprintln!("{fresh}tileraster: interrupted by {name}: stopped, {removed}");
-        std::process::exit(128 + signal);
+        eprintln!("{fresh}tileraster: interrupted by {name}: stopped, {said}");
+        // The default action ends the process at once: no exit handlers run beside threads
+        // still drawing. Should that fail, exit without them all the same.
+        let _ = signal_hook::low_level::emulate_default_handler(signal);
+        // SAFETY: _exit ends the process; nothing after it runs.
+        unsafe { libc::_exit(128 + signal) };
     });
 }
 

@@ -561,17 +561,18 @@ fn render_writes_the_frame_the_library_renders() {
     assert!(!bad.exists() && !dir.join("bad.png.tileraster-partial").exists());
 }
 
-/// Ctrl-C (SIGINT) or SIGTERM mid-band stops the run at once: every partial file is removed,
-/// the destinations are left as they were, one line says so, and the status is the shell's
-/// (130, 143).
+/// Ctrl-C (SIGINT), SIGTERM or SIGHUP mid-band stops the run at once: every partial file is
+/// removed, the destinations are left as they were, one line says so, and the process ends by
+/// the signal itself (a shell reports 130, 143, 129 and stops a script's loop).
 #[test]
 fn an_interrupted_run_leaves_nothing_behind() {
+    use std::os::unix::process::ExitStatusExt;
     use std::time::{Duration, Instant};
     let scene = scenes::terrain(0.0, 0.0, 1000.0, 1000.0, 60, 60, 5);
     let (dir, obj) = mesh_file("interrupted", &scene);
     let (tif, owner) = (dir.join("dem.tif"), dir.join("owner.tif"));
     std::fs::write(&owner, b"an earlier run's file").unwrap();
-    for (signal, name, status) in [(libc::SIGINT, "SIGINT", 130), (libc::SIGTERM, "SIGTERM", 143)] {
+    for (signal, name) in [(libc::SIGINT, "SIGINT"), (libc::SIGTERM, "SIGTERM"), (libc::SIGHUP, "SIGHUP")] {
         // 16384² cells in bands of 64 MiB: 1 GiB of heights and as much of owners.
         let mut child = bin()
             .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu", "--memory", "64"])
@@ -590,9 +591,9 @@ fn an_interrupted_run_leaves_nothing_behind() {
         // SAFETY: a plain kill(2) of our own child.
         assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
         let exited = Instant::now();
-        let code = loop {
+        let status = loop {
             if let Some(status) = child.try_wait().unwrap() {
-                break status.code();
+                break status;
             }
             if exited.elapsed() > Duration::from_secs(30) {
                 child.kill().ok();
@@ -601,7 +602,7 @@ fn an_interrupted_run_leaves_nothing_behind() {
             std::thread::sleep(Duration::from_millis(5));
         };
         let stderr = std::io::read_to_string(child.stderr.take().unwrap()).unwrap();
-        assert_eq!(code, Some(status), "{name}: {stderr}");
+        assert_eq!((status.code(), status.signal()), (None, Some(signal)), "{name}: {stderr}");
         let last = stderr.lines().last().unwrap_or_default();
         assert!(last.starts_with(&format!("tileraster: interrupted by {name}: stopped, removed ")), "{last}");
         assert!(last.contains("dem.tif.tileraster-partial") && last.contains("owner.tif.tileraster-partial"), "{last}");
@@ -610,6 +611,30 @@ fn an_interrupted_run_leaves_nothing_behind() {
         assert_eq!(left, ["m.obj", "owner.tif"], "{name}: only the input and the untouched destination remain");
         assert_eq!(std::fs::read(&owner).unwrap(), b"an earlier run's file", "{name}: the destination is untouched");
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// One run may not write one file twice, nor two runs one destination at once: the second
+/// writer finds the first one's partial file locked, and says so.
+#[test]
+fn a_destination_is_written_by_one_writer_at_a_time() {
+    let (dir, obj) = mesh_file("one-writer", &scenes::terrain(0.0, 0.0, 100.0, 100.0, 4, 4, 1));
+    let tif = dir.join("dem.tif");
+    let grid = ["--txe", "0", "100", "--tye", "0", "100", "--outsize", "64", "64"];
+    let out = rasterise_cli(&obj, &tif, &[&grid[..], &["--owner", tif.to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("--owner") && stderr.contains("is also"), "{stderr}");
+    // A run still writing: its partial file is locked.
+    let partial = dir.join("dem.tif.tileraster-partial");
+    let held = std::fs::File::create(&partial).unwrap();
+    held.lock().unwrap();
+    let out = rasterise_cli(&obj, &tif, &grid);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("another run is writing this file"), "{stderr}");
+    assert!(partial.exists() && !tif.exists(), "the other run's partial file is left to it");
+    drop(held);
+    let out = rasterise_cli(&obj, &tif, &grid);
+    assert!(out.status.success() && tif.exists() && !partial.exists(), "{}", String::from_utf8_lossy(&out.stderr));
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -706,7 +731,7 @@ fn the_inputs_extent_classes_and_the_longest_edge() {
     let csv = dir.join("p.csv");
     std::fs::write(&csv, "0 0 1\n10 0 2\n0 10 3\n").unwrap();
     let out = rasterise_cli(&csv, &dir.join("refused.tif"), &["--tr", "1", "1", "--class", "2"]);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--class filters LAS/LAZ points"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--class filters LAS/LAZ points by classification; this file has none"), "{}", String::from_utf8_lossy(&out.stderr));
     std::fs::remove_dir_all(&dir).ok();
 }
 

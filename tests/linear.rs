@@ -7,7 +7,10 @@ use tileraster::{rasterise, Backend, Grid, Outputs, Params};
 use tileraster_testkit::scenes;
 
 fn gdal_or_skip() -> bool {
-    if tileraster_peers::gdal_grid_version().is_some() {
+    if let Some(version) = tileraster_peers::gdal_grid_version() {
+        // The fallback reproduces gdal_grid 3.6's search (its square box); other versions may
+        // choose otherwise, and this comparison would say so.
+        eprintln!("comparing with {version}; tileraster follows gdal_grid 3.6");
         return true;
     }
     if std::env::var_os("TILERASTER_SKIP_GDAL").is_some_and(|v| v == "1") {

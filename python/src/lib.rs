@@ -8,7 +8,7 @@ use numpy::{IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedAr
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
@@ -65,14 +65,14 @@ struct Scene {
 #[pymethods]
 impl Scene {
     #[new]
-    fn new(vertices: PyReadonlyArray2<'_, f64>, triangles: PyReadonlyArray2<'_, i64>) -> PyResult<Scene> {
-        Ok(Scene { scene: Arc::new(RustScene::new(vertices_of(&vertices, "vertices")?, triangles_of(&triangles)?)) })
+    fn new(vertices: &Bound<'_, PyAny>, triangles: &Bound<'_, PyAny>) -> PyResult<Scene> {
+        Ok(Scene { scene: Arc::new(RustScene::new(vertices_of(vertices, "vertices")?, triangles_of(triangles)?)) })
     }
 
     /// The Delaunay TIN of points (x, y, z); of points with equal x, y the first is kept.
     #[staticmethod]
-    fn from_points(py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<Scene> {
-        let points = vertices_of(&points, "points")?;
+    fn from_points(py: Python<'_>, points: &Bound<'_, PyAny>) -> PyResult<Scene> {
+        let points = vertices_of(points, "points")?;
         let tin = interruptible(py, move |_| tileraster_tin::triangulate(&points))?.map_err(error)?;
         Ok(Scene { scene: Arc::new(tin.scene) })
     }
@@ -111,20 +111,36 @@ fn rows<T>(flat: Vec<T>, width: usize) -> Array2<T> {
     Array2::from_shape_vec((height, width), flat).expect("whole rows")
 }
 
-fn vertices_of(array: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 3]>> {
-    let shape = array.shape();
-    if shape[1] != 3 {
-        return Err(error(format!("{what} has shape {shape:?}; give an (N, 3) array of x, y, z")));
+/// `value` (any array-like) as a C-ordered (N, 3) numpy array of `dtype`, checked: no copy
+/// when it already is one. Integer `dtype`s take integer arrays only: a float array of indices
+/// is refused rather than truncated.
+fn rows_of_three<'py>(value: &Bound<'py, PyAny>, what: &str, dtype: &str) -> PyResult<Bound<'py, PyAny>> {
+    let numpy = value.py().import("numpy")?;
+    let array = numpy.call_method1("asarray", (value,))?;
+    let shape: Vec<usize> = array.getattr("shape")?.extract()?;
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(error(format!("{what} has shape {}; give an (N, 3) array", array.getattr("shape")?.repr()?)));
     }
-    let flat = array.as_slice().map_err(error)?;
-    Ok(flat.as_chunks::<3>().0.to_vec())
+    let kind: String = array.getattr("dtype")?.getattr("kind")?.extract()?;
+    let size: usize = array.getattr("size")?.extract()?;
+    if dtype == "int64" && size > 0 && !matches!(kind.as_str(), "i" | "u") {
+        return Err(error(format!("{what} has dtype {}; give integer vertex indices", array.getattr("dtype")?.str()?)));
+    }
+    if dtype == "float64" && !matches!(kind.as_str(), "f" | "i" | "u") {
+        return Err(error(format!("{what} has dtype {}; give numbers", array.getattr("dtype")?.str()?)));
+    }
+    numpy.call_method1("ascontiguousarray", (array, dtype))
 }
 
-fn triangles_of(array: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
-    let shape = array.shape();
-    if shape[1] != 3 {
-        return Err(error(format!("triangles has shape {shape:?}; give an (M, 3) array of vertex indices")));
-    }
+fn vertices_of(value: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f64; 3]>> {
+    let array = rows_of_three(value, what, "float64")?;
+    let array: PyReadonlyArray2<'_, f64> = array.extract()?;
+    Ok(array.as_slice().map_err(error)?.as_chunks::<3>().0.to_vec())
+}
+
+fn triangles_of(value: &Bound<'_, PyAny>) -> PyResult<Vec<[u32; 3]>> {
+    let array = rows_of_three(value, "triangles", "int64")?;
+    let array: PyReadonlyArray2<'_, i64> = array.extract()?;
     let flat = array.as_slice().map_err(error)?;
     let index = |k: usize| {
         u32::try_from(flat[k]).map_err(|_| error(format!("triangle {} has vertex index {}; indices are 0-based and at most {}", k / 3, flat[k], u32::MAX)))
@@ -141,12 +157,13 @@ struct Settings {
 }
 
 impl Settings {
-    fn new(backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Settings> {
+    fn new(py: Python<'_>, backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Settings> {
         let backend = match backend {
             "cpu" => Backend::Cpu,
             "gpu" => Backend::Gpu,
-            // A hardware GPU if there is one; a CPU implementation of Vulkan is slower than the CPU backend.
-            "auto" => match tileraster::gpu_adapter() {
+            // A hardware GPU if there is one; a CPU implementation of Vulkan is slower than the
+            // CPU backend. (Finding it may wait for a GPU call of another thread: not with the GIL.)
+            "auto" => match py.detach(tileraster::gpu_adapter) {
                 Ok(adapter) if !adapter.software => Backend::Gpu,
                 _ => Backend::Cpu,
             },
@@ -248,7 +265,6 @@ struct Raster {
     #[pyo3(get)]
     nodata: f32,
     /// What the call did and skipped: one dict per band it ran in.
-    #[pyo3(get)]
     bands: Py<PyList>,
     grid: tileraster::Grid,
     window: Window,
@@ -303,6 +319,13 @@ impl Raster {
     fn transform(&self) -> (f64, f64, f64, f64, f64, f64) {
         let (west, north, dx, dy) = self.corner();
         (dx, 0.0, west, 0.0, -dy, north)
+    }
+
+    /// What the call did and skipped, one dict per band it ran in (a copy).
+    #[getter]
+    fn bands<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let copies: Vec<Bound<'py, PyDict>> = self.bands.bind(py).iter().map(|band| band.cast_into::<PyDict>()?.copy()).collect::<PyResult<_>>()?;
+        PyTuple::new(py, copies)
     }
 
     /// What the call did and skipped, as the command line's `--stats` prints it; for a call
@@ -360,12 +383,19 @@ impl Raster {
         for option in &creation_options {
             options.apply(option).map_err(error)?;
         }
+        // Compressing and syncing take a while: without the GIL.
+        let (grid, window) = (self.grid, self.window);
         match (owner, &self.owner) {
             (false, _) => {
                 let values = self.values.bind(py).readonly();
-                write_layer(&path, self, Sample::Float32 { nodata: self.nodata }, &options, values.as_slice().map_err(error)?)
+                let cells = values.as_slice().map_err(error)?;
+                py.detach(|| write_layer(&path, grid, window, Sample::Float32 { nodata: self.nodata }, &options, cells))
             }
-            (true, Some(layer)) => write_layer(&path, self, Sample::UInt32, &options, layer.bind(py).readonly().as_slice().map_err(error)?),
+            (true, Some(layer)) => {
+                let layer = layer.bind(py).readonly();
+                let cells = layer.as_slice().map_err(error)?;
+                py.detach(|| write_layer(&path, grid, window, Sample::UInt32, &options, cells))
+            }
             (true, None) => Err(error("this raster has no owner layer: rasterise with owner=True")),
         }
     }
@@ -376,8 +406,8 @@ impl Raster {
     }
 }
 
-fn write_layer<T: numpy::Element + bytemuck::Pod>(path: &std::path::Path, raster: &Raster, sample: Sample, options: &GeoTiffOptions, cells: &[T]) -> PyResult<()> {
-    let mut file = GeoTiffWriter::create(path, &raster.grid, raster.window, sample, options).map_err(error)?;
+fn write_layer<T: bytemuck::Pod>(path: &std::path::Path, grid: tileraster::Grid, window: Window, sample: Sample, options: &GeoTiffOptions, cells: &[T]) -> PyResult<()> {
+    let mut file = GeoTiffWriter::create(path, &grid, window, sample, options).map_err(error)?;
     file.write_rows(cells).map_err(error)?;
     file.finish().map_err(error)
 }
@@ -393,7 +423,7 @@ impl Prepared {
     #[new]
     #[pyo3(signature = (scene, grid, *, backend = "auto", mode = "exact", nodata = -9999.0, owner = false))]
     fn new(py: Python<'_>, scene: &Scene, grid: &Grid, backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Prepared> {
-        let settings = Settings::new(backend, mode, nodata, owner)?;
+        let settings = Settings::new(py, backend, mode, nodata, owner)?;
         let (scene, spec) = (scene.scene.clone(), grid.spec);
         let prepared = interruptible(py, move |_| -> PyResult<PreparedScene> {
             let grid = spec.grid_for(&scene).map_err(error)?;
@@ -439,16 +469,16 @@ fn rasterise(
     nodata: f32,
     owner: bool,
     window: Option<(u32, u32, u32, u32)>,
-    points: Option<PyReadonlyArray2<'_, f64>>,
+    points: Option<&Bound<'_, PyAny>>,
     radius: f64,
 ) -> PyResult<Raster> {
     if radius.is_nan() {
         return Err(error("radius is NaN; give a number (negative: any distance, 0: none)"));
     }
     // The fallback reads the owner layer: it is computed, and dropped if not asked for.
-    let settings = Settings::new(backend, mode, nodata, owner || radius != 0.0)?;
+    let settings = Settings::new(py, backend, mode, nodata, owner || radius != 0.0)?;
     let points = match (points, radius != 0.0) {
-        (Some(points), true) => Some(vertices_of(&points, "points")?),
+        (Some(points), true) => Some(vertices_of(points, "points")?),
         (None, true) => Some(self_points(&scene.scene)),
         (_, false) => None,
     };
@@ -477,8 +507,8 @@ fn self_points(scene: &RustScene) -> Vec<[f64; 3]> {
 
 /// The backend "auto" picks here, and the Vulkan adapter if there is one.
 #[pyfunction]
-fn backends() -> (String, Option<String>) {
-    match tileraster::gpu_adapter() {
+fn backends(py: Python<'_>) -> (String, Option<String>) {
+    match py.detach(tileraster::gpu_adapter) {
         Ok(adapter) if !adapter.software => ("gpu".into(), Some(adapter.to_string())),
         Ok(adapter) => ("cpu".into(), Some(adapter.to_string())),
         Err(_) => ("cpu".into(), None),

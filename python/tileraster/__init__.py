@@ -16,26 +16,10 @@ stops a long call with ``KeyboardInterrupt``.
 
 from __future__ import annotations
 
-import numpy as np
-
 from ._native import Grid, Prepared, Raster, Scene, TilerasterError, backends
 from ._native import rasterise as _rasterise
 
 __all__ = ["Grid", "Prepared", "Raster", "Scene", "TilerasterError", "backends", "rasterise", "points_to_dem", "tin"]
-
-
-def _rows_of_three(array, dtype, what: str) -> np.ndarray:
-    """`array` as a C-ordered (N, 3) array of `dtype`: no copy when it already is one."""
-    a = np.asarray(array)
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise TilerasterError(f"{what} has shape {a.shape}; give an (N, 3) array")
-    if dtype is np.int64 and a.size and a.dtype.kind not in "iu":
-        raise TilerasterError(f"{what} has dtype {a.dtype}; give integer vertex indices")
-    return np.ascontiguousarray(a, dtype=dtype)
-
-
-def _scene(vertices, triangles) -> Scene:
-    return Scene(_rows_of_three(vertices, np.float64, "vertices"), _rows_of_three(triangles, np.int64, "triangles"))
 
 
 def tin(points, *, max_edge: float | None = None) -> Scene:
@@ -43,7 +27,7 @@ def tin(points, *, max_edge: float | None = None) -> Scene:
     with equal x, y the first is kept. ``max_edge`` leaves out triangles with an edge longer
     than that (map units, in x and y), so gaps stay nodata. Its ``triangles`` are what owner
     rasters index."""
-    scene = Scene.from_points(_rows_of_three(points, np.float64, "points"))
+    scene = Scene.from_points(points)
     return scene if max_edge is None else scene.without_long_edges(max_edge)
 
 
@@ -60,7 +44,7 @@ def rasterise(vertices, triangles, grid: Grid, *, backend: str = "auto", mode: s
     - ``window=(x0, y0, width, height)``: only that window of the grid, its cells bit for bit
       the whole grid's there.
     """
-    scene = vertices if isinstance(vertices, Scene) and triangles is None else _scene(vertices, triangles)
+    scene = vertices if isinstance(vertices, Scene) and triangles is None else Scene(vertices, triangles)
     return _rasterise(scene, grid, backend=backend, mode=mode, nodata=float(nodata), owner=owner, window=window)
 
 
@@ -76,6 +60,5 @@ def points_to_dem(points, grid: Grid, *, backend: str = "auto", mode: str = "exa
       nearest point within ``radius`` as gdal_grid 3.6 picks it (negative: any distance;
       0, the default: they stay nodata).
     """
-    points = _rows_of_three(points, np.float64, "points")
     return _rasterise(tin(points, max_edge=max_edge), grid, backend=backend, mode=mode, nodata=float(nodata), owner=owner,
                       window=window, points=points, radius=float(radius))

@@ -47,6 +47,9 @@ impl GridSpec {
             scene.vertices.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(v[axis]), hi.max(v[axis])])
         };
         let given = self.txe.is_some() && self.tye.is_some();
+        if !given && scene.vertices.is_empty() {
+            return Err(DemError::EmptyExtent);
+        }
         self.grid_over(self.txe.unwrap_or_else(|| span(0)), self.tye.unwrap_or_else(|| span(1)), given)
     }
 

@@ -90,7 +90,7 @@ pub fn read_scene(path: &Path, options: &ReadOptions, progress: &dyn Progress) -
     if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
         return Err(DemError::MaxEdge(max_edge));
     }
-    if kind == InputKind::Text && !options.classes.is_empty() {
+    if kind != InputKind::Las && !options.classes.is_empty() {
         return Err(DemError::ClassesOfText { path: path.to_owned() });
     }
     let mut input = read(path, kind, options, progress)?;

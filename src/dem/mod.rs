@@ -71,8 +71,11 @@ pub enum DemError {
     #[error("--max-edge is {0}; give the longest edge to keep, a positive length in map units")]
     MaxEdge(f64),
     /// `--class` on a file that has no classifications.
-    #[error("{}: --class filters LAS/LAZ points by classification; delimited text has none", path.display())]
+    #[error("{}: --class filters LAS/LAZ points by classification; this file has none", path.display())]
     ClassesOfText { path: PathBuf },
+    /// An extent to take from an input that has no vertices.
+    #[error("the input has no vertices to take the extent from; give --txe and --tye")]
+    EmptyExtent,
     /// Part `k` of `n` lies beyond the grid's rows.
     #[error("the grid's {rows} rows make only {parts} parts of {part_rows} rows; give fewer parts")]
     NoSuchPart { k: u32, n: u32, rows: u32, parts: u32, part_rows: u32 },

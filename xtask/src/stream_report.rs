@@ -15,7 +15,6 @@ use crate::gdal_report::{read_values, write_points_csv};
 use crate::{measure, median};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::os::unix::process::CommandExt as _;
 use std::process::Command;
 use std::time::Instant;
 use tiff::decoder::{Decoder, DecodingResult};
@@ -52,18 +51,14 @@ fn read_tiled_window(path: &Path, x0: u32, y0: u32, size: u32) -> Result<Vec<f32
     Ok(cells)
 }
 
-/// Run `command` with its address space limited to `limit` bytes (`ulimit -v`).
-fn limit_address_space(command: &mut Command, limit: u64) {
-    // SAFETY: between fork and exec, only setrlimit, which is async-signal-safe.
-    unsafe {
-        command.pre_exec(move || {
-            let rlimit = libc::rlimit { rlim_cur: limit, rlim_max: limit };
-            match libc::setrlimit(libc::RLIMIT_AS, &rlimit) {
-                0 => Ok(()),
-                _ => Err(std::io::Error::last_os_error()),
-            }
-        });
-    }
+/// `command` run with its address space limited to `limit` bytes, through the shell's
+/// `ulimit -v` and `exec`: spawned without a fork of this process, so that the peak resident
+/// memory `wait4` reports is the command's own, not a copy of this process's pages (a
+/// `pre_exec` hook forks, and a forked child's peak starts at its parent's size).
+fn limited_address_space(command: &Command, limit: u64) -> Command {
+    let mut shell = Command::new("sh");
+    shell.arg("-c").arg(format!("ulimit -v {} && exec \"$0\" \"$@\"", limit >> 10)).arg(command.get_program()).args(command.get_args());
+    shell
 }
 
 pub fn run(points: usize, size: u32, limit_mib: u64) -> Result<String, String> {
@@ -145,8 +140,7 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     let limit = limit_mib << 20;
     eprintln!("stream-report: {size}² under ulimit -v {limit_mib} MiB ...");
     // Tiled even when it fits in one band, so its windows can be read tile by tile.
-    let mut command = rasterise(&big, size, &["--co", "TILED=YES"]);
-    limit_address_space(&mut command, limit);
+    let mut command = limited_address_space(&rasterise(&big, size, &["--co", "TILED=YES"]), limit);
     let m = measure(command.arg("--stats"))?;
     let bands = m.stderr.lines().filter(|l| l.starts_with('{')).count();
     let file = std::fs::metadata(&big).map_err(|e| e.to_string())?.len();
@@ -178,8 +172,7 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     // temporary file until the directories, which come first, can be written.
     let cog = dir.join("big-cog.tif");
     eprintln!("stream-report: {size}² as a COG under ulimit -v {limit_mib} MiB ...");
-    let mut command = rasterise(&cog, size, &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=YES"]);
-    limit_address_space(&mut command, limit);
+    let mut command = limited_address_space(&rasterise(&cog, size, &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=YES"]), limit);
     let m = measure(&mut command)?;
     let validator = match Command::new("/usr/bin/python3").args(["-m", "osgeo_utils.samples.validate_cloud_optimized_geotiff", "--full-check=yes"]).arg(&cog).output() {
         Ok(out) if out.status.success() => String::from_utf8_lossy(&out.stdout).trim().replace('\n', " "),
@@ -201,8 +194,8 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
         checked.join("; ")
     );
 
-    // Interrupted: SIGINT, then SIGTERM, 1.5 s into the streamed run (as in issue reports
-    // before runs cleaned up after themselves): the time to exit, the status, what is left.
+    // Interrupted: SIGINT, then SIGTERM, 1.5 s into the streamed run: the time to exit, how
+    // it ended, what is left.
     for (signal, name) in [(libc::SIGINT, "SIGINT"), (libc::SIGTERM, "SIGTERM")] {
         let out = dir.join("interrupted.tif");
         let mut child = rasterise(&out, size, &["--memory", "64"]).stderr(std::process::Stdio::piped()).spawn().map_err(|e| e.to_string())?;
@@ -221,10 +214,14 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
         let _ = writeln!(
             s,
             "**Interrupted by {name}** 1.5 s into a run of the same points onto {size}² cells with `--memory 64` ({} written to the partial file by then): \
-             exited {:.0} ms after the signal with status {}, leaving {}.\n",
+             ended {:.0} ms after the signal, {}, leaving {}.\n",
             mib(partial),
             exited.as_secs_f64() * 1e3,
-            status.code().map_or("none".into(), |c| c.to_string()),
+            match (status.code(), std::os::unix::process::ExitStatusExt::signal(&status)) {
+                (_, Some(n)) => format!("by the signal itself (a shell reports {})", 128 + n),
+                (Some(c), None) => format!("with status {c}"),
+                (None, None) => "somehow".into(),
+            },
             if left.is_empty() { "no file".to_string() } else { left.join(", ") }
         );
     }

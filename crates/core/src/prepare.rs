@@ -42,7 +42,8 @@ impl Window {
         self.width as u64 * self.height as u64
     }
 
-    pub(crate) fn validate(&self, grid: &Grid) -> Result<(), Error> {
+    /// Whether the window is non-empty and lies inside `grid`.
+    pub fn validate(&self, grid: &Grid) -> Result<(), Error> {
         let fits = self.width > 0
             && self.height > 0
             && self.x0 as u64 + self.width as u64 <= grid.width as u64

@@ -57,10 +57,12 @@ fn in_progress() -> MutexGuard<'static, Vec<PathBuf>> {
     IN_PROGRESS.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// The partial files an interrupted process removed, and the lock that keeps any other file
-/// from being created or renamed into place while it is held: a process exits holding it.
+/// The partial files an interrupted process removed (and those it could not), and the lock
+/// that keeps any other file from being created or renamed into place while it is held: a
+/// process exits holding it.
 pub struct Abandoned {
     pub removed: Vec<PathBuf>,
+    pub not_removed: Vec<(PathBuf, std::io::Error)>,
     _held: MutexGuard<'static, Vec<PathBuf>>,
 }
 
@@ -69,13 +71,24 @@ pub struct Abandoned {
 /// place whole before this, or never will be.
 pub fn abandon_partial_files() -> Abandoned {
     let mut held = in_progress();
-    let removed: Vec<PathBuf> = held.drain(..).filter(|tmp| std::fs::remove_file(tmp).is_ok()).collect();
-    Abandoned { removed, _held: held }
+    let (mut removed, mut not_removed) = (Vec::new(), Vec::new());
+    for tmp in held.drain(..) {
+        match std::fs::remove_file(&tmp) {
+            Ok(()) => removed.push(tmp),
+            Err(e) => not_removed.push((tmp, e)),
+        }
+    }
+    Abandoned { removed, not_removed, _held: held }
 }
 
 /// A file written as `<name>.tileraster-partial` beside its destination:
 /// [`commit`](Self::commit) makes it durable and renames it into place; dropped before that
 /// (an error, a panic), it is removed, so a failed run leaves no partial file behind.
+///
+/// The writer holds an exclusive lock on it (`flock`), which the system drops when the file is
+/// closed, however the process ends: a partial file nobody holds is an orphan, replaced; one
+/// that is held belongs to a run still writing the same destination (another process, or
+/// this one asked to write one file twice), and is refused.
 pub(crate) struct PartialFile {
     path: PathBuf,
     tmp: PathBuf,
@@ -88,9 +101,21 @@ impl PartialFile {
         let mut tmp_name = path.file_name().unwrap_or_default().to_owned();
         tmp_name.push(PARTIAL_SUFFIX);
         let tmp = path.with_file_name(tmp_name);
+        let io = |source| IoError::Io { path: path.to_owned(), source };
         let mut listed = in_progress();
-        // Truncates an orphan of an earlier run.
-        let file = std::fs::File::create(&tmp).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
+        let file = std::fs::OpenOptions::new().write(true).create(true).truncate(false).open(&tmp).map_err(io)?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                return Err(IoError::Format {
+                    path: path.to_owned(),
+                    message: format!("another run is writing this file ({} is in use); wait for it, or give another destination", tmp.display()),
+                })
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(io(e)),
+        }
+        // An orphan of an earlier run, replaced.
+        file.set_len(0).map_err(io)?;
         listed.push(tmp.clone());
         Ok(PartialFile { path: path.to_owned(), tmp, out: std::io::BufWriter::with_capacity(1 << 20, file), committed: false })
     }

@@ -185,14 +185,15 @@ fn print_markdown(task: &str, report: Result<String, String>) -> ExitCode {
     }
 }
 
-/// A finished child process: wall seconds and peak resident memory (bytes).
+/// A finished child process: wall seconds and what it wrote on stderr. (Not its peak memory:
+/// a child's peak as `wait4` reports it counts this process's pages; `stream-report` runs
+/// the command under GNU time instead.)
 pub(crate) struct Measured {
     pub seconds: f64,
-    pub peak_rss: u64,
     pub stderr: String,
 }
 
-/// Run `command` to its end, with its own peak resident set size from `wait4`.
+/// Run `command` to its end.
 pub(crate) fn measure(command: &mut std::process::Command) -> Result<Measured, String> {
     let start = std::time::Instant::now();
     let child = command.stderr(std::process::Stdio::piped()).spawn().map_err(|e| format!("{command:?}: {e}"))?;
@@ -200,16 +201,16 @@ pub(crate) fn measure(command: &mut std::process::Command) -> Result<Measured, S
     let mut stderr = child.stderr.ok_or("no stderr")?;
     let mut text = String::new();
     std::io::Read::read_to_string(&mut stderr, &mut text).map_err(|e| e.to_string())?;
-    let (mut status, mut usage) = (0, unsafe { std::mem::zeroed::<libc::rusage>() });
-    // SAFETY: `pid` is our child, not yet waited for; both out-pointers are valid.
-    if unsafe { libc::wait4(pid, &mut status, 0, &mut usage) } != pid {
-        return Err(format!("{command:?}: wait4 failed"));
+    let mut status = 0;
+    // SAFETY: `pid` is our child, not yet waited for; the out-pointer is valid.
+    if unsafe { libc::waitpid(pid, &mut status, 0) } != pid {
+        return Err(format!("{command:?}: waitpid failed"));
     }
     let seconds = start.elapsed().as_secs_f64();
     if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
         return Err(format!("{command:?} failed: {text}"));
     }
-    Ok(Measured { seconds, peak_rss: usage.ru_maxrss as u64 * 1024, stderr: text })
+    Ok(Measured { seconds, stderr: text })
 }
 
 /// The median of measured times (seconds).

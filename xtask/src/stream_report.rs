@@ -51,21 +51,29 @@ fn read_tiled_window(path: &Path, x0: u32, y0: u32, size: u32) -> Result<Vec<f32
     Ok(cells)
 }
 
-/// `command` run with its address space limited to `limit` bytes, through the shell's
-/// `ulimit -v` and `exec`. The peak resident memory `wait4` reports for it is at least this
-/// process's own peak when it was spawned (the child starts as this process's copy or shares
-/// its memory until `exec`), so the report keeps its own small and says how large it was
-/// ([`own_peak`]).
-/// This process's peak resident memory so far (`VmHWM`), in bytes.
-fn own_peak() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status.lines().find_map(|l| l.strip_prefix("VmHWM:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok()).map_or(0, |kib| kib << 10)
-}
-
+/// `command` run with its address space limited to `limit` bytes (the shell's `ulimit -v`),
+/// under GNU time, which reports its peak resident memory ([`peak_of`]). Not `wait4`'s figure
+/// for a child of this process: a child starts as this process's copy, or shares its memory
+/// until `exec`, and its peak counts this process's pages. GNU time's own child is forked from
+/// a small process.
 fn limited_address_space(command: &Command, limit: u64) -> Command {
     let mut shell = Command::new("sh");
-    shell.arg("-c").arg(format!("ulimit -v {} && exec \"$0\" \"$@\"", limit >> 10)).arg(command.get_program()).args(command.get_args());
     shell
+        .arg("-c")
+        .arg(format!("ulimit -v {} && exec /usr/bin/time -f 'peak resident KiB: %M' \"$0\" \"$@\"", limit >> 10))
+        .arg(command.get_program())
+        .args(command.get_args());
+    shell
+}
+
+/// The peak resident memory GNU time reported on `stderr`.
+fn peak_of(stderr: &str) -> Result<u64, String> {
+    stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("peak resident KiB: "))
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .map(|kib| kib << 10)
+        .ok_or_else(|| "no peak from /usr/bin/time (Debian: apt install time)".to_string())
 }
 
 pub fn run(points: usize, size: u32, limit_mib: u64) -> Result<String, String> {
@@ -148,7 +156,6 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     eprintln!("stream-report: {size}² under ulimit -v {limit_mib} MiB ...");
     // Tiled even when it fits in one band, so its windows can be read tile by tile.
     let mut command = limited_address_space(&rasterise(&big, size, &["--co", "TILED=YES"]), limit);
-    let report_peak = own_peak();
     let m = measure(command.arg("--stats"))?;
     let bands = m.stderr.lines().filter(|l| l.starts_with('{')).count();
     let file = std::fs::metadata(&big).map_err(|e| e.to_string())?.len();
@@ -169,12 +176,11 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
         s,
         "**Larger than the memory it may use.** The same points onto {size}² cells ({} of Float32), the process's address space \
          limited to {limit_mib} MiB (`ulimit -v`) and no `--memory`: it found the limit itself and streamed {bands} bands in {:.1} s, \
-         peak resident memory {} for the whole process (points, TIN and all; at most {} of it this report's own, which a child's peak includes), a {} tiled {}. \
+         peak resident memory {} for the whole process (points, TIN and all), a {} tiled {}. \
          Three 1024² windows of the file, read tile by tile, against `--window` runs of the same cells: {}.\n",
         mib(raster_bytes),
         m.seconds,
-        mib(m.peak_rss),
-        mib(report_peak),
+        mib(peak_of(&m.stderr)?),
         mib(file),
         if bigtiff { "BigTIFF" } else { "classic TIFF" },
         checked.join("; ")
@@ -185,7 +191,6 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     let cog = dir.join("big-cog.tif");
     eprintln!("stream-report: {size}² as a COG under ulimit -v {limit_mib} MiB ...");
     let mut command = limited_address_space(&rasterise(&cog, size, &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=YES"]), limit);
-    let report_peak = own_peak();
     let m = measure(&mut command)?;
     let validator = match Command::new("/usr/bin/python3").args(["-m", "osgeo_utils.samples.validate_cloud_optimized_geotiff", "--full-check=yes"]).arg(&cog).output() {
         Ok(out) if out.status.success() => String::from_utf8_lossy(&out.stdout).trim().replace('\n', " "),
@@ -200,10 +205,9 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     let _ = writeln!(
         s,
         "**A COG larger than memory.** The same run with `--of COG --co COMPRESS=DEFLATE --co PREDICTOR=YES`, under the same limit: {:.1} s, \
-         peak resident memory {} (at most {} of it this report's own), a {} file; GDAL's validator (`--full-check=yes`): {validator}. Three 1024² windows against the tiled file's: {}.\n",
+         peak resident memory {}, a {} file; GDAL's validator (`--full-check=yes`): {validator}. Three 1024² windows against the tiled file's: {}.\n",
         m.seconds,
-        mib(m.peak_rss),
-        mib(report_peak),
+        mib(peak_of(&m.stderr)?),
         mib(std::fs::metadata(&cog).map_err(|e| e.to_string())?.len()),
         checked.join("; ")
     );

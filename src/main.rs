@@ -258,7 +258,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     };
     // A grid given whole, and its window, are checked before the input is read; one that takes
     // the input's extent, after.
-    let given = (spec.txe.is_some() && spec.tye.is_some()).then(|| spec.grid()).transpose().map_err(grid_error)?;
+    let given = spec.check().map_err(grid_error)?;
     if let Some(grid) = &given {
         window_of(grid)?;
     }

@@ -42,12 +42,7 @@ impl Grid {
             _ => return Err(error("give the raster size as outsize=(width, height) or the cell size as tr=(xres, yres), one of them")),
         };
         let spec = GridSpec { txe: txe.map(|(a, b)| [a, b]), tye: tye.map(|(a, b)| [a, b]), size, tap };
-        if tap && outsize.is_some() {
-            return Err(error(dem::DemError::TapNeedsResolution));
-        }
-        if spec.txe.is_some() && spec.tye.is_some() {
-            spec.grid().map_err(error)?;
-        }
+        spec.check().map_err(error)?;
         Ok(Grid { spec })
     }
 
@@ -479,7 +474,8 @@ fn rasterise(
     let settings = Settings::new(py, backend, mode, nodata, owner || radius != 0.0)?;
     let points = match (points, radius != 0.0) {
         (Some(points), true) => Some(vertices_of(points, "points")?),
-        (None, true) => Some(self_points(&scene.scene)),
+        // A mesh's own vertices when no points are given.
+        (None, true) => Some(scene.scene.vertices.clone()),
         (_, false) => None,
     };
     let (scene, spec, window) = (scene.scene.clone(), grid.spec, window_of(window));
@@ -498,11 +494,6 @@ fn rasterise(
     })??;
     let (raster, stats) = done.ok_or_else(|| error("interrupted"))?;
     Raster::new(py, raster, &stats)
-}
-
-/// A mesh's own vertices, the points its fallback searches when none are given.
-fn self_points(scene: &RustScene) -> Vec<[f64; 3]> {
-    scene.vertices.clone()
 }
 
 /// The backend "auto" picks here, and the Vulkan adapter if there is one.

@@ -41,6 +41,23 @@ impl GridSpec {
         }
     }
 
+    /// What can be checked before the input is read: the whole grid when its extent is given
+    /// (returned), otherwise the size (`--tap` with a size in cells, cell sizes).
+    pub fn check(&self) -> Result<Option<Grid>, DemError> {
+        match (self.txe, self.tye) {
+            (Some(_), Some(_)) => self.grid().map(Some),
+            _ => self.check_size().map(|_| None),
+        }
+    }
+
+    fn check_size(&self) -> Result<(), DemError> {
+        match self.size {
+            GridSize::Cells { .. } if self.tap => Err(DemError::TapNeedsResolution),
+            GridSize::Cells { .. } => Ok(()),
+            GridSize::Resolution { x, y } => positive(x, 'x').and(positive(y, 'y')),
+        }
+    }
+
     /// The grid, with the extent `scene`'s vertices span where none is given.
     pub fn grid_for(&self, scene: &Scene) -> Result<Grid, DemError> {
         let span = |axis: usize| {
@@ -54,12 +71,10 @@ impl GridSpec {
     }
 
     fn grid_over(&self, [mut xmin, mut xmax]: [f64; 2], [mut ymin, mut ymax]: [f64; 2], given: bool) -> Result<Grid, DemError> {
+        self.check_size()?;
         let (width, height) = match self.size {
-            GridSize::Cells { .. } if self.tap => return Err(DemError::TapNeedsResolution),
             GridSize::Cells { width, height } => (width, height),
             GridSize::Resolution { x, y } => {
-                positive(x, 'x')?;
-                positive(y, 'y')?;
                 if self.tap {
                     (xmin, xmax) = ((xmin / x).floor() * x, (xmax / x).ceil() * x);
                     (ymin, ymax) = ((ymin / y).floor() * y, (ymax / y).ceil() * y);
@@ -143,6 +158,11 @@ mod tests {
         let g = GridSpec { txe: Some([0.2, 3.9]), tap: true, ..tr }.grid_for(&scene).unwrap();
         assert_eq!((g.xmin, g.xmax, g.width, g.ymin, g.ymax), (0.0, 4.0, 8, 20.0, 24.5));
         assert!(matches!(GridSpec { tap: true, ..cells }.grid_for(&scene), Err(DemError::TapNeedsResolution)));
+        // Before the input is read: the size alone, or the whole grid when the extent is given.
+        assert!(matches!(GridSpec { tap: true, ..cells }.check(), Err(DemError::TapNeedsResolution)));
+        assert!(matches!(GridSpec { size: GridSize::Resolution { x: -1.0, y: 1.0 }, ..cells }.check(), Err(DemError::CellSize { axis: 'x', .. })));
+        assert_eq!(tr.check().unwrap(), None);
+        assert_eq!(GridSpec { txe: Some([0.0, 5.0]), tye: Some([0.0, 2.0]), ..tr }.check().unwrap().map(|g| (g.width, g.height)), Some((10, 4)));
     }
 
     #[test]

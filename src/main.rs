@@ -167,7 +167,7 @@ struct RasteriseArgs {
     #[arg(long)]
     stats: bool,
     /// Turn one of the pipeline's skips off (repeatable), to measure its gain; results do
-    /// not change. Names: cull_window, empty_tiles, full_tiles, overlap_free.
+    /// not change. Names: cull_window, empty_tiles, full_tiles, overlap_free, hidden_triangles.
     #[arg(long = "no-skip", value_name = "SKIP", value_parser = skip_name)]
     no_skip: Vec<Skip>,
 }

@@ -27,8 +27,9 @@ fn cpu(mesh: &Mesh, params: &RenderParams) -> Frame {
 fn assert_same_frame(what: &str, a: &Frame, b: &Frame) {
     let n = a.colour.len();
     assert_eq!((a.width, a.height), (b.width, b.height), "{what}: sizes");
+    assert_eq!(a.fragments.len(), b.fragments.len(), "{what}: one frame counts fragments, the other does not");
     let differing: Vec<usize> = (0..n)
-        .filter(|&k| a.colour[k] != b.colour[k] || a.depth[k].to_bits() != b.depth[k].to_bits() || a.ids[k] != b.ids[k] || a.fragments[k] != b.fragments[k])
+        .filter(|&k| a.colour[k] != b.colour[k] || a.depth[k].to_bits() != b.depth[k].to_bits() || a.ids[k] != b.ids[k] || a.fragments.get(k) != b.fragments.get(k))
         .collect();
     if !differing.is_empty() {
         let first: Vec<String> = differing
@@ -36,7 +37,7 @@ fn assert_same_frame(what: &str, a: &Frame, b: &Frame) {
             .take(10)
             .map(|&k| {
                 format!(
-                    "  pixel ({}, {}): colour {:08x} vs {:08x}, depth {:e} vs {:e}, id {} vs {}, fragments {} vs {}",
+                    "  pixel ({}, {}): colour {:08x} vs {:08x}, depth {:e} vs {:e}, id {} vs {}, fragments {:?} vs {:?}",
                     k % a.width as usize,
                     k / a.width as usize,
                     a.colour[k],
@@ -45,8 +46,8 @@ fn assert_same_frame(what: &str, a: &Frame, b: &Frame) {
                     b.depth[k],
                     a.ids[k],
                     b.ids[k],
-                    a.fragments[k],
-                    b.fragments[k]
+                    a.fragments.get(k),
+                    b.fragments.get(k)
                 )
             })
             .collect();
@@ -55,13 +56,14 @@ fn assert_same_frame(what: &str, a: &Frame, b: &Frame) {
     assert_eq!(a.stats, b.stats, "{what}: statistics differ");
 }
 
-/// The render pipeline's skip variants: all, none, and each of the two it uses turned off.
-fn render_skips() -> [(&'static str, Skips); 4] {
+/// The render pipeline's skip variants: all, none, and each of the three it uses turned off.
+fn render_skips() -> [(&'static str, Skips); 5] {
     [
         ("all skips", Skips::ALL),
         ("no skips", Skips::NONE),
         ("all skips but cull_window", Skips { cull_window: false, ..Skips::ALL }),
         ("all skips but empty_tiles", Skips { empty_tiles: false, ..Skips::ALL }),
+        ("all skips but hidden_triangles", Skips { hidden_triangles: false, ..Skips::ALL }),
     ]
 }
 
@@ -94,7 +96,43 @@ fn assert_render_parity(name: &str, mesh: &Mesh, params: &RenderParams) -> Frame
             assert_same_frame(&format!("{name}, {variant}: CPU vs GPU"), &c, &g);
         }
     }
+    // Without the fragment count: no fragments layer, the same colour, depth and ids.
+    let params = RenderParams { count_fragments: false, ..params.clone() };
+    let c = cpu(mesh, &params);
+    assert!(c.fragments.is_empty() && c.stats.fragments == 0, "{name}: fragments counted when not asked for");
+    let counted = Frame { fragments: Vec::new(), stats: c.stats.clone(), ..reference.clone() };
+    assert_same_frame(&format!("{name}, fragments not counted: CPU"), &counted, &c);
+    if gpu {
+        let g = render(mesh, &params, Backend::Gpu).unwrap_or_else(|e| panic!("{name}, fragments not counted: GPU backend failed: {e}"));
+        assert_same_frame(&format!("{name}, fragments not counted: CPU vs GPU"), &c, &g);
+    }
     reference
+}
+
+/// Hierarchical depth rejection: on full-frame layers drawn back to front (each layer hides
+/// the ones before it) the tiles' depth bounds reject triangles, the same number on both
+/// backends, with and without the fragment count, and every bit is what the frame is without
+/// the rejection (`assert_render_parity` turns it off); drawn front to back, for every depth
+/// function.
+#[test]
+fn hidden_triangles_are_rejected_the_same_way_on_both_backends() {
+    let back_to_front = meshes::fill_layers(8);
+    let mut front_to_back = back_to_front.clone();
+    front_to_back.triangles.reverse();
+    for (order, mesh) in [("back to front", &back_to_front), ("front to back", &front_to_back)] {
+        for depth_func in DepthFunc::ALL {
+            let clear_depth = if matches!(depth_func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
+            let params = RenderParams { cull: Cull::None, depth_func, clear_depth, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(181, 133, tileraster::render::IDENTITY) };
+            let name = format!("8 layers {order}, {}", depth_func.name());
+            let frame = assert_render_parity(&name, mesh, &params);
+            let hidden = frame.stats.raster.triangles_hidden;
+            // 12 × 9 tiles; in those off the squares' diagonals, one triangle of each of the 8
+            // layers covers the tile whole, and at least the farthest layers are hidden.
+            assert!(hidden >= 12 * 9 * 4, "{name}: only {hidden} triangles hidden");
+            let off = cpu(mesh, &RenderParams { skips: Skips { hidden_triangles: false, ..Skips::ALL }, ..params.clone() });
+            assert_eq!(off.stats.raster.triangles_hidden, 0, "{name}: hidden triangles counted with the rejection off");
+        }
+    }
 }
 
 #[test]

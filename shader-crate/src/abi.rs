@@ -104,6 +104,9 @@ flag_set! {
         /// The host proved that no pixel centre is inside two triangles, so a pixel stops
         /// testing at the first triangle it is inside (no ownership resolution).
         OVERLAP_FREE = 4,
+        /// A depth-tested tile rejects the triangles its depth bound hides
+        /// (`programs::occlusion`).
+        HIDDEN_TRIANGLES = 8,
     }
 }
 
@@ -117,8 +120,7 @@ flag_set! {
     }
 }
 
-/// The statistics counters fine raster adds to, one increment per tile, by index into the
-/// statistics buffer.
+/// The statistics counters fine raster adds to, by index into the statistics buffer.
 #[repr(u32)]
 #[derive(Copy, Clone, PartialEq, Eq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(Debug))]
@@ -129,10 +131,13 @@ pub enum Counter {
     TilesFull = 1,
     /// ... or tested their pixels against their bin.
     TilesPartial = 2,
+    /// Bin entries a tile's depth bound rejected: triangles that could own no pixel of the
+    /// tile, whose depths were never computed there.
+    TrianglesHidden = 3,
 }
 
 impl Counter {
-    /// Length of the statistics buffer (one spare word keeps it 16 bytes).
+    /// Length of the statistics buffer.
     pub const COUNT: usize = 4;
 }
 

@@ -95,7 +95,7 @@ pub fn fine_raster(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
-    #[spirv(workgroup)] shared: &mut FineShared<Coverage>,
+    #[spirv(workgroup)] shared: &mut FineShared<Coverage, u32>,
 ) {
     fine_raster_workgroup(&HeightProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, shared);
 }
@@ -114,7 +114,7 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
-    #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup>,
+    #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
 ) {
     fine_raster_workgroup(&DepthProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, shared);
 }
@@ -166,7 +166,7 @@ fn fine_raster_workgroup<P: PixelProgram>(
     owners: &mut [u32],
     coverage: &mut [u32],
     stats: &mut [u32],
-    shared: &mut FineShared<P::Staged>,
+    shared: &mut FineShared<P::Staged, P::Key>,
 ) {
     let tile = wg.y * frame.tiles_x + wg.x;
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
@@ -181,15 +181,29 @@ fn fine_raster_workgroup<P: PixelProgram>(
             fine::count_tile(lid, Counter::TilesFull, stats);
         } else {
             fine::count_tile(lid, Counter::TilesPartial, stats);
+            let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
+            let mut occluding = P::NO_KEY;
+            if fine::rejects_hidden::<P>(frame) {
+                fine::fine_occluders(program, lid, bins, bin_start, bin_len, setups, &tile_rect, shared);
+                barrier();
+                occluding = fine::occluding_key::<P>(shared);
+            }
             let overlap_free = fine::overlap_free(frame);
+            let count_hidden = fine::counts_hidden(frame);
+            let mut hidden = 0;
             let mut batch_start = 0;
             while batch_start < bin_len {
-                fine::fine_load::<P>(lid, bins, bin_start, bin_len, batch_start, setups, shared);
+                let batch_len = fine::batch_len(bin_len, batch_start);
+                fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, occluding, shared);
                 barrier();
-                fine::fine_test(program, i, j, fine::batch_len(bin_len, batch_start), shared, overlap_free, &mut state);
+                if lid == 0 {
+                    hidden += fine::batch_hidden(batch_len, shared);
+                }
+                fine::fine_test(program, i, j, batch_len, shared, overlap_free, count_hidden, &mut state);
                 barrier();
                 batch_start += BATCH;
             }
+            fine::count_hidden_triangles(lid, hidden, stats);
         }
         fine::fine_resolve(program, i, j, &state, setups)
     };

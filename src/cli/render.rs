@@ -64,6 +64,10 @@ pub struct RenderArgs {
     /// stderr.
     #[arg(long)]
     stats: bool,
+    /// Turn one of the pipeline's skips off (repeatable), to measure its gain; the frame does
+    /// not change. Names: cull_window, empty_tiles, hidden_triangles.
+    #[arg(long = "no-skip", value_name = "SKIP", value_parser = crate::skip_name)]
+    no_skip: Vec<tileraster::Skip>,
     /// No messages on stderr but errors (and --stats when asked for).
     #[arg(short, long)]
     quiet: bool,
@@ -101,7 +105,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, no_skip, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -132,6 +136,10 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         CullArg::None => Cull::None,
     };
     params.blend = blend;
+    params.count_fragments = stats;
+    for skip in no_skip {
+        params.skips = params.skips.without(skip);
+    }
     params.interpolation = match interpolation {
         InterpolationArg::Perspective => Interpolation::Perspective,
         InterpolationArg::Screen => Interpolation::Screen,

@@ -58,7 +58,7 @@ pub struct Frame {
     /// The input face per pixel, counting the mesh's triangles from 0 (`NO_FACE` where none).
     pub ids: Vec<u32>,
     /// Fragments per pixel: how many rasterised triangles cover its centre (before the depth
-    /// test).
+    /// test). Empty unless `RenderParams::count_fragments`.
     pub fragments: Vec<u32>,
     pub stats: RenderStats,
 }
@@ -71,11 +71,13 @@ pub const NO_FACE: u32 = u32::MAX;
 pub struct RenderStats {
     /// The geometry stages: clipped faces, culled and rasterised triangles.
     pub geometry: GeometryCounts,
-    /// Fragments: pixel centres inside a rasterised triangle (counted before the depth test).
+    /// Fragments: pixel centres inside a rasterised triangle (counted before the depth test;
+    /// 0 unless `RenderParams::count_fragments`).
     pub fragments: u64,
     /// Pixels some triangle owns after the depth test.
     pub pixels_covered: u64,
-    /// Fragments that lost the depth test (`fragments − pixels_covered`).
+    /// Fragments that lost the depth test (`fragments − pixels_covered`; 0 unless
+    /// `RenderParams::count_fragments`).
     pub depth_rejected: u64,
     /// The kernels' statistics (tiles, passes).
     pub raster: Stats,
@@ -201,9 +203,9 @@ impl PreparedMesh {
 /// to `owner`.
 fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams, owner: &mut Option<Vec<u32>>) -> Frame {
     let ids = raster.faces.expect("the render pipeline writes faces");
-    let per_pixel = raster.coverage.expect("the render pipeline counts fragments");
+    let per_pixel = raster.coverage.unwrap_or_default();
     let covered = ids.par_iter().filter(|&&f| f != NO_FACE).count() as u64;
-    let fragments = per_pixel.par_iter().map(|&c| c as u64).sum();
+    let fragments = per_pixel.par_iter().map(|&c| c as u64).sum::<u64>();
     *owner = raster.owner;
     Frame {
         width: params.width,
@@ -212,6 +214,6 @@ fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams, own
         depth: raster.values,
         ids,
         fragments: per_pixel,
-        stats: RenderStats { geometry, fragments, pixels_covered: covered, depth_rejected: fragments - covered, raster: raster.stats },
+        stats: RenderStats { geometry, fragments, pixels_covered: covered, depth_rejected: fragments.saturating_sub(covered), raster: raster.stats },
     }
 }

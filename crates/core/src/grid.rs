@@ -119,6 +119,10 @@ pub struct Skips {
     /// TIN, every heightfield), pixels stop at the first triangle they are inside: no
     /// ownership resolution.
     pub overlap_free: bool,
+    /// In a depth-tested frame, each tile takes a depth bound from the triangles that cover it
+    /// whole and rejects the triangles that lie behind it everywhere: they get no depth test
+    /// there (hierarchical depth rejection; `Stats::triangles_hidden` counts them).
+    pub hidden_triangles: bool,
 }
 
 /// One of the pipeline's skips, by name (see [`Skips`]).
@@ -128,10 +132,11 @@ pub enum Skip {
     EmptyTiles,
     FullTiles,
     OverlapFree,
+    HiddenTriangles,
 }
 
 impl Skip {
-    pub const ALL: [Skip; 4] = [Skip::CullWindow, Skip::EmptyTiles, Skip::FullTiles, Skip::OverlapFree];
+    pub const ALL: [Skip; 5] = [Skip::CullWindow, Skip::EmptyTiles, Skip::FullTiles, Skip::OverlapFree, Skip::HiddenTriangles];
 
     /// The name the command line (`--no-skip NAME`) and the reports use.
     pub fn name(self) -> &'static str {
@@ -140,6 +145,7 @@ impl Skip {
             Skip::EmptyTiles => "empty_tiles",
             Skip::FullTiles => "full_tiles",
             Skip::OverlapFree => "overlap_free",
+            Skip::HiddenTriangles => "hidden_triangles",
         }
     }
 }
@@ -163,8 +169,8 @@ impl std::str::FromStr for Skip {
 }
 
 impl Skips {
-    pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true };
-    pub const NONE: Skips = Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false };
+    pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true, hidden_triangles: true };
+    pub const NONE: Skips = Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false, hidden_triangles: false };
 
     /// All skips but `skip`.
     pub fn all_but(skip: Skip) -> Skips {
@@ -190,6 +196,7 @@ impl Skips {
             Skip::EmptyTiles => &mut self.empty_tiles,
             Skip::FullTiles => &mut self.full_tiles,
             Skip::OverlapFree => &mut self.overlap_free,
+            Skip::HiddenTriangles => &mut self.hidden_triangles,
         }
     }
 }

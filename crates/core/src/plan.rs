@@ -81,6 +81,9 @@ pub struct Stats {
     pub triangles_flat: u64,
     /// Triangles the binning stages took.
     pub triangles_binned: u64,
+    /// Bin entries (a triangle in a tile) that a depth-tested tile's depth bound rejected
+    /// before their depth tests: triangles hidden all over the tile (`Skip::HiddenTriangles`).
+    pub triangles_hidden: u64,
     /// Whether the scene analysis proved that no pixel centre is inside two triangles, and
     /// fine raster used it. (The analysis runs only where it can pay: on triangles whose
     /// rectangles average at least 96 pixels.)
@@ -98,7 +101,7 @@ impl Stats {
         let passes: Vec<String> = self.passes.iter().map(|p| format!("\"{}\"", p.name())).collect();
         format!(
             "{{\"tiles_total\":{},\"tiles_empty_skipped\":{},\"tiles_full\":{},\"tiles_partial\":{},\
-             \"triangles_culled\":{},\"triangles_flat\":{},\"triangles_binned\":{},\"overlap_free\":{},\
+             \"triangles_culled\":{},\"triangles_flat\":{},\"triangles_binned\":{},\"triangles_hidden\":{},\"overlap_free\":{},\
              \"passes\":[{}],\"bytes_uploaded\":{}}}",
             self.tiles_total,
             self.tiles_empty_skipped,
@@ -107,6 +110,7 @@ impl Stats {
             self.triangles_culled,
             self.triangles_flat,
             self.triangles_binned,
+            self.triangles_hidden,
             self.overlap_free,
             passes.join(","),
             self.bytes_uploaded
@@ -185,7 +189,8 @@ impl Prepared {
         let flags = FrameFlags::NONE
             .with(FrameFlags::EMPTY_TILES, skips.empty_tiles)
             .with(FrameFlags::FULL_TILES, skips.full_tiles)
-            .with(FrameFlags::OVERLAP_FREE, overlap_free);
+            .with(FrameFlags::OVERLAP_FREE, overlap_free)
+            .with(FrameFlags::HIDDEN_TRIANGLES, skips.hidden_triangles);
 
         let tiles = |w: &Window| w.width.div_ceil(TILE) as u64 * w.height.div_ceil(TILE) as u64;
         let tiles_total = tiles(&window);
@@ -379,6 +384,7 @@ impl Plan {
         stats.tiles_empty_skipped += counters[Counter::TilesEmpty as usize];
         stats.tiles_full = counters[Counter::TilesFull as usize];
         stats.tiles_partial = counters[Counter::TilesPartial as usize];
+        stats.triangles_hidden = counters[Counter::TrianglesHidden as usize];
         stats
     }
 }

@@ -148,7 +148,11 @@ pub struct RenderParams {
     pub ambient: [f64; 3],
     pub specular: [f64; 3],
     pub shininess: u32,
-    /// `empty_tiles` and `cull_window` apply; the depth test needs the rest off.
+    /// Count the fragments of every pixel (the frame's `fragments` layer and statistics):
+    /// on by default. Off, a triangle a tile's depth bound hides gets no edge test there.
+    pub count_fragments: bool,
+    /// `empty_tiles`, `cull_window` and `hidden_triangles` apply; the depth test needs the
+    /// rest off.
     pub skips: Skips,
 }
 
@@ -173,6 +177,7 @@ impl RenderParams {
             ambient: [0.15, 0.15, 0.15],
             specular: [0.25, 0.25, 0.25],
             shininess: 32,
+            count_fragments: true,
             skips: Skips::ALL,
         }
     }
@@ -421,7 +426,7 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
     let grid_params = Params {
         grid,
         nodata: params.clear_depth,
-        outputs: Outputs { owner: true, coverage: true },
+        outputs: Outputs { owner: true, coverage: params.count_fragments },
         // The depth is the barycentric mode's arithmetic: the GPU backend checks that the
         // adapter gives the CPU's bits for it before using it.
         mode: Mode::Barycentric,

@@ -11,7 +11,7 @@
 //! `Σ (w_k · c3) · z_k` in `f32`, each operation correctly rounded (see
 //! `docs/numeric-contract.md` for its bound).
 
-use crate::abi::{Coverage, DepthFunc, FrameParams, TriangleSetup};
+use crate::abi::{Coverage, DepthFunc, FrameParams, PixelRect, TriangleSetup};
 use crate::programs::height::barycentric_bits;
 use crate::stages::fine::PixelProgram;
 
@@ -69,6 +69,20 @@ impl DepthProgram {
         }
     }
 
+    /// The key of a passing fragment of depth bits `bits` of the triangle with index `index`:
+    /// its depth in the program's order above the index (or its complement, where the later
+    /// triangle wins a tie).
+    #[inline(always)]
+    pub fn key_of(&self, bits: u32, index: u32) -> u64 {
+        let depth = match self.depth_order() {
+            DepthOrder::Ascending => ordered(bits),
+            DepthOrder::Descending => !ordered(bits),
+            DepthOrder::Ignored => 0,
+        };
+        let tie = if self.later_wins() { !index } else { index };
+        (depth as u64) << 32 | tie as u64
+    }
+
     /// Whether a fragment of depth `d` passes the test against the clear value.
     #[inline]
     pub fn passes(&self, d: f32) -> bool {
@@ -120,6 +134,7 @@ impl PixelProgram for DepthProgram {
     type Value = u32;
     const NO_KEY: u64 = u64::MAX;
     const HULL_EDGES: bool = false;
+    const OCCLUSION: bool = true;
 
     #[inline(always)]
     fn staged(setup: &TriangleSetup) -> &TriangleSetup {
@@ -139,14 +154,7 @@ impl PixelProgram for DepthProgram {
         if !self.passes(f32::from_bits(bits)) {
             return u64::MAX;
         }
-        let depth = match self.depth_order() {
-            DepthOrder::Ascending => ordered(bits),
-            DepthOrder::Descending => !ordered(bits),
-            DepthOrder::Ignored => 0,
-        };
-        let slot = s.coverage.index;
-        let tie = if self.later_wins() { !slot } else { slot };
-        (depth as u64) << 32 | tie as u64
+        self.key_of(bits, s.coverage.index)
     }
 
     /// The depth the pixel keeps: the owner's, or the clear value without depth writes.
@@ -158,5 +166,15 @@ impl PixelProgram for DepthProgram {
     #[inline(always)]
     fn background(&self) -> u32 {
         self.clear.to_bits()
+    }
+
+    #[inline(always)]
+    fn occluder_key(&self, s: &TriangleSetup, tile: &PixelRect) -> u64 {
+        self.occluder_key_of(s, tile)
+    }
+
+    #[inline(always)]
+    fn hidden(&self, s: &TriangleSetup, tile: &PixelRect, occluding: u64) -> bool {
+        self.hidden_by(s, tile, occluding)
     }
 }

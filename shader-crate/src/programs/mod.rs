@@ -4,4 +4,5 @@
 
 pub mod depth;
 pub mod height;
+pub mod occlusion;
 pub mod shade;

@@ -23,13 +23,17 @@
 //!   entries with `FULL_TILE_BIT`) skips the batches: every pixel is inside that triangle
 //!   (`full_tile`);
 //! - where the host proved that no pixel centre is inside two triangles (`overlap_free`), a
-//!   pixel stops testing at the first triangle it is inside: that one owns it, the count is 1.
+//!   pixel stops testing at the first triangle it is inside: that one owns it, the count is 1;
+//! - where the program bounds its keys over a tile ([`PixelProgram::OCCLUSION`]: the depth
+//!   test), the bin's triangles that cover the tile whole give it a bound first
+//!   (`fine_occluders`), and each triangle whose keys all lie above it is staged as hidden:
+//!   the pixels only count it (where the coverage layer is asked for) and compute no key.
 //!
 //! Ownership is the minimum key over the triangles a centre is inside, which does not depend
 //! on the order of the bin; the coverage count is a plain count. Both are therefore
 //! deterministic whatever the scheduling of the binning atomics.
 
-use crate::abi::{Counter, Coverage, FrameFlags, FrameParams};
+use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect};
 use crate::math::edge::{side_of, Side};
 use crate::memory::Counters;
 use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE};
@@ -66,13 +70,38 @@ pub trait PixelProgram {
     fn value(&self, setup: &Self::Setup, i: i32, j: i32) -> Self::Value;
     /// The value of a pixel no triangle covers.
     fn background(&self) -> Self::Value;
+
+    /// Whether the program can bound its keys over a tile ([`Self::occluder_key`],
+    /// [`Self::hidden`]), so that a tile rejects the triangles that cannot own any of its pixels.
+    const OCCLUSION: bool = false;
+    /// For a triangle that covers `tile` whole: a key no pixel of the tile ends above, where
+    /// the triangle gives every pixel of the tile a key; `NO_KEY` otherwise.
+    fn occluder_key(&self, _staged: &Self::Staged, _tile: &PixelRect) -> Self::Key {
+        Self::NO_KEY
+    }
+    /// Whether the triangle's keys over `tile` all lie above `occluding` (the smallest
+    /// `occluder_key` of the tile's bin), so that it owns none of its pixels.
+    fn hidden(&self, _staged: &Self::Staged, _tile: &PixelRect, _occluding: Self::Key) -> bool {
+        false
+    }
 }
 
-/// Workgroup memory of fine raster: one batch of staged triangles.
+/// Workgroup memory of fine raster: one batch of staged triangles, which of them are hidden,
+/// and the occluder keys of the tile's bin, a partial minimum per loading invocation.
 #[repr(C)]
 #[derive(Copy, Clone)]
-pub struct FineShared<S: Copy> {
+pub struct FineShared<S: Copy, K: Copy> {
     pub batch: [S; BATCH as usize],
+    /// 1 where the staged triangle is hidden in the tile.
+    pub hidden: [u32; BATCH as usize],
+    pub occluders: [K; BATCH as usize],
+}
+
+impl<S: Copy, K: Copy> FineShared<S, K> {
+    /// Workgroup memory as it is before the first phase (the CPU's twins start from it).
+    pub fn new(staged: S, no_key: K) -> Self {
+        FineShared { batch: [staged; BATCH as usize], hidden: [0; BATCH as usize], occluders: [no_key; BATCH as usize] }
+    }
 }
 
 /// What one invocation carries across the batches of its tile.
@@ -126,22 +155,94 @@ pub fn window_index(i: i32, j: i32, frame: &FrameParams) -> usize {
     ((j as u32 - frame.win_y0) * frame.win_w + (i as u32 - frame.win_x0)) as usize
 }
 
-/// Phase 1: invocation `lid` stages entry `batch_start + lid` of the tile's bin.
+/// The grid pixels of window tile `(tx, ty)` that lie in the window.
+#[inline]
+pub fn tile_rect(tx: u32, ty: u32, frame: &FrameParams) -> PixelRect {
+    let (i0, j0, _) = tile_pixel(tx, ty, 0, frame);
+    let i1 = i0 + (TILE - 1).min(frame.win_w - 1 - tx * TILE) as i32;
+    let j1 = j0 + (TILE - 1).min(frame.win_h - 1 - ty * TILE) as i32;
+    PixelRect { i0, j0, i1, j1 }
+}
+
+/// Whether the frame lets a tile reject the triangles its depth bound hides.
+#[inline]
+pub fn rejects_hidden<P: PixelProgram>(frame: &FrameParams) -> bool {
+    P::OCCLUSION && frame.flags.contains(FrameFlags::HIDDEN_TRIANGLES)
+}
+
+/// Occlusion, phase 1 (before the batches): invocation `lid < BATCH` keeps the smallest
+/// occluder key among the bin's entries `lid`, `lid + BATCH`, … that cover the tile whole.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn fine_occluders<P: PixelProgram>(program: &P, lid: u32, bin: &[u32], bin_start: u32, bin_len: u32, setups: &[P::Setup], tile: &PixelRect, shared: &mut FineShared<P::Staged, P::Key>) {
+    if lid >= BATCH {
+        return;
+    }
+    let mut best = P::NO_KEY;
+    let mut k = lid;
+    while k < bin_len {
+        let entry = bin[(bin_start + k) as usize];
+        if entry & FULL_TILE_BIT != 0 {
+            let key = program.occluder_key(P::staged(&setups[(entry & !FULL_TILE_BIT) as usize]), tile);
+            if key < best {
+                best = key;
+            }
+        }
+        k += BATCH;
+    }
+    shared.occluders[lid as usize] = best;
+}
+
+/// Occlusion, phase 2: the tile's bound, the smallest of the partial minima.
+#[inline]
+pub fn occluding_key<P: PixelProgram>(shared: &FineShared<P::Staged, P::Key>) -> P::Key {
+    let mut best = P::NO_KEY;
+    let mut k = 0;
+    while k < BATCH {
+        if shared.occluders[k as usize] < best {
+            best = shared.occluders[k as usize];
+        }
+        k += 1;
+    }
+    best
+}
+
+/// Phase 1: invocation `lid` stages entry `batch_start + lid` of the tile's bin, and whether
+/// the tile's bound `occluding` hides it.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn fine_load<P: PixelProgram>(
+    program: &P,
     lid: u32,
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
     batch_start: u32,
     setups: &[P::Setup],
-    shared: &mut FineShared<P::Staged>,
+    tile: &PixelRect,
+    occluding: P::Key,
+    shared: &mut FineShared<P::Staged, P::Key>,
 ) {
     let k = batch_start + lid;
     if lid < BATCH && k < bin_len {
         let slot = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
-        shared.batch[lid as usize] = *P::staged(&setups[slot as usize]);
+        let staged = P::staged(&setups[slot as usize]);
+        shared.batch[lid as usize] = *staged;
+        shared.hidden[lid as usize] = (P::OCCLUSION && program.hidden(staged, tile, occluding)) as u32;
     }
+}
+
+/// How many triangles of the batch just staged are hidden (invocation 0 adds them up for the
+/// statistics).
+#[inline]
+pub fn batch_hidden<S: Copy, K: Copy>(batch_len: u32, shared: &FineShared<S, K>) -> u32 {
+    let mut n = 0;
+    let mut k = 0;
+    while k < batch_len {
+        n += shared.hidden[k as usize];
+        k += 1;
+    }
+    n
 }
 
 /// Where pixel centre `(i, j)` lies relative to the triangle.
@@ -189,17 +290,39 @@ pub fn overlap_free(frame: &FrameParams) -> bool {
     frame.flags.contains(FrameFlags::OVERLAP_FREE)
 }
 
-/// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles (with `overlap_free`,
-/// only until it is inside one: no other can contain it).
+/// Whether the frame writes the coverage layer, so that a hidden triangle is still counted
+/// where its pixels are inside it.
 #[inline]
-pub fn fine_test<P: PixelProgram>(program: &P, i: i32, j: i32, batch_len: u32, shared: &FineShared<P::Staged>, overlap_free: bool, state: &mut PixelState<P::Key>) {
+pub fn counts_hidden(frame: &FrameParams) -> bool {
+    frame.outputs.contains(OutputSet::COVERAGE)
+}
+
+/// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles (with `overlap_free`,
+/// only until it is inside one: no other can contain it). A hidden triangle owns nothing: it
+/// is only counted, and only where `count_hidden`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn fine_test<P: PixelProgram>(
+    program: &P,
+    i: i32,
+    j: i32,
+    batch_len: u32,
+    shared: &FineShared<P::Staged, P::Key>,
+    overlap_free: bool,
+    count_hidden: bool,
+    state: &mut PixelState<P::Key>,
+) {
     let mut k = 0;
     while k < batch_len {
         if overlap_free && state.owner != NO_OWNER {
             return;
         }
         let staged = &shared.batch[k as usize];
-        accumulate(program, side(P::coverage(staged), i, j), staged, i, j, state);
+        if !P::OCCLUSION || shared.hidden[k as usize] == 0 {
+            accumulate(program, side(P::coverage(staged), i, j), staged, i, j, state);
+        } else if count_hidden && side(P::coverage(staged), i, j) == Side::Inside {
+            state.count += 1;
+        }
         k += 1;
     }
 }
@@ -249,6 +372,14 @@ pub fn background_pixel<P: PixelProgram>(program: &P) -> PixelOut<P::Value> {
 pub fn count_tile<C: Counters + ?Sized>(lid: u32, counter: Counter, stats: &mut C) {
     if lid == 0 {
         stats.fetch_add(counter as usize, 1);
+    }
+}
+
+/// Invocation 0 adds the `hidden` triangles it counted in the tile's batches to the statistics.
+#[inline]
+pub fn count_hidden_triangles<C: Counters + ?Sized>(lid: u32, hidden: u32, stats: &mut C) {
+    if lid == 0 && hidden != 0 {
+        stats.fetch_add(Counter::TrianglesHidden as usize, hidden);
     }
 }
 

@@ -25,8 +25,6 @@ use tileraster_kernels::programs::height::{self, HeightProgram};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
 
-use super::occlusion;
-
 /// One band of `TILE` raster rows: the part of each output layer a row of the frame's tiles
 /// writes. The frame may be part of the raster's window (the rest is already nodata).
 struct Band<'a> {
@@ -141,11 +139,16 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
     const N: usize = TILE_PIXELS as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
     let bin = &bins[bin_start as usize..][..bin_len as usize];
-    let occluding = occlusion::occluding_key(program, setups, bin, &tile);
+    let occluding = occluding_key(program, frame, setups, bin, &tile);
+    let count_hidden = fine::counts_hidden(frame);
     for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
+        let hidden = program.hidden(s, &tile, occluding);
+        stats.0[Counter::TrianglesHidden as usize] += hidden as u32;
+        if hidden && !count_hidden {
+            continue;
+        }
         let Some(mut rows) = TriangleRows::new(s, &tile) else { continue };
-        let hidden = occlusion::hidden(program, s, &tile, occluding);
         for j in rows.j0..=rows.j1 {
             let (mut inside, _) = rows.masks();
             let first = ((j - tile.j0) as u32 * TILE + rows.shift) as usize;
@@ -180,7 +183,18 @@ fn depth_tile_bin(tx: u32, frame: &FrameParams, offsets: &[u32], band: &mut Band
         return None;
     }
     fine::count_tile(0, Counter::TilesPartial, stats);
-    Some((bin_start, bin_len, tile_in_window(tx, band.ty, frame)))
+    Some((bin_start, bin_len, fine::tile_rect(tx, band.ty, frame)))
+}
+
+/// The tile's depth bound (`fine::fine_occluders` and `fine::occluding_key` in one loop): the
+/// smallest occluder key of the bin's entries that cover the tile whole, `NO_KEY` where the
+/// frame rejects no hidden triangle.
+fn occluding_key(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], bin: &[u32], tile: &PixelRect) -> u64 {
+    if !fine::rejects_hidden::<DepthProgram>(frame) {
+        return DepthProgram::NO_KEY;
+    }
+    let occluders = bin.iter().filter(|&&e| e & FULL_TILE_BIT != 0);
+    occluders.map(|&e| program.occluder_key(&setups[(e & !FULL_TILE_BIT) as usize], tile)).min().unwrap_or(DepthProgram::NO_KEY)
 }
 
 /// `fine_resolve` of a depth-test tile from its pixels' smallest keys, owners, setup slots and
@@ -226,12 +240,17 @@ fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, se
     const L: usize = TILE as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
     let bin = &bins[bin_start as usize..][..bin_len as usize];
-    let occluding = occlusion::occluding_key(program, setups, bin, &tile);
+    let occluding = occluding_key(program, frame, setups, bin, &tile);
+    let count_hidden = fine::counts_hidden(frame);
     for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
+        let hidden = program.hidden(s, &tile, occluding);
+        stats.0[Counter::TrianglesHidden as usize] += hidden as u32;
+        if hidden && !count_hidden {
+            continue;
+        }
         let Some(mut rows) = TriangleRows::new(s, &tile) else { continue };
         let (index, setup_slot) = (Simd::splat(s.coverage.index), Simd::splat(s.coverage.slot));
-        let hidden = occlusion::hidden(program, s, &tile, occluding);
         for j in rows.j0..=rows.j1 {
             let at = rows.at();
             let (inside, _) = rows.masks_at(&at);
@@ -338,19 +357,32 @@ where
         states = [states[0]; TILE_PIXELS as usize];
     } else {
         fine::count_tile(0, Counter::TilesPartial, stats);
+        let tile = fine::tile_rect(tx, ty, frame);
+        let mut shared = FineShared::new(P::Staged::default(), P::NO_KEY);
+        let mut occluding = P::NO_KEY;
+        if fine::rejects_hidden::<P>(frame) {
+            for lid in 0..TILE_PIXELS {
+                fine::fine_occluders(program, lid, bins, bin_start, bin_len, setups, &tile, &mut shared);
+            }
+            occluding = fine::occluding_key::<P>(&shared);
+        }
         let overlap_free = fine::overlap_free(frame);
-        let mut shared = FineShared { batch: [P::Staged::default(); BATCH as usize] };
+        let count_hidden = fine::counts_hidden(frame);
+        let mut hidden = 0;
         let mut batch_start = 0;
         while batch_start < bin_len {
+            let batch_len = fine::batch_len(bin_len, batch_start);
             for lid in 0..TILE_PIXELS {
-                fine::fine_load::<P>(lid, bins, bin_start, bin_len, batch_start, setups, &mut shared);
+                fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile, occluding, &mut shared);
             }
+            hidden += fine::batch_hidden(batch_len, &shared);
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
-                fine::fine_test(program, i, j, fine::batch_len(bin_len, batch_start), &shared, overlap_free, state);
+                fine::fine_test(program, i, j, batch_len, &shared, overlap_free, count_hidden, state);
             }
             batch_start += BATCH;
         }
+        fine::count_hidden_triangles(0, hidden, stats);
     }
     for (lid, state) in states.iter().enumerate() {
         let (i, j, inside) = pixel(lid as u32);
@@ -455,15 +487,6 @@ fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offs
         return fine_raster_tile_overlap_free(tx, frame, setups, bin, band);
     }
     fine_raster_tile_overlapping(tx, frame, setups, bin, band)
-}
-
-/// The pixels of window tile `(tx, ty)` that lie in the window (edge tiles overhang it).
-#[inline(always)]
-fn tile_in_window(tx: u32, ty: u32, frame: &FrameParams) -> PixelRect {
-    let (i0, j0, _) = fine::tile_pixel(tx, ty, 0, frame);
-    let i1 = (i0 + TILE as i32 - 1).min((frame.win_x0 + frame.win_w) as i32 - 1);
-    let j1 = (j0 + TILE as i32 - 1).min((frame.win_y0 + frame.win_h) as i32 - 1);
-    PixelRect { i0, j0, i1, j1 }
 }
 
 /// A triangle's pixels in one tile, a row of 16 lanes at a time: the triangle's rectangle
@@ -584,7 +607,7 @@ fn fine_raster_tile_overlapping(tx: u32, frame: &FrameParams, setups: &[Triangle
     let mut slot = [Words::splat(0); TILE as usize];
     let mut count = [Words::splat(0); TILE as usize];
     let mut edge_seen = [0u64; TILE_PIXELS as usize / 64];
-    let tile = tile_in_window(tx, band.ty, frame);
+    let tile = fine::tile_rect(tx, band.ty, frame);
     for &entry in bin {
         let Some(mut rows) = TriangleRows::new(&setups[(entry & !FULL_TILE_BIT) as usize], &tile) else {
             continue;
@@ -680,7 +703,7 @@ fn fine_raster_tile_overlap_free(tx: u32, frame: &FrameParams, setups: &[Triangl
     let mut edge_seen = [0u64; TILE_PIXELS as usize / 64];
     let program = HeightProgram::of(frame);
     let mode = frame.value_mode();
-    let tile = tile_in_window(tx, band.ty, frame);
+    let tile = fine::tile_rect(tx, band.ty, frame);
     for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
         let Some(mut rows) = TriangleRows::new(s, &tile) else {
@@ -989,7 +1012,7 @@ mod tests {
             for ty in 0..frame.tiles_y {
                 for tx in 0..frame.tiles_x {
                     let (start, len) = fine::bin_range(&offsets, ty * frame.tiles_x + tx);
-                    let tile = tile_in_window(tx, ty, &frame);
+                    let tile = fine::tile_rect(tx, ty, &frame);
                     for &entry in &bins[start as usize..][..len as usize] {
                         let Some(mut rows) = TriangleRows::new(&setups[(entry & !FULL_TILE_BIT) as usize], &tile) else { continue };
                         for j in rows.j0..=rows.j1 {
@@ -1040,32 +1063,52 @@ mod tests {
             crossing.positions.extend([[-1.0, -1.0, left], [1.0, -1.0, right], [1.0, 1.0, right], [-1.0, 1.0, left]]);
             crossing.triangles.extend([[v, v + 1, v + 2], [v, v + 2, v + 3]]);
         }
+        let mut hidden_somewhere = false;
         for mesh in [soup, back_to_front, front_to_back, crossing] {
             for func in DepthFunc::ALL {
                 for write in [true, false] {
                     // The `Greater` functions pass against a clear value of 0.
                     let clear_depth = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
-                    let params = RenderParams { cull: Cull::None, depth_func: func, depth_write: write, clear_depth, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(203, 157, IDENTITY) };
-                    let (prepared, _) = prepare_render(&mesh, &params).unwrap();
-                    let plan = prepared.plan(prepared.window, false).unwrap();
-                    let frame = plan.frame(&prepared, plan.active.unwrap());
-                    let StageBuffers { setups, offsets, bins, .. } = crate::stage_buffers(&prepared).unwrap().unwrap();
-                    let program = DepthProgram::of(&frame);
-                    let run = |path: Option<bool>| {
-                        let mut raster = plan.allocate_raster(&prepared).unwrap();
-                        match path {
-                            Some(wide) => fine_depth_using(wide, &program, &frame, &setups, &offsets, &bins, &mut raster),
-                            None => fine_raster_plain(&program, &frame, &setups, &offsets, &bins, &mut raster),
+                    let mut reference: Option<Raster> = None;
+                    for (count_fragments, hidden_triangles) in [(true, false), (true, true), (false, true), (false, false)] {
+                        let skips = tileraster_core::Skips { hidden_triangles, ..tileraster_core::Skips::ALL };
+                        let params = RenderParams { cull: Cull::None, depth_func: func, depth_write: write, clear_depth, eye: Some([0.0, 0.0, -1.0]), count_fragments, skips, ..RenderParams::new(203, 157, IDENTITY) };
+                        let (prepared, _) = prepare_render(&mesh, &params).unwrap();
+                        let plan = prepared.plan(prepared.window, false).unwrap();
+                        let frame = plan.frame(&prepared, plan.active.unwrap());
+                        let StageBuffers { setups, offsets, bins, .. } = crate::stage_buffers(&prepared).unwrap().unwrap();
+                        let program = DepthProgram::of(&frame);
+                        let run = |path: Option<bool>| {
+                            let mut raster = plan.allocate_raster(&prepared).unwrap();
+                            let counters = match path {
+                                Some(wide) => fine_depth_using(wide, &program, &frame, &setups, &offsets, &bins, &mut raster),
+                                None => fine_raster_plain(&program, &frame, &setups, &offsets, &bins, &mut raster),
+                            };
+                            (raster, counters.map(|c| c.into_inner()))
                         };
-                        raster
-                    };
-                    let (lanes, centres, plain) = (run(Some(true)), run(Some(false)), run(None));
-                    assert_eq!(lanes.compare_bits(&centres, 4), (0, vec![]), "{func:?}, write {write}: lanes against centres");
-                    assert_eq!(lanes.compare_bits(&plain, 4), (0, vec![]), "{func:?}, write {write}: lanes against the plain twin");
-                    assert!(lanes.coverage.as_ref().unwrap().iter().any(|&c| c > 1), "{func:?}, write {write}: fragments overlap where they pass");
+                        let what = format!("{func:?}, write {write}, fragments counted {count_fragments}, hidden triangles rejected {hidden_triangles}");
+                        let ((lanes, lane_counts), (centres, centre_counts), (plain, plain_counts)) = (run(Some(true)), run(Some(false)), run(None));
+                        assert_eq!(lanes.compare_bits(&centres, 4), (0, vec![]), "{what}: lanes against centres");
+                        assert_eq!(lanes.compare_bits(&plain, 4), (0, vec![]), "{what}: lanes against the plain twin");
+                        assert_eq!((lane_counts, centre_counts), (plain_counts, plain_counts), "{what}: statistics");
+                        let hidden = plain_counts[Counter::TrianglesHidden as usize];
+                        assert!(hidden_triangles || hidden == 0, "{what}: {hidden} hidden with the rejection off");
+                        hidden_somewhere |= hidden > 0;
+                        if count_fragments {
+                            assert!(lanes.coverage.as_ref().unwrap().iter().any(|&c| c > 1), "{what}: fragments overlap where they pass");
+                        }
+                        // The rejection and the fragment count change no bit of the other layers.
+                        let mut bits = lanes;
+                        bits.coverage = None;
+                        match &reference {
+                            None => reference = Some(bits),
+                            Some(r) => assert_eq!(bits.compare_bits(r, 4), (0, vec![]), "{what}: against the first variant"),
+                        }
+                    }
                 }
             }
         }
+        assert!(hidden_somewhere, "the depth bounds hid no triangle in any scene");
     }
 
     /// A key's depth read back is the depth it was built from, for every sign and size.

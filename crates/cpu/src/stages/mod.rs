@@ -3,6 +3,7 @@
 
 mod bin;
 mod fine;
+#[cfg(test)]
 mod occlusion;
 mod scan;
 mod setup;

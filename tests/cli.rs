@@ -513,6 +513,51 @@ fn the_tin_written_is_the_one_rasterised_and_owners_index_its_faces() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `tileraster render --instances`: the mesh once per transform of the file, the frame the
+/// library renders for that world, the culled instances in `--stats`; a bad line is an error
+/// that names it.
+#[test]
+fn render_draws_instances_from_a_file_of_transforms() {
+    use tileraster::render::{render_world, Camera, RenderParams, World};
+    let dir = scratch("render-instances");
+    let sphere = tileraster_testkit::meshes::sphere([0.0, 0.0, 0.0], 0.5, 8, 12);
+    let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
+    let obj = dir.join("ball.obj");
+    write_obj(&scene, &obj);
+    let transforms: Vec<[[f64; 4]; 4]> = [(0.0, 0.0), (1.5, 0.0), (0.0, 1.5), (40.0, 0.0)]
+        .iter()
+        .map(|&(x, y)| [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, y], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+        .collect();
+    let text: String = transforms.iter().map(|m| m.iter().flatten().map(|v| v.to_string()).collect::<Vec<_>>().join(" ") + "  # a ball\n").collect();
+    let file = dir.join("placements.txt");
+    std::fs::write(&file, format!("# x y z\n{text}")).unwrap();
+    let png = dir.join("balls.png");
+    let camera = "0.7,-4,3,0.7,0.7,0,0,0,1";
+    let out = bin()
+        .args(["render", obj.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "80", "60", "--camera", camera, "--instances", file.to_str().unwrap()])
+        .args(["--backend", "cpu", "--stats", "-q"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("\"instances_drawn\":3,\"instances_culled\":1,"), "--stats: {stderr}");
+    let mesh = tileraster::render::Mesh { positions: scene.vertices.clone(), triangles: scene.triangles.clone(), ..Default::default() };
+    let world = World::instanced(mesh, &transforms);
+    let [lo, hi] = world.bounds();
+    let corners: Vec<[f64; 3]> = (0..8).map(|k: usize| std::array::from_fn(|a| if k >> a & 1 == 0 { lo[a] } else { hi[a] })).collect();
+    let proxy = tileraster::render::Mesh { positions: corners, triangles: vec![[0, 1, 2]], ..Default::default() };
+    let camera = Camera::look_at([0.7, -4.0, 3.0], [0.7, 0.7, 0.0], [0.0, 0.0, 1.0], 45.0, &proxy);
+    let params = RenderParams { eye: Some([0.7, -4.0, 3.0]), ..RenderParams::new(80, 60, camera.view_projection(80, 60).unwrap()) };
+    let frame = render_world(&world, &params, Backend::Cpu).unwrap();
+    assert_eq!(image::open(&png).unwrap().to_rgba8().as_raw(), &frame.rgba8(), "the PNG is the library's frame");
+
+    std::fs::write(&file, "1 0 0 0  0 1 0 0  0 0 1 0  0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1\n").unwrap();
+    let bad = dir.join("bad.png");
+    let out = bin().args(["render", obj.to_str().unwrap(), "-o", bad.to_str().unwrap(), "--instances", file.to_str().unwrap(), "--backend", "cpu"]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("line 2") && stderr.contains("11 numbers") && !bad.exists(), "{stderr}");
+}
+
 /// `tileraster render`: a PNG, depth and ids rasters the library's frame gives (ids counting
 /// the OBJ's faces in file order), `--stats` as JSON; bad input is an error that leaves no file.
 #[test]
@@ -532,7 +577,7 @@ fn render_writes_the_frame_the_library_renders() {
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.trim().starts_with("{\"clipped\":") && stderr.contains("\"fragments\":"), "--stats: {stderr}");
+    assert!(stderr.trim().starts_with("{\"instances_drawn\":1,") && stderr.contains("\"fragments\":"), "--stats: {stderr}");
 
     let mesh = Mesh { positions: scene.vertices.clone(), triangles: scene.triangles.clone(), ..Default::default() };
     let camera = tileraster::render::Camera::look_at([5.0, -4.0, 6.0], [1.0, 2.0, 3.0], [0.0, 0.0, 1.0], 40.0, &mesh);

@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use tileraster::render::{read_mesh, render, Camera, Cull, Interpolation, RenderParams, Shading};
+use tileraster::render::{read_mesh, read_world, render_world, Camera, Cull, Interpolation, Mesh, RenderParams, Shading, World, IDENTITY};
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
@@ -32,6 +32,12 @@ pub struct RenderArgs {
     /// space (Vulkan: depth 0..1, NDC y down the image).
     #[arg(long, value_name = "M00,M01,...,M33", value_parser = numbers::<16>, allow_hyphen_values = true)]
     mvp: Option<[f64; 16]>,
+    /// Draw the mesh once per transform in this file (instances): 16 numbers per line, a 4×4
+    /// affine matrix row-major, separated by spaces or commas; `#` starts a comment. Each
+    /// placement whose bounding box lies outside the view is culled before any vertex work.
+    /// (A glTF file's nodes that share a mesh are instances without this.)
+    #[arg(long, value_name = "TRANSFORMS.txt")]
+    instances: Option<PathBuf>,
     /// Multiply heights (z) by this factor about the mesh's lowest point: vertical
     /// exaggeration for terrain.
     #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
@@ -98,6 +104,28 @@ enum ShadingArg {
     Ids,
 }
 
+/// The transforms of `--instances`: 16 numbers a line.
+fn read_transforms(path: &std::path::Path) -> Result<Vec<[[f64; 4]; 4]>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("--instances {}: {e}", path.display()))?;
+    let mut out = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let at = || format!("--instances {}, line {}", path.display(), k + 1);
+        let values: Vec<f64> = line.split(|c: char| c == ',' || c.is_whitespace()).filter(|v| !v.is_empty()).map(|v| v.parse::<f64>().map_err(|e| format!("{}: '{v}': {e}", at()))).collect::<Result<_, _>>()?;
+        if values.len() != 16 {
+            return Err(format!("{}: {} numbers; give the 16 entries of a 4×4 matrix, row-major", at(), values.len()));
+        }
+        out.push(std::array::from_fn(|r| std::array::from_fn(|c| values[r * 4 + c])));
+    }
+    if out.is_empty() {
+        return Err(format!("--instances {}: no transforms in the file", path.display()));
+    }
+    Ok(out)
+}
+
 /// `N` comma-separated numbers.
 fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     let values: Vec<f64> = s.split(',').map(|v| v.trim().parse::<f64>().map_err(|e| format!("'{v}': {e}"))).collect::<Result<_, _>>()?;
@@ -105,19 +133,36 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, no_skip, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, no_skip, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
     set_quiet(quiet);
     let (width, height) = (size[0], size[1]);
-    let mut mesh = read_mesh(&input).map_err(|e| e.to_string())?;
-    if z_scale != 1.0 {
-        let lowest = mesh.positions.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
-        for p in &mut mesh.positions {
-            p[2] = lowest + z_scale * (p[2] - lowest);
+    let world = match &instances {
+        Some(file) => World::instanced(read_mesh(&input).map_err(|e| e.to_string())?, &read_transforms(file)?),
+        None => read_world(&input).map_err(|e| e.to_string())?,
+    };
+    // A single mesh is scaled and framed as it is; instances by the box holding them all.
+    let single = world.instances.len() == 1 && world.instances[0].transform == IDENTITY;
+    let (mut world, mut model) = (world, IDENTITY);
+    let mesh = if single {
+        let mut mesh = world.meshes.swap_remove(0);
+        if z_scale != 1.0 {
+            let lowest = mesh.positions.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
+            for p in &mut mesh.positions {
+                p[2] = lowest + z_scale * (p[2] - lowest);
+            }
         }
-    }
+        world = World::single(mesh);
+        &world.meshes[0]
+    } else {
+        let [lo, hi] = world.bounds();
+        model[2] = [0.0, 0.0, z_scale, lo[2] * (1.0 - z_scale)];
+        let scaled = |z: f64| lo[2] + z_scale * (z - lo[2]);
+        let corners = (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, scaled(if k & 4 == 0 { lo[2] } else { hi[2] })]);
+        &Mesh { positions: corners.collect(), triangles: vec![[0, 1, 2]], ..Default::default() }
+    };
     let view_projection = match (mvp, camera) {
         (Some(m), _) => std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c])),
         (None, Some(c)) => Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], fov, &mesh)
@@ -129,6 +174,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         return Err(format!("--background: {c} is not a whole number from 0 to 255"));
     }
     let mut params = RenderParams::new(width, height, view_projection);
+    params.model = model;
     params.background = background.map(|c| c as u8);
     params.cull = match cull {
         CullArg::Back => Cull::Back,
@@ -159,7 +205,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     }
     let backend = crate::choose_backend(backend)?;
     let start = Instant::now();
-    let frame = render(&mesh, &params, backend).map_err(|e| e.to_string())?;
+    let frame = render_world(&world, &params, backend).map_err(|e| e.to_string())?;
     let took = start.elapsed();
     tileraster_io::write_rgba_png(&output, width, height, &frame.rgba8()).map_err(|e| e.to_string())?;
     let grid = Grid::new(0.0, width as f64, 0.0, height as f64, width, height);
@@ -173,8 +219,9 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         tiff.write_rows(&frame.ids).and_then(|()| tiff.finish()).map_err(|e| e.to_string())?;
     }
     note(format!(
-        "tileraster: {} triangles → {width}×{height} on the {} backend in {:.1} ms ({} rasterised, {} pixels covered) → {}",
-        mesh.triangles.len(),
+        "tileraster: {} triangles{} → {width}×{height} on the {} backend in {:.1} ms ({} rasterised, {} pixels covered) → {}",
+        world.instances.iter().map(|i| world.meshes[i.mesh as usize].triangles.len() as u64).sum::<u64>(),
+        if single { String::new() } else { format!(" in {} instances ({} culled)", world.instances.len(), frame.stats.geometry.instances_culled) },
         backend.name(),
         took.as_secs_f64() * 1e3,
         frame.stats.geometry.rasterised,

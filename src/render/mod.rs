@@ -23,7 +23,10 @@ mod camera;
 
 pub use camera::Camera;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
-pub use tileraster_core::render::{face_normals, prepare_render, validate_mesh, Cull, FrontFace, GeometryCounts, GeometryMemory, Light, Mesh, RenderParams, Shading, IDENTITY, MAX_RENDER_DIM};
+pub use tileraster_core::render::{
+    face_normals, prepare_render, prepare_world, validate_mesh, Cull, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, Mesh, RenderParams, Shading, World, IDENTITY,
+    MAX_RENDER_DIM,
+};
 
 use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Stats};
@@ -44,6 +47,15 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
     }
     let input = crate::dem::read_scene(path, &Default::default(), &())?;
     Ok(Mesh { positions: input.scene.vertices, triangles: input.scene.triangles, ..Default::default() })
+}
+
+/// The meshes in `path` and their placements: a glTF file's meshes with one instance per node
+/// that places one (nodes sharing a mesh share it); any other input [`read_mesh`] reads, once.
+pub fn read_world(path: &Path) -> Result<World, DemError> {
+    match InputKind::of(path)? {
+        InputKind::Gltf => Ok(tileraster_io::read_gltf_world(path)?),
+        _ => Ok(World::single(read_mesh(path)?)),
+    }
 }
 
 /// A rendered frame: row 0 at the top.
@@ -93,8 +105,10 @@ impl RenderStats {
     pub fn to_json(&self) -> String {
         let g = &self.geometry;
         format!(
-            "{{\"clipped\":{},\"culled_frustum\":{},\"culled_back\":{},\"culled_front\":{},\"culled_zero_area\":{},\"culled_no_centre\":{},\
+            "{{\"instances_drawn\":{},\"instances_culled\":{},\"clipped\":{},\"culled_frustum\":{},\"culled_back\":{},\"culled_front\":{},\"culled_zero_area\":{},\"culled_no_centre\":{},\
              \"triangles_rasterised\":{},\"fragments\":{},\"pixels_covered\":{},\"depth_rejected\":{},\"overdraw\":{:.3},\"raster\":{}}}",
+            g.instances_drawn,
+            g.instances_culled,
             g.clipped,
             g.culled_frustum,
             g.culled_back,
@@ -121,6 +135,16 @@ impl Frame {
 /// Render `mesh` as `params` say on `backend`.
 pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
     let (prepared, geometry) = prepare_render(mesh, params)?;
+    let raster = crate::rasterise_prepared(&prepared, backend)?;
+    Ok(frame_of(raster, geometry, params, &mut None))
+}
+
+/// Render every instance of `world` (many placements of its meshes, each culled against the
+/// view frustum by its bounding box before any vertex work) as `params` say on `backend`. The
+/// face ids number the instances' faces in order, as if they were one mesh
+/// ([`World::flattened`] gives that mesh, and the same frame).
+pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
+    let (prepared, geometry) = prepare_world(world, params)?;
     let raster = crate::rasterise_prepared(&prepared, backend)?;
     Ok(frame_of(raster, geometry, params, &mut None))
 }

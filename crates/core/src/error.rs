@@ -90,4 +90,10 @@ pub enum Error {
 
     #[error("the model matrix's last row is {last_row:?}; a model transform is affine: make its last row 0, 0, 0, 1 and put any projection in the view-projection matrix")]
     NonAffineModel { last_row: [f64; 4] },
+
+    #[error("instance {instance}: {reason}")]
+    InvalidInstance { instance: usize, reason: String },
+
+    #[error("the instances hold {faces} faces in all, more than the 2^32 − 2 a frame numbers; draw fewer instances per frame")]
+    TooManyFaces { faces: u64 },
 }

@@ -123,6 +123,9 @@ pub struct Skips {
     /// whole and rejects the triangles that lie behind it everywhere: they get no depth test
     /// there (hierarchical depth rejection; `Stats::triangles_hidden` counts them).
     pub hidden_triangles: bool,
+    /// In a rendered world of several instances, an instance whose bounding box lies outside
+    /// the view frustum gets no vertex work (`GeometryCounts::instances_culled` counts them).
+    pub cull_instances: bool,
 }
 
 /// One of the pipeline's skips, by name (see [`Skips`]).
@@ -133,10 +136,11 @@ pub enum Skip {
     FullTiles,
     OverlapFree,
     HiddenTriangles,
+    CullInstances,
 }
 
 impl Skip {
-    pub const ALL: [Skip; 5] = [Skip::CullWindow, Skip::EmptyTiles, Skip::FullTiles, Skip::OverlapFree, Skip::HiddenTriangles];
+    pub const ALL: [Skip; 6] = [Skip::CullWindow, Skip::EmptyTiles, Skip::FullTiles, Skip::OverlapFree, Skip::HiddenTriangles, Skip::CullInstances];
 
     /// The name the command line (`--no-skip NAME`) and the reports use.
     pub fn name(self) -> &'static str {
@@ -146,6 +150,7 @@ impl Skip {
             Skip::FullTiles => "full_tiles",
             Skip::OverlapFree => "overlap_free",
             Skip::HiddenTriangles => "hidden_triangles",
+            Skip::CullInstances => "cull_instances",
         }
     }
 }
@@ -169,8 +174,8 @@ impl std::str::FromStr for Skip {
 }
 
 impl Skips {
-    pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true, hidden_triangles: true };
-    pub const NONE: Skips = Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false, hidden_triangles: false };
+    pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true, hidden_triangles: true, cull_instances: true };
+    pub const NONE: Skips = Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false, hidden_triangles: false, cull_instances: false };
 
     /// All skips but `skip`.
     pub fn all_but(skip: Skip) -> Skips {
@@ -197,6 +202,7 @@ impl Skips {
             Skip::FullTiles => &mut self.full_tiles,
             Skip::OverlapFree => &mut self.overlap_free,
             Skip::HiddenTriangles => &mut self.hidden_triangles,
+            Skip::CullInstances => &mut self.cull_instances,
         }
     }
 }

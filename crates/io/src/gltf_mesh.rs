@@ -9,43 +9,80 @@
 
 use crate::IoError;
 use std::path::Path;
-use tileraster_core::render::{normal_matrix, transform_normal, Mesh};
+use tileraster_core::render::{normal_matrix, transform_normal, Instance, Mesh, World};
 
 /// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates.
 pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
+    let format = |message: String| IoError::Format { path: path.to_owned(), message };
+    let (gltf, buffers) = open(path)?;
+    let mut out = Parts::default();
+    walk(&gltf.document, &mut |node, world| match node.mesh() {
+        Some(mesh) => mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &buffers, &mut out)),
+        None => Ok(()),
+    })
+    .map_err(format)?;
+    out.into_mesh().ok_or_else(|| format("the file has no triangles in its scene".into()))
+}
+
+/// Read a glTF 2.0 file as a [`World`]: each mesh once, in its own coordinates, and one
+/// instance per node that places a mesh, with the node's world transform. Nodes that share a
+/// mesh share it here too (instances). Rendered, it gives the faces in [`read_gltf`]'s order.
+pub fn read_gltf_world(path: &Path) -> Result<World, IoError> {
+    let format = |message: String| IoError::Format { path: path.to_owned(), message };
+    let (gltf, buffers) = open(path)?;
+    let mut world = World::default();
+    // glTF mesh index → the world's mesh index (a mesh without triangles is left out).
+    let mut built: std::collections::HashMap<usize, Option<u32>> = std::collections::HashMap::new();
+    walk(&gltf.document, &mut |node, transform| {
+        let Some(mesh) = node.mesh() else { return Ok(()) };
+        let index = match built.get(&mesh.index()) {
+            Some(&index) => index,
+            None => {
+                let mut parts = Parts::default();
+                mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &buffers, &mut parts))?;
+                let index = parts.into_mesh().map(|m| {
+                    world.meshes.push(m);
+                    world.meshes.len() as u32 - 1
+                });
+                built.insert(mesh.index(), index);
+                index
+            }
+        };
+        if let Some(mesh) = index {
+            world.instances.push(Instance { mesh, transform: *transform });
+        }
+        Ok(())
+    })
+    .map_err(format)?;
+    if world.instances.is_empty() {
+        return Err(format("the file has no triangles in its scene".into()));
+    }
+    Ok(world)
+}
+
+/// The document and its buffers, with required extensions refused.
+fn open(path: &Path) -> Result<(gltf::Gltf, Vec<gltf::buffer::Data>), IoError> {
     let format = |message: String| IoError::Format { path: path.to_owned(), message };
     let gltf = gltf::Gltf::open(path).map_err(|e| format(format!("not a readable glTF 2.0 file: {e}")))?;
     if let Some(ext) = gltf.document.extensions_required().next() {
         return Err(format(format!("unsupported glTF feature: the file requires the extension {ext}, which this reader does not implement")));
     }
     let buffers = gltf::import_buffers(&gltf.document, path.parent(), gltf.blob.clone()).map_err(|e| format(format!("reading its buffers: {e}")))?;
-    let mut out = Parts::default();
-    let roots: Vec<gltf::Node> = match gltf.document.default_scene().or_else(|| gltf.document.scenes().next()) {
+    Ok((gltf, buffers))
+}
+
+/// Calls `f` with every node of the default scene (or, without scenes, of every root node)
+/// and its world transform, depth first in document order.
+fn walk(document: &gltf::Document, f: &mut dyn FnMut(&gltf::Node, &Matrix) -> Result<(), String>) -> Result<(), String> {
+    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         None => {
             // No scene: every node that is nobody's child.
-            let children: std::collections::HashSet<usize> = gltf.document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-            gltf.document.nodes().filter(|n| !children.contains(&n.index())).collect()
+            let children: std::collections::HashSet<usize> = document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+            document.nodes().filter(|n| !children.contains(&n.index())).collect()
         }
     };
-    for node in roots {
-        visit(&node, IDENTITY, &buffers, &mut out, 0).map_err(format)?;
-    }
-    if out.triangles.is_empty() {
-        return Err(format("the file has no triangles in its scene".into()));
-    }
-    let vertex_count = out.positions.len();
-    Ok(Mesh {
-        positions: out.positions,
-        triangles: out.triangles,
-        normals: (out.with_normals == out.primitives).then_some(out.normals),
-        colours: (out.with_colours > 0 || out.coloured_materials > 0).then_some(out.colours),
-        uvs: (out.with_uvs > 0).then(|| {
-            let mut uvs = out.uvs;
-            uvs.resize(vertex_count, [0.0; 2]);
-            uvs
-        }),
-    })
+    roots.iter().try_for_each(|node| visit(node, IDENTITY, f, 0))
 }
 
 type Matrix = [[f64; 4]; 4];
@@ -66,6 +103,27 @@ struct Parts {
     coloured_materials: usize,
 }
 
+impl Parts {
+    /// The mesh the primitives add up to; `None` without triangles.
+    fn into_mesh(self) -> Option<Mesh> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let vertex_count = self.positions.len();
+        Some(Mesh {
+            positions: self.positions,
+            triangles: self.triangles,
+            normals: (self.with_normals == self.primitives).then_some(self.normals),
+            colours: (self.with_colours > 0 || self.coloured_materials > 0).then_some(self.colours),
+            uvs: (self.with_uvs > 0).then(|| {
+                let mut uvs = self.uvs;
+                uvs.resize(vertex_count, [0.0; 2]);
+                uvs
+            }),
+        })
+    }
+}
+
 /// glTF's column-major matrix as rows.
 fn rows(m: [[f32; 4]; 4]) -> Matrix {
     std::array::from_fn(|r| std::array::from_fn(|c| m[c][r] as f64))
@@ -78,7 +136,7 @@ fn multiply(a: &Matrix, b: &Matrix) -> Matrix {
 /// Node hierarchies deeper than this are refused (a cycle, or a hostile file).
 const MAX_DEPTH: usize = 256;
 
-fn visit(node: &gltf::Node, parent: Matrix, buffers: &[gltf::buffer::Data], out: &mut Parts, depth: usize) -> Result<(), String> {
+fn visit(node: &gltf::Node, parent: Matrix, f: &mut dyn FnMut(&gltf::Node, &Matrix) -> Result<(), String>, depth: usize) -> Result<(), String> {
     if depth > MAX_DEPTH {
         return Err(format!("node {} is nested more than {MAX_DEPTH} deep (a cycle?)", node.index()));
     }
@@ -86,13 +144,9 @@ fn visit(node: &gltf::Node, parent: Matrix, buffers: &[gltf::buffer::Data], out:
     if node.skin().is_some() {
         return Err(format!("unsupported glTF feature: node {} is skinned", node.index()));
     }
-    if let Some(mesh) = node.mesh() {
-        for primitive in mesh.primitives() {
-            add_primitive(&mesh, &primitive, &world, buffers, out)?;
-        }
-    }
+    f(node, &world)?;
     for child in node.children() {
-        visit(&child, world, buffers, out, depth + 1)?;
+        visit(&child, world, f, depth + 1)?;
     }
     Ok(())
 }
@@ -272,6 +326,27 @@ mod tests {
         check(&from_gltf);
         std::fs::write(dir.join("quad.glb"), glb(&document(None, 4, ""), &quad_buffer())).unwrap();
         assert_eq!(read_gltf(&dir.join("quad.glb")).unwrap(), from_gltf);
+    }
+
+    /// As a world, each mesh is read once in its own coordinates and each node places one:
+    /// flattened, the world is the mesh `read_gltf` reads (the same faces, the same positions
+    /// to rounding). Nodes sharing a mesh become instances of one mesh.
+    #[test]
+    fn nodes_become_instances_of_their_meshes() {
+        let dir = scratch("world");
+        std::fs::write(dir.join("quad.glb"), glb(&document(None, 4, ""), &quad_buffer())).unwrap();
+        let world = read_gltf_world(&dir.join("quad.glb")).unwrap();
+        assert_eq!((world.meshes.len(), world.instances.len()), (2, 2));
+        assert_eq!(world.instances.iter().map(|i| i.mesh).collect::<Vec<_>>(), vec![0, 1]);
+        let (flat, mesh) = (world.flattened(), read_gltf(&dir.join("quad.glb")).unwrap());
+        assert_eq!(flat.triangles, mesh.triangles);
+        assert!(flat.positions.iter().zip(&mesh.positions).all(|(a, b)| close(*a, *b)));
+        let shared = document(None, 4, "").replace(r#"{"mesh": 1, "rotation""#, r#"{"mesh": 0, "rotation""#);
+        std::fs::write(dir.join("shared.glb"), glb(&shared, &quad_buffer())).unwrap();
+        let world = read_gltf_world(&dir.join("shared.glb")).unwrap();
+        assert_eq!((world.meshes.len(), world.instances.len()), (1, 2));
+        assert_eq!(world.meshes[0].positions[2], [1.0, 1.0, 0.0], "the mesh in its own coordinates");
+        assert!(close(world.flattened().positions[6], [8.0, 2.0, 0.0]), "the second node's placement");
     }
 
     #[test]

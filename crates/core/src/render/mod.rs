@@ -18,6 +18,11 @@
 //! - **Viewport and snapping**: pixel centres at `+0.5`, vertices rounded to 8 sub-pixel bits
 //!   (16.8 fixed point, as Direct3D 11 and Vulkan's 2022 roadmap require).
 
+mod instances;
+
+pub use instances::{Instance, World};
+use instances::validate_world;
+
 use crate::prepare::{pixel_rect, round_to_i64};
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
@@ -26,6 +31,9 @@ use tileraster_kernels::abi::{
     ATTR_POSITION, ATTR_UV, MAX_LIGHTS,
 };
 use tileraster_kernels::EXTENT_LIMIT_BITS;
+
+/// The colour of a mesh without colours: linear light grey.
+pub(crate) const GREY: [f32; 4] = [0.8, 0.8, 0.8, 1.0];
 
 /// The identity matrix.
 pub const IDENTITY: [[f64; 4]; 4] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
@@ -199,6 +207,11 @@ pub struct GeometryCounts {
     pub culled_no_centre: u64,
     /// Triangles that reach the rasteriser.
     pub rasterised: u64,
+    /// Instances whose bounding box lies outside the view frustum: no vertex work, their faces
+    /// in none of the counts above (`Skip::CullInstances`).
+    pub instances_culled: u64,
+    /// Instances through the vertex stage.
+    pub instances_drawn: u64,
 }
 
 impl GeometryCounts {
@@ -210,12 +223,14 @@ impl GeometryCounts {
         self.culled_zero_area += o.culled_zero_area;
         self.culled_no_centre += o.culled_no_centre;
         self.rasterised += o.rasterised;
+        self.instances_culled += o.instances_culled;
+        self.instances_drawn += o.instances_drawn;
         self
     }
 }
 
 /// A vertex through the vertex stage: clip-space position and attributes.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct ClipVertex {
     clip: [f64; 4],
     attributes: [f64; ATTRIBUTES],
@@ -299,6 +314,31 @@ impl GeometryMemory {
 
 /// [`prepare_checked_mesh`] in `memory`.
 pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory)
+}
+
+/// Runs the geometry stages over every instance of `world`.
+pub fn prepare_world(world: &World, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
+    validate_world(&world.meshes, &world.instances)?;
+    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default())
+}
+
+/// A visible instance as the geometry stages take it.
+struct Placement<'a> {
+    /// Its mesh, and where the world lists it.
+    mesh: &'a Mesh,
+    mesh_index: usize,
+    to_world: [[f64; 4]; 4],
+    /// Whether the instance's own transform mirrors (its faces are taken the other way round).
+    mirrored: bool,
+    /// Its first vertex in the frame's vertex arrays.
+    first_vertex: usize,
+    /// The id of its first face.
+    first_face: u32,
+}
+
+/// The geometry stages over instances of checked meshes (`validate_world`).
+pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
     validate_params(params)?;
     let (w, h) = (params.width, params.height);
     let m = &params.view_projection;
@@ -309,29 +349,84 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
         })?,
     };
     let lights: Vec<Light> = params.lights.iter().take(MAX_LIGHTS).map(|l| Light { direction: unit(l.direction), colour: l.colour }).collect();
-    let grey = [0.8f32, 0.8, 0.8, 1.0];
     let lit = |base: [f64; 4], n: [f64; 3], p: [f64; 3]| blinn_phong(params, &lights, eye, base, n, p);
-
     let viewport = Viewport::new(w, h);
-    // Vertex stage: the model transform, then the view-projection.
-    let model = &params.model;
+
+    // Object culling: instances whose bounding box lies outside the view frustum get no vertex
+    // work (`instances`: it changes no bit).
+    let mut counts = GeometryCounts::default();
+    let bounds: Vec<Option<[[f64; 3]; 2]>> = if params.skips.cull_instances && instances.len() > 1 {
+        let mut used = vec![false; meshes.len()];
+        instances.iter().for_each(|i| used[i.mesh as usize] = true);
+        meshes.par_iter().zip(used).map(|(mesh, used)| used.then(|| instances::bounding_box(mesh))).collect()
+    } else {
+        Vec::new()
+    };
+    let mut placements = Vec::with_capacity(instances.len());
+    let (mut first_vertex, mut first_face) = (0, 0u32);
+    for instance in instances {
+        let mesh = &meshes[instance.mesh as usize];
+        let to_world = instances::instance_to_world(&params.model, instance);
+        let culled = bounds.get(instance.mesh as usize).is_some_and(|b| instances::outside_frustum(b.as_ref().expect("bounds of every placed mesh"), &to_world, m));
+        if culled {
+            counts.instances_culled += 1;
+        } else {
+            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face });
+            first_vertex += mesh.positions.len();
+        }
+        first_face += mesh.triangles.len() as u32;
+    }
+    counts.instances_drawn = placements.len() as u64;
+
+    // Vertex stage: each instance's transform, then the view-projection, into one array of the
+    // visible instances' vertices.
     let world = &mut memory.world;
-    mesh.positions.par_iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect_into_vec(world);
-    let world = &*world;
+    world.clear();
+    world.resize(first_vertex, [0.0; 3]);
+    let vertices = &mut memory.vertices;
+    vertices.clear();
+    vertices.resize(first_vertex, ClipVertex::default());
     // The depth and id views read no attribute: they carry zeros, and no normal is computed.
     let attributes_used = params.shading.reads_attributes();
-    let normals = if attributes_used { vertex_normals(mesh, model) } else { Vec::new() };
-    let vertices = &mut memory.vertices;
-    (0..mesh.positions.len())
-        .into_par_iter()
-        .map(|v| {
+    let mut base_normals: Vec<Option<Vec<[f32; 3]>>> = vec![None; meshes.len()];
+    if attributes_used {
+        for p in &placements {
+            let k = p.mesh_index;
+            if base_normals[k].is_none() {
+                base_normals[k] = Some(match &p.mesh.normals {
+                    Some(n) => n.clone(),
+                    None => face_normals(p.mesh),
+                });
+            }
+        }
+    }
+    let mut pieces = Vec::with_capacity(placements.len());
+    let (mut rest_w, mut rest_v) = (&mut world[..], &mut vertices[..]);
+    for p in &placements {
+        let n = p.mesh.positions.len();
+        let (w, tail_w) = rest_w.split_at_mut(n);
+        let (v, tail_v) = rest_v.split_at_mut(n);
+        pieces.push((p, w, v));
+        (rest_w, rest_v) = (tail_w, tail_v);
+    }
+    pieces.into_par_iter().for_each(|(p, world, vertices)| {
+        let (mesh, model) = (p.mesh, &p.to_world);
+        mesh.positions.par_iter().zip(world.par_iter_mut()).for_each(|(v, out)| *out = instances::transform_point(model, v));
+        let world = &*world;
+        let normals = if attributes_used {
+            vertex_normals(base_normals[p.mesh_index].as_ref().expect("normals of every placed mesh"), model)
+        } else {
+            Vec::new()
+        };
+        vertices.par_iter_mut().enumerate().for_each(|(v, out)| {
             let p = world[v];
             let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
             if !attributes_used {
-                return ClipVertex::new(clip, [0.0; ATTRIBUTES], &viewport);
+                *out = ClipVertex::new(clip, [0.0; ATTRIBUTES], &viewport);
+                return;
             }
             let n = normals[v].map(f64::from);
-            let mut colour = mesh.colours.as_ref().map_or(grey, |c| c[v]).map(f64::from);
+            let mut colour = mesh.colours.as_ref().map_or(GREY, |c| c[v]).map(f64::from);
             if params.shading == Shading::Smooth {
                 colour = lit(colour, unit(n), p);
             }
@@ -341,18 +436,24 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
             attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
             attributes[ATTR_POSITION..ATTR_POSITION + 3].copy_from_slice(&p);
             attributes[ATTR_UV..ATTR_UV + 2].copy_from_slice(&uv);
-            ClipVertex::new(clip, attributes, &viewport)
-        })
-        .collect_into_vec(vertices);
-    let vertices = &*vertices;
+            *out = ClipVertex::new(clip, attributes, &viewport);
+        });
+    });
+    let (world, vertices) = (&*world, &*vertices);
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
+    // The faces in chunks of at most `CHUNK` of one instance each, in drawing order.
+    let chunks: Vec<(&Placement, usize)> = placements.iter().flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start))).collect();
     // One chunk of faces through clipping, culling and snapping, in face order.
-    let chunk = |c: usize, faces: &[[u32; 3]], emit: &mut Emit<'_>, counts: &mut GeometryCounts| {
-        let mut flattened = [ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() }; 3];
+    let chunk = |&(p, start): &(&Placement, usize), emit: &mut Emit<'_>, counts: &mut GeometryCounts| {
+        let mesh = p.mesh;
+        let faces = &mesh.triangles[start..(start + CHUNK).min(mesh.triangles.len())];
+        let mut flattened = [ClipVertex::default(); 3];
         for (k, tri) in faces.iter().enumerate() {
-            let face = c * CHUNK + k;
-            let mut corners = tri.map(|v| &vertices[v as usize]);
+            let face = p.first_face + (start + k) as u32;
+            let tri = if p.mirrored { [tri[0], tri[2], tri[1]] } else { *tri };
+            let tri = tri.map(|v| p.first_vertex + v as usize);
+            let mut corners = tri.map(|v| &vertices[v]);
             // Flat modes give every corner (and so every clipped piece) one set of values
             // (attributes only: counting needs none of it).
             let mut flat: Option<[f64; ATTRIBUTES]> = None;
@@ -363,10 +464,10 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
             let counting = emit.counting();
             if !counting && params.shading == Shading::Flat {
                 // One colour per face: its first vertex's, lit with the face normal there.
-                let p = tri.map(|v| world[v as usize]);
-                let n = unit(cross(sub(p[1], p[0]), sub(p[2], p[0])));
-                let base = mesh.colours.as_ref().map_or(grey, |c| c[tri[0] as usize]).map(f64::from);
-                let colour = lit(base, n, p[0]);
+                let q = tri.map(|v| world[v]);
+                let n = unit(cross(sub(q[1], q[0]), sub(q[2], q[0])));
+                let base = mesh.colours.as_ref().map_or(GREY, |c| c[tri[0] - p.first_vertex]).map(f64::from);
+                let colour = lit(base, n, q[0]);
                 for a in 0..3 {
                     let mut values = flat.unwrap_or(corners[a].attributes);
                     values[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
@@ -380,22 +481,20 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
                 }
                 corners = [&flattened[0], &flattened[1], &flattened[2]];
             }
-            geometry(corners, face as u32, params, &viewport, &grid, emit, counts);
+            geometry(corners, face, params, &viewport, &grid, emit, counts);
         }
     };
     // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,
     // the second writes them straight into their place, on all cores.
-    let counted: Vec<(usize, GeometryCounts)> = mesh
-        .triangles
-        .par_chunks(CHUNK)
-        .enumerate()
-        .map(|(c, faces)| {
+    let counted: Vec<(usize, GeometryCounts)> = chunks
+        .par_iter()
+        .map(|c| {
             let (mut emit, mut counts) = (Emit::Count(0), GeometryCounts::default());
-            chunk(c, faces, &mut emit, &mut counts);
+            chunk(c, &mut emit, &mut counts);
             (emit.count(), counts)
         })
         .collect();
-    let counts = counted.iter().fold(GeometryCounts::default(), |sum, p| sum.add(p.1));
+    let counts = counted.iter().fold(counts, |sum, p| sum.add(p.1));
     let total: usize = counted.iter().map(|p| p.0).sum();
     if total >= u32::MAX as usize {
         return Err(Error::RasterTooLarge {
@@ -415,8 +514,8 @@ pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut 
         parts.push(Emit::Fill { triangles: t, shading: s, next: 0, first_slot });
         (rest_t, rest_s, first_slot) = (tail_t, tail_s, first_slot + n);
     }
-    mesh.triangles.par_chunks(CHUNK).enumerate().zip(parts).for_each(|((c, faces), mut emit)| {
-        chunk(c, faces, &mut emit, &mut GeometryCounts::default());
+    chunks.par_iter().enumerate().zip(parts).for_each(|((c, piece), mut emit)| {
+        chunk(piece, &mut emit, &mut GeometryCounts::default());
         debug_assert_eq!(emit.count(), counted[c].0, "the filling pass puts what the counting pass counted");
     });
     let mut counts = counts;
@@ -479,7 +578,8 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, f
 
 /// The depths of the visible vertices, lowest and highest (the depth view's range).
 fn depth_range(vertices: &[ClipVertex]) -> (f64, f64) {
-    let visible = vertices.par_iter().filter(|v| v.clip[3] > 0.0 && v.clip[2] >= 0.0 && v.clip[2] <= v.clip[3]).map(|v| v.clip[2] / v.clip[3]);
+    let inside = |c: &[f64; 4]| c[3] > 0.0 && c[2] >= 0.0 && c[2] <= c[3] && c[0].abs() <= c[3] && c[1].abs() <= c[3];
+    let visible = vertices.par_iter().filter(|v| inside(&v.clip)).map(|v| v.clip[2] / v.clip[3]);
     let (lo, hi) = visible.fold(|| (1.0f64, 0.0f64), |(lo, hi), d| (lo.min(d), hi.max(d))).reduce(|| (1.0, 0.0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
     if lo < hi { (lo, hi) } else { (0.0, 1.0) }
 }
@@ -704,17 +804,9 @@ fn blinn_phong(params: &RenderParams, lights: &[Light], eye: [f64; 3], base: [f6
 /// The mesh's normals in the world: its own, or (where it has none) [`face_normals`], turned by
 /// the model matrix's inverse transpose (its cofactors, with the determinant's sign) and
 /// normalised.
-fn vertex_normals(mesh: &Mesh, model: &[[f64; 4]; 4]) -> Vec<[f32; 3]> {
-    let computed;
-    let n = match &mesh.normals {
-        Some(n) => n,
-        None => {
-            computed = face_normals(mesh);
-            &computed
-        }
-    };
+fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32; 3]> {
     if *model == IDENTITY {
-        return n.clone();
+        return n.to_vec();
     }
     let normal_matrix = normal_matrix(model);
     n.par_iter().map(|&v| transform_normal(&normal_matrix, v)).collect()
@@ -862,4 +954,9 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 fn unit(v: [f64; 3]) -> [f64; 3] {
     let len = dot(v, v).sqrt();
     if len > 0.0 { v.map(|c| c / len) } else { [0.0; 3] }
+}
+
+/// The product `a · b` of two row-major 4×4 matrices.
+pub fn multiply(a: &[[f64; 4]; 4], b: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
+    std::array::from_fn(|r| std::array::from_fn(|c| a[r][0] * b[0][c] + a[r][1] * b[1][c] + a[r][2] * b[2][c] + a[r][3] * b[3][c]))
 }

@@ -12,7 +12,7 @@
 use crate::bench_report::timed;
 use crate::Timing;
 use std::fmt::Write as _;
-use tileraster::render::{render, Camera, Cull, Frame, Mesh, PreparedMesh, RenderParams, Shading, IDENTITY, NO_FACE};
+use tileraster::render::{render, render_world, Camera, Cull, Frame, Mesh, PreparedMesh, RenderParams, Shading, World, IDENTITY, NO_FACE};
 use tileraster::Backend;
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::meshes;
@@ -123,6 +123,63 @@ pub fn run(quick: bool) -> Result<String, String> {
     }
     let _ = writeln!(s, "\nA ratio above 1 means tileraster's CPU backend is ahead. The goal: at least 1 on the same cores as llvmpipe's graphics pipeline, and within 2× of a hardware pipeline on a GPU.");
     s.push_str(&hidden_section(quick, runs, gpu.is_some())?);
+    s.push_str(&instance_section(quick, runs, gpu.is_some())?);
+    Ok(s)
+}
+
+/// What object culling (`Skip::CullInstances`) saves: a field of instances of which about a
+/// tenth lies in the view, rendered with the culling on and off, and the visible instances
+/// alone, side by side.
+fn instance_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
+    let (side, (w, h)) = if quick { (30u32, (320, 180)) } else { (100u32, (1280, 720)) };
+    let sphere = meshes::sphere([0.0, 0.0, 0.0], 0.4, 8, 12);
+    let place = |x: f64, y: f64| [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, y], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+    let transforms: Vec<[[f64; 4]; 4]> = (0..side * side).map(|k| place((k % side) as f64, (k / side) as f64)).collect();
+    let world = World::instanced(sphere.clone(), &transforms);
+    // Looking along the field's diagonal from one corner, with the far plane a third of the
+    // way across: about a tenth of the instances lie in the view.
+    let d = side as f64;
+    let camera = Camera { eye: [-2.0, -2.0, 3.0], target: [d / 2.0, d / 2.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 0.42 * d };
+    let on = RenderParams { shading: Shading::Phong, eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?) };
+    let off = RenderParams { skips: tileraster::Skips { cull_instances: false, ..on.skips }, ..on.clone() };
+    let probe = render_world(&world, &on, Backend::Cpu).map_err(|e| e.to_string())?;
+    let drawn = probe.stats.geometry.instances_drawn;
+    // The visible instances alone: those the culling keeps.
+    let visible: Vec<[[f64; 4]; 4]> = transforms.iter().zip(world.in_view(&on)).filter(|p| p.1).map(|p| *p.0).collect();
+    let alone = World::instanced(sphere.clone(), &visible);
+    let mut s = String::new();
+    let triangles = sphere.triangles.len() as u32 * side * side;
+    let _ = writeln!(
+        s,
+        "\n### Instances and object culling\n\n\
+         {} instances of a sphere of {} triangles ({triangles} in all) in a {side} × {side} field, seen from one corner with the far \
+         plane a third of the way across: {drawn} instances ({:.1} %) pass the culling. Phong shading, {w}×{h}, medians of {runs} whole \
+         calls; \"visible alone\" renders only the instances the culling keeps.\n",
+        side * side,
+        sphere.triangles.len(),
+        100.0 * drawn as f64 / (side * side) as f64
+    );
+    let _ = writeln!(s, "| backend | culling on | culling off | visible alone | on / off | on / visible alone | same bits |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | --- |");
+    let backends: &[Backend] = if gpu { &[Backend::Cpu, Backend::Gpu] } else { &[Backend::Cpu] };
+    for &backend in backends {
+        let (on_time, a) = timed(runs, || render_world(&world, &on, backend).map_err(|e| e.to_string()))?;
+        let (off_time, b) = timed(runs, || render_world(&world, &off, backend).map_err(|e| e.to_string()))?;
+        let (alone_time, _) = timed(runs, || render_world(&alone, &on, backend).map_err(|e| e.to_string()))?;
+        let same = a.colour == b.colour && a.ids == b.ids && a.depth.iter().zip(&b.depth).all(|(x, y)| x.to_bits() == y.to_bits());
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:.3} | {:.2} | {} |",
+            backend.name(),
+            ms(&on_time),
+            ms(&off_time),
+            ms(&alone_time),
+            on_time.median / off_time.median,
+            on_time.median / alone_time.median,
+            if same { "yes" } else { "**NO**" }
+        );
+        eprintln!("render-report: instances, {} done", backend.name());
+    }
     Ok(s)
 }
 
@@ -140,8 +197,8 @@ fn hidden_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String>
          fragments not counted: hidden triangles get no edge tests either), with the rejection on and off side by side; \
          \"hidden\" is `Stats::triangles_hidden`, the bin entries rejected.\n"
     );
-    let _ = writeln!(s, "| scene | backend | rejection on | off | on / off | hidden (of bin entries) | same bits |");
-    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | --- |");
+    let _ = writeln!(s, "| scene | backend | rejection on | off | on / off | hidden | hidden per tile | same bits |");
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- |");
     let layers = if quick { [8, 32] } else { [8, 64] };
     for n in layers {
         for (order, reverse) in [("back to front", false), ("front to back", true)] {
@@ -157,17 +214,16 @@ fn hidden_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String>
                 let (on_time, a) = timed(runs, || render(&mesh, &on, backend).map_err(|e| e.to_string()))?;
                 let (off_time, b) = timed(runs, || render(&mesh, &off, backend).map_err(|e| e.to_string()))?;
                 let same = a.colour == b.colour && a.ids == b.ids && a.depth.iter().zip(&b.depth).all(|(x, y)| x.to_bits() == y.to_bits());
-                let entries = a.stats.raster.triangles_hidden;
-                // Bin entries: every triangle reaches every tile of the frame.
-                let bin_entries = a.stats.raster.tiles_total * a.stats.geometry.rasterised;
+                let hidden = a.stats.raster.triangles_hidden;
                 let _ = writeln!(
                     s,
-                    "| {name} | {} | {} | {} | {:.2} | {entries} ({:.0} %) | {} |",
+                    "| {name} | {} | {} | {} | {:.2} | {hidden} | {:.1} (of at most {}) | {} |",
                     backend.name(),
                     ms(&on_time),
                     ms(&off_time),
                     on_time.median / off_time.median,
-                    100.0 * entries as f64 / bin_entries as f64,
+                    hidden as f64 / a.stats.raster.tiles_total as f64,
+                    n - 1,
                     if same { "yes" } else { "**NO**" }
                 );
                 eprintln!("render-report: {name}, {} done", backend.name());

@@ -51,6 +51,13 @@ impl World {
         World { meshes: vec![mesh], instances: transforms.iter().map(|&transform| Instance { mesh: 0, transform }).collect() }
     }
 
+    /// Which instances the object culling keeps for a frame of `params`: those whose bounding
+    /// box does not lie wholly outside the view frustum.
+    pub fn in_view(&self, params: &super::RenderParams) -> Vec<bool> {
+        let boxes: Vec<[[f64; 3]; 2]> = self.meshes.iter().map(bounding_box).collect();
+        self.instances.iter().map(|i| !outside_frustum(&boxes[i.mesh as usize], &instance_to_world(&params.model, i), &params.view_projection)).collect()
+    }
+
     /// A box holding every instance in the world: each mesh's bounding box carried by its
     /// instances' transforms, corner by corner (exact for a mesh where it is).
     pub fn bounds(&self) -> [[f64; 3]; 2] {

@@ -410,7 +410,7 @@ fn bands_streamed_within_a_memory_budget_give_the_single_runs_cells() {
 
     let params = Params::new(Grid::new(-20.0, 610.0, -5.0, 905.0, 700, 1100))
         .with_nodata(-9999.0)
-        .with_outputs(tileraster::Outputs { owner: true, coverage: false });
+        .with_outputs(tileraster::Outputs { owner: true, coverage: false, tiles: false });
     let expected = rasterise(&scene, &params, Backend::Cpu).unwrap();
     let owners = read_tif_u32(&owner);
     assert_eq!(&owners, expected.owner.as_ref().unwrap(), "the owner raster is the library's");
@@ -506,11 +506,44 @@ fn the_tin_written_is_the_one_rasterised_and_owners_index_its_faces() {
     let out = rasterise_cli(&points, &tif, &["--txe", "0", "100", "--tye", "0", "80", "--outsize", "150", "120", "--owner", owner.to_str().unwrap(), "--tin", tin.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let mesh = tileraster_io::read_obj(&tin).unwrap();
-    let params = Params::new(Grid::new(0.0, 100.0, 0.0, 80.0, 150, 120)).with_nodata(-9999.0).with_outputs(tileraster::Outputs { owner: true, coverage: false });
+    let params = Params::new(Grid::new(0.0, 100.0, 0.0, 80.0, 150, 120)).with_nodata(-9999.0).with_outputs(tileraster::Outputs { owner: true, coverage: false, tiles: false });
     let expected = rasterise(&mesh, &params, Backend::Cpu).unwrap();
     assert_same_bits(&read_tif_values(&tif), &expected.values, "the points' raster against their written TIN's");
     assert_eq!(&read_tif_u32(&owner), expected.owner.as_ref().unwrap(), "owners index the written TIN's faces");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `tileraster render --heat-map` writes the frame's heat map, and `--stats` the checksums of
+/// the layers the library's frame gives.
+#[test]
+fn render_writes_the_heat_map_and_checksums() {
+    use tileraster::render::{render, Camera, Mesh, RenderParams};
+    let dir = scratch("render-diagnostics");
+    let sphere = tileraster_testkit::meshes::sphere([0.0, 0.0, 0.0], 1.0, 10, 16);
+    let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
+    let obj = dir.join("sphere.obj");
+    write_obj(&scene, &obj);
+    let (png, heat) = (dir.join("f.png"), dir.join("heat.png"));
+    let out = bin()
+        .args(["render", obj.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "70", "50", "--camera", "3,-3,2,0,0,0,0,0,1"])
+        .args(["--heat-map", heat.to_str().unwrap(), "--backend", "cpu", "--stats", "-q"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let mesh = Mesh { positions: scene.vertices.clone(), triangles: scene.triangles.clone(), ..Default::default() };
+    let camera = Camera::look_at([3.0, -3.0, 2.0], [0.0; 3], [0.0, 0.0, 1.0], 45.0, &mesh);
+    let params = RenderParams { eye: Some([3.0, -3.0, 2.0]), count_tiles: true, ..RenderParams::new(70, 50, camera.view_projection(70, 50).unwrap()) };
+    let frame = render(&mesh, &params, Backend::Cpu).unwrap();
+    let (w, h, rgba) = frame.heat_map().unwrap();
+    let decoded = image::open(&heat).unwrap().to_rgba8();
+    assert_eq!((decoded.dimensions(), decoded.as_raw()), ((w, h), &rgba), "the heat map PNG is the library's");
+    let json: serde_json::Value = serde_json::from_str(stderr.trim()).unwrap_or_else(|e| panic!("--stats is not JSON ({e}): {stderr}"));
+    let sums = frame.checksums();
+    assert_eq!(json["checksums"]["colour"], format!("{:08x}", sums.colour), "{stderr}");
+    assert_eq!(json["checksums"]["ids"], format!("{:08x}", sums.ids), "{stderr}");
+    assert_eq!(json["checksums"]["fragments"], format!("{:08x}", sums.fragments.unwrap()), "{stderr}");
+    assert_eq!(json["raster"]["triangles_hidden"], frame.stats.raster.triangles_hidden, "{stderr}");
 }
 
 /// `tileraster render --instances`: the mesh once per transform of the file, the frame the

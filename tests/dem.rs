@@ -36,7 +36,7 @@ fn a_window_streamed_in_bands_is_the_single_call_bit_for_bit() {
     let files = Destinations { heights: &heights, owner: Some(&owner), preview: None, tiff: Default::default() };
     let run = dem::write_dem(&input.scene, &params, window, Backend::Cpu, rows, &files, None, &()).unwrap();
     assert_eq!(run.bands.len(), 3);
-    let single = rasterise_window(&scene, &params.with_outputs(Outputs { owner: true, coverage: false }), Some(window), Backend::Cpu).unwrap();
+    let single = rasterise_window(&scene, &params.with_outputs(Outputs { owner: true, coverage: false, tiles: false }), Some(window), Backend::Cpu).unwrap();
     let DecodingResult::F32(values) = read_tif(&heights) else { panic!("heights are not Float32") };
     let DecodingResult::U32(owners) = read_tif(&owner) else { panic!("owners are not UInt32") };
     assert_eq!(values.len(), single.values.len());

@@ -43,7 +43,7 @@ fn cells_outside_the_tin_are_gdal_grids() {
     let tin = tileraster_tin::triangulate(&points).unwrap();
     let grid = Grid::new(0.0, 600.0, 0.0, 300.0, 240, 120);
     let nodata = -9999.0;
-    let params = Params::new(grid).with_nodata(nodata).with_outputs(Outputs { owner: true, coverage: false });
+    let params = Params::new(grid).with_nodata(nodata).with_outputs(Outputs { owner: true, coverage: false, tiles: false });
     let dir = std::env::temp_dir().join(format!("tileraster-linear-{}", std::process::id()));
     for radius in [-1.0, 0.0, 3.0, 25.0] {
         let mut raster = rasterise(&tin.scene, &params, Backend::Cpu).unwrap();

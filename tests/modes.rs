@@ -42,7 +42,7 @@ fn snapped_vertices(scene: &Scene, params: &Params) -> Vec<Option<[[f64; 2]; 3]>
 /// Checks every covered cell against `mode`'s bound; returns the largest share of the bound
 /// any cell used, so the caller can print how tight it is.
 fn check_bound(name: &str, scene: &Scene, grid: Grid, mode: Mode, backend: Backend) -> f64 {
-    let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: false });
+    let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: false, tiles: false });
     let raster = rasterise(scene, &params, backend).unwrap_or_else(|e| panic!("{name}: {e}"));
     let owners = raster.owner.as_ref().expect("owner asked for");
     let snapped = snapped_vertices(scene, &params);
@@ -168,7 +168,7 @@ fn barycentric_mode_is_within_its_bound() {
 fn cpu_and_gpu_agree_in_every_mode() {
     for (name, scene, grid) in cases() {
         for mode in Mode::ALL {
-            let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true });
+            let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true, tiles: false });
             common::assert_parity(&format!("{name} [{}]", mode.name()), &scene, &params);
         }
     }

@@ -7,7 +7,7 @@ use tileraster::{Grid, Outputs, Params, Scene};
 use tileraster_testkit::scenes;
 
 fn params(grid: Grid) -> Params {
-    Params::new(grid).with_nodata(-9999.0).with_outputs(Outputs { owner: true, coverage: true })
+    Params::new(grid).with_nodata(-9999.0).with_outputs(Outputs { owner: true, coverage: true, tiles: true })
 }
 
 #[test]

@@ -118,7 +118,7 @@ fn outputs_nobody_asked_for_are_not_written_and_change_nothing_else() {
     let scene = scenes::terrain(0.0, 0.0, 1000.0, 800.0, 30, 24, 8);
     let grid = Grid::new(0.0, 1000.0, 0.0, 800.0, 211, 173);
     for backend in backends("outputs_nobody_asked_for_are_not_written_and_change_nothing_else") {
-        let run = |owner, coverage| rasterise(&scene, &Params::new(grid).with_outputs(Outputs { owner, coverage }), backend).unwrap();
+        let run = |owner, coverage| rasterise(&scene, &Params::new(grid).with_outputs(Outputs { owner, coverage, tiles: false }), backend).unwrap();
         let (both, none) = (run(true, true), run(false, false));
         assert!(none.owner.is_none() && none.coverage.is_none());
         assert!(!none.stats.passes.iter().any(|p| matches!(p, Pass::WriteOwner | Pass::WriteCoverage)), "{:?}", none.stats.passes);
@@ -146,7 +146,7 @@ fn a_prepared_scene_uploads_and_sets_up_once() {
     ];
     for backend in backends("a_prepared_scene_uploads_and_sets_up_once") {
         for (variant, skips) in skip_variants() {
-            let params = Params::new(grid).with_nodata(-9999.0).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true });
+            let params = Params::new(grid).with_nodata(-9999.0).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true, tiles: false });
             let whole = rasterise(&scene, &params, backend).unwrap();
             let mut prepared = PreparedScene::new(&scene, &params, backend).unwrap();
             let n = prepared.prepared().triangles.len() as u64;

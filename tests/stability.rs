@@ -32,7 +32,7 @@ use tileraster::{rasterise, rasterise_window, Backend, Error, Grid, Mode, Output
 use tileraster_testkit::scenes;
 use tileraster_core::MAX_GRID_DIM;
 
-const BOTH: Outputs = Outputs { owner: true, coverage: true };
+const BOTH: Outputs = Outputs { owner: true, coverage: true, tiles: false };
 
 /// Lattice of the exactly placed coordinates, in pixels: coarser than the finest snapping
 /// lattice (2^-16 px), so such vertices snap exactly and stay exactly collinear.
@@ -1149,7 +1149,7 @@ fn subnormal_plane_f32_stays_within_its_absolute_bound() {
         vec![[1.684500967003627, 4000003.8, 1.3991397889882268e-39], [0.7772162573954957, 3999999.791050389, 0.0], [3.8002733566193587, 4000002.9320051474, 0.0]],
         vec![[0, 1, 2]],
     );
-    let params = Params::new(grid).with_mode(Mode::PlaneF32).with_outputs(Outputs { owner: true, coverage: true });
+    let params = Params::new(grid).with_mode(Mode::PlaneF32).with_outputs(Outputs { owner: true, coverage: true, tiles: false });
     let raster = rasterise(&scene, &params, Backend::Cpu).unwrap();
     let value = raster.value(40, 108);
     assert!(raster.owner.as_ref().unwrap()[108 * 63 + 40] == 0, "the triangle covers pixel (40, 108)");

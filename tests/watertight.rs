@@ -8,7 +8,7 @@ use tileraster::{rasterise, Backend, Grid, Outputs, Params, Raster, Scene};
 use tileraster_testkit::scenes;
 
 fn coverage(scene: &Scene, grid: Grid, backend: Backend) -> Raster {
-    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true });
+    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true, tiles: false });
     rasterise(scene, &params, backend).unwrap_or_else(|e| panic!("{}: {e}", backend.name()))
 }
 

@@ -25,7 +25,7 @@ fn assert_window_matches(name: &str, whole: &Raster, part: &Raster) {
 fn windows_equal_the_whole_grid() {
     let scene = scenes::terrain(500_000.0, 5_000_000.0, 900.0, 700.0, 45, 35, 8);
     let grid = Grid::new(500_000.0, 500_900.0, 5_000_000.0, 5_000_700.0, 450, 350);
-    let params = Params::new(grid).with_nodata(-1.0).with_outputs(Outputs { owner: true, coverage: false });
+    let params = Params::new(grid).with_nodata(-1.0).with_outputs(Outputs { owner: true, coverage: false, tiles: false });
     let mut backends = vec![Backend::Cpu];
     if common::gpu_or_skip("windows_equal_the_whole_grid") {
         backends.push(Backend::Gpu);
@@ -56,7 +56,7 @@ fn gpu_results_do_not_depend_on_its_windowing() {
     let _turn = WINDOW_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
     let scene = scenes::terrain(0.0, 0.0, 1000.0, 1000.0, 50, 50, 2);
     let grid = Grid::new(0.0, 1000.0, 0.0, 1000.0, 300, 290);
-    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true });
+    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
     let cpu = rasterise(&scene, &params, Backend::Cpu).unwrap();
     for limit in [256, 1000, 16 * 300, 40_000] {
         tileraster::set_gpu_window_limit(limit);
@@ -83,12 +83,12 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
     }
     let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
     for blend in [false, true] {
-        let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, ..RenderParams::new(150, 110, camera.view_projection(150, 110).unwrap()) };
+        let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, count_tiles: true, ..RenderParams::new(150, 110, camera.view_projection(150, 110).unwrap()) };
         let cpu = render(&mesh, &params, Backend::Cpu).unwrap();
         for limit in [256, 1000, 16 * 150, 40_000] {
             tileraster::set_gpu_window_limit(limit);
             let gpu = render(&mesh, &params, Backend::Gpu).unwrap();
-            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments, "blend {blend}, window limit {limit}: the frames differ");
+            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(), "blend {blend}, window limit {limit}: the frames differ");
             assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "blend {blend}, window limit {limit}: depths differ");
             assert_eq!(cpu.stats, gpu.stats, "blend {blend}, window limit {limit}: statistics");
         }
@@ -113,7 +113,7 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
     // The heightfield: 5,000 triangles, owner and coverage layers.
     let scene = scenes::terrain(0.0, 0.0, 1000.0, 1000.0, 50, 50, 2);
     let grid = Grid::new(0.0, 1000.0, 0.0, 1000.0, 300, 290);
-    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true });
+    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
     let cpu = rasterise(&scene, &params, Backend::Cpu).unwrap();
     for limit in [32 << 10, 64 << 10, 256 << 10] {
         assert!(5_000 * setup > limit);
@@ -140,13 +140,13 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
     for (name, mesh, limit) in [("sphere", &sphere, 64u64 << 10), ("soup", &soup, 12 << 10)] {
         assert!(mesh.triangles.len() as u64 * shading > limit, "{name}: the limit must split the scene");
         for blend in [false, true] {
-            let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, ..RenderParams::new(190, 150, camera.view_projection(190, 150).unwrap()) };
+            let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, count_tiles: true, ..RenderParams::new(190, 150, camera.view_projection(190, 150).unwrap()) };
             let cpu = render(mesh, &params, Backend::Cpu).unwrap();
             tileraster::set_gpu_binding_limit(limit);
             let gpu = render(mesh, &params, Backend::Gpu);
             tileraster::set_gpu_binding_limit(u64::MAX);
             let gpu = gpu.unwrap_or_else(|e| panic!("{name}, blend {blend}: {e}"));
-            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments, "{name}, blend {blend}: the frames differ");
+            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(), "{name}, blend {blend}: the frames differ");
             assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}, blend {blend}: depths differ");
             assert_eq!(cpu.stats, gpu.stats, "{name}, blend {blend}: statistics");
         }

@@ -172,7 +172,7 @@ pub fn decode(data: &[u8]) -> Case {
             })
         })
         .collect();
-    Case { scene: Scene::new(vertices, triangles), params: Params::new(grid).with_mode(mode).with_nodata(nodata).with_outputs(Outputs { owner: true, coverage: true }) }
+    Case { scene: Scene::new(vertices, triangles), params: Params::new(grid).with_mode(mode).with_nodata(nodata).with_outputs(Outputs { owner: true, coverage: true, tiles: true }) }
 }
 
 /// How a case that passed its checks came out.

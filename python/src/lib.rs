@@ -168,7 +168,7 @@ impl Settings {
     }
 
     fn params(&self, grid: tileraster::Grid) -> Params {
-        Params::new(grid).with_nodata(self.nodata).with_mode(self.mode).with_outputs(Outputs { owner: self.owner, coverage: false })
+        Params::new(grid).with_nodata(self.nodata).with_mode(self.mode).with_outputs(Outputs { owner: self.owner, coverage: false, tiles: false })
     }
 }
 

@@ -117,6 +117,9 @@ flag_set! {
         OWNER = 1,
         /// How many triangles cover each pixel centre.
         COVERAGE = 2,
+        /// Per tile: its bin's entries and how many of them its depth bound hid
+        /// (`Buffer::TileStats`).
+        TILES = 4,
     }
 }
 

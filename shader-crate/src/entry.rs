@@ -95,9 +95,10 @@ pub fn fine_raster(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
     #[spirv(workgroup)] shared: &mut FineShared<Coverage, u32>,
 ) {
-    fine_raster_workgroup(&HeightProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, shared);
+    fine_raster_workgroup(&HeightProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
 }
 
 /// Fine raster of the render pipeline: the depth test (`programs::depth`).
@@ -114,9 +115,10 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
 ) {
-    fine_raster_workgroup(&DepthProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, shared);
+    fine_raster_workgroup(&DepthProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
 }
 
 /// The render pipeline's shade stage (`programs::shade`): one invocation per window pixel,
@@ -166,12 +168,14 @@ fn fine_raster_workgroup<P: PixelProgram>(
     owners: &mut [u32],
     coverage: &mut [u32],
     stats: &mut [u32],
+    tile_stats: &mut [u32],
     shared: &mut FineShared<P::Staged, P::Key>,
 ) {
     let tile = wg.y * frame.tiles_x + wg.x;
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
     let mut state = PixelState::empty(P::NO_KEY);
+    let mut hidden = 0;
     // Uniform per workgroup: the whole tile takes the same branch, barriers included.
     let out = if fine::empty_tile(bin_len, frame) {
         fine::count_tile(lid, Counter::TilesEmpty, stats);
@@ -190,7 +194,6 @@ fn fine_raster_workgroup<P: PixelProgram>(
             }
             let overlap_free = fine::overlap_free(frame);
             let count_hidden = fine::counts_hidden(frame);
-            let mut hidden = 0;
             let mut batch_start = 0;
             while batch_start < bin_len {
                 let batch_len = fine::batch_len(bin_len, batch_start);
@@ -207,6 +210,7 @@ fn fine_raster_workgroup<P: PixelProgram>(
         }
         fine::fine_resolve(program, i, j, &state, setups)
     };
+    fine::write_tile_stats(lid, tile, bin_len, hidden, frame, tile_stats);
     if inside {
         let k = fine::window_index(i, j, frame);
         values[k] = out.value;

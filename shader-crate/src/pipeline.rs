@@ -19,8 +19,8 @@
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins (cursors: its atomics)
-//!  height:  setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats
-//!  render:  setups, offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats
+//!  height:  setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
+//!  render:  setups, offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
 //!           shade params, setups, shading, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
 //! ```
 
@@ -77,6 +77,9 @@ pub enum Buffer {
     Coverage,
     /// `Counter::COUNT` statistics counters.
     Stats,
+    /// Two words per window tile (written when asked for): the entries of its bin, and how
+    /// many of them its depth bound hid.
+    TileStats,
     /// `ShadeParams` of the frame (render pipeline).
     ShadeParams,
     /// `TriangleShading` per prepared triangle (uploaded once per scene; render pipeline).
@@ -172,6 +175,7 @@ const FINE_BINDINGS: &[Binding] = &[
     write(Buffer::Owners),
     write(Buffer::Coverage),
     write(Buffer::Stats),
+    write(Buffer::TileStats),
 ];
 
 /// The stages in the order they run.

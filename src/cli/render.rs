@@ -66,10 +66,15 @@ pub struct RenderArgs {
     ids: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "auto")]
     backend: crate::BackendArg,
-    /// Print what the frame did (clipped, culled, rasterised, fragments, overdraw) as JSON on
-    /// stderr.
+    /// Print what the frame did (instances, clipped, culled, rasterised, fragments, overdraw,
+    /// the kernels' tiles and hidden triangles) and a CRC-32 of each output layer as JSON on
+    /// stderr; equal on both backends.
     #[arg(long)]
     stats: bool,
+    /// Also write a tile heat map (PNG, three panels: triangles per tile, overdraw, triangles
+    /// the tiles' depth bounds hid).
+    #[arg(long, value_name = "HEAT.png")]
+    heat_map: Option<PathBuf>,
     /// Turn one of the pipeline's skips off (repeatable), to measure its gain; the frame does
     /// not change. Names: cull_window, empty_tiles, hidden_triangles.
     #[arg(long = "no-skip", value_name = "SKIP", value_parser = crate::skip_name)]
@@ -133,7 +138,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, no_skip, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -182,7 +187,8 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         CullArg::None => Cull::None,
     };
     params.blend = blend;
-    params.count_fragments = stats;
+    params.count_fragments = stats || heat_map.is_some();
+    params.count_tiles = heat_map.is_some();
     for skip in no_skip {
         params.skips = params.skips.without(skip);
     }
@@ -208,6 +214,10 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     let frame = render_world(&world, &params, backend).map_err(|e| e.to_string())?;
     let took = start.elapsed();
     tileraster_io::write_rgba_png(&output, width, height, &frame.rgba8()).map_err(|e| e.to_string())?;
+    if let Some(path) = &heat_map {
+        let (w, h, rgba) = frame.heat_map().map_err(|e| e.to_string())?;
+        tileraster_io::write_rgba_png(path, w, h, &rgba).map_err(|e| e.to_string())?;
+    }
     let grid = Grid::new(0.0, width as f64, 0.0, height as f64, width, height);
     let window = Window::whole(&grid);
     if let Some(path) = &depth {
@@ -229,7 +239,8 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         output.display()
     ));
     if stats {
-        eprintln!("{}", frame.stats.to_json());
+        let json = frame.stats.to_json();
+        eprintln!("{},\"checksums\":{}}}", &json[..json.len() - 1], frame.checksums().to_json());
     }
     Ok(ExitCode::SUCCESS)
 }

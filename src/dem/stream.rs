@@ -138,7 +138,7 @@ impl Sampled {
         let xmin = self.grid.xmin + self.window.x0 as f64 * self.grid.dx();
         let ymax = self.grid.ymax - self.window.y0 as f64 * self.grid.dy();
         let grid = Grid::new(xmin, xmin + dx * self.width as f64, ymax - dy * height as f64, ymax, self.width, height);
-        Raster { grid, window: Window::whole(&grid), nodata: self.nodata, values: self.values, owner: None, coverage: None, colours: None, faces: None, snap_bits, stats: Stats::default() }
+        Raster { grid, window: Window::whole(&grid), nodata: self.nodata, values: self.values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits, stats: Stats::default() }
     }
 }
 
@@ -246,7 +246,7 @@ mod tests {
         for (y0, height) in [(10, 4), (14, 3)] {
             let band = Window { x0: 0, y0, width: 10_000, height };
             let values = (0..band.pixel_count()).map(|k| (y0 as u64 * 100_000 + k) as f32).collect();
-            let raster = Raster { grid, window: band, nodata: -1.0, values, owner: None, coverage: None, colours: None, faces: None, snap_bits: 0, stats: Stats::default() };
+            let raster = Raster { grid, window: band, nodata: -1.0, values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits: 0, stats: Stats::default() };
             sampled.add(&raster);
         }
         let preview = sampled.into_raster(0);

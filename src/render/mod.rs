@@ -20,8 +20,10 @@
 //! run on the host; the depth test and the shading run in the kernels (`fine_depth`, `shade`).
 
 mod camera;
+mod diagnostics;
 
 pub use camera::Camera;
+pub use diagnostics::{Checksums, TileCounts};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
     face_normals, prepare_render, prepare_world, validate_mesh, Cull, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, Mesh, RenderParams, Shading, World, IDENTITY,
@@ -72,6 +74,8 @@ pub struct Frame {
     /// Fragments per pixel: how many rasterised triangles cover its centre (before the depth
     /// test). Empty unless `RenderParams::count_fragments`.
     pub fragments: Vec<u32>,
+    /// Per-tile counts, where `RenderParams::count_tiles` asks for them.
+    pub tiles: Option<TileCounts>,
     pub stats: RenderStats,
 }
 
@@ -238,6 +242,7 @@ fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams, own
         depth: raster.values,
         ids,
         fragments: per_pixel,
+        tiles: raster.tiles.as_deref().map(|layer| TileCounts::from_layer(params.width, params.height, layer)),
         stats: RenderStats { geometry, fragments, pixels_covered: covered, depth_rejected: fragments.saturating_sub(covered), raster: raster.stats },
     }
 }

@@ -124,7 +124,7 @@ fn runs_for(cells: u64, quick: bool) -> usize {
 
 /// A peer's values as a raster shaped like `like`, for the same accuracy measure.
 fn as_raster(values: Vec<f32>, like: &Raster) -> Raster {
-    Raster { grid: like.grid, window: like.window, nodata: like.nodata, values, owner: None, coverage: None, colours: None, faces: None, snap_bits: like.snap_bits, stats: Default::default() }
+    Raster { grid: like.grid, window: like.window, nodata: like.nodata, values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits: like.snap_bits, stats: Default::default() }
 }
 
 /// Everything measured, plus what the header needs.

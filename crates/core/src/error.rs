@@ -91,6 +91,9 @@ pub enum Error {
     #[error("the model matrix's last row is {last_row:?}; a model transform is affine: make its last row 0, 0, 0, 1 and put any projection in the view-projection matrix")]
     NonAffineModel { last_row: [f64; 4] },
 
+    #[error("the heat map needs the frame's {layer}: render with RenderParams::{flag} on (the command line's --heat-map does)")]
+    HeatMapNeeds { layer: &'static str, flag: &'static str },
+
     #[error("instance {instance}: {reason}")]
     InvalidInstance { instance: usize, reason: String },
 

@@ -94,6 +94,9 @@ pub struct Outputs {
     pub owner: bool,
     /// How many triangles cover each pixel centre (1 inside a watertight mesh).
     pub coverage: bool,
+    /// Per `TILE × TILE` tile of the window: its bin's entries and the triangles its depth
+    /// bound hid (`Raster::tiles`).
+    pub tiles: bool,
 }
 
 /// How covered cells get their values: the kernels' [`ValueMode`](tileraster_kernels::abi::ValueMode),
@@ -250,6 +253,6 @@ impl Params {
     }
 
     pub(crate) fn output_set(&self) -> OutputSet {
-        OutputSet::NONE.with(OutputSet::OWNER, self.outputs.owner).with(OutputSet::COVERAGE, self.outputs.coverage)
+        OutputSet::NONE.with(OutputSet::OWNER, self.outputs.owner).with(OutputSet::COVERAGE, self.outputs.coverage).with(OutputSet::TILES, self.outputs.tiles)
     }
 }

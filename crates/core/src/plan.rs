@@ -334,6 +334,7 @@ impl Plan {
             coverage: reuse_layer(outputs.coverage, coverage, n, &window)?,
             colours: reuse_layer(render, colours, n, &window)?,
             faces: reuse_layer(render, faces, n, &window)?,
+            tiles: reuse_layer(outputs.tiles, None, 2 * window.width.div_ceil(TILE) as usize * window.height.div_ceil(TILE) as usize, &window)?,
             snap_bits: prepared.snap_bits,
             stats: Stats::default(),
         };

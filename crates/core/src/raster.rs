@@ -16,6 +16,10 @@ pub struct Raster {
     pub colours: Option<Vec<u32>>,
     /// The render pipeline's input face per pixel (`u32::MAX` where none).
     pub faces: Option<Vec<u32>>,
+    /// When asked for (`Outputs::tiles`): two words per `TILE × TILE` tile of the window, row
+    /// by row: the entries of its bin (the triangles that reach it) and how many of them its
+    /// depth bound hid. Zeros for tiles no triangle reaches.
+    pub tiles: Option<Vec<u32>>,
     /// Sub-pixel bits of the snapping lattice used (the step is `2^-snap_bits` pixels).
     pub snap_bits: u32,
     /// What the call did and skipped.
@@ -133,6 +137,8 @@ impl Raster {
         layer("value", &mut self.values.iter().map(|v| v.to_bits()), &mut other.values.iter().map(|v| v.to_bits()));
         layer("owner", &mut self.owner.iter().flatten().copied(), &mut other.owner.iter().flatten().copied());
         layer("coverage", &mut self.coverage.iter().flatten().copied(), &mut other.coverage.iter().flatten().copied());
+        // Tile statistics: a difference is placed by the word's index in the layer.
+        layer("tiles", &mut self.tiles.iter().flatten().copied(), &mut other.tiles.iter().flatten().copied());
         (count, first)
     }
 }

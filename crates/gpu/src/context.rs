@@ -127,6 +127,7 @@ struct Buffers {
     owners: Grown,
     coverage: Grown,
     stats: Grown,
+    tile_stats: Grown,
     shade_params: Grown,
     colours: Grown,
     faces: Grown,
@@ -194,6 +195,7 @@ impl GpuContext {
             owners: Grown::storage("owners"),
             coverage: Grown::storage("coverage"),
             stats: Grown::storage("statistics"),
+            tile_stats: Grown::storage("tile statistics"),
             shade_params: Grown::storage("shade parameters"),
             colours: Grown::storage("colours"),
             faces: Grown::storage("faces"),
@@ -494,10 +496,12 @@ impl GpuContext {
         let coverage = b.coverage.get(device, coverage_bytes);
         let stats_bytes = (Counter::COUNT * 4) as u64;
         let stats = b.stats.get(device, stats_bytes);
+        let tile_bytes = if frame.outputs.contains(OutputSet::TILES) { tiles * 8 } else { 0 };
+        let tile_stats = b.tile_stats.get(device, tile_bytes);
         let shaded_bytes = if scene.pipeline == Pipeline::Render { pixels * 4 } else { 0 };
         let colours = b.colours.get(device, shaded_bytes);
         let faces = b.faces.get(device, shaded_bytes);
-        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes + 2 * shaded_bytes);
+        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes + 2 * shaded_bytes + tile_bytes);
 
         let mut counters = [0u32; Counter::COUNT];
         let mut owner_out_of_range = false;
@@ -519,6 +523,7 @@ impl GpuContext {
                 Buffer::Owners => owners.clone(),
                 Buffer::Coverage => coverage.clone(),
                 Buffer::Stats => stats.clone(),
+                Buffer::TileStats => tile_stats.clone(),
                 Buffer::ShadeParams => scene.shade_params?.clone(),
                 Buffer::Shading => scene.shading?.clone(),
                 Buffer::Colours => colours.clone(),
@@ -533,7 +538,8 @@ impl GpuContext {
         let shaded_at = stats_bytes + pixels * 4 + owner_bytes + coverage_bytes;
         encoder.copy_buffer_to_buffer(&colours, 0, &readback, shaded_at, shaded_bytes);
         encoder.copy_buffer_to_buffer(&faces, 0, &readback, shaded_at + shaded_bytes, shaded_bytes);
-        let total = shaded_at + 2 * shaded_bytes;
+        encoder.copy_buffer_to_buffer(&tile_stats, 0, &readback, shaded_at + 2 * shaded_bytes, tile_bytes);
+        let total = shaded_at + 2 * shaded_bytes + tile_bytes;
         self.gpu
             .submit_and_read(encoder, &readback, total, |bytes| {
                 let words: &[u32] = bytemuck::cast_slice(bytes);
@@ -542,7 +548,8 @@ impl GpuContext {
                 let (value_words, rest) = words.split_at(pixels as usize);
                 let (owner_words, rest) = rest.split_at((owner_bytes / 4) as usize);
                 let (coverage_words, rest) = rest.split_at((coverage_bytes / 4) as usize);
-                let (colour_words, face_words) = rest.split_at((shaded_bytes / 4) as usize);
+                let (colour_words, rest) = rest.split_at((shaded_bytes / 4) as usize);
+                let (face_words, tile_words) = rest.split_at((shaded_bytes / 4) as usize);
                 let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
                 copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
                 if let Some(owner) = raster.owner.as_mut() {
@@ -564,6 +571,9 @@ impl GpuContext {
                 if let (Some(colours), Some(faces)) = (raster.colours.as_mut(), raster.faces.as_mut()) {
                     copy_rows(colour_words, &frame, width, x0, y0, colours);
                     copy_rows(face_words, &frame, width, x0, y0, faces);
+                }
+                if let Some(layer) = raster.tiles.as_mut() {
+                    copy_tile_rows(tile_words, &frame, &raster.window, layer);
                 }
             })
             .map_err(|e| Error::Gpu(format!("reading the raster back: {e}")))?;
@@ -594,6 +604,18 @@ fn copy_rows(src: &[u32], frame: &FrameParams, width: u32, x0: u32, y0: u32, dst
         .skip(first_row)
         .zip(src.par_chunks(w))
         .for_each(|(row, window_row)| row[x..x + w].copy_from_slice(window_row));
+}
+
+/// Copy a window's tile statistics (two words a tile) into the raster's, whose tiles the
+/// window's are aligned to.
+fn copy_tile_rows(src: &[u32], frame: &FrameParams, window: &tileraster_core::Window, dst: &mut [u32]) {
+    let row = 2 * window.width.div_ceil(TILE) as usize;
+    let x = 2 * ((frame.win_x0 - window.x0) / TILE) as usize;
+    let first_row = ((frame.win_y0 - window.y0) / TILE) as usize;
+    let w = 2 * frame.tiles_x as usize;
+    for (k, window_row) in src.chunks(w).enumerate() {
+        dst[(first_row + k) * row + x..][..w].copy_from_slice(window_row);
+    }
 }
 
 /// Every stage's pipeline, from the stage table: an explicit bind group layout per stage

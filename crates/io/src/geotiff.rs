@@ -756,7 +756,7 @@ mod tests {
     fn raster(w: u32, h: u32) -> Raster {
         let grid = Grid::new(500_000.0, 500_000.0 + w as f64, 5_000_000.0, 5_000_000.0 + h as f64, w, h);
         let values = (0..w * h).map(|k| if k % 7 == 0 { -9999.0 } else { k as f32 * 0.25 }).collect();
-        Raster { grid, window: Window::whole(&grid), nodata: -9999.0, values, owner: None, coverage: None, colours: None, faces: None, snap_bits: 16, stats: Default::default() }
+        Raster { grid, window: Window::whole(&grid), nodata: -9999.0, values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits: 16, stats: Default::default() }
     }
 
     struct Read {

@@ -383,6 +383,16 @@ pub fn count_hidden_triangles<C: Counters + ?Sized>(lid: u32, hidden: u32, stats
     }
 }
 
+/// Invocation 0 writes the tile's statistics where the frame asks for them: its bin's entries
+/// and how many of them were hidden.
+#[inline]
+pub fn write_tile_stats(lid: u32, tile: u32, bin_len: u32, hidden: u32, frame: &FrameParams, tile_stats: &mut [u32]) {
+    if lid == 0 && frame.outputs.contains(OutputSet::TILES) {
+        tile_stats[2 * tile as usize] = bin_len;
+        tile_stats[2 * tile as usize + 1] = hidden;
+    }
+}
+
 /// Number of bin entries in the batch starting at `batch_start`.
 pub fn batch_len(bin_len: u32, batch_start: u32) -> u32 {
     let left = bin_len - batch_start;

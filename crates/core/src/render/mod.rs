@@ -159,6 +159,9 @@ pub struct RenderParams {
     /// Count the fragments of every pixel (the frame's `fragments` layer and statistics):
     /// on by default. Off, a triangle a tile's depth bound hides gets no edge test there.
     pub count_fragments: bool,
+    /// Count per `TILE × TILE` tile the triangles that reach it and those its depth bound hid
+    /// (the frame's `tiles`, for heat maps). Off by default.
+    pub count_tiles: bool,
     /// `empty_tiles`, `cull_window` and `hidden_triangles` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
@@ -186,6 +189,7 @@ impl RenderParams {
             specular: [0.25, 0.25, 0.25],
             shininess: 32,
             count_fragments: true,
+            count_tiles: false,
             skips: Skips::ALL,
         }
     }
@@ -525,7 +529,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     let grid_params = Params {
         grid,
         nodata: params.clear_depth,
-        outputs: Outputs { owner: true, coverage: params.count_fragments },
+        outputs: Outputs { owner: true, coverage: params.count_fragments, tiles: params.count_tiles },
         // The depth is the barycentric mode's arithmetic: the GPU backend checks that the
         // adapter gives the CPU's bits for it before using it.
         mode: Mode::Barycentric,

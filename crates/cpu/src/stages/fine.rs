@@ -37,6 +37,10 @@ struct Band<'a> {
     values: &'a mut [f32],
     owner: Option<&'a mut [u32]>,
     coverage: Option<&'a mut [u32]>,
+    /// The band's row of the tile statistics layer, where asked for, and the raster tile of
+    /// the frame's first.
+    tiles: Option<&'a mut [u32]>,
+    tile0: u32,
     /// Scratch of the overlap-free tiles, one state per tile pixel, valid where `edge_seen`
     /// has its bit: kept across the band's tiles so that no tile clears 256 states.
     edge_states: [PixelState<u32>; TILE_PIXELS as usize],
@@ -46,6 +50,13 @@ impl Band<'_> {
     /// Index in the band's layers of grid pixel `(i, j)`.
     fn index(&self, i: i32, j: i32) -> usize {
         (j - self.row0) as usize * self.stride + (i - self.col0) as usize
+    }
+
+    /// `fine::write_tile_stats` of the band's tile `tx`.
+    fn record_tile(&mut self, tx: u32, bin_len: u32, hidden: u32, frame: &FrameParams) {
+        if let Some(tiles) = self.tiles.as_deref_mut() {
+            fine::write_tile_stats(0, self.tile0 + tx, bin_len, hidden, frame, tiles);
+        }
     }
 }
 
@@ -141,10 +152,11 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
     let bin = &bins[bin_start as usize..][..bin_len as usize];
     let occluding = occluding_key(program, frame, setups, bin, &tile);
     let count_hidden = fine::counts_hidden(frame);
+    let mut hidden_here = 0;
     for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
         let hidden = program.hidden(s, &tile, occluding);
-        stats.0[Counter::TrianglesHidden as usize] += hidden as u32;
+        hidden_here += hidden as u32;
         if hidden && !count_hidden {
             continue;
         }
@@ -168,6 +180,8 @@ fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups:
             rows.next_row();
         }
     }
+    stats.0[Counter::TrianglesHidden as usize] += hidden_here;
+    band.record_tile(tx, bin_len, hidden_here, frame);
     resolve_depth_tile(program, tx, frame, setups, band, &key, &owner, &slot, &count);
 }
 
@@ -179,6 +193,7 @@ fn depth_tile_bin(tx: u32, frame: &FrameParams, offsets: &[u32], band: &mut Band
     let (bin_start, bin_len) = fine::bin_range(offsets, band.ty * frame.tiles_x + tx);
     if fine::empty_tile(bin_len, frame) {
         fine::count_tile(0, Counter::TilesEmpty, stats);
+        band.record_tile(tx, bin_len, 0, frame);
         fine_resolve_empty_tile(tx, frame, band);
         return None;
     }
@@ -242,10 +257,11 @@ fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, se
     let bin = &bins[bin_start as usize..][..bin_len as usize];
     let occluding = occluding_key(program, frame, setups, bin, &tile);
     let count_hidden = fine::counts_hidden(frame);
+    let mut hidden_here = 0;
     for &entry in bin {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
         let hidden = program.hidden(s, &tile, occluding);
-        stats.0[Counter::TrianglesHidden as usize] += hidden as u32;
+        hidden_here += hidden as u32;
         if hidden && !count_hidden {
             continue;
         }
@@ -272,6 +288,8 @@ fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, se
             rows.next_row();
         }
     }
+    stats.0[Counter::TrianglesHidden as usize] += hidden_here;
+    band.record_tile(tx, bin_len, hidden_here, frame);
     resolve_depth_tile(program, tx, frame, setups, band, &key, &owner, &slot, &count);
 }
 
@@ -314,6 +332,9 @@ fn for_each_band(frame: &FrameParams, raster: &mut Raster, rasterise_band: impl 
     let (row0, col0) = (raster.window.y0 as i32, raster.window.x0 as i32);
     let owner = optional_bands(raster.owner.as_mut(), band_len, skip, take);
     let coverage = optional_bands(raster.coverage.as_mut(), band_len, skip, take);
+    let tile_row = 2 * raster.window.width.div_ceil(TILE) as usize;
+    let tiles = optional_bands(raster.tiles.as_mut(), tile_row, skip, take);
+    let tile0 = (frame.win_x0 - raster.window.x0) / TILE;
     let bands: Vec<Band> = raster
         .values
         .chunks_mut(band_len)
@@ -321,8 +342,9 @@ fn for_each_band(frame: &FrameParams, raster: &mut Raster, rasterise_band: impl 
         .take(take)
         .zip(owner)
         .zip(coverage)
+        .zip(tiles)
         .enumerate()
-        .map(|(ty, ((values, owner), coverage))| Band {
+        .map(|(ty, (((values, owner), coverage), tiles))| Band {
             ty: ty as u32,
             row0: row0 + ((skip + ty) as u32 * TILE) as i32,
             col0,
@@ -330,6 +352,8 @@ fn for_each_band(frame: &FrameParams, raster: &mut Raster, rasterise_band: impl 
             values,
             owner,
             coverage,
+            tiles,
+            tile0,
             edge_states: [PixelState::empty(NO_OWNER); TILE_PIXELS as usize],
         })
         .collect();
@@ -349,6 +373,7 @@ where
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
     let pixel = |lid: u32| fine::tile_pixel(tx, ty, lid, frame);
     let mut states = [PixelState::empty(P::NO_KEY); TILE_PIXELS as usize];
+    let mut hidden = 0;
     let empty = fine::empty_tile(bin_len, frame);
     if empty {
         fine::count_tile(0, Counter::TilesEmpty, stats);
@@ -368,7 +393,6 @@ where
         }
         let overlap_free = fine::overlap_free(frame);
         let count_hidden = fine::counts_hidden(frame);
-        let mut hidden = 0;
         let mut batch_start = 0;
         while batch_start < bin_len {
             let batch_len = fine::batch_len(bin_len, batch_start);
@@ -384,6 +408,7 @@ where
         }
         fine::count_hidden_triangles(0, hidden, stats);
     }
+    band.record_tile(tx, bin_len, hidden, frame);
     for (lid, state) in states.iter().enumerate() {
         let (i, j, inside) = pixel(lid as u32);
         if !inside {
@@ -472,6 +497,7 @@ fn optional_bands(layer: Option<&mut Vec<u32>>, band_len: usize, skip: usize, ta
 fn fine_raster_tile(tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+    band.record_tile(tx, bin_len, 0, frame);
     if fine::empty_tile(bin_len, frame) {
         fine::count_tile(0, Counter::TilesEmpty, stats);
         return fine_resolve_empty_tile(tx, frame, band);
@@ -978,7 +1004,7 @@ mod tests {
         let scenes = [scenes::triangle_soup(&grid, 700, 30.0, 9), scenes::fan(&grid, 60, 60, 90, 40.0, 3), scenes::terrain(0.0, 0.0, 100.0, 100.0, 12, 9, 5)];
         for (k, scene) in scenes.iter().enumerate() {
             for skips in [Skips::NONE, Skips::default()] {
-                let params = Params::new(grid).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true });
+                let params = Params::new(grid).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
                 let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
                 let mut raster = plan.allocate_raster(&prepared).unwrap();
                 fine_raster_plain(&LowestSurface, &frame, &setups, &offsets, &bins, &mut raster);
@@ -1143,7 +1169,7 @@ mod tests {
         for (scene, grid) in &scenes {
             let grid = *grid;
             for mode in Mode::ALL {
-                let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true });
+                let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
                 let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
                 let run = |wide| {
                     let mut raster = plan.allocate_raster(&prepared).unwrap();

@@ -164,7 +164,7 @@ fn gpu_tile_beyond_its_binding_is_an_error() {
     let _turn = WINDOW_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
     // 64 copies of one triangle over the whole frame: every tile is reached by all of them.
     let positions = vec![[-4.0, -4.0, 0.5], [4.0, -4.0, 0.5], [0.0, 6.0, 0.5]];
-    let mesh = Mesh { positions, triangles: vec![[0, 1, 2]; 64], normals: None, colours: None, uvs: None };
+    let mesh = Mesh { positions, triangles: vec![[0, 1, 2]; 64], normals: None, colours: None, uvs: None, ..Default::default() };
     let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(40, 40, IDENTITY) };
     tileraster::set_gpu_binding_limit(4 << 10);
     let result = render(&mesh, &params, Backend::Gpu);

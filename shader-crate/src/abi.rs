@@ -478,5 +478,105 @@ pub struct TriangleShading {
     pub inv_w: [f32; 4],
     /// The input face this triangle comes from (clipping may cut a face into several).
     pub face: u32,
-    pub _pad: [u32; 3],
+    /// Its base-colour texture: an index into the frame's `TextureInfo`s, or [`NO_TEXTURE`].
+    pub texture: u32,
+    pub _pad: [u32; 2],
+}
+
+/// `TriangleShading::texture` of an untextured triangle.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+/// Most mip levels a texture has (a 16384-texel side has 15).
+pub const MAX_MIP_LEVELS: usize = 16;
+
+/// How a texture is filtered (`TextureInfo::flags`, bits 0–1).
+#[repr(u32)]
+#[derive(Copy, Clone, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Debug, Hash))]
+pub enum Filter {
+    /// The texel the coordinate falls in, of the full-size level.
+    Nearest = 0,
+    /// The four texels around the coordinate, weighted, of the full-size level.
+    Bilinear = 1,
+    /// Bilinear in the two mip levels the level of detail lies between, blended by it
+    /// (bilinear in the full-size level where the texture is magnified).
+    Trilinear = 2,
+}
+
+impl Filter {
+    pub const ALL: [Filter; 3] = [Filter::Nearest, Filter::Bilinear, Filter::Trilinear];
+
+    #[inline]
+    pub fn from_code(code: u32) -> Filter {
+        match code {
+            0 => Filter::Nearest,
+            1 => Filter::Bilinear,
+            _ => Filter::Trilinear,
+        }
+    }
+}
+
+/// What a texture coordinate outside `[0, 1)` reads (`TextureInfo::flags`, bits 2–3 for `u`,
+/// 4–5 for `v`).
+#[repr(u32)]
+#[derive(Copy, Clone, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Debug, Hash))]
+pub enum Address {
+    Repeat = 0,
+    ClampToEdge = 1,
+    MirroredRepeat = 2,
+}
+
+impl Address {
+    pub const ALL: [Address; 3] = [Address::Repeat, Address::ClampToEdge, Address::MirroredRepeat];
+
+    #[inline]
+    pub fn from_code(code: u32) -> Address {
+        match code {
+            0 => Address::Repeat,
+            1 => Address::ClampToEdge,
+            _ => Address::MirroredRepeat,
+        }
+    }
+}
+
+/// One texture of a frame: its mip levels in the texel buffer (two words a texel: red and
+/// green, then blue and alpha, 16 bits each, linear: sRGB textures are decoded on the host
+/// before any filtering) and how it is sampled.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct TextureInfo {
+    /// The full-size level's width and height in texels.
+    pub width: u32,
+    pub height: u32,
+    /// Mip levels (1: no chain), at most [`MAX_MIP_LEVELS`].
+    pub levels: u32,
+    /// [`Filter`] in bits 0–1, the [`Address`] of `u` in bits 2–3 and of `v` in bits 4–5.
+    pub flags: u32,
+    /// The word at which each level starts in the texel buffer; level `k` is
+    /// `max(1, width >> k)` × `max(1, height >> k)` texels, row by row.
+    pub offsets: [u32; MAX_MIP_LEVELS],
+}
+
+impl TextureInfo {
+    #[inline]
+    pub fn filter(&self) -> Filter {
+        Filter::from_code(self.flags & 3)
+    }
+
+    #[inline]
+    pub fn address_u(&self) -> Address {
+        Address::from_code(self.flags >> 2 & 3)
+    }
+
+    #[inline]
+    pub fn address_v(&self) -> Address {
+        Address::from_code(self.flags >> 4 & 3)
+    }
+
+    /// The flags of a filter and two address modes.
+    pub const fn flags_of(filter: Filter, u: Address, v: Address) -> u32 {
+        filter as u32 | (u as u32) << 2 | (v as u32) << 4
+    }
 }

@@ -10,7 +10,7 @@ use crate::programs::shade::{blend_pixel, shade_pixel};
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
-use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
+use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use crate::BATCH;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 use spirv_std::glam::UVec3;
@@ -132,21 +132,23 @@ pub fn shade(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] params: &ShadeParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] setups: &[TriangleSetup],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] shading: &[TriangleShading],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] bins: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] values: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] owners: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] colours: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] faces: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] textures: &[TextureInfo],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] texels: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] bins: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] values: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] owners: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] colours: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] faces: &mut [u32],
 ) {
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
     if inside {
         let k = fine::window_index(i, j, frame);
         let out = if params.blend != 0 {
             let (bin_start, bin_len) = fine::bin_range(offsets, wg.y * frame.tiles_x + wg.x);
-            blend_pixel(params, frame.nodata_bits, setups, shading, bins, bin_start, bin_len, i, j)
+            blend_pixel(params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
         } else {
-            shade_pixel(params, setups, shading, owners[k], values[k], i, j)
+            shade_pixel(params, setups, shading, textures, texels, owners[k], values[k], i, j)
         };
         colours[k] = out.colour;
         faces[k] = out.face;

@@ -21,7 +21,7 @@
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins (cursors: its atomics)
 //!  height:  setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
 //!  render:  setups, offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
-//!           shade params, setups, shading, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
+//!           shade params, setups, shading, textures, texels, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
 //! ```
 
 use crate::{SCAN_GROUP, TILE, TRIANGLE_GROUP};
@@ -88,6 +88,10 @@ pub enum Buffer {
     Colours,
     /// Input face per window pixel (render pipeline).
     Faces,
+    /// `TextureInfo` per texture of the frame (uploaded once per scene; render pipeline).
+    Textures,
+    /// The textures' texels, two words each (uploaded once per scene; render pipeline).
+    Texels,
 }
 
 /// Whether a stage only reads a buffer or also writes it.
@@ -259,6 +263,8 @@ pub const STAGES: [StageInfo; 7] = [
             read(Buffer::ShadeParams),
             read(Buffer::Setups),
             read(Buffer::Shading),
+            read(Buffer::Textures),
+            read(Buffer::Texels),
             read(Buffer::Offsets),
             read(Buffer::Bins),
             read(Buffer::Values),

@@ -26,8 +26,8 @@ pub use camera::Camera;
 pub use diagnostics::{Checksums, TileCounts};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    face_normals, prepare_render, prepare_world, validate_mesh, Cull, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, Mesh, RenderParams, Shading, World, IDENTITY,
-    MAX_RENDER_DIM,
+    face_normals, prepare_render, prepare_world, validate_mesh, Address, Cull, Filter, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, Mesh, RenderParams, Shading, Texture,
+    World, IDENTITY, MAX_RENDER_DIM, MAX_TEXTURE_DIM, NO_TEXTURE,
 };
 
 use crate::dem::{DemError, InputKind};

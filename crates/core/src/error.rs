@@ -94,6 +94,15 @@ pub enum Error {
     #[error("the heat map needs the frame's {layer}: render with RenderParams::{flag} on (the command line's --heat-map does)")]
     HeatMapNeeds { layer: &'static str, flag: &'static str },
 
+    #[error("texture {texture} ({width}×{height}) is too large: {reason}; scale it down")]
+    TextureTooLarge { texture: usize, width: u32, height: u32, reason: String },
+
+    #[error("the frame's textures take {bytes} bytes, more than the {limit} bytes the GPU binds at once; use smaller textures or the CPU backend")]
+    TexturesTooLarge { bytes: u64, limit: u64 },
+
+    #[error("texture {texture}: {reason}")]
+    InvalidTexture { texture: usize, reason: String },
+
     #[error("instance {instance}: {reason}")]
     InvalidInstance { instance: usize, reason: String },
 

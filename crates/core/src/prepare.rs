@@ -17,7 +17,7 @@
 use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
 use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
-use tileraster_kernels::abi::{DepthTest, FloatCoeffs, PixelRect, Plane, ShadeParams, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{DepthTest, FloatCoeffs, PixelRect, Plane, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
 use tileraster_kernels::pipeline::Pipeline;
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::stages::fine::side;
@@ -93,6 +93,9 @@ pub struct RenderInputs {
     pub triangles: Vec<TriangleShading>,
     pub params: ShadeParams,
     pub depth_test: DepthTest,
+    /// The frame's textures and their texels (`programs::texture`).
+    pub textures: Vec<TextureInfo>,
+    pub texels: Vec<u32>,
 }
 
 impl Prepared {

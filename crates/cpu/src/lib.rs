@@ -140,7 +140,7 @@ fn rasterise_planned_with(
                 }
                 Stage::Shade => {
                     let shading = prepared.render.as_ref().expect("the render pipeline has shading");
-                    shade(&frame, &shading.params, setups, &shading.triangles, &b.offsets, &b.bins, &mut raster);
+                    shade(&frame, shading, setups, &b.offsets, &b.bins, &mut raster);
                 }
             }
             observe(info.stage);

@@ -4,7 +4,7 @@ use rayon::prelude::*;
 use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, TriangleInput, TriangleSetup, TriangleShading};
+use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, Scope, StageBuffers, StageInfo, STAGES};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
@@ -129,6 +129,8 @@ struct Buffers {
     stats: Grown,
     tile_stats: Grown,
     shade_params: Grown,
+    textures: Grown,
+    texels: Grown,
     colours: Grown,
     faces: Grown,
     readback: Grown,
@@ -197,6 +199,8 @@ impl GpuContext {
             stats: Grown::storage("statistics"),
             tile_stats: Grown::storage("tile statistics"),
             shade_params: Grown::storage("shade parameters"),
+            textures: Grown::storage("textures"),
+            texels: Grown::storage("texels"),
             colours: Grown::storage("colours"),
             faces: Grown::storage("faces"),
             readback: Grown::readback("readback"),
@@ -310,6 +314,21 @@ impl GpuContext {
             self.gpu.queue.write_buffer(&buf, 0, bytemuck::bytes_of(&s.params));
             buf
         });
+        // The frame's textures, once for all its windows (bindings hold at least one element).
+        let materials = match prepared.render.as_ref() {
+            Some(s) => {
+                let texel_bytes = (s.texels.len() as u64 * 4).max(4);
+                if texel_bytes > self.max_binding() {
+                    return Err(Error::TexturesTooLarge { bytes: texel_bytes, limit: self.max_binding() });
+                }
+                let infos = self.buffers.textures.get(&self.gpu.device, (std::mem::size_of_val(s.textures.as_slice()) as u64).max(std::mem::size_of::<TextureInfo>() as u64));
+                self.gpu.queue.write_buffer(&infos, 0, bytemuck::cast_slice(&s.textures));
+                let texels = self.buffers.texels.get(&self.gpu.device, texel_bytes);
+                self.gpu.queue.write_buffer(&texels, 0, bytemuck::cast_slice(&s.texels));
+                Some((infos, texels))
+            }
+            None => None,
+        };
         // The window's list of triangles, once for all its dispatches (a resident scene's).
         let listed_buf = whole.then(|| {
             let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
@@ -342,12 +361,12 @@ impl GpuContext {
             let window_counters = match &part {
                 None => {
                     let r = resident.as_ref().expect("a whole scene is set up before its windows");
-                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref() };
+                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
                     self.rasterise_window(&frame, entries, &scene, listed_buf.as_ref().expect("listed with the whole scene"), None, raster)?
                 }
                 Some(slots) => {
                     let r = self.upload_and_setup(prepared, Some(slots))?;
-                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref() };
+                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
                     // The part's setups are its own slots 0, 1, ...: the binning stages take them all.
                     let local: Vec<u32> = (0..slots.len() as u32).collect();
                     let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
@@ -526,6 +545,8 @@ impl GpuContext {
                 Buffer::TileStats => tile_stats.clone(),
                 Buffer::ShadeParams => scene.shade_params?.clone(),
                 Buffer::Shading => scene.shading?.clone(),
+                Buffer::Textures => scene.materials?.0.clone(),
+                Buffer::Texels => scene.materials?.1.clone(),
                 Buffer::Colours => colours.clone(),
                 Buffer::Faces => faces.clone(),
             })
@@ -591,6 +612,8 @@ struct SceneBuffers<'a> {
     /// The render pipeline's: per-triangle attributes, and the frame's shade parameters.
     shading: Option<&'a wgpu::Buffer>,
     shade_params: Option<&'a wgpu::Buffer>,
+    /// The render pipeline's textures and texels.
+    materials: Option<&'a (wgpu::Buffer, wgpu::Buffer)>,
 }
 
 /// Copy a window's rows into the raster that holds it, rows in parallel: reading a large

@@ -120,6 +120,7 @@ impl Parts {
                 uvs.resize(vertex_count, [0.0; 2]);
                 uvs
             }),
+            ..Default::default()
         })
     }
 }

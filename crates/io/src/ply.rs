@@ -251,6 +251,7 @@ pub fn parse_ply_mesh(bytes: &[u8], path: &Path) -> Result<Mesh, IoError> {
         normals: has_normals.then_some(normals),
         colours: has_colours.then_some(colours),
         uvs: None,
+        ..Default::default()
     })
 }
 

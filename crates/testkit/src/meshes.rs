@@ -42,7 +42,7 @@ pub fn sphere(centre: [f64; 3], radius: f64, stacks: u32, slices: u32) -> Mesh {
     for k in 0..slices {
         triangles.push([south, ring(stacks - 1, k + 1), ring(stacks - 1, k)]);
     }
-    Mesh { positions, triangles, normals: Some(normals), colours: Some(colours), uvs: None }
+    Mesh { positions, triangles, normals: Some(normals), colours: Some(colours), uvs: None, ..Default::default() }
 }
 
 /// `n` random triangles of up to `size` inside the box `lo..hi`, random colours, no normals:
@@ -61,7 +61,7 @@ pub fn soup(n: usize, lo: [f64; 3], hi: [f64; 3], size: f64, seed: u64) -> Mesh 
         let v = 3 * t as u32;
         triangles.push([v, v + 1, v + 2]);
     }
-    Mesh { positions, triangles, normals: None, colours: Some(colours), uvs: None }
+    Mesh { positions, triangles, normals: None, colours: Some(colours), uvs: None, ..Default::default() }
 }
 
 /// A height-field grid of `n × n` cells over `0..extent` in x and y, heights a smooth bump

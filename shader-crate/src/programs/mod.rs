@@ -6,3 +6,4 @@ pub mod depth;
 pub mod height;
 pub mod occlusion;
 pub mod shade;
+pub mod texture;

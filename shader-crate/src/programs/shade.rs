@@ -8,11 +8,12 @@
 //! computed with integers; conversions from the exact edge functions are done by hand
 //! (`fixed_to_f32_bits`). So the colour is the same on every device.
 
-use crate::abi::{Interpolation, ShadeMode, ShadeParams, TriangleSetup, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, MAX_LIGHTS};
+use crate::abi::{Interpolation, ShadeMode, ShadeParams, TextureInfo, TriangleSetup, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, MAX_LIGHTS, NO_TEXTURE};
 use crate::math::fixed::fixed_to_f32_bits;
 use crate::math::float::{div, recip, sqrt};
 use crate::math::edge::Side;
 use crate::programs::depth::{depth_bits, DepthProgram};
+use crate::programs::texture::{self, lod};
 use crate::stages::fine::side;
 use crate::{FULL_TILE_BIT, NO_OWNER};
 
@@ -178,37 +179,69 @@ fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32
 /// The shaded pixel `(i, j)` owned by setup slot `slot` (`NO_OWNER`: the background), whose
 /// depth is `depth_bits`.
 #[inline]
-pub fn shade_pixel(params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], slot: u32, depth_bits: u32, i: i32, j: i32) -> Shaded {
+#[allow(clippy::too_many_arguments)]
+pub fn shade_pixel(params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], textures: &[TextureInfo], texels: &[u32], slot: u32, depth_bits: u32, i: i32, j: i32) -> Shaded {
     if slot == NO_OWNER {
         return Shaded { colour: params.background, face: NO_OWNER };
     }
     let t = &shading[slot as usize];
-    Shaded { colour: fragment_colour(params, &setups[slot as usize], t, depth_bits, i, j), face: t.face }
+    Shaded { colour: fragment_colour(params, &setups[slot as usize], t, textures, texels, depth_bits, i, j), face: t.face }
+}
+
+/// The texture coordinates of triangle `(s, t)` at pixel `(i, j)`.
+#[inline]
+fn uv_at(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: i32) -> [f32; 2] {
+    let b = weights(s, t, interpolation, i, j);
+    [interpolate(t, &b, ATTR_UV), interpolate(t, &b, ATTR_UV + 1)]
+}
+
+/// The fragment's base colour: the interpolated vertex colour, times the triangle's texture
+/// sampled at the interpolated coordinates where it has one. The level of detail comes from
+/// the coordinates' differences across the pixel's 2×2 quad (its top-left pixel to the one
+/// right of it and the one below: every pixel of a quad takes the same, as graphics APIs'
+/// coarse derivatives do), the triangle's attributes evaluated at those centres whether or not
+/// they lie inside it.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], b: &[f32; 3], i: i32, j: i32) -> [f32; 4] {
+    let colour = [interpolate(t, b, ATTR_COLOUR), interpolate(t, b, ATTR_COLOUR + 1), interpolate(t, b, ATTR_COLOUR + 2), interpolate(t, b, ATTR_COLOUR + 3)];
+    if t.texture == NO_TEXTURE {
+        return colour;
+    }
+    let info = &textures[t.texture as usize];
+    let (u, v) = (interpolate(t, b, ATTR_UV), interpolate(t, b, ATTR_UV + 1));
+    let level = if info.filter() == crate::abi::Filter::Trilinear && info.levels > 1 {
+        let (qx, qy) = (i & !1, j & !1);
+        let at = uv_at(s, t, params.interpolation, qx, qy);
+        let right = uv_at(s, t, params.interpolation, qx + 1, qy);
+        let below = uv_at(s, t, params.interpolation, qx, qy + 1);
+        lod(info.width, info.height, [right[0] - at[0], right[1] - at[1], below[0] - at[0], below[1] - at[1]])
+    } else {
+        0
+    };
+    let texel = texture::filtered(texels, info, u, v, level);
+    [
+        colour[0] * texture::unit(texel[0]),
+        colour[1] * texture::unit(texel[1]),
+        colour[2] * texture::unit(texel[2]),
+        colour[3] * texture::unit(texel[3]),
+    ]
 }
 
 /// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`.
 #[inline]
-pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, depth_bits: u32, i: i32, j: i32) -> u32 {
+#[allow(clippy::too_many_arguments)]
+pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> u32 {
     // The interpolation weights (a correctly rounded division each) only where the mode
     // interpolates attributes.
     match params.mode() {
         ShadeMode::Colour => {
             let b = weights(s, t, params.interpolation, i, j);
-            rgba8([
-                interpolate(t, &b, ATTR_COLOUR),
-                interpolate(t, &b, ATTR_COLOUR + 1),
-                interpolate(t, &b, ATTR_COLOUR + 2),
-                interpolate(t, &b, ATTR_COLOUR + 3),
-            ])
+            rgba8(base_colour(params, s, t, textures, texels, &b, i, j))
         }
         ShadeMode::Phong => {
             let b = weights(s, t, params.interpolation, i, j);
-            let base = [
-                interpolate(t, &b, ATTR_COLOUR),
-                interpolate(t, &b, ATTR_COLOUR + 1),
-                interpolate(t, &b, ATTR_COLOUR + 2),
-                interpolate(t, &b, ATTR_COLOUR + 3),
-            ];
+            let base = base_colour(params, s, t, textures, texels, &b, i, j);
             let n = normalise(interpolate3(t, &b, ATTR_NORMAL));
             rgba8(phong(params, base, n, interpolate3(t, &b, ATTR_POSITION)))
         }
@@ -243,7 +276,19 @@ pub fn source_over(src: u32, dst: u32) -> u32 {
 /// Each step finds the next slot by a walk over the bin: `(fragments + 1) × bin` iterations.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn blend_pixel(params: &ShadeParams, clear_bits: u32, setups: &[TriangleSetup], shading: &[TriangleShading], bin: &[u32], bin_start: u32, bin_len: u32, i: i32, j: i32) -> Shaded {
+pub fn blend_pixel(
+    params: &ShadeParams,
+    clear_bits: u32,
+    setups: &[TriangleSetup],
+    shading: &[TriangleShading],
+    textures: &[TextureInfo],
+    texels: &[u32],
+    bin: &[u32],
+    bin_start: u32,
+    bin_len: u32,
+    i: i32,
+    j: i32,
+) -> Shaded {
     let test = DepthProgram { func: params.depth_test.func(), write: true, clear: f32::from_bits(clear_bits) };
     let write = params.depth_test.write();
     let mut out = Shaded { colour: params.background, face: NO_OWNER };
@@ -268,7 +313,7 @@ pub fn blend_pixel(params: &ShadeParams, clear_bits: u32, setups: &[TriangleSetu
         let against = DepthProgram { clear: running, ..test };
         if against.passes(f32::from_bits(d)) {
             let t = &shading[next as usize];
-            out = Shaded { colour: source_over(fragment_colour(params, s, t, d, i, j), out.colour), face: t.face };
+            out = Shaded { colour: source_over(fragment_colour(params, s, t, textures, texels, d, i, j), out.colour), face: t.face };
             if write {
                 running = f32::from_bits(d);
             }

@@ -19,8 +19,11 @@
 //!   (16.8 fixed point, as Direct3D 11 and Vulkan's 2022 roadmap require).
 
 mod instances;
+mod texture;
 
 pub use instances::{Instance, World};
+pub use texture::{Texture, MAX_TEXTURE_DIM};
+pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 use instances::validate_world;
 
 use crate::prepare::{pixel_rect, round_to_i64};
@@ -57,7 +60,13 @@ pub struct Mesh {
     pub normals: Option<Vec<[f32; 3]>>,
     /// Linear RGBA in `[0, 1]`; light grey where absent.
     pub colours: Option<Vec<[f32; 4]>>,
+    /// Texture coordinates, `v = 0` at a texture's first row (glTF's convention).
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Base-colour textures: each face's colour is its vertex colour times its texture's sample.
+    pub textures: Vec<Texture>,
+    /// Each face's texture, an index into `textures` or [`NO_TEXTURE`]; `None`: every face
+    /// takes texture 0 where there is one.
+    pub face_textures: Option<Vec<u32>>,
 }
 
 /// Which faces are dropped.
@@ -162,6 +171,10 @@ pub struct RenderParams {
     /// Count per `TILE × TILE` tile the triangles that reach it and those its depth bound hid
     /// (the frame's `tiles`, for heat maps). Off by default.
     pub count_tiles: bool,
+    /// Every texture filtered so (`None`: as each texture says).
+    pub texture_filter: Option<Filter>,
+    /// Every texture addressed so in `u` and `v` (`None`: as each texture says).
+    pub texture_address: Option<Address>,
     /// `empty_tiles`, `cull_window` and `hidden_triangles` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
@@ -190,6 +203,8 @@ impl RenderParams {
             shininess: 32,
             count_fragments: true,
             count_tiles: false,
+            texture_filter: None,
+            texture_address: None,
             skips: Skips::ALL,
         }
     }
@@ -339,6 +354,8 @@ struct Placement<'a> {
     first_vertex: usize,
     /// The id of its first face.
     first_face: u32,
+    /// Its mesh's first texture in the frame's textures.
+    first_texture: u32,
 }
 
 /// The geometry stages over instances of checked meshes (`validate_world`).
@@ -366,6 +383,16 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     } else {
         Vec::new()
     };
+    // The frame's textures: every placed mesh's, once.
+    let mut first_textures = vec![0u32; meshes.len()];
+    let mut textures: Vec<&Texture> = Vec::new();
+    let mut placed = vec![false; meshes.len()];
+    instances.iter().for_each(|i| placed[i.mesh as usize] = true);
+    for (k, mesh) in meshes.iter().enumerate().filter(|(k, _)| placed[*k]) {
+        first_textures[k] = textures.len() as u32;
+        textures.extend(mesh.textures.iter());
+    }
+    let (texture_infos, texels) = texture::lay_out(&textures, params.texture_filter, params.texture_address)?;
     let mut placements = Vec::with_capacity(instances.len());
     let (mut first_vertex, mut first_face) = (0, 0u32);
     for instance in instances {
@@ -375,7 +402,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
         if culled {
             counts.instances_culled += 1;
         } else {
-            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face });
+            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face, first_texture: first_textures[instance.mesh as usize] });
             first_vertex += mesh.positions.len();
         }
         first_face += mesh.triangles.len() as u32;
@@ -485,7 +512,13 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
                 }
                 corners = [&flattened[0], &flattened[1], &flattened[2]];
             }
-            geometry(corners, face, params, &viewport, &grid, emit, counts);
+            let texture = match &mesh.face_textures {
+                Some(t) => t[start + k],
+                None if mesh.textures.is_empty() => NO_TEXTURE,
+                None => 0,
+            };
+            let texture = if texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + texture };
+            geometry(corners, FaceTag { id: face, texture }, params, &viewport, &grid, emit, counts);
         }
     };
     // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,
@@ -544,7 +577,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
         culled: culled as usize,
         degenerate: counts.culled_zero_area as usize,
         overlap_free_rows: None,
-        render: Some(RenderInputs { triangles: shading, params: shade, depth_test: DepthTest::new(params.depth_func, params.depth_write) }),
+        render: Some(RenderInputs { triangles: shading, params: shade, depth_test: DepthTest::new(params.depth_func, params.depth_write), textures: texture_infos, texels }),
     };
     Ok((prepared, counts))
 }
@@ -632,8 +665,15 @@ fn distance(planes: &[[f64; 4]; 7], k: usize, c: &[f64; 4]) -> f64 {
     if k == 2 { d - W_MIN } else { d }
 }
 
+/// What the kernels keep of a face besides its vertices: its id and its texture.
+#[derive(Clone, Copy)]
+struct FaceTag {
+    id: u32,
+    texture: u32,
+}
+
 /// Clip, cull, snap one face and push what reaches the rasteriser.
-fn geometry(corners: [&ClipVertex; 3], face: u32, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+fn geometry(corners: [&ClipVertex; 3], face: FaceTag, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     // Wholly outside one plane of the view frustum: nothing to clip.
     let c = corners.map(|v| v.clip);
     let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
@@ -656,7 +696,7 @@ fn geometry(corners: [&ClipVertex; 3], face: u32, params: &RenderParams, viewpor
 
 /// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
 /// and push what reaches the rasteriser.
-fn triangles(polygon: &[Projected], face: u32, params: &RenderParams, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+fn triangles(polygon: &[Projected], face: FaceTag, params: &RenderParams, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     for k in 1..polygon.len() - 1 {
         let mut v = [0, k, k + 1];
         let (mut x, mut y) = (v.map(|i| polygon[i].screen.0), v.map(|i| polygon[i].screen.1));
@@ -701,7 +741,7 @@ fn triangles(polygon: &[Projected], face: u32, params: &RenderParams, grid: &Gri
             let attributes = opposite.map(|i| polygon[i].attributes);
             (
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
-                TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face, _pad: [0; 3] },
+                TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face: face.id, texture: face.texture, _pad: [0; 2] },
             )
         });
     }
@@ -927,6 +967,17 @@ pub fn validate_mesh(mesh: &Mesh) -> Result<(), Error> {
     check_attribute("normals", mesh.normals.as_deref(), n)?;
     check_attribute("colours", mesh.colours.as_deref(), n)?;
     check_attribute("texture coordinates", mesh.uvs.as_deref(), n)?;
+    for (k, texture) in mesh.textures.iter().enumerate() {
+        texture.check(k)?;
+    }
+    if let Some(faces) = &mesh.face_textures {
+        if faces.len() != mesh.triangles.len() {
+            return Err(Error::AttributeLength { attribute: "face textures", len: faces.len(), vertex_count: mesh.triangles.len() });
+        }
+        if let Some((face, &t)) = faces.iter().enumerate().find(|&(_, &t)| t != NO_TEXTURE && t as usize >= mesh.textures.len()) {
+            return Err(Error::InvalidTexture { texture: t as usize, reason: format!("face {face} takes it, but the mesh has {} textures", mesh.textures.len()) });
+        }
+    }
     Ok(())
 }
 

@@ -6,13 +6,15 @@
 //! are the GPU's.
 
 use rayon::prelude::*;
-use tileraster_core::Raster;
-use tileraster_kernels::abi::{FrameParams, ShadeMode, ShadeParams, TriangleSetup, TriangleShading};
+use tileraster_core::{Raster, RenderInputs};
+use tileraster_kernels::abi::{FrameParams, ShadeMode, TriangleSetup};
 use tileraster_kernels::programs::shade::{blend_pixel, shade_pixel};
 use tileraster_kernels::stages::fine;
 use tileraster_kernels::TILE;
 
-pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
+pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
+    let (params, shading) = (&inputs.params, &inputs.triangles[..]);
+    let (textures, texels) = (&inputs.textures[..], &inputs.texels[..]);
     let stride = raster.window.width as usize;
     let (x0, y0) = (raster.window.x0, raster.window.y0);
     let owners = raster.owner.as_deref().expect("the render pipeline writes the owner layer");
@@ -38,7 +40,7 @@ pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup]
                     let owner = owners[k];
                     let out = match last {
                         Some((o, out)) if o == owner => out,
-                        _ => shade_pixel(params, setups, shading, owner, depths[k].to_bits(), (x0 as usize + x) as i32, j),
+                        _ => shade_pixel(params, setups, shading, textures, texels, owner, depths[k].to_bits(), (x0 as usize + x) as i32, j),
                     };
                     last = Some((owner, out));
                     colour_row[x] = out.colour;
@@ -52,9 +54,9 @@ pub fn shade(frame: &FrameParams, params: &ShadeParams, setups: &[TriangleSetup]
                 let out = if params.blend != 0 {
                     let tile = (j as u32 - frame.win_y0) / TILE * frame.tiles_x + (i as u32 - frame.win_x0) / TILE;
                     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
-                    blend_pixel(params, frame.nodata_bits, setups, shading, bins, bin_start, bin_len, i, j)
+                    blend_pixel(params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
                 } else {
-                    shade_pixel(params, setups, shading, owners[k], depths[k].to_bits(), i, j)
+                    shade_pixel(params, setups, shading, textures, texels, owners[k], depths[k].to_bits(), i, j)
                 };
                 colour_row[x] = out.colour;
                 face_row[x] = out.face;

@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use tileraster::render::{read_mesh, read_world, render_world, Camera, Cull, Interpolation, Mesh, RenderParams, Shading, World, IDENTITY};
+use tileraster::render::{read_mesh, read_world, render_world, Address, Camera, Cull, Filter, Interpolation, Mesh, RenderParams, Shading, World, IDENTITY};
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
@@ -53,6 +53,13 @@ pub struct RenderArgs {
     /// screen (noperspective), or flat (the face's first vertex's values).
     #[arg(long, value_enum, default_value = "perspective")]
     interpolation: InterpolationArg,
+    /// Filter every texture so, whatever the file's samplers say: nearest (the texel), bilinear,
+    /// or trilinear (bilinear in the two mip levels the level of detail lies between).
+    #[arg(long, value_enum)]
+    filter: Option<FilterArg>,
+    /// Address every texture so outside [0, 1), whatever the file's samplers say.
+    #[arg(long, value_enum)]
+    address: Option<AddressArg>,
     /// Blend every fragment source-over onto what is below it, in the input's face order (the
     /// colours' alpha), as a graphics API with blending on does.
     #[arg(long)]
@@ -82,6 +89,20 @@ pub struct RenderArgs {
     /// No messages on stderr but errors (and --stats when asked for).
     #[arg(short, long)]
     quiet: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum FilterArg {
+    Nearest,
+    Bilinear,
+    Trilinear,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum AddressArg {
+    Repeat,
+    Clamp,
+    Mirror,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -138,7 +159,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -189,6 +210,16 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     params.blend = blend;
     params.count_fragments = stats || heat_map.is_some();
     params.count_tiles = heat_map.is_some();
+    params.texture_filter = filter.map(|f| match f {
+        FilterArg::Nearest => Filter::Nearest,
+        FilterArg::Bilinear => Filter::Bilinear,
+        FilterArg::Trilinear => Filter::Trilinear,
+    });
+    params.texture_address = address.map(|a| match a {
+        AddressArg::Repeat => Address::Repeat,
+        AddressArg::Clamp => Address::ClampToEdge,
+        AddressArg::Mirror => Address::MirroredRepeat,
+    });
     for skip in no_skip {
         params.skips = params.skips.without(skip);
     }

@@ -9,7 +9,7 @@
 
 use crate::IoError;
 use std::path::Path;
-use tileraster_core::render::{normal_matrix, transform_normal, Instance, Mesh, World};
+use tileraster_core::render::{normal_matrix, transform_normal, Address, Filter, Instance, Mesh, Texture, World, NO_TEXTURE};
 
 /// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates.
 pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
@@ -17,7 +17,7 @@ pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
     let (gltf, buffers) = open(path)?;
     let mut out = Parts::default();
     walk(&gltf.document, &mut |node, world| match node.mesh() {
-        Some(mesh) => mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &buffers, &mut out)),
+        Some(mesh) => mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &Sources { base: path.parent(), buffers: &buffers }, &mut out)),
         None => Ok(()),
     })
     .map_err(format)?;
@@ -39,7 +39,7 @@ pub fn read_gltf_world(path: &Path) -> Result<World, IoError> {
             Some(&index) => index,
             None => {
                 let mut parts = Parts::default();
-                mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &buffers, &mut parts))?;
+                mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &Sources { base: path.parent(), buffers: &buffers }, &mut parts))?;
                 let index = parts.into_mesh().map(|m| {
                     world.meshes.push(m);
                     world.meshes.len() as u32 - 1
@@ -101,6 +101,55 @@ struct Parts {
     with_colours: usize,
     with_uvs: usize,
     coloured_materials: usize,
+    /// Base-colour textures, by glTF texture index, and each face's (`NO_TEXTURE`: none).
+    textures: Vec<Texture>,
+    texture_of: std::collections::HashMap<usize, u32>,
+    face_textures: Vec<u32>,
+}
+
+/// Where a file's images come from: its folder and its buffers.
+struct Sources<'a> {
+    base: Option<&'a Path>,
+    buffers: &'a [gltf::buffer::Data],
+}
+
+impl Sources<'_> {
+    /// Texture `texture` as a base-colour texture (sRGB), with its sampler.
+    fn texture(&self, texture: &gltf::Texture) -> Result<Texture, String> {
+        use gltf::image::Format;
+        use gltf::texture::{MagFilter, MinFilter, WrappingMode};
+        let image = texture.source();
+        let data = gltf::image::Data::from_source(image.source(), self.base, self.buffers).map_err(|e| format!("image {} of texture {}: {e}", image.index(), texture.index()))?;
+        let n = data.width as usize * data.height as usize;
+        let p = &data.pixels;
+        let rgba: Vec<u8> = match data.format {
+            Format::R8G8B8A8 => p.clone(),
+            Format::R8G8B8 => p.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
+            Format::R8G8 => p.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
+            Format::R8 => p.iter().flat_map(|&c| [c, c, c, 255]).collect(),
+            // 16-bit channels, little-endian: their high bytes.
+            Format::R16G16B16A16 => p.chunks_exact(8).flat_map(|c| [c[1], c[3], c[5], c[7]]).collect(),
+            Format::R16G16B16 => p.chunks_exact(6).flat_map(|c| [c[1], c[3], c[5], 255]).collect(),
+            Format::R16G16 => p.chunks_exact(4).flat_map(|c| [c[1], c[1], c[1], c[3]]).collect(),
+            Format::R16 => p.chunks_exact(2).flat_map(|c| [c[1], c[1], c[1], 255]).collect(),
+            other => return Err(format!("unsupported glTF feature: image {} is {other:?}", image.index())),
+        };
+        debug_assert_eq!(rgba.len(), n * 4);
+        let sampler = texture.sampler();
+        let address = |mode| match mode {
+            WrappingMode::ClampToEdge => Address::ClampToEdge,
+            WrappingMode::MirroredRepeat => Address::MirroredRepeat,
+            WrappingMode::Repeat => Address::Repeat,
+        };
+        // The mipmapped minifications are trilinear; a plain one is the level-0 filter.
+        let filter = match (sampler.min_filter(), sampler.mag_filter()) {
+            (Some(MinFilter::Nearest), _) => Filter::Nearest,
+            (Some(MinFilter::Linear), _) => Filter::Bilinear,
+            (None, Some(MagFilter::Nearest)) => Filter::Nearest,
+            _ => Filter::Trilinear,
+        };
+        Ok(Texture { width: data.width, height: data.height, rgba, srgb: true, filter, address_u: address(sampler.wrap_s()), address_v: address(sampler.wrap_t()) })
+    }
 }
 
 impl Parts {
@@ -110,7 +159,10 @@ impl Parts {
             return None;
         }
         let vertex_count = self.positions.len();
+        let textured = self.face_textures.iter().any(|&t| t != NO_TEXTURE);
         Some(Mesh {
+            face_textures: textured.then_some(self.face_textures),
+            textures: self.textures,
             positions: self.positions,
             triangles: self.triangles,
             normals: (self.with_normals == self.primitives).then_some(self.normals),
@@ -152,7 +204,8 @@ fn visit(node: &gltf::Node, parent: Matrix, f: &mut dyn FnMut(&gltf::Node, &Matr
     Ok(())
 }
 
-fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix, buffers: &[gltf::buffer::Data], out: &mut Parts) -> Result<(), String> {
+fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix, sources: &Sources, out: &mut Parts) -> Result<(), String> {
+    let buffers = sources.buffers;
     use gltf::mesh::Mode;
     let name = || format!("mesh {}{} primitive {}", mesh.index(), mesh.name().map(|n| format!(" ('{n}')")).unwrap_or_default(), primitive.index());
     if primitive.morph_targets().next().is_some() {
@@ -190,6 +243,24 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
         let p = p.map(f64::from);
         std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
     }));
+    let material = primitive.material();
+    let texture = match material.pbr_metallic_roughness().base_color_texture() {
+        Some(info) if info.tex_coord() != 0 => return Err(format!("unsupported glTF feature: {}'s base colour texture reads TEXCOORD_{}", name(), info.tex_coord())),
+        Some(info) => {
+            let t = info.texture();
+            match out.texture_of.get(&t.index()) {
+                Some(&k) => k,
+                None => {
+                    out.textures.push(sources.texture(&t)?);
+                    let k = out.textures.len() as u32 - 1;
+                    out.texture_of.insert(t.index(), k);
+                    k
+                }
+            }
+        }
+        None => NO_TEXTURE,
+    };
+    out.face_textures.extend(std::iter::repeat_n(texture, triangles.len()));
     out.triangles.extend(triangles);
     out.primitives += 1;
     let normal_matrix = normal_matrix(m);
@@ -348,6 +419,61 @@ mod tests {
         assert_eq!((world.meshes.len(), world.instances.len()), (1, 2));
         assert_eq!(world.meshes[0].positions[2], [1.0, 1.0, 0.0], "the mesh in its own coordinates");
         assert!(close(world.flattened().positions[6], [8.0, 2.0, 0.0]), "the second node's placement");
+    }
+
+    /// A base-colour texture: its image decoded (PNG from a file, the same image embedded in
+    /// the binary chunk), its sampler's filter and wrapping, every face of the primitive taking
+    /// it, and the texture coordinates read.
+    #[test]
+    fn base_colour_textures_are_read_with_their_samplers() {
+        let dir = scratch("texture");
+        let texels: Vec<u8> = (0..3 * 2 * 4).map(|k| (k * 11) as u8).collect();
+        let mut png = Vec::new();
+        image::write_buffer_with_format(&mut std::io::Cursor::new(&mut png), &texels, 3, 2, image::ExtendedColorType::Rgba8, image::ImageFormat::Png).unwrap();
+        let positions: [[f32; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        let uvs: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+        let indices: [u16; 6] = [0, 1, 2, 0, 2, 3];
+        let mut bin = Vec::new();
+        bin.extend_from_slice(bytemuck::cast_slice(&positions));
+        bin.extend_from_slice(bytemuck::cast_slice(&uvs));
+        bin.extend_from_slice(bytemuck::cast_slice(&indices));
+        bin.resize(92, 0);
+        let image_at = bin.len();
+        bin.extend_from_slice(&png);
+        let document = |image: &str| {
+            format!(
+                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "indices": 2, "material": 0}}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}}}}],
+  "textures": [{{"source": 0, "sampler": 0}}],
+  "samplers": [{{"magFilter": 9728, "minFilter": 9728, "wrapS": 33071, "wrapT": 33648}}],
+  "images": [{image}],
+  "buffers": [{{"byteLength": {}}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 32}},
+    {{"buffer": 0, "byteOffset": 80, "byteLength": 12}}, {{"buffer": 0, "byteOffset": {image_at}, "byteLength": {}}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}}]}}"#,
+                bin.len(),
+                png.len()
+            )
+        };
+        std::fs::write(dir.join("tex.png"), &png).unwrap();
+        std::fs::write(dir.join("file.glb"), glb(&document(r#"{"uri": "tex.png"}"#), &bin)).unwrap();
+        std::fs::write(dir.join("embedded.glb"), glb(&document(r#"{"bufferView": 3, "mimeType": "image/png"}"#), &bin)).unwrap();
+        for name in ["file.glb", "embedded.glb"] {
+            let mesh = read_gltf(&dir.join(name)).unwrap();
+            let t = &mesh.textures[0];
+            assert_eq!((mesh.textures.len(), t.width, t.height, &t.rgba), (1, 3, 2, &texels), "{name}");
+            assert_eq!((t.srgb, t.filter, t.address_u, t.address_v), (true, Filter::Nearest, Address::ClampToEdge, Address::MirroredRepeat), "{name}");
+            assert_eq!(mesh.face_textures, Some(vec![0, 0]), "{name}");
+            assert_eq!(mesh.uvs.as_ref().unwrap()[1], [1.0, 1.0], "{name}");
+        }
+        std::fs::remove_file(dir.join("tex.png")).unwrap();
+        let e = read_gltf(&dir.join("file.glb")).unwrap_err().to_string();
+        assert!(e.contains("image 0 of texture 0") && e.contains("file.glb"), "{e}");
     }
 
     #[test]

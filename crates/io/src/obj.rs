@@ -1,7 +1,7 @@
 use crate::{write_atomically, IoError};
 use std::io::Write as _;
 use std::path::Path;
-use tileraster_core::render::Mesh;
+use tileraster_core::render::{Mesh, Texture, NO_TEXTURE};
 use tileraster_core::Scene;
 
 /// Read a Wavefront OBJ mesh: `v x y z` vertices (world x, y and height z) and `f` faces
@@ -86,24 +86,38 @@ fn resolve_index(word: &str, count: usize, what: &str) -> Result<u32, String> {
     Ok(resolved as u32)
 }
 
-/// Read an OBJ mesh with its normals (`vn`), texture coordinates (`vt`) and the diffuse
-/// colours (`Kd`, with `d` as alpha) of its materials (`mtllib`, `usemtl`): a vertex for each
+/// Read an OBJ mesh with its normals (`vn`), texture coordinates (`vt`, `v` flipped to the
+/// image's row order), and its materials' (`mtllib`, `usemtl`) diffuse colours (`Kd`, with `d`
+/// as alpha) and textures (`map_Kd`: PNG or JPEG, sRGB, trilinear, repeated): a vertex for each
 /// distinct corner (position, normal, texture coordinates, material), faces fanned into
 /// triangles in file order, as [`read_obj`] does.
 pub fn read_obj_mesh(path: &Path) -> Result<Mesh, IoError> {
     let text = std::fs::read_to_string(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
-    parse_obj_mesh(&text, path, &|name| {
-        let mtl = path.parent().unwrap_or(Path::new(".")).join(name);
+    let folder = path.parent().unwrap_or(Path::new("."));
+    let materials = |name: &str| {
+        let mtl = folder.join(name);
         std::fs::read_to_string(&mtl).map_err(|source| IoError::Io { path: mtl, source })
-    })
+    };
+    parse_obj_mesh(&text, path, &materials, &|name| read_texture(&folder.join(name)))
 }
 
-/// Parse OBJ text with its attributes; `materials` reads a `mtllib` file by name.
-pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Result<String, IoError>) -> Result<Mesh, IoError> {
+/// An image file (PNG or JPEG) as an sRGB base-colour texture, trilinear and repeated.
+pub fn read_texture(path: &Path) -> Result<Texture, IoError> {
+    let image = image::open(path).map_err(|e| IoError::Format { path: path.to_owned(), message: format!("not a readable PNG or JPEG image: {e}") })?.to_rgba8();
+    Ok(Texture::srgb(image.width(), image.height(), image.into_raw()))
+}
+
+/// Parse OBJ text with its attributes; `materials` reads a `mtllib` file by name, `images` a
+/// `map_Kd` texture by its path from the OBJ's folder.
+pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Result<String, IoError>, images: &dyn Fn(&str) -> Result<Texture, IoError>) -> Result<Mesh, IoError> {
     let err = |line: usize, message: String| IoError::Parse { path: path.to_owned(), line, message };
     let (mut positions, mut normals, mut uvs) = (Vec::<[f64; 3]>::new(), Vec::<[f32; 3]>::new(), Vec::<[f32; 2]>::new());
-    let mut colours: std::collections::HashMap<String, [f32; 4]> = Default::default();
+    let mut colours: std::collections::HashMap<String, Material> = Default::default();
     let mut material: Option<[f32; 4]> = None;
+    // The current material's texture (an index into the mesh's), and the textures by path.
+    let mut texture = NO_TEXTURE;
+    let mut texture_of: std::collections::HashMap<String, u32> = Default::default();
+    let mut face_textures = Vec::new();
     let mut corners: std::collections::HashMap<(u32, u32, u32, [u32; 4]), u32> = Default::default();
     let mut mesh = Mesh::default();
     let (mut out_normals, mut out_uvs, mut out_colours) = (Vec::new(), Vec::new(), Vec::new());
@@ -130,18 +144,33 @@ pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Resul
             }
             Some("vt") => {
                 let v = numbers(&mut words, 2, line_no, "texture coordinate")?;
-                uvs.push([v[0] as f32, v[1] as f32]);
+                // OBJ's v runs up from the image's last row; the mesh's from its first.
+                uvs.push([v[0] as f32, (1.0 - v[1]) as f32]);
             }
             Some("mtllib") => {
                 for name in words {
                     let mtl = materials(name)?;
-                    parse_mtl(&mtl, &mut colours);
+                    let folder = Path::new(name).parent().unwrap_or(Path::new(""));
+                    parse_mtl(&mtl, folder, &mut colours);
                 }
             }
             Some("usemtl") => {
                 let name = words.next().unwrap_or("");
-                material = Some(*colours.get(name).ok_or_else(|| err(line_no, format!("material {name:?} is not defined in any mtllib file")))?);
+                let m = colours.get(name).ok_or_else(|| err(line_no, format!("material {name:?} is not defined in any mtllib file")))?;
+                material = Some(m.colour);
                 any_colour = true;
+                texture = match &m.texture {
+                    None => NO_TEXTURE,
+                    Some(file) => match texture_of.get(file) {
+                        Some(&k) => k,
+                        None => {
+                            mesh.textures.push(images(file)?);
+                            let k = mesh.textures.len() as u32 - 1;
+                            texture_of.insert(file.clone(), k);
+                            k
+                        }
+                    },
+                };
             }
             Some("f") => {
                 let resolve = |w: &str, count: usize, what: &str| resolve_index(w, count, what).map_err(|m| err(line_no, m));
@@ -176,6 +205,7 @@ pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Resul
                     return Err(err(line_no, format!("face has {} corners; a face needs at least 3", ids.len())));
                 }
                 mesh.triangles.extend((1..ids.len() - 1).map(|k| [ids[0], ids[k], ids[k + 1]]));
+                face_textures.resize(mesh.triangles.len(), texture);
             }
             _ => {}
         }
@@ -186,11 +216,19 @@ pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Resul
     mesh.normals = (any_normal && all_normals).then_some(out_normals);
     mesh.uvs = any_uv.then_some(out_uvs);
     mesh.colours = any_colour.then_some(out_colours);
+    mesh.face_textures = (!mesh.textures.is_empty()).then_some(face_textures);
     Ok(mesh)
 }
 
-/// The diffuse colours of an MTL file's materials: `Kd r g b`, and `d` (dissolve) as alpha.
-fn parse_mtl(text: &str, colours: &mut std::collections::HashMap<String, [f32; 4]>) {
+/// An MTL material: its diffuse colour and texture (a path from the OBJ's folder).
+struct Material {
+    colour: [f32; 4],
+    texture: Option<String>,
+}
+
+/// The diffuse colours of an MTL file's materials: `Kd r g b`, and `d` (dissolve) as alpha;
+/// and their diffuse textures (`map_Kd`, its last word the file, from the MTL's `folder`).
+fn parse_mtl(text: &str, folder: &Path, colours: &mut std::collections::HashMap<String, Material>) {
     let mut current: Option<String> = None;
     for raw in text.lines() {
         let mut words = raw.split('#').next().unwrap_or("").split_whitespace();
@@ -198,18 +236,23 @@ fn parse_mtl(text: &str, colours: &mut std::collections::HashMap<String, [f32; 4
         match words.next() {
             Some("newmtl") => {
                 let name = words.next().unwrap_or("").to_string();
-                colours.insert(name.clone(), [0.8, 0.8, 0.8, 1.0]);
+                colours.insert(name.clone(), Material { colour: [0.8, 0.8, 0.8, 1.0], texture: None });
                 current = Some(name);
             }
             Some("Kd") => {
                 if let (Some(name), Some(r), Some(g), Some(b)) = (&current, number(words.next()), number(words.next()), number(words.next())) {
-                    let c = colours.get_mut(name).expect("inserted at newmtl");
+                    let c = &mut colours.get_mut(name).expect("inserted at newmtl").colour;
                     (c[0], c[1], c[2]) = (r, g, b);
                 }
             }
             Some("d") => {
                 if let (Some(name), Some(a)) = (&current, number(words.next())) {
-                    colours.get_mut(name).expect("inserted at newmtl")[3] = a;
+                    colours.get_mut(name).expect("inserted at newmtl").colour[3] = a;
+                }
+            }
+            Some("map_Kd") => {
+                if let (Some(name), Some(file)) = (&current, words.last()) {
+                    colours.get_mut(name).expect("inserted at newmtl").texture = Some(folder.join(file).to_string_lossy().into_owned());
                 }
             }
             _ => {}
@@ -232,10 +275,15 @@ mod tests {
     fn attributes_and_materials_are_read_per_corner() {
         let mtl = "newmtl red\nKd 1 0 0\nd 0.5\nnewmtl blue\nKd 0 0 1\n";
         let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nusemtl red\nf 1//1 2//1 3//1\nusemtl blue\nf 1//1 3//1 4//1\n";
-        let mesh = parse_obj_mesh(obj, Path::new("m.obj"), &|name| {
-            assert_eq!(name, "m.mtl");
-            Ok(mtl.to_string())
-        })
+        let mesh = parse_obj_mesh(
+            obj,
+            Path::new("m.obj"),
+            &|name| {
+                assert_eq!(name, "m.mtl");
+                Ok(mtl.to_string())
+            },
+            &|_| unreachable!("no textures"),
+        )
         .unwrap();
         // Corners 1 and 3 carry both materials: each becomes two vertices.
         assert_eq!(mesh.triangles, vec![[0, 1, 2], [3, 4, 5]]);
@@ -244,10 +292,31 @@ mod tests {
         assert_eq!(mesh.colours.as_ref().unwrap()[5], [0.0, 0.0, 1.0, 1.0]);
         assert_eq!(mesh.normals.unwrap(), vec![[0.0, 0.0, 1.0]; 6]);
         assert!(mesh.uvs.is_none());
-        let e = parse_obj_mesh("v 0 0 0\nusemtl missing\n", Path::new("m.obj"), &|_| unreachable!()).unwrap_err().to_string();
+        let e = parse_obj_mesh("v 0 0 0\nusemtl missing\n", Path::new("m.obj"), &|_| unreachable!(), &|_| unreachable!()).unwrap_err().to_string();
         assert!(e.starts_with("m.obj:2:") && e.contains("\"missing\""), "{e}");
-        let e = parse_obj_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//2 2 3\n", Path::new("m.obj"), &|_| unreachable!()).unwrap_err().to_string();
+        let e = parse_obj_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//2 2 3\n", Path::new("m.obj"), &|_| unreachable!(), &|_| unreachable!()).unwrap_err().to_string();
         assert!(e.starts_with("m.obj:4:") && e.contains("normal index 2 is out of range"), "{e}");
+    }
+
+    /// `map_Kd` textures: loaded once per file, from the MTL's folder, each face taking its
+    /// material's (or none); `vt`'s v flipped to the image's row order.
+    #[test]
+    fn materials_textures_are_loaded_once_and_taken_per_face() {
+        let mtl = "newmtl brick\nKd 1 1 1\nmap_Kd -s 2 2 1 tex/brick.png\nnewmtl plain\nKd 0 1 0\nnewmtl wall\nmap_Kd tex/brick.png\n";
+        let obj = "mtllib mats/m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0.25\nvt 1 1\nusemtl brick\nf 1/1 2/2 3/3\nusemtl plain\nf 1 2 3\nusemtl wall\nf 1/1 2/2 3/3\n";
+        let loads = std::cell::Cell::new(0);
+        let mesh = parse_obj_mesh(obj, Path::new("m.obj"), &|_| Ok(mtl.to_string()), &|name| {
+            assert_eq!(Path::new(name), Path::new("mats/tex/brick.png"));
+            loads.set(loads.get() + 1);
+            Ok(Texture::srgb(1, 1, vec![9, 9, 9, 255]))
+        })
+        .unwrap();
+        assert_eq!(loads.get(), 1);
+        assert_eq!(mesh.textures.len(), 1);
+        assert_eq!(mesh.face_textures, Some(vec![0, NO_TEXTURE, 0]));
+        assert_eq!(mesh.uvs.as_ref().unwrap()[1], [1.0, 0.75]);
+        let e = parse_obj_mesh(obj, Path::new("m.obj"), &|_| Ok(mtl.to_string()), &|name| Err(IoError::Format { path: name.into(), message: "broken".into() })).unwrap_err().to_string();
+        assert!(e.contains("brick.png") && e.contains("broken"), "{e}");
     }
 
     #[test]

@@ -5,6 +5,8 @@
 //!   interpolation of an f32 height attribute).
 //! - [`MeshPipeline`]: a mesh drawn by the same rasteriser with a depth buffer (or in API
 //!   order), writing triangle ids: the render pipeline's coverage reference and speed peer.
+//! - [`TexturedPipeline`]: a textured mesh drawn by the same rasteriser and its texture units:
+//!   the reference for texture sampling.
 //! - [`fill_cpu`] and [`GpuFill`]: store-bandwidth rooflines, the least work any raster call
 //!   must do (write every cell once and hand the raster to the host).
 //! - [`gdal_grid_linear`]: `gdal_grid -a linear` as an external process, when installed.
@@ -14,8 +16,10 @@ mod fill;
 mod gdal;
 mod mesh;
 mod render;
+mod textured;
 
 pub use fill::{GpuFill, fill_cpu};
 pub use gdal::{gdal_grid_linear, gdal_grid_linear_radius, gdal_grid_version};
 pub use mesh::{MeshPipeline, NO_ID};
 pub use render::RenderPipeline;
+pub use textured::{mip_levels, TexturedPipeline};

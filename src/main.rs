@@ -561,6 +561,12 @@ fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
     let obj = dir.join("terrain.obj");
     tileraster_io::write_obj(scene, &obj).map_err(|e| e.to_string())?;
     println!("  wrote {} (the TIN, for `tileraster render`)", obj.display());
+    // The TIN again with the DEM's preview draped over it as a texture (north at the top row).
+    let ([x0, y0], [x1, y1]) = scene.vertices.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), v| ([lo[0].min(v[0]), lo[1].min(v[1])], [hi[0].max(v[0]), hi[1].max(v[1])]));
+    let uvs: Vec<[f32; 2]> = scene.vertices.iter().map(|v| [((v[0] - x0) / (x1 - x0)) as f32, ((y1 - v[1]) / (y1 - y0)) as f32]).collect();
+    let textured = dir.join("terrain-textured.obj");
+    tileraster_io::write_obj_textured(scene, &uvs, "demo.png", &textured).map_err(|e| e.to_string())?;
+    println!("  wrote {} (with terrain-textured.mtl: demo.png draped over it)", textured.display());
     tileraster_io::write_rgba_png(&png, w, h, &cpu.rgba8()).map_err(|e| e.to_string())?;
     println!("  wrote {}", png.display());
     let Ok(adapter) = tileraster::gpu_adapter() else {

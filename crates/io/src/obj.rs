@@ -28,6 +28,32 @@ pub fn write_obj(scene: &Scene, path: &Path) -> Result<(), IoError> {
     })
 }
 
+/// Write a mesh as OBJ with a texture: its MTL file beside it (`NAME.mtl`, one material whose
+/// `map_Kd` is `texture`, a path from the OBJ's folder) and texture coordinates per vertex
+/// (`uvs`, `v = 0` at the image's first row; written with OBJ's `v` up).
+pub fn write_obj_textured(scene: &Scene, uvs: &[[f32; 2]], texture: &str, path: &Path) -> Result<(), IoError> {
+    if uvs.len() != scene.vertices.len() {
+        return Err(IoError::Format { path: path.to_owned(), message: format!("{} texture coordinates for {} vertices", uvs.len(), scene.vertices.len()) });
+    }
+    let mtl = path.with_extension("mtl");
+    let mtl_name = mtl.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    write_atomically(&mtl, |out| writeln!(out, "newmtl textured\nKd 1 1 1\nmap_Kd {texture}").map_err(|e| e.to_string()))?;
+    write_atomically(path, |out| {
+        let e = |e: std::io::Error| e.to_string();
+        writeln!(out, "# {} vertices, {} triangles\nmtllib {mtl_name}\nusemtl textured", scene.vertices.len(), scene.triangles.len()).map_err(e)?;
+        for [x, y, z] in &scene.vertices {
+            writeln!(out, "v {x:?} {y:?} {z:?}").map_err(e)?;
+        }
+        for [u, v] in uvs {
+            writeln!(out, "vt {u:?} {:?}", 1.0 - v).map_err(e)?;
+        }
+        for [a, b, c] in &scene.triangles {
+            writeln!(out, "f {0}/{0} {1}/{1} {2}/{2}", a + 1, b + 1, c + 1).map_err(e)?;
+        }
+        Ok(())
+    })
+}
+
 /// Parse OBJ text; `path` only names the source in errors.
 pub fn parse_obj(text: &str, path: &Path) -> Result<Scene, IoError> {
     let err = |line: usize, message: String| IoError::Parse { path: path.to_owned(), line, message };

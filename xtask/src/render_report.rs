@@ -124,6 +124,67 @@ pub fn run(quick: bool) -> Result<String, String> {
     let _ = writeln!(s, "\nA ratio above 1 means tileraster's CPU backend is ahead. The goal: at least 1 on the same cores as llvmpipe's graphics pipeline, and within 2× of a hardware pipeline on a GPU.");
     s.push_str(&hidden_section(quick, runs, gpu.is_some())?);
     s.push_str(&instance_section(quick, runs, gpu.is_some())?);
+    s.push_str(&texture_section(quick, runs, gpu.is_some())?);
+    Ok(s)
+}
+
+/// Textured frames against the render pipeline drawing the same mesh with the same texture
+/// and sampler (`TexturedPipeline`): a ground plane whose texture repeats towards the horizon,
+/// at each filter, timed side by side, with the share of pixels that differ.
+fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
+    use tileraster::render::{Address, Filter, Texture};
+    let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
+    let size = 1024u32;
+    let rgba: Vec<u8> = (0..size * size).flat_map(|k| {
+        let (x, y) = (k % size, k / size);
+        let checker = if (x / 16 + y / 16) % 2 == 0 { 230 } else { 40 };
+        [(x * 255 / (size - 1)) as u8, (y * 255 / (size - 1)) as u8, checker, 255]
+    }).collect();
+    let n = 64u32;
+    // A ground plane of 2·n² triangles, its coordinates repeating 16 times across.
+    let mut mesh = meshes::terrain(n, 100.0, 0.0);
+    mesh.uvs = Some(mesh.positions.iter().map(|p| [(p[0] / 100.0 * 16.0) as f32, (p[1] / 100.0 * 16.0) as f32]).collect());
+    mesh.colours = Some(vec![[1.0; 4]; mesh.positions.len()]);
+    mesh.textures = vec![Texture::srgb(size, size, rgba)];
+    let camera = Camera { eye: [50.0, -8.0, 6.0], target: [50.0, 40.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 60.0, near: 0.5, far: 200.0 };
+    let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
+    let mut peer = tileraster_peers::TexturedPipeline::new()?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n### Textures\n\n\
+         A ground plane of {} triangles seen towards the horizon, its {size}² sRGB texture repeating 16 times across it (magnified near the \
+         camera, minified far away), unlit, {w}×{h}, medians of {runs} whole calls. The render pipeline is wgpu's on {} with the same \
+         texture (`Rgba8UnormSrgb`, a mip chain of linear 2×2 means for trilinear, built once and uploaded with the texture on every call) \
+         and sampler; tileraster decodes the texture and builds its chain on every call. \"differ\" is the share of covered pixels \
+         whose colour differs from the CPU frame's by more than one unit in a channel ([docs/textures.md](textures.md) explains why).\n",
+        mesh.triangles.len(),
+        peer.adapter_name()
+    );
+    let _ = writeln!(s, "| filter | tileraster cpu | tileraster gpu | render pipeline | cpu vs render pipeline | cpu = gpu | differ |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | --- | ---: |");
+    for filter in Filter::ALL {
+        let params = RenderParams { shading: Shading::Unlit, cull: Cull::None, eye: Some(camera.eye), count_fragments: false, texture_filter: Some(filter), texture_address: Some(Address::Repeat), ..RenderParams::new(w, h, matrix) };
+        let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
+        let (gpu_cell, same) = if gpu {
+            let (t, g) = timed(runs, || render(&mesh, &params, Backend::Gpu).map_err(|e| e.to_string()))?;
+            (ms(&t), if g.colour == cpu.colour { "yes" } else { "**NO**" })
+        } else {
+            ("no adapter".into(), "–")
+        };
+        let (peer_time, theirs) = timed(runs, || peer.draw(&mesh, &matrix, w, h, filter, Address::Repeat))?;
+        let covered: Vec<usize> = (0..cpu.ids.len()).filter(|&k| cpu.ids[k] != NO_FACE).collect();
+        let differ = covered.iter().filter(|&&k| (0..4).any(|c| cpu.colour[k].to_le_bytes()[c].abs_diff(theirs[k].to_le_bytes()[c]) > 1)).count();
+        let _ = writeln!(
+            s,
+            "| {filter:?} | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % |",
+            ms(&cpu_time),
+            ms(&peer_time),
+            peer_time.median / cpu_time.median,
+            100.0 * differ as f64 / covered.len().max(1) as f64
+        );
+        eprintln!("render-report: textures, {filter:?} done");
+    }
     Ok(s)
 }
 

@@ -53,6 +53,9 @@ struct Vertex {
 pub struct TexturedPipeline {
     gpu: Gpu,
     pipeline: wgpu::RenderPipeline,
+    /// The mip chain of the last texture drawn trilinearly (its bytes' address, length and
+    /// size), built once as an application builds its chains once.
+    chain: Option<((usize, usize, u32, u32), Vec<(u32, u32, Vec<u8>)>)>,
 }
 
 /// The mip levels of `texture` as a GPU user builds them: 2×2 means of the linear values
@@ -115,7 +118,7 @@ impl TexturedPipeline {
                 cache: None,
             }))
         })?;
-        Ok(TexturedPipeline { gpu, pipeline })
+        Ok(TexturedPipeline { gpu, pipeline, chain: None })
     }
 
     /// The adapter's name.
@@ -126,7 +129,8 @@ impl TexturedPipeline {
     /// Draw `mesh` (its first texture on every face, white where it has no colours) transformed
     /// by `matrix` into a `width × height` RGBA8 target cleared to transparent black, sampling
     /// as `filter` and `address` say: nearest and bilinear read the full-size level only,
-    /// trilinear the chain of [`mip_levels`]. Returns RGBA8 per pixel, row 0 at the top.
+    /// trilinear the chain of [`mip_levels`] (built once for the texture drawn last; the texture
+    /// itself is uploaded on every call). Returns RGBA8 per pixel, row 0 at the top.
     pub fn draw(&mut self, mesh: &Mesh, matrix: &[[f64; 4]; 4], width: u32, height: u32, filter: Filter, address: Address) -> Result<Vec<u32>, String> {
         let texture = mesh.textures.first().ok_or("the mesh has no texture")?;
         let uvs = mesh.uvs.as_ref().ok_or("the mesh has no texture coordinates")?;
@@ -144,7 +148,15 @@ impl TexturedPipeline {
                 colour: mesh.colours.as_ref().map_or([1.0; 4], |c| c[v]),
             })
             .collect();
-        let levels = if filter == Filter::Trilinear { mip_levels(texture) } else { vec![(texture.width, texture.height, texture.rgba.clone())] };
+        let key = (texture.rgba.as_ptr() as usize, texture.rgba.len(), texture.width, texture.height);
+        let levels = if filter == Filter::Trilinear {
+            if self.chain.as_ref().is_none_or(|c| c.0 != key) {
+                self.chain = Some((key, mip_levels(texture)));
+            }
+            self.chain.as_ref().expect("built above").1.clone()
+        } else {
+            vec![(texture.width, texture.height, texture.rgba.clone())]
+        };
         let columns: [f32; 16] = std::array::from_fn(|k| matrix[k % 4][k / 4] as f32);
         let row_bytes = width as u64 * 4;
         let padded_row = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64);

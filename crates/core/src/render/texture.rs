@@ -5,6 +5,7 @@
 //! words, so the chain's arithmetic needs no care beyond being fixed.
 
 use crate::Error;
+use rayon::prelude::*;
 use tileraster_kernels::abi::{Address, Filter, TextureInfo, MAX_MIP_LEVELS};
 
 /// Largest width or height of a texture (Vulkan's required `maxImageDimension2D` is 4096;
@@ -72,7 +73,7 @@ pub(super) fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Op
         // Level 0: 16-bit linear channels.
         let mut level: Vec<[u16; 4]> = texture
             .rgba
-            .chunks_exact(4)
+            .par_chunks_exact(4)
             .map(|t| std::array::from_fn(|c| if texture.srgb && c < 3 { table[t[c] as usize] } else { t[c] as u16 * 257 }))
             .collect();
         let (mut lw, mut lh) = (w, h);
@@ -82,7 +83,8 @@ pub(super) fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Op
                 return Err(Error::TextureTooLarge { texture: index, width: w, height: h, reason: "the frame's texels pass 2^32 words".into() });
             };
             info.offsets[k] = offset;
-            texels.extend(level.iter().flat_map(|t| [t[0] as u32 | (t[1] as u32) << 16, t[2] as u32 | (t[3] as u32) << 16]));
+            let words: Vec<[u32; 2]> = level.par_iter().map(|t| [t[0] as u32 | (t[1] as u32) << 16, t[2] as u32 | (t[3] as u32) << 16]).collect();
+            texels.extend_from_slice(words.as_flattened());
             if k + 1 < levels as usize {
                 (level, lw, lh) = halve(&level, lw, lh);
             }
@@ -98,8 +100,9 @@ pub(super) fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Op
 fn halve(level: &[[u16; 4]], w: u32, h: u32) -> (Vec<[u16; 4]>, u32, u32) {
     let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
     let at = |x: u32, y: u32| &level[(y.min(h - 1) * w + x.min(w - 1)) as usize];
-    let out = (0..nh)
-        .flat_map(|y| (0..nw).map(move |x| (x, y)))
+    let out = (0..nh * nw)
+        .into_par_iter()
+        .map(|k| (k % nw, k / nw))
         .map(|(x, y)| {
             let block = [at(2 * x, 2 * y), at(2 * x + 1, 2 * y), at(2 * x, 2 * y + 1), at(2 * x + 1, 2 * y + 1)];
             std::array::from_fn(|c| ((block.iter().map(|t| t[c] as u32).sum::<u32>() + 2) / 4) as u16)

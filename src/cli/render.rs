@@ -53,6 +53,13 @@ pub struct RenderArgs {
     /// screen (noperspective), or flat (the face's first vertex's values).
     #[arg(long, value_enum, default_value = "perspective")]
     interpolation: InterpolationArg,
+    /// Also draw every vertex as a square this many pixels wide, over the faces (a vertices
+    /// view; with --no-faces, the vertices alone: a point cloud).
+    #[arg(long, value_name = "PIXELS")]
+    points: Option<f32>,
+    /// Draw no faces (with --points).
+    #[arg(long, requires = "points")]
+    no_faces: bool,
     /// Filter every texture so, whatever the file's samplers say: nearest (the texel), bilinear,
     /// or trilinear (bilinear in the two mip levels the level of detail lies between).
     #[arg(long, value_enum)]
@@ -159,7 +166,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, points, no_faces, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -210,6 +217,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     params.blend = blend;
     params.count_fragments = stats || heat_map.is_some();
     params.count_tiles = heat_map.is_some();
+    (params.points, params.faces) = (points, !no_faces);
     params.texture_filter = filter.map(|f| match f {
         FilterArg::Nearest => Filter::Nearest,
         FilterArg::Bilinear => Filter::Bilinear,

@@ -103,6 +103,12 @@ pub enum Error {
     #[error("texture {texture}: {reason}")]
     InvalidTexture { texture: usize, reason: String },
 
+    #[error("a point size of {size} pixels: give a finite size from {} to {} pixels", crate::render::MIN_POINT_SIZE, crate::render::MAX_POINT_SIZE)]
+    InvalidPointSize { size: f32 },
+
+    #[error("the frame draws neither faces nor points: draw the faces, or give a point size")]
+    NothingToDraw,
+
     #[error("instance {instance}: {reason}")]
     InvalidInstance { instance: usize, reason: String },
 

@@ -41,6 +41,10 @@ pub(crate) const GREY: [f32; 4] = [0.8, 0.8, 0.8, 1.0];
 /// The identity matrix.
 pub const IDENTITY: [[f64; 4]; 4] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
 
+/// The smallest and largest point size, in pixels.
+pub const MIN_POINT_SIZE: f32 = 1.0 / 128.0;
+pub const MAX_POINT_SIZE: f32 = 1024.0;
+
 /// Sub-pixel bits of the render pipeline's snapping (16.8 fixed point).
 pub const RENDER_SNAP_BITS: u32 = 8;
 /// Largest width or height of a rendered frame.
@@ -175,6 +179,11 @@ pub struct RenderParams {
     pub texture_filter: Option<Filter>,
     /// Every texture addressed so in `u` and `v` (`None`: as each texture says).
     pub texture_address: Option<Address>,
+    /// Draw the faces (on by default; off with `points`: the vertices alone, a point cloud).
+    pub faces: bool,
+    /// Draw every vertex as a square this many pixels wide, centred on it, after the faces
+    /// (the vertices view), in its vertex's attributes; `None`: no points.
+    pub points: Option<f32>,
     /// `empty_tiles`, `cull_window` and `hidden_triangles` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
@@ -205,6 +214,8 @@ impl RenderParams {
             count_tiles: false,
             texture_filter: None,
             texture_address: None,
+            faces: true,
+            points: None,
             skips: Skips::ALL,
         }
     }
@@ -231,6 +242,10 @@ pub struct GeometryCounts {
     pub instances_culled: u64,
     /// Instances through the vertex stage.
     pub instances_drawn: u64,
+    /// Vertices drawn as points (two triangles each, in `rasterised`), and vertices outside
+    /// the view volume, whose points are dropped (as graphics APIs clip points by position).
+    pub points_drawn: u64,
+    pub points_culled: u64,
 }
 
 impl GeometryCounts {
@@ -244,6 +259,8 @@ impl GeometryCounts {
         self.rasterised += o.rasterised;
         self.instances_culled += o.instances_culled;
         self.instances_drawn += o.instances_drawn;
+        self.points_drawn += o.points_drawn;
+        self.points_culled += o.points_culled;
         self
     }
 }
@@ -356,6 +373,9 @@ struct Placement<'a> {
     first_face: u32,
     /// Its mesh's first texture in the frame's textures.
     first_texture: u32,
+    /// The id of its first vertex's point: after every instance's faces, vertices numbered
+    /// over every instance in order.
+    first_point: u32,
 }
 
 /// The geometry stages over instances of checked meshes (`validate_world`).
@@ -395,6 +415,12 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     let (texture_infos, texels) = texture::lay_out(&textures, params.texture_filter, params.texture_address)?;
     let mut placements = Vec::with_capacity(instances.len());
     let (mut first_vertex, mut first_face) = (0, 0u32);
+    let all_faces: u64 = instances.iter().map(|i| meshes[i.mesh as usize].triangles.len() as u64).sum();
+    let all_vertices: u64 = instances.iter().map(|i| meshes[i.mesh as usize].positions.len() as u64).sum();
+    if params.points.is_some() && all_faces + all_vertices >= u32::MAX as u64 {
+        return Err(Error::TooManyFaces { faces: all_faces + all_vertices });
+    }
+    let mut first_point = all_faces as u32;
     for instance in instances {
         let mesh = &meshes[instance.mesh as usize];
         let to_world = instances::instance_to_world(&params.model, instance);
@@ -402,10 +428,11 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
         if culled {
             counts.instances_culled += 1;
         } else {
-            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face, first_texture: first_textures[instance.mesh as usize] });
+            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face, first_texture: first_textures[instance.mesh as usize], first_point });
             first_vertex += mesh.positions.len();
         }
         first_face += mesh.triangles.len() as u32;
+        first_point += mesh.positions.len() as u32;
     }
     counts.instances_drawn = placements.len() as u64;
 
@@ -474,9 +501,26 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order.
-    let chunks: Vec<(&Placement, usize)> = placements.iter().flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start))).collect();
-    // One chunk of faces through clipping, culling and snapping, in face order.
-    let chunk = |&(p, start): &(&Placement, usize), emit: &mut Emit<'_>, counts: &mut GeometryCounts| {
+    // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
+    // points likewise.
+    let face_chunks = placements.iter().filter(|_| params.faces).flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces)));
+    let point_chunks = placements.iter().filter(|_| params.points.is_some()).flat_map(|p| (0..p.mesh.positions.len()).step_by(CHUNK).map(move |start| (p, start, Work::Points)));
+    let chunks: Vec<(&Placement, usize, Work)> = face_chunks.chain(point_chunks).collect();
+    // Each point's depth offset towards the camera, where it is drawn over the faces.
+    let point_bias = match params.points {
+        Some(size) if params.faces => point_bias(&placements, vertices, size),
+        _ => Vec::new(),
+    };
+    // One chunk of faces through clipping, culling and snapping, in face order (or of points).
+    let chunk = |&(p, start, work): &(&Placement, usize, Work), emit: &mut Emit<'_>, counts: &mut GeometryCounts| {
+        if work == Work::Points {
+            let size = params.points.expect("point chunks only with points");
+            for v in start..(start + CHUNK).min(p.mesh.positions.len()) {
+                let bias = point_bias.get(p.first_vertex + v).copied().unwrap_or(0.0);
+                point(&vertices[p.first_vertex + v], size, bias, p.first_point + v as u32, &grid, emit, counts);
+            }
+            return;
+        }
         let mesh = p.mesh;
         let faces = &mesh.triangles[start..(start + CHUNK).min(mesh.triangles.len())];
         let mut flattened = [ClipVertex::default(); 3];
@@ -663,6 +707,76 @@ fn distance(planes: &[[f64; 4]; 7], k: usize, c: &[f64; 4]) -> f64 {
     let p = &planes[k];
     let d = p[0] * c[0] + p[1] * c[1] + p[2] * c[2] + p[3] * c[3];
     if k == 2 { d - W_MIN } else { d }
+}
+
+/// What a chunk of the geometry stages takes.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Work {
+    Faces,
+    Points,
+}
+
+/// The depth offset of each vertex's point drawn over the faces: the steepest depth slope
+/// (per pixel, in either screen direction) of the faces around the vertex, times half the
+/// point's width and one pixel more, so that the square stays in front of the surface it
+/// sits on (graphics APIs' polygon offset, computed per vertex in f64 on the host).
+fn point_bias(placements: &[Placement], vertices: &[ClipVertex], size: f32) -> Vec<f64> {
+    let mut slope = vec![0.0f64; vertices.len()];
+    for p in placements {
+        for tri in &p.mesh.triangles {
+            let v = tri.map(|k| p.first_vertex + k as usize);
+            if v.iter().any(|&k| vertices[k].outside != 0) {
+                continue;
+            }
+            let q = v.map(|k| &vertices[k].projected);
+            let px = |k: usize| (q[k].screen.0 as f64 / (1 << RENDER_SNAP_BITS) as f64, q[k].screen.1 as f64 / (1 << RENDER_SNAP_BITS) as f64, q[k].depth as f64);
+            let (a, b, c) = (px(0), px(1), px(2));
+            let area = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+            if area == 0.0 {
+                continue;
+            }
+            let ddx = ((b.2 - a.2) * (c.1 - a.1) - (c.2 - a.2) * (b.1 - a.1)) / area;
+            let ddy = ((c.2 - a.2) * (b.0 - a.0) - (b.2 - a.2) * (c.0 - a.0)) / area;
+            let s = ddx.abs() + ddy.abs();
+            for k in v {
+                slope[k] = slope[k].max(s);
+            }
+        }
+    }
+    let reach = size as f64 / 2.0 + 1.0;
+    slope.into_iter().map(|s| s * reach).collect()
+}
+
+/// A vertex's point: a square `size` pixels wide centred on its snapped position, as two
+/// triangles (the top-left rule then covers exactly `size²` pixel centres of a square of whole
+/// pixels wherever it lies), at the vertex's depth less `bias`, in its attributes; dropped
+/// where the vertex lies outside the view volume.
+fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+    let c = &v.clip;
+    if !(c[3] > W_MIN && c[0].abs() <= c[3] && c[1].abs() <= c[3] && c[2] >= 0.0 && c[2] <= c[3]) {
+        counts.points_culled += 1;
+        return;
+    }
+    counts.points_drawn += 1;
+    let q = &v.projected;
+    let half = (size as f64 * (1 << (RENDER_SNAP_BITS - 1)) as f64).round() as i64;
+    let (x0, y0, x1, y1) = (q.screen.0 - half, q.screen.1 - half, q.screen.0 + half, q.screen.1 + half);
+    let depth = ((q.depth as f64 - bias).max(0.0)) as f32;
+    let area = (2 * half) as f64 * (2 * half) as f64;
+    for (x, y) in [([x0, x1, x1], [y0, y0, y1]), ([x0, x1, x0], [y0, y1, y1])] {
+        let rect = pixel_rect(&x, &y, RENDER_SNAP_BITS, grid);
+        if rect.is_empty() {
+            counts.culled_no_centre += 1;
+            continue;
+        }
+        out.put(|| {
+            let coeffs = FloatCoeffs { c: [depth, depth, depth, (1.0 / area) as f32] };
+            (
+                TriangleInput { x, y, rect, coeffs, ..Default::default() },
+                TriangleShading { attributes: [q.attributes; 3], inv_w: [q.inv_w, q.inv_w, q.inv_w, 0.0], face: id, texture: NO_TEXTURE, _pad: [0; 2] },
+            )
+        });
+    }
 }
 
 /// What the kernels keep of a face besides its vertices: its id and its texture.
@@ -925,6 +1039,11 @@ fn validate_params(params: &RenderParams) -> Result<(), Error> {
     }
     if w > MAX_RENDER_DIM || h > MAX_RENDER_DIM {
         return Err(Error::RasterTooLarge { width: w as u64, height: h as u64, reason: format!("a frame is at most {MAX_RENDER_DIM} pixels wide and high") });
+    }
+    match params.points {
+        Some(size) if !(MIN_POINT_SIZE..=MAX_POINT_SIZE).contains(&size) => return Err(Error::InvalidPointSize { size }),
+        None if !params.faces => return Err(Error::NothingToDraw),
+        _ => {}
     }
     for (name, m) in [("model", &params.model), ("view-projection", &params.view_projection)] {
         for (row, r) in m.iter().enumerate() {

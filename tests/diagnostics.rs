@@ -102,7 +102,7 @@ fn the_heat_map_is_the_same_on_both_backends() {
         let (x, y) = (t % tiles.tiles_x as usize * 16, t / tiles.tiles_x as usize * 16);
         assert_eq!(n == 0, pixel(x, y) == [0, 0, 0, 255], "tile {t}: {n} triangles, colour {:?}", pixel(x, y));
     }
-    assert!(tiles.triangles.iter().any(|&n| n == 0) && tiles.triangles.iter().any(|&n| n > 0));
+    assert!(tiles.triangles.contains(&0) && tiles.triangles.iter().any(|&n| n > 0));
     if gpu_or_skip("the_heat_map_is_the_same_on_both_backends") {
         assert!(frame(&mesh, &params, Backend::Gpu).heat_map().unwrap().2 == rgba, "the heat maps differ");
     }

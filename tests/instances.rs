@@ -68,7 +68,7 @@ fn a_world_renders_as_its_flattened_mesh() {
         let params = RenderParams { shading, eye: Some(camera.eye), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
         let instanced = frame(&world, &params, Backend::Cpu);
         let flattened = render(&flat, &params, Backend::Cpu).unwrap();
-        let what = format!("{}", shading.name());
+        let what = shading.name().to_string();
         assert_same_layers(&format!("{what}: world vs flattened"), &instanced, &flattened);
         assert_eq!(faces_only(&instanced.stats.geometry), faces_only(&flattened.stats.geometry), "{what}: geometry counts");
         assert_eq!(instanced.stats.geometry.instances_drawn, 5, "{what}");

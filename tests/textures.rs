@@ -111,7 +111,7 @@ fn nearest_and_bilinear_match_an_f64_reference() {
                 for i in 0..w as usize {
                     let (s, t) = ((i as f64 + 0.5) / w as f64 * 24.0, (j as f64 + 0.5) / h as f64 * 20.0);
                     let got = frame.colour[j * w as usize + i].to_le_bytes();
-                    for c in 0..4 {
+                    for (c, &got) in got.iter().enumerate() {
                         let expected = match filter {
                             Filter::Nearest => texel(s.floor() as i64, t.floor() as i64, c),
                             _ => {
@@ -121,10 +121,10 @@ fn nearest_and_bilinear_match_an_f64_reference() {
                                 (1.0 - fx) * (1.0 - fy) * texel(x0, y0, c) + fx * (1.0 - fy) * texel(x0 + 1, y0, c) + (1.0 - fx) * fy * texel(x0, y0 + 1, c) + fx * fy * texel(x0 + 1, y0 + 1, c)
                             }
                         };
-                        let error = (got[c] as f64 - expected * 255.0).abs();
+                        let error = (got as f64 - expected * 255.0).abs();
                         worst = worst.max(error);
                         let bound = if filter == Filter::Nearest { 0.5 } else { 2.0 };
-                        assert!(error <= bound, "srgb {srgb}, {filter:?}, pixel ({i}, {j}), channel {c}: {} against {:.3}", got[c], expected * 255.0);
+                        assert!(error <= bound, "srgb {srgb}, {filter:?}, pixel ({i}, {j}), channel {c}: {got} against {:.3}", expected * 255.0);
                     }
                 }
             }
@@ -152,9 +152,9 @@ fn trilinear_reads_the_level_the_derivatives_give() {
         for j in 0..h as usize {
             for i in 0..w as usize {
                 let got = frame.colour[j * w as usize + i].to_le_bytes();
-                for c in 0..4 {
+                for (c, &got) in got.iter().enumerate() {
                     let mean: f64 = (0..block * block).map(|n| texture.rgba[((j * block + n / block) * 256 + i * block + n % block) * 4 + c] as f64).sum::<f64>() / (block * block) as f64;
-                    assert!((got[c] as f64 - mean).abs() <= 3.0, "level {k}, pixel ({i}, {j}), channel {c}: {} against the mean {mean:.2}", got[c]);
+                    assert!((got as f64 - mean).abs() <= 3.0, "level {k}, pixel ({i}, {j}), channel {c}: {got} against the mean {mean:.2}");
                 }
             }
         }

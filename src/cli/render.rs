@@ -198,10 +198,10 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     };
     let view_projection = match (mvp, camera) {
         (Some(m), _) => std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c])),
-        (None, Some(c)) => Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], fov, &mesh)
+        (None, Some(c)) => Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], fov, mesh)
             .view_projection(width, height)
             .map_err(|e| format!("--camera: {e}"))?,
-        (None, None) => Camera::framing(&mesh, width as f64 / height.max(1) as f64, fov).view_projection(width, height).map_err(|e| e.to_string())?,
+        (None, None) => Camera::framing(mesh, width as f64 / height.max(1) as f64, fov).view_projection(width, height).map_err(|e| e.to_string())?,
     };
     if let Some(c) = background.iter().find(|c| !(0.0..=255.0).contains(*c) || c.fract() != 0.0) {
         return Err(format!("--background: {c} is not a whole number from 0 to 255"));

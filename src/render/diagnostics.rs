@@ -21,7 +21,7 @@ pub struct TileCounts {
 impl TileCounts {
     /// From the raster's tile layer (two words a tile).
     pub(super) fn from_layer(width: u32, height: u32, layer: &[u32]) -> TileCounts {
-        let (triangles, hidden) = layer.chunks_exact(2).map(|p| (p[0], p[1])).unzip();
+        let (triangles, hidden) = layer.as_chunks::<2>().0.iter().map(|p| (p[0], p[1])).unzip();
         TileCounts { tiles_x: width.div_ceil(TILE), tiles_y: height.div_ceil(TILE), triangles, hidden }
     }
 }

@@ -124,14 +124,14 @@ impl Sources<'_> {
         let p = &data.pixels;
         let rgba: Vec<u8> = match data.format {
             Format::R8G8B8A8 => p.clone(),
-            Format::R8G8B8 => p.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
-            Format::R8G8 => p.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
+            Format::R8G8B8 => p.as_chunks::<3>().0.iter().flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
+            Format::R8G8 => p.as_chunks::<2>().0.iter().flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
             Format::R8 => p.iter().flat_map(|&c| [c, c, c, 255]).collect(),
             // 16-bit channels, little-endian: their high bytes.
-            Format::R16G16B16A16 => p.chunks_exact(8).flat_map(|c| [c[1], c[3], c[5], c[7]]).collect(),
-            Format::R16G16B16 => p.chunks_exact(6).flat_map(|c| [c[1], c[3], c[5], 255]).collect(),
-            Format::R16G16 => p.chunks_exact(4).flat_map(|c| [c[1], c[1], c[1], c[3]]).collect(),
-            Format::R16 => p.chunks_exact(2).flat_map(|c| [c[1], c[1], c[1], 255]).collect(),
+            Format::R16G16B16A16 => p.as_chunks::<8>().0.iter().flat_map(|c| [c[1], c[3], c[5], c[7]]).collect(),
+            Format::R16G16B16 => p.as_chunks::<6>().0.iter().flat_map(|c| [c[1], c[3], c[5], 255]).collect(),
+            Format::R16G16 => p.as_chunks::<4>().0.iter().flat_map(|c| [c[1], c[1], c[1], c[3]]).collect(),
+            Format::R16 => p.as_chunks::<2>().0.iter().flat_map(|c| [c[1], c[1], c[1], 255]).collect(),
             other => return Err(format!("unsupported glTF feature: image {} is {other:?}", image.index())),
         };
         debug_assert_eq!(rgba.len(), n * 4);
@@ -172,7 +172,6 @@ impl Parts {
                 uvs.resize(vertex_count, [0.0; 2]);
                 uvs
             }),
-            ..Default::default()
         })
     }
 }

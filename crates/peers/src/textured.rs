@@ -55,12 +55,18 @@ pub struct TexturedPipeline {
     pipeline: wgpu::RenderPipeline,
     /// The mip chain of the last texture drawn trilinearly (its bytes' address, length and
     /// size), built once as an application builds its chains once.
-    chain: Option<((usize, usize, u32, u32), Vec<(u32, u32, Vec<u8>)>)>,
+    chain: Option<(TextureKey, Vec<Level>)>,
 }
+
+/// A texture's identity for the chain cache: its bytes' address and length, and its size.
+type TextureKey = (usize, usize, u32, u32);
+
+/// A mip level: width, height and RGBA8 texels.
+pub type Level = (u32, u32, Vec<u8>);
 
 /// The mip levels of `texture` as a GPU user builds them: 2×2 means of the linear values
 /// (sRGB decoded, averaged in `f64`, encoded again), level 0 the texture's own bytes.
-pub fn mip_levels(texture: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
+pub fn mip_levels(texture: &Texture) -> Vec<Level> {
     let decode = |c: u8, channel: usize| {
         let x = c as f64 / 255.0;
         if texture.srgb && channel < 3 { if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) } } else { x }

@@ -258,7 +258,7 @@ mod tests {
     #[test]
     fn lod_is_log2_of_the_longer_derivative() {
         let d: Vec<f32> = values().map(|v| v * 1e-3).collect();
-        for (k, q) in d.chunks_exact(4).enumerate() {
+        for (k, q) in d.as_chunks::<4>().0.iter().enumerate() {
             let (w, h) = ([16u32, 256, 1000, 4096][k % 4], [16u32, 64, 333, 4096][k / 4 % 4]);
             let got = lod(w, h, [q[0], q[1], q[2], q[3]]);
             let fixed = |x: f32, n: u32| fixed_floor(x * n as f32, 16, 1 << 30) as f64 / 65536.0;

@@ -576,7 +576,7 @@ fn render_draws_instances_from_a_file_of_transforms() {
     assert!(stderr.contains("\"instances_drawn\":3,\"instances_culled\":1,"), "--stats: {stderr}");
     let mesh = tileraster::render::Mesh { positions: scene.vertices.clone(), triangles: scene.triangles.clone(), ..Default::default() };
     let world = World::instanced(mesh, &transforms);
-    let [lo, hi] = world.bounds();
+    let [lo, hi] = world.bounds().unwrap();
     let corners: Vec<[f64; 3]> = (0..8).map(|k: usize| std::array::from_fn(|a| if k >> a & 1 == 0 { lo[a] } else { hi[a] })).collect();
     let proxy = tileraster::render::Mesh { positions: corners, triangles: vec![[0, 1, 2]], ..Default::default() };
     let camera = Camera::look_at([0.7, -4.0, 3.0], [0.7, 0.7, 0.0], [0.0, 0.0, 1.0], 45.0, &proxy);

@@ -38,8 +38,8 @@ pub struct RenderArgs {
     /// (A glTF file's nodes that share a mesh are instances without this.)
     #[arg(long, value_name = "TRANSFORMS.txt")]
     instances: Option<PathBuf>,
-    /// Multiply heights (z) by this factor about the mesh's lowest point: vertical
-    /// exaggeration for terrain.
+    /// Multiply heights (z) by this factor about the mesh's lowest point (for placed meshes,
+    /// the lowest corner of the box holding them all): vertical exaggeration for terrain.
     #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
     z_scale: f64,
     /// Colour of pixels no triangle covers, RGBA, each 0..255.
@@ -90,7 +90,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "HEAT.png")]
     heat_map: Option<PathBuf>,
     /// Turn one of the pipeline's skips off (repeatable), to measure its gain; the frame does
-    /// not change. Names: cull_window, empty_tiles, hidden_triangles.
+    /// not change. Names: cull_window, empty_tiles, hidden_triangles, cull_instances.
     #[arg(long = "no-skip", value_name = "SKIP", value_parser = crate::skip_name)]
     no_skip: Vec<tileraster::Skip>,
     /// No messages on stderr but errors (and --stats when asked for).
@@ -190,7 +190,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         world = World::single(mesh);
         &world.meshes[0]
     } else {
-        let [lo, hi] = world.bounds();
+        let [lo, hi] = world.bounds().map_err(|e| e.to_string())?;
         model[2] = [0.0, 0.0, z_scale, lo[2] * (1.0 - z_scale)];
         let scaled = |z: f64| lo[2] + z_scale * (z - lo[2]);
         let corners = (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, scaled(if k & 4 == 0 { lo[2] } else { hi[2] })]);

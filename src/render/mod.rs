@@ -157,7 +157,7 @@ pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> R
 
 /// A mesh checked once, with its normals computed once where it has none, and the memory its
 /// frames work in: each frame of it (any camera, model matrix, shading or size) costs only the
-/// per-frame stages, reuses the last frame's memory instead of faulting fresh pages in, and is
+/// per-frame stages (its textures are laid out again each frame), reuses the last frame's memory instead of faulting fresh pages in, and is
 /// bit for bit what [`render`] gives. [`PreparedMesh::render_into`] reuses the output layers
 /// of a frame too.
 ///

@@ -206,7 +206,7 @@ fn instance_section(quick: bool, runs: usize, gpu: bool) -> Result<String, Strin
     let probe = render_world(&world, &on, Backend::Cpu).map_err(|e| e.to_string())?;
     let drawn = probe.stats.geometry.instances_drawn;
     // The visible instances alone: those the culling keeps.
-    let visible: Vec<[[f64; 4]; 4]> = transforms.iter().zip(world.in_view(&on)).filter(|p| p.1).map(|p| *p.0).collect();
+    let visible: Vec<[[f64; 4]; 4]> = transforms.iter().zip(world.in_view(&on).map_err(|e| e.to_string())?).filter(|p| p.1).map(|p| *p.0).collect();
     let alone = World::instanced(sphere.clone(), &visible);
     let mut s = String::new();
     let triangles = sphere.triangles.len() as u32 * side * side;

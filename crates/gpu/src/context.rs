@@ -177,6 +177,13 @@ impl GpuContext {
     fn new() -> Result<Self, Error> {
         let features = wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS;
         let (gpu, adapter) = Gpu::open("tileraster", features, choose_adapter).map_err(|details| Error::NoAdapter { details })?;
+        // Every stage binds its storage buffers at once: an adapter that binds fewer per stage
+        // cannot run the table (Vulkan guarantees only 4; desktop GPUs and lavapipe bind far more).
+        let needed = STAGES.iter().map(|s| s.bindings.len() as u32).max().unwrap_or(0);
+        let bound = gpu.limits.max_storage_buffers_per_shader_stage;
+        if bound < needed {
+            return Err(Error::NoAdapter { details: format!("{} binds at most {bound} storage buffers per shader stage; tileraster's stages bind up to {needed}", gpu.info.name) });
+        }
         let device = &gpu.device;
         let float_controls = FloatControls::of(&adapter);
         let declared = float_controls.declared(&adapter.get_info());

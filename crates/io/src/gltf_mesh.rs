@@ -409,7 +409,7 @@ mod tests {
         let world = read_gltf_world(&dir.join("quad.glb")).unwrap();
         assert_eq!((world.meshes.len(), world.instances.len()), (2, 2));
         assert_eq!(world.instances.iter().map(|i| i.mesh).collect::<Vec<_>>(), vec![0, 1]);
-        let (flat, mesh) = (world.flattened(), read_gltf(&dir.join("quad.glb")).unwrap());
+        let (flat, mesh) = (world.flattened().unwrap(), read_gltf(&dir.join("quad.glb")).unwrap());
         assert_eq!(flat.triangles, mesh.triangles);
         assert!(flat.positions.iter().zip(&mesh.positions).all(|(a, b)| close(*a, *b)));
         let shared = document(None, 4, "").replace(r#"{"mesh": 1, "rotation""#, r#"{"mesh": 0, "rotation""#);
@@ -417,7 +417,7 @@ mod tests {
         let world = read_gltf_world(&dir.join("shared.glb")).unwrap();
         assert_eq!((world.meshes.len(), world.instances.len()), (1, 2));
         assert_eq!(world.meshes[0].positions[2], [1.0, 1.0, 0.0], "the mesh in its own coordinates");
-        assert!(close(world.flattened().positions[6], [8.0, 2.0, 0.0]), "the second node's placement");
+        assert!(close(world.flattened().unwrap().positions[6], [8.0, 2.0, 0.0]), "the second node's placement");
     }
 
     /// A base-colour texture: its image decoded (PNG from a file, the same image embedded in

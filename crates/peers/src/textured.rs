@@ -53,13 +53,10 @@ struct Vertex {
 pub struct TexturedPipeline {
     gpu: Gpu,
     pipeline: wgpu::RenderPipeline,
-    /// The mip chain of the last texture drawn trilinearly (its bytes' address, length and
+    /// The mip chain of the last texture drawn trilinearly (by a hash of its texels and its
     /// size), built once as an application builds its chains once.
-    chain: Option<(TextureKey, Vec<Level>)>,
+    chain: Option<(u64, Vec<Level>)>,
 }
-
-/// A texture's identity for the chain cache: its bytes' address and length, and its size.
-type TextureKey = (usize, usize, u32, u32);
 
 /// A mip level: width, height and RGBA8 texels.
 pub type Level = (u32, u32, Vec<u8>);
@@ -128,7 +125,12 @@ impl TexturedPipeline {
                 colour: mesh.colours.as_ref().map_or([1.0; 4], |c| c[v]),
             })
             .collect();
-        let key = (texture.rgba.as_ptr() as usize, texture.rgba.len(), texture.width, texture.height);
+        let key = {
+            use std::hash::{Hash, Hasher};
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            (texture.width, texture.height, texture.srgb, &texture.rgba).hash(&mut h);
+            h.finish()
+        };
         let levels = if filter == Filter::Trilinear {
             if self.chain.as_ref().is_none_or(|c| c.0 != key) {
                 self.chain = Some((key, mip_levels(texture)));

@@ -9,7 +9,7 @@
 //! no bit of a frame; it only saves the vertex work, and `GeometryCounts::instances_culled`
 //! counts it.
 
-use super::{multiply, Mesh, IDENTITY};
+use super::{multiply, Mesh, IDENTITY, NO_TEXTURE};
 use crate::Error;
 
 /// One placement of a mesh. A mirroring placement (a transform of negative determinant) keeps
@@ -53,14 +53,16 @@ impl World {
 
     /// Which instances the object culling keeps for a frame of `params`: those whose bounding
     /// box does not lie wholly outside the view frustum.
-    pub fn in_view(&self, params: &super::RenderParams) -> Vec<bool> {
+    pub fn in_view(&self, params: &super::RenderParams) -> Result<Vec<bool>, Error> {
+        validate_world(&self.meshes, &self.instances)?;
         let boxes: Vec<[[f64; 3]; 2]> = self.meshes.iter().map(bounding_box).collect();
-        self.instances.iter().map(|i| !outside_frustum(&boxes[i.mesh as usize], &instance_to_world(&params.model, i), &params.view_projection)).collect()
+        Ok(self.instances.iter().map(|i| !outside_frustum(&boxes[i.mesh as usize], &instance_to_world(&params.model, i), &params.view_projection)).collect())
     }
 
     /// A box holding every instance in the world: each mesh's bounding box carried by its
     /// instances' transforms, corner by corner (exact for a mesh where it is).
-    pub fn bounds(&self) -> [[f64; 3]; 2] {
+    pub fn bounds(&self) -> Result<[[f64; 3]; 2], Error> {
+        validate_world(&self.meshes, &self.instances)?;
         let boxes: Vec<[[f64; 3]; 2]> = self.meshes.iter().map(bounding_box).collect();
         let mut out = [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]];
         for instance in &self.instances {
@@ -74,15 +76,25 @@ impl World {
                 }
             }
         }
-        out
+        Ok(out)
     }
 
     /// Every instance's faces as one mesh in world coordinates, as the frame numbers them (for
     /// tests and for readers that want the world flattened): positions and normals are the
     /// instances' transforms applied as the vertex stage applies them (normals computed in the
-    /// mesh's coordinates where it has none).
-    pub fn flattened(&self) -> Mesh {
+    /// mesh's coordinates where it has none); the placed meshes' textures once each, in mesh
+    /// order, as a frame lists them.
+    pub fn flattened(&self) -> Result<Mesh, Error> {
+        validate_world(&self.meshes, &self.instances)?;
         let mut out = Mesh::default();
+        let mut placed = vec![false; self.meshes.len()];
+        self.instances.iter().for_each(|i| placed[i.mesh as usize] = true);
+        let mut first_texture = vec![0u32; self.meshes.len()];
+        for (k, mesh) in self.meshes.iter().enumerate().filter(|(k, _)| placed[*k]) {
+            first_texture[k] = out.textures.len() as u32;
+            out.textures.extend(mesh.textures.iter().cloned());
+        }
+        let mut face_textures = Vec::new();
         let any = |f: fn(&Mesh) -> bool| self.instances.iter().any(|i| f(&self.meshes[i.mesh as usize]));
         let (normals, colours, uvs) = (true, any(|m| m.colours.is_some()), any(|m| m.uvs.is_some()));
         let (mut n, mut c, mut t) = (Vec::new(), Vec::new(), Vec::new());
@@ -93,6 +105,11 @@ impl World {
             let mirrored = mirrors(&instance.transform);
             out.triangles.extend(mesh.triangles.iter().map(|&[a, b, c]| if mirrored { [a, c, b] } else { [a, b, c] }.map(|v| v + base)));
             let count = mesh.positions.len();
+            let base_texture = first_texture[instance.mesh as usize];
+            match &mesh.face_textures {
+                Some(f) => face_textures.extend(f.iter().map(|&t| if t == NO_TEXTURE { t } else { base_texture + t })),
+                None => face_textures.extend(std::iter::repeat_n(if mesh.textures.is_empty() { NO_TEXTURE } else { base_texture }, mesh.triangles.len())),
+            }
             if normals {
                 let m = super::normal_matrix(&instance.transform);
                 match &mesh.normals {
@@ -111,7 +128,8 @@ impl World {
         out.normals = normals.then_some(n);
         out.colours = colours.then_some(c);
         out.uvs = uvs.then_some(t);
-        out
+        out.face_textures = (!out.textures.is_empty()).then_some(face_textures);
+        Ok(out)
     }
 }
 

@@ -439,10 +439,14 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     // Vertex stage: each instance's transform, then the view-projection, into one array of the
     // visible instances' vertices.
     let world = &mut memory.world;
-    world.clear();
-    world.resize(first_vertex, [0.0; 3]);
     let vertices = &mut memory.vertices;
+    world.clear();
     vertices.clear();
+    // Many instances of a large mesh can ask for more than the machine has: a typed error.
+    let bytes = first_vertex as u128 * (std::mem::size_of::<[f64; 3]>() + std::mem::size_of::<ClipVertex>()) as u128;
+    let reserved = world.try_reserve_exact(first_vertex).and_then(|()| vertices.try_reserve_exact(first_vertex));
+    reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{first_vertex} vertices, {bytes} bytes ({e})") })?;
+    world.resize(first_vertex, [0.0; 3]);
     vertices.resize(first_vertex, ClipVertex::default());
     // The depth and id views read no attribute: they carry zeros, and no normal is computed.
     let attributes_used = params.shading.reads_attributes();

@@ -44,6 +44,48 @@ pub(crate) fn triangle_pipeline(
     })
 }
 
+/// A `width × height` render target of `format` that the peers draw into and copy out of.
+pub(crate) fn render_target(device: &wgpu::Device, label: &str, width: u32, height: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// Bytes of a readback buffer for a `width × height` target of 4-byte texels: texture-to-buffer
+/// copies pad each row to 256 bytes.
+pub(crate) fn readback_bytes(width: u32, height: u32) -> u64 {
+    padded_row(width) * height as u64
+}
+
+fn padded_row(width: u32) -> u64 {
+    (width as u64 * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64)
+}
+
+/// Copy `target` (4-byte texels, `width × height`) into `readback` after what `encoder`
+/// recorded, submit, and return its texels row by row, the rows' padding dropped.
+pub(crate) fn read_target<T: bytemuck::Pod>(gpu: &Gpu, mut encoder: wgpu::CommandEncoder, target: &wgpu::Texture, readback: &wgpu::Buffer, width: u32, height: u32) -> Result<Vec<T>, String> {
+    let padded = padded_row(width);
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo { texture: target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+        wgpu::TexelCopyBufferInfo { buffer: readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded as u32), rows_per_image: Some(height) } },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
+    let mut out = Vec::with_capacity(width as usize * height as usize);
+    gpu.submit_and_read(encoder, readback, padded * height as u64, |bytes| {
+        for row in bytes.chunks_exact(padded as usize) {
+            out.extend_from_slice(bytemuck::cast_slice::<u8, T>(&row[..width as usize * 4]));
+        }
+    })?;
+    Ok(out)
+}
+
 /// Open the adapter tileraster's GPU backend uses (its choice, `TILERASTER_ADAPTER` included),
 /// so that the peers run on the same device as the kernels they are compared with.
 pub(crate) fn open(label: &str) -> Result<Gpu, String> {

@@ -102,9 +102,7 @@ impl MeshPipeline {
         // One vertex per corner, each carrying its triangle's id (no primitive-id feature needed).
         let vertices: Vec<Vertex> = triangles.iter().enumerate().flat_map(|(t, tri)| tri.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
         let vertex_bytes = std::mem::size_of_val(vertices.as_slice()) as u64;
-        let row_bytes = width as u64 * 4;
-        let padded_row = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64);
-        let readback_bytes = padded_row * height as u64;
+        let readback_bytes = device::readback_bytes(width, height);
         for (what, bytes) in [("vertex", vertex_bytes), ("readback", readback_bytes)] {
             if bytes > limits.max_buffer_size {
                 return Err(format!("the {what} buffer needs {bytes} bytes, more than the device's largest buffer ({} bytes)", limits.max_buffer_size));
@@ -113,18 +111,7 @@ impl MeshPipeline {
         // WGSL matrices are column-major.
         let columns: [f32; 16] = std::array::from_fn(|k| matrix[k % 4][k / 4]);
         let device = self.gpu.device.clone();
-        let texture = |label, format| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            })
-        };
+        let texture = |label, format| device::render_target(&device, label, width, height, format);
         let ids = texture("mesh peer ids", IDS);
         let depth = depth_test.then(|| texture("mesh peer depth", DEPTH));
         let vertex_buffer = self.vertices.get(&device, vertex_bytes.max(4));
@@ -167,21 +154,7 @@ impl MeshPipeline {
                     pass.draw(0..vertices.len() as u32, 0..1);
                 }
             }
-            encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo { texture: &ids, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &readback,
-                    layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row as u32), rows_per_image: Some(height) },
-                },
-                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-            );
-            let mut out = Vec::with_capacity(width as usize * height as usize);
-            gpu.submit_and_read(encoder, &readback, readback_bytes, |bytes| {
-                for row in bytes.chunks_exact(padded_row as usize) {
-                    out.extend_from_slice(bytemuck::cast_slice::<u8, u32>(&row[..row_bytes as usize]));
-                }
-            })?;
-            Ok(out)
+            device::read_target(gpu, encoder, &ids, &readback, width, height)
         })
     }
 }

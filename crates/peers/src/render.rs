@@ -124,9 +124,7 @@ impl RenderPipeline {
             ));
         }
         // Texture-to-buffer copies need rows padded to 256 bytes; the padding is dropped below.
-        let row_bytes = width as u64 * 4;
-        let padded_row = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64);
-        let readback_bytes = padded_row * height as u64;
+        let readback_bytes = crate::device::readback_bytes(width, height);
         let vertex_bytes = (scene.vertices.len() * std::mem::size_of::<Vertex>()) as u64;
         let index_count = scene.triangles.len() as u64 * 3;
         for (what, bytes) in [("readback", readback_bytes), ("vertex", vertex_bytes), ("index", index_count * 4)] {
@@ -165,20 +163,7 @@ impl RenderPipeline {
 
         if self.target.as_ref().is_none_or(|&(_, w, h)| (w, h) != (width, height)) {
             self.target = None;
-            self.target = Some((
-                self.gpu.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some("render peer target"),
-                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: FORMAT,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                    view_formats: &[],
-                }),
-                width,
-                height,
-            ));
+            self.target = Some((crate::device::render_target(&self.gpu.device, "render peer target", width, height, FORMAT), width, height));
         }
         let target = self.target.as_ref().expect("just created").0.clone();
         let vertex_buffer = self.vertices.get(&self.gpu.device, vertex_bytes);
@@ -215,29 +200,7 @@ impl RenderPipeline {
                     pass.draw_indexed(0..index_count as u32, 0, 0..1);
                 }
             }
-            encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &target,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &readback,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(padded_row as u32),
-                        rows_per_image: Some(height),
-                    },
-                },
-                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-            );
-            let mut values = Vec::with_capacity(grid.pixel_count() as usize);
-            gpu.submit_and_read(encoder, &readback, readback_bytes, |bytes| {
-                for row in bytes.chunks_exact(padded_row as usize) {
-                    values.extend_from_slice(bytemuck::cast_slice::<u8, f32>(&row[..row_bytes as usize]));
-                }
-            })?;
+            let values: Vec<f32> = crate::device::read_target(gpu, encoder, &target, &readback, width, height)?;
             Ok(values)
         })
     }

@@ -53,9 +53,9 @@ struct Vertex {
 pub struct TexturedPipeline {
     gpu: Gpu,
     pipeline: wgpu::RenderPipeline,
-    /// The mip chain of the last texture drawn trilinearly (by a hash of its texels and its
-    /// size), built once as an application builds its chains once.
-    chain: Option<(u64, Vec<Level>)>,
+    /// The mip chain of the last texture drawn trilinearly, with that texture, built once as an
+    /// application builds its chains once.
+    chain: Option<(Texture, Vec<Level>)>,
 }
 
 /// A mip level: width, height and RGBA8 texels.
@@ -125,39 +125,21 @@ impl TexturedPipeline {
                 colour: mesh.colours.as_ref().map_or([1.0; 4], |c| c[v]),
             })
             .collect();
-        let key = {
-            use std::hash::{Hash, Hasher};
-            let mut h = std::collections::hash_map::DefaultHasher::new();
-            (texture.width, texture.height, texture.srgb, &texture.rgba).hash(&mut h);
-            h.finish()
-        };
         let levels = if filter == Filter::Trilinear {
-            if self.chain.as_ref().is_none_or(|c| c.0 != key) {
-                self.chain = Some((key, mip_levels(texture)));
+            // The chain is the texture's while the texture is the one it was built from.
+            if self.chain.as_ref().is_none_or(|(source, _)| source != texture) {
+                self.chain = Some((texture.clone(), mip_levels(texture)));
             }
             self.chain.as_ref().expect("built above").1.clone()
         } else {
             vec![(texture.width, texture.height, texture.rgba.clone())]
         };
         let columns: [f32; 16] = std::array::from_fn(|k| matrix[k % 4][k / 4] as f32);
-        let row_bytes = width as u64 * 4;
-        let padded_row = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64);
-        let readback_bytes = padded_row * height as u64;
+        let readback_bytes = device::readback_bytes(width, height);
         let pipeline = self.pipeline.clone();
         self.gpu.scoped(|gpu| {
             let device = &gpu.device;
-            let target = |label, format| {
-                device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                    view_formats: &[],
-                })
-            };
+            let target = |label, format| device::render_target(device, label, width, height, format);
             let (colour, depth) = (target("textured peer colour", COLOUR), target("textured peer depth", DEPTH));
             let base = device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("textured peer base colour"),
@@ -237,18 +219,7 @@ impl TexturedPipeline {
                 pass.set_vertex_buffer(0, vertex_buffer.slice(..));
                 pass.draw(0..vertices.len() as u32, 0..1);
             }
-            encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo { texture: &colour, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-                wgpu::TexelCopyBufferInfo { buffer: &readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row as u32), rows_per_image: Some(height) } },
-                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-            );
-            let mut out = Vec::with_capacity(width as usize * height as usize);
-            gpu.submit_and_read(encoder, &readback, readback_bytes, |bytes| {
-                for row in bytes.chunks_exact(padded_row as usize) {
-                    out.extend_from_slice(bytemuck::cast_slice::<u8, u32>(&row[..row_bytes as usize]));
-                }
-            })?;
-            Ok(out)
+            device::read_target(gpu, encoder, &colour, &readback, width, height)
         })
     }
 }

@@ -96,7 +96,7 @@ impl World {
         }
         let mut face_textures = Vec::new();
         let any = |f: fn(&Mesh) -> bool| self.instances.iter().any(|i| f(&self.meshes[i.mesh as usize]));
-        let (normals, colours, uvs) = (true, any(|m| m.colours.is_some()), any(|m| m.uvs.is_some()));
+        let (colours, uvs) = (any(|m| m.colours.is_some()), any(|m| m.uvs.is_some()));
         let (mut n, mut c, mut t) = (Vec::new(), Vec::new(), Vec::new());
         for instance in &self.instances {
             let mesh = &self.meshes[instance.mesh as usize];
@@ -110,13 +110,21 @@ impl World {
                 Some(f) => face_textures.extend(f.iter().map(|&t| if t == NO_TEXTURE { t } else { base_texture + t })),
                 None => face_textures.extend(std::iter::repeat_n(if mesh.textures.is_empty() { NO_TEXTURE } else { base_texture }, mesh.triangles.len())),
             }
-            if normals {
-                let m = super::normal_matrix(&instance.transform);
-                match &mesh.normals {
-                    Some(v) if instance.transform == IDENTITY => n.extend_from_slice(v),
-                    Some(v) => n.extend(v.iter().map(|&x| super::transform_normal(&m, x))),
-                    None => n.extend(super::face_normals(mesh).iter().map(|&x| if instance.transform == IDENTITY { x } else { super::transform_normal(&m, x) })),
+            // As the vertex stage turns them: the mesh's normals, or its face normals, by the
+            // instance's normal matrix (unchanged where the instance is where its mesh is).
+            let computed;
+            let normals = match &mesh.normals {
+                Some(v) => v,
+                None => {
+                    computed = super::face_normals(mesh);
+                    &computed
                 }
+            };
+            if instance.transform == IDENTITY {
+                n.extend_from_slice(normals);
+            } else {
+                let m = super::normal_matrix(&instance.transform);
+                n.extend(normals.iter().map(|&x| super::transform_normal(&m, x)));
             }
             if colours {
                 c.extend(mesh.colours.clone().unwrap_or_else(|| vec![super::GREY; count]));
@@ -125,7 +133,7 @@ impl World {
                 t.extend(mesh.uvs.clone().unwrap_or_else(|| vec![[0.0; 2]; count]));
             }
         }
-        out.normals = normals.then_some(n);
+        out.normals = Some(n);
         out.colours = colours.then_some(c);
         out.uvs = uvs.then_some(t);
         out.face_textures = (!out.textures.is_empty()).then_some(face_textures);

@@ -184,7 +184,7 @@ pub struct RenderParams {
     /// Draw every vertex as a square this many pixels wide, centred on it, after the faces
     /// (the vertices view), in its vertex's attributes; `None`: no points.
     pub points: Option<f32>,
-    /// `empty_tiles`, `cull_window` and `hidden_triangles` apply; the depth test needs the
+    /// `empty_tiles`, `cull_window`, `hidden_triangles` and `cull_instances` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
 }

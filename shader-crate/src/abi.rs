@@ -480,8 +480,15 @@ pub struct TriangleShading {
     pub face: u32,
     /// Its base-colour texture: an index into the frame's `TextureInfo`s, or [`NO_TEXTURE`].
     pub texture: u32,
-    pub _pad: [u32; 2],
+    /// [`SHADING_UNLIT`] or 0.
+    pub flags: u32,
+    pub _pad: u32,
 }
+
+/// `TriangleShading::flags`: the fragment's colour is its interpolated colour attribute,
+/// neither lit nor textured, in every mode that shows colours (lines: a wireframe keeps its
+/// colour under any shading).
+pub const SHADING_UNLIT: u32 = 1;
 
 /// `TriangleShading::texture` of an untextured triangle.
 pub const NO_TEXTURE: u32 = u32::MAX;

@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use tileraster::render::{read_mesh, read_world, render_world, Address, Camera, Cull, Filter, Interpolation, Mesh, RenderParams, Shading, World, IDENTITY};
+use tileraster::render::{read_mesh, read_world, render_world, Address, Camera, Cull, Filter, Interpolation, LineRule, Mesh, RenderParams, Shading, Wireframe, World, IDENTITY};
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
@@ -57,9 +57,18 @@ pub struct RenderArgs {
     /// view; with --no-faces, the vertices alone: a point cloud).
     #[arg(long, value_name = "PIXELS")]
     points: Option<f32>,
-    /// Draw no faces (with --points).
-    #[arg(long, requires = "points")]
+    /// Draw no faces (with --points or --wireframe).
+    #[arg(long)]
     no_faces: bool,
+    /// Also draw every edge of the faces as a line one pixel wide, over the faces (a wireframe
+    /// view; with --no-faces, the edges alone), lit by the diamond-exit rule (Direct3D's and
+    /// Vulkan's) or Bresenham's.
+    #[arg(long, value_enum, value_name = "RULE", num_args = 0..=1, default_missing_value = "diamond-exit")]
+    wireframe: Option<LineRuleArg>,
+    /// The wireframe's colour, RGBA, each 0..255 (default: black over the faces; the vertices'
+    /// colours with --no-faces).
+    #[arg(long, value_name = "R,G,B,A", value_parser = numbers::<4>)]
+    wire_colour: Option<[f64; 4]>,
     /// Filter every texture so, whatever the file's samplers say: nearest (the texel), bilinear,
     /// or trilinear (bilinear in the two mip levels the level of detail lies between).
     #[arg(long, value_enum)]
@@ -96,6 +105,12 @@ pub struct RenderArgs {
     /// No messages on stderr but errors (and --stats when asked for).
     #[arg(short, long)]
     quiet: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum LineRuleArg {
+    DiamondExit,
+    Bresenham,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -166,7 +181,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, points, no_faces, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, points, no_faces, wireframe, wire_colour, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -203,8 +218,10 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
             .map_err(|e| format!("--camera: {e}"))?,
         (None, None) => Camera::framing(mesh, width as f64 / height.max(1) as f64, fov).view_projection(width, height).map_err(|e| e.to_string())?,
     };
-    if let Some(c) = background.iter().find(|c| !(0.0..=255.0).contains(*c) || c.fract() != 0.0) {
-        return Err(format!("--background: {c} is not a whole number from 0 to 255"));
+    for (flag, colour) in [("--background", Some(background)), ("--wire-colour", wire_colour)] {
+        if let Some(c) = colour.iter().flatten().find(|c| !(0.0..=255.0).contains(*c) || c.fract() != 0.0) {
+            return Err(format!("{flag}: {c} is not a whole number from 0 to 255"));
+        }
     }
     let mut params = RenderParams::new(width, height, view_projection);
     params.model = model;
@@ -218,6 +235,17 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     params.count_fragments = stats || heat_map.is_some();
     params.count_tiles = heat_map.is_some();
     (params.points, params.faces) = (points, !no_faces);
+    params.wireframe = wireframe.map(|rule| Wireframe {
+        rule: match rule {
+            LineRuleArg::DiamondExit => LineRule::DiamondExit,
+            LineRuleArg::Bresenham => LineRule::Bresenham,
+        },
+        colour: match (wire_colour, no_faces) {
+            (Some(c), _) => Some(c.map(|c| (c / 255.0) as f32)),
+            (None, false) => Some([0.0, 0.0, 0.0, 1.0]),
+            (None, true) => None,
+        },
+    });
     params.texture_filter = filter.map(|f| match f {
         FilterArg::Nearest => Filter::Nearest,
         FilterArg::Bilinear => Filter::Bilinear,

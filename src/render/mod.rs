@@ -26,8 +26,8 @@ pub use camera::Camera;
 pub use diagnostics::{Checksums, TileCounts};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    face_normals, prepare_render, prepare_world, validate_mesh, Address, Cull, Filter, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, Mesh, RenderParams, Shading, Texture,
-    World, IDENTITY, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, NO_TEXTURE,
+    face_normals, prepare_render, prepare_world, validate_mesh, Address, Cull, Filter, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, LineRule, Mesh, RenderParams, Shading, Texture,
+    Wireframe, World, IDENTITY, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, NO_TEXTURE,
 };
 
 use crate::dem::{DemError, InputKind};
@@ -109,12 +109,14 @@ impl RenderStats {
     pub fn to_json(&self) -> String {
         let g = &self.geometry;
         format!(
-            "{{\"instances_drawn\":{},\"instances_culled\":{},\"points_drawn\":{},\"points_culled\":{},\"clipped\":{},\"culled_frustum\":{},\"culled_back\":{},\"culled_front\":{},\"culled_zero_area\":{},\"culled_no_centre\":{},\
+            "{{\"instances_drawn\":{},\"instances_culled\":{},\"points_drawn\":{},\"points_culled\":{},\"lines_drawn\":{},\"lines_culled\":{},\"clipped\":{},\"culled_frustum\":{},\"culled_back\":{},\"culled_front\":{},\"culled_zero_area\":{},\"culled_no_centre\":{},\
              \"triangles_rasterised\":{},\"fragments\":{},\"pixels_covered\":{},\"depth_rejected\":{},\"overdraw\":{:.3},\"raster\":{}}}",
             g.instances_drawn,
             g.instances_culled,
             g.points_drawn,
             g.points_culled,
+            g.lines_drawn,
+            g.lines_culled,
             g.clipped,
             g.culled_frustum,
             g.culled_back,

@@ -106,8 +106,11 @@ pub enum Error {
     #[error("a point size of {size} pixels: give a finite size from {} to {} pixels", crate::render::MIN_POINT_SIZE, crate::render::MAX_POINT_SIZE)]
     InvalidPointSize { size: f32 },
 
-    #[error("the frame draws neither faces nor points: draw the faces, or give a point size")]
+    #[error("the frame draws neither faces, lines nor points: draw the faces, the wireframe, or give a point size")]
     NothingToDraw,
+
+    #[error("{what}'s colour {colour:?} is not linear RGBA within [0, 1]")]
+    InvalidColour { what: &'static str, colour: [f32; 4] },
 
     #[error("instance {instance}: {reason}")]
     InvalidInstance { instance: usize, reason: String },

@@ -8,7 +8,7 @@
 //! computed with integers; conversions from the exact edge functions are done by hand
 //! (`fixed_to_f32_bits`). So the colour is the same on every device.
 
-use crate::abi::{Interpolation, ShadeMode, ShadeParams, TextureInfo, TriangleSetup, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, MAX_LIGHTS, NO_TEXTURE};
+use crate::abi::{Interpolation, ShadeMode, ShadeParams, TextureInfo, TriangleSetup, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, MAX_LIGHTS, NO_TEXTURE, SHADING_UNLIT};
 use crate::math::fixed::fixed_to_f32_bits;
 use crate::math::float::{div, recip, sqrt};
 use crate::math::edge::Side;
@@ -53,6 +53,12 @@ pub fn weights(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i3
 #[inline]
 pub fn interpolate(t: &TriangleShading, b: &[f32; 3], a: usize) -> f32 {
     b[0] * t.attributes[0][a] + b[1] * t.attributes[1][a] + b[2] * t.attributes[2][a]
+}
+
+/// The colour attribute interpolated with weights `b`.
+#[inline]
+fn colour_at(t: &TriangleShading, b: &[f32; 3]) -> [f32; 4] {
+    [interpolate(t, b, ATTR_COLOUR), interpolate(t, b, ATTR_COLOUR + 1), interpolate(t, b, ATTR_COLOUR + 2), interpolate(t, b, ATTR_COLOUR + 3)]
 }
 
 /// Three consecutive attributes from `a`.
@@ -204,7 +210,7 @@ fn uv_at(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: 
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], b: &[f32; 3], i: i32, j: i32) -> [f32; 4] {
-    let colour = [interpolate(t, b, ATTR_COLOUR), interpolate(t, b, ATTR_COLOUR + 1), interpolate(t, b, ATTR_COLOUR + 2), interpolate(t, b, ATTR_COLOUR + 3)];
+    let colour = colour_at(t, b);
     if t.texture == NO_TEXTURE {
         return colour;
     }
@@ -234,7 +240,12 @@ fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, tex
 pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> u32 {
     // The interpolation weights (a correctly rounded division each) only where the mode
     // interpolates attributes.
-    match params.mode() {
+    let mode = params.mode();
+    if t.flags & SHADING_UNLIT != 0 && !matches!(mode, ShadeMode::Depth | ShadeMode::Ids) {
+        let b = weights(s, t, params.interpolation, i, j);
+        return rgba8(colour_at(t, &b));
+    }
+    match mode {
         ShadeMode::Colour => {
             let b = weights(s, t, params.interpolation, i, j);
             rgba8(base_colour(params, s, t, textures, texels, &b, i, j))

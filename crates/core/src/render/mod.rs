@@ -19,9 +19,11 @@
 //!   (16.8 fixed point, as Direct3D 11 and Vulkan's 2022 roadmap require).
 
 mod instances;
+mod lines;
 mod texture;
 
 pub use instances::{Instance, World};
+pub use lines::{LineRule, Wireframe};
 pub use texture::{Texture, MAX_TEXTURE_DIM};
 pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 use instances::validate_world;
@@ -184,6 +186,9 @@ pub struct RenderParams {
     /// Draw every vertex as a square this many pixels wide, centred on it, after the faces
     /// (the vertices view), in its vertex's attributes; `None`: no points.
     pub points: Option<f32>,
+    /// Draw every edge of the faces as a line one pixel wide, after the faces and before the
+    /// points (the wireframe view); `None`: no lines.
+    pub wireframe: Option<Wireframe>,
     /// `empty_tiles`, `cull_window`, `hidden_triangles` and `cull_instances` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
@@ -216,6 +221,7 @@ impl RenderParams {
             texture_address: None,
             faces: true,
             points: None,
+            wireframe: None,
             skips: Skips::ALL,
         }
     }
@@ -246,6 +252,10 @@ pub struct GeometryCounts {
     /// the view volume, whose points are dropped (as graphics APIs clip points by position).
     pub points_drawn: u64,
     pub points_culled: u64,
+    /// Edges drawn as lines (two triangles each, in `rasterised`), and edges that light no
+    /// pixel: outside the view volume, or under their rule (within one pixel's diamond).
+    pub lines_drawn: u64,
+    pub lines_culled: u64,
 }
 
 impl GeometryCounts {
@@ -261,6 +271,8 @@ impl GeometryCounts {
         self.instances_drawn += o.instances_drawn;
         self.points_drawn += o.points_drawn;
         self.points_culled += o.points_culled;
+        self.lines_drawn += o.lines_drawn;
+        self.lines_culled += o.lines_culled;
         self
     }
 }
@@ -376,6 +388,9 @@ struct Placement<'a> {
     /// The id of its first vertex's point: after every instance's faces, vertices numbered
     /// over every instance in order.
     first_point: u32,
+    /// The id of its first edge's line: after every instance's points, edges numbered over
+    /// every instance in order.
+    first_line: u32,
 }
 
 /// The geometry stages over instances of checked meshes (`validate_world`).
@@ -417,10 +432,18 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     let (mut first_vertex, mut first_face) = (0, 0u32);
     let all_faces: u64 = instances.iter().map(|i| meshes[i.mesh as usize].triangles.len() as u64).sum();
     let all_vertices: u64 = instances.iter().map(|i| meshes[i.mesh as usize].positions.len() as u64).sum();
-    if params.points.is_some() && all_faces + all_vertices >= u32::MAX as u64 {
-        return Err(Error::TooManyFaces { faces: all_faces + all_vertices });
+    // The wireframe's edges, once per placed mesh.
+    let mesh_edges: Vec<Vec<[u32; 2]>> = match params.wireframe {
+        Some(_) => meshes.par_iter().zip(&placed).map(|(m, &placed)| if placed { lines::edges(&m.triangles) } else { Vec::new() }).collect(),
+        None => Vec::new(),
+    };
+    let all_edges: u64 = instances.iter().map(|i| mesh_edges.get(i.mesh as usize).map_or(0, |e| e.len() as u64)).sum();
+    let ids = all_faces + all_vertices + all_edges;
+    if (params.points.is_some() || params.wireframe.is_some()) && ids >= u32::MAX as u64 {
+        return Err(Error::TooManyFaces { faces: ids });
     }
     let mut first_point = all_faces as u32;
+    let mut first_line = (all_faces + all_vertices) as u32;
     for instance in instances {
         let mesh = &meshes[instance.mesh as usize];
         let to_world = instances::instance_to_world(&params.model, instance);
@@ -428,11 +451,13 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
         if culled {
             counts.instances_culled += 1;
         } else {
-            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face, first_texture: first_textures[instance.mesh as usize], first_point });
+            let first_texture = first_textures[instance.mesh as usize];
+            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face, first_texture, first_point, first_line });
             first_vertex += mesh.positions.len();
         }
         first_face += mesh.triangles.len() as u32;
         first_point += mesh.positions.len() as u32;
+        first_line += mesh_edges.get(instance.mesh as usize).map_or(0, |e| e.len() as u32);
     }
     counts.instances_drawn = placements.len() as u64;
 
@@ -504,19 +529,36 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     let (world, vertices) = (&*world, &*vertices);
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
-    // The faces in chunks of at most `CHUNK` of one instance each, in drawing order.
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
-    // points likewise.
+    // lines and the points likewise.
     let face_chunks = placements.iter().filter(|_| params.faces).flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces)));
+    let line_chunks = placements.iter().filter(|_| params.wireframe.is_some()).flat_map(|p| (0..mesh_edges[p.mesh_index].len()).step_by(CHUNK).map(move |start| (p, start, Work::Lines)));
     let point_chunks = placements.iter().filter(|_| params.points.is_some()).flat_map(|p| (0..p.mesh.positions.len()).step_by(CHUNK).map(move |start| (p, start, Work::Points)));
-    let chunks: Vec<(&Placement, usize, Work)> = face_chunks.chain(point_chunks).collect();
-    // Each point's depth offset towards the camera, where it is drawn over the faces.
+    let chunks: Vec<(&Placement, usize, Work)> = face_chunks.chain(line_chunks).chain(point_chunks).collect();
+    // Each point's and line end's depth offset towards the camera, where they are drawn over
+    // the faces.
     let point_bias = match params.points {
-        Some(size) if params.faces => point_bias(&placements, vertices, size),
+        Some(size) if params.faces => surface_bias(&placements, vertices, size),
         _ => Vec::new(),
     };
-    // One chunk of faces through clipping, culling and snapping, in face order (or of points).
+    let line_bias = match params.wireframe {
+        Some(_) if params.faces => surface_bias(&placements, vertices, 1.0),
+        _ => Vec::new(),
+    };
+    let line_viewport = Viewport::with_guard(w, h, lines::LINE_GUARD_PX);
+    // One chunk of faces through clipping, culling and snapping, in face order (or of lines,
+    // or of points).
     let chunk = |&(p, start, work): &(&Placement, usize, Work), emit: &mut Emit<'_>, counts: &mut GeometryCounts| {
+        if let (Work::Lines, Some(wireframe)) = (work, &params.wireframe) {
+            let edges = &mesh_edges[p.mesh_index];
+            let flat = params.interpolation == Interpolation::Flat;
+            for (k, edge) in edges.iter().enumerate().skip(start).take(CHUNK) {
+                let v = edge.map(|v| p.first_vertex + v as usize);
+                let bias = v.map(|v| line_bias.get(v).copied().unwrap_or(0.0));
+                lines::line(v.map(|v| &vertices[v]), bias, wireframe, flat, p.first_line + k as u32, &line_viewport, &grid, emit, counts);
+            }
+            return;
+        }
         if work == Work::Points {
             let size = params.points.expect("point chunks only with points");
             for v in start..(start + CHUNK).min(p.mesh.positions.len()) {
@@ -678,8 +720,13 @@ struct Viewport {
 
 impl Viewport {
     fn new(w: u32, h: u32) -> Self {
+        Viewport::with_guard(w, h, GUARD_PX)
+    }
+
+    /// With a guard band `guard_px` pixels wide.
+    fn with_guard(w: u32, h: u32, guard_px: f64) -> Self {
         let (w, h) = (w as f64, h as f64);
-        Viewport { half: [w / 2.0, h / 2.0], guard: [1.0 + 2.0 * GUARD_PX / w, 1.0 + 2.0 * GUARD_PX / h] }
+        Viewport { half: [w / 2.0, h / 2.0], guard: [1.0 + 2.0 * guard_px / w, 1.0 + 2.0 * guard_px / h] }
     }
 
     /// The clipping planes, as coefficients of `(x, y, z, w)`: inside where the dot product is
@@ -717,14 +764,16 @@ fn distance(planes: &[[f64; 4]; 7], k: usize, c: &[f64; 4]) -> f64 {
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Work {
     Faces,
+    Lines,
     Points,
 }
 
-/// The depth offset of each vertex's point drawn over the faces: the steepest depth slope
-/// (per pixel, in either screen direction) of the faces around the vertex, times half the
-/// point's width and one pixel more, so that the square stays in front of the surface it
-/// sits on (graphics APIs' polygon offset, computed per vertex in f64 on the host).
-fn point_bias(placements: &[Placement], vertices: &[ClipVertex], size: f32) -> Vec<f64> {
+/// The depth offset of each vertex's point (or line end) drawn over the faces: the steepest
+/// depth slope (per pixel, in either screen direction) of the faces around the vertex, times
+/// half the point's width (a line's: one) and one pixel more, so that the square or line stays
+/// in front of the surface it sits on (graphics APIs' polygon offset, computed per vertex in
+/// f64 on the host).
+fn surface_bias(placements: &[Placement], vertices: &[ClipVertex], size: f32) -> Vec<f64> {
     let mut slope = vec![0.0f64; vertices.len()];
     for p in placements {
         for tri in &p.mesh.triangles {
@@ -777,7 +826,7 @@ fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, grid: &Grid, out: &mut E
             let coeffs = FloatCoeffs { c: [depth, depth, depth, (1.0 / area) as f32] };
             (
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
-                TriangleShading { attributes: [q.attributes; 3], inv_w: [q.inv_w, q.inv_w, q.inv_w, 0.0], face: id, texture: NO_TEXTURE, _pad: [0; 2] },
+                TriangleShading { attributes: [q.attributes; 3], inv_w: [q.inv_w, q.inv_w, q.inv_w, 0.0], face: id, texture: NO_TEXTURE, flags: 0, _pad: 0 },
             )
         });
     }
@@ -859,7 +908,7 @@ fn triangles(polygon: &[Projected], face: FaceTag, params: &RenderParams, grid: 
             let attributes = opposite.map(|i| polygon[i].attributes);
             (
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
-                TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face: face.id, texture: face.texture, _pad: [0; 2] },
+                TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face: face.id, texture: face.texture, flags: 0, _pad: 0 },
             )
         });
     }
@@ -920,26 +969,32 @@ fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) -> Vec<ClipVe
             }
             if (d[i] >= 0.0) != (d[j] >= 0.0) {
                 let (a, b, da, db) = if d[i] >= 0.0 { (&polygon[i], &polygon[j], d[i], d[j]) } else { (&polygon[j], &polygon[i], d[j], d[i]) };
-                let t = da / (da - db);
-                let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() };
-                for n in 0..4 {
-                    v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
-                }
-                for n in 0..ATTRIBUTES {
-                    v.attributes[n] = a.attributes[n] + t * (b.attributes[n] - a.attributes[n]);
-                }
-                // On the near and far planes exactly, so that depths stay within [0, 1].
-                match k {
-                    0 => v.clip[2] = 0.0,
-                    1 => v.clip[2] = v.clip[3],
-                    _ => {}
-                }
-                next.push(v);
+                next.push(cut(a, b, da, db, k));
             }
         }
         polygon = next;
     }
     polygon
+}
+
+/// The point where the edge from `a` (inside plane `k`, at distance `da`) to `b` (outside, at
+/// `db`) crosses the plane, interpolated from the inside end.
+fn cut(a: &ClipVertex, b: &ClipVertex, da: f64, db: f64, k: usize) -> ClipVertex {
+    let t = da / (da - db);
+    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() };
+    for n in 0..4 {
+        v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
+    }
+    for n in 0..ATTRIBUTES {
+        v.attributes[n] = a.attributes[n] + t * (b.attributes[n] - a.attributes[n]);
+    }
+    // On the near and far planes exactly, so that depths stay within [0, 1].
+    match k {
+        0 => v.clip[2] = 0.0,
+        1 => v.clip[2] = v.clip[3],
+        _ => {}
+    }
+    v
 }
 
 /// Lambert + Blinn-Phong in `f64` (flat and Gouraud shading; the kernels' per-pixel version is
@@ -1046,8 +1101,13 @@ fn validate_params(params: &RenderParams) -> Result<(), Error> {
     }
     match params.points {
         Some(size) if !(MIN_POINT_SIZE..=MAX_POINT_SIZE).contains(&size) => return Err(Error::InvalidPointSize { size }),
-        None if !params.faces => return Err(Error::NothingToDraw),
+        None if !params.faces && params.wireframe.is_none() => return Err(Error::NothingToDraw),
         _ => {}
+    }
+    if let Some(colour) = params.wireframe.and_then(|w| w.colour) {
+        if colour.iter().any(|c| !(0.0..=1.0).contains(c)) {
+            return Err(Error::InvalidColour { what: "the wireframe", colour });
+        }
     }
     for (name, m) in [("model", &params.model), ("view-projection", &params.view_projection)] {
         for (row, r) in m.iter().enumerate() {

@@ -1,0 +1,271 @@
+//! Lines: the wireframe view. Every edge of a mesh's faces is drawn once, one pixel wide, after
+//! the faces, depth-tested and counted like them.
+//!
+//! A line lights one pixel per column of its major axis (`x` where `|Δx| ≥ |Δy|`, else `y`):
+//! the pixel whose centre lies in the half-open band one pixel tall (or wide) centred on the
+//! segment, which the top-left rule of two triangles makes exact. The [`LineRule`] says which
+//! columns: those the segment crosses the diamond of and leaves (diamond-exit), or every
+//! column between its endpoints' pixels (Bresenham). The band's two triangles reach beyond the
+//! columns along the segment's exact direction, so that their end edges decide nothing, and
+//! their pixel rectangles keep the rule's columns: both backends rasterise them as any other
+//! triangle, and the same bits come out.
+
+use super::{distance, ClipVertex, Emit, GeometryCounts, Projected, Viewport, GUARD_PX, RENDER_SNAP_BITS};
+use crate::prepare::pixel_rect;
+use crate::Grid;
+use std::collections::HashMap;
+use tileraster_kernels::abi::{FloatCoeffs, TriangleInput, TriangleShading, ATTRIBUTES, ATTR_COLOUR, NO_TEXTURE, SHADING_UNLIT};
+use tileraster_kernels::EXTENT_LIMIT_BITS;
+
+/// Which pixels a line lights.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum LineRule {
+    /// Direct3D's rule, which Vulkan's Bresenham lines follow: a pixel is lit where the segment
+    /// passes through its diamond (`|x − cx| + |y − cy| < ½`) and leaves it, so a line ending
+    /// inside a diamond does not light it and two lines joined end to end light their shared
+    /// pixel once.
+    #[default]
+    DiamondExit,
+    /// The classic algorithm: both endpoints move to their pixels' centres, and every column
+    /// from the first to the last, both included, lights the pixel nearest the line between
+    /// them.
+    Bresenham,
+}
+
+impl LineRule {
+    pub fn name(self) -> &'static str {
+        match self {
+            LineRule::DiamondExit => "diamond-exit",
+            LineRule::Bresenham => "bresenham",
+        }
+    }
+}
+
+/// The wireframe view: every face's edges as lines.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Wireframe {
+    pub rule: LineRule,
+    /// The lines' linear RGBA in `[0, 1]`; `None`: their vertices' colours, interpolated along
+    /// them. Lines are neither lit nor textured.
+    pub colour: Option<[f32; 4]>,
+}
+
+/// How far beyond the viewport, in pixels, a line may reach before it is clipped: a quarter of
+/// the triangles' guard band, so that a line's band triangles, up to three times its length,
+/// stay within the kernels' extent.
+pub(super) const LINE_GUARD_PX: f64 = GUARD_PX / 4.0;
+
+/// Half a pixel, in snapped units.
+const HALF: i64 = 1 << (RENDER_SNAP_BITS - 1);
+
+/// The edges of `triangles`, each once (either direction), in the order the faces first name
+/// them; an edge from a vertex to itself is no line.
+pub(super) fn edges(triangles: &[[u32; 3]]) -> Vec<[u32; 2]> {
+    let mut seen: HashMap<(u32, u32), ()> = HashMap::with_capacity(triangles.len() * 3 / 2);
+    let mut out = Vec::with_capacity(triangles.len() * 3 / 2);
+    for t in triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            if a != b && seen.insert((a.min(b), a.max(b)), ()).is_none() {
+                out.push([a, b]);
+            }
+        }
+    }
+    out
+}
+
+/// A segment's ends and what the kernels take of them, in snapped units.
+struct End<'a> {
+    at: (i64, i64),
+    depth: f64,
+    attributes: &'a [f32; ATTRIBUTES],
+}
+
+/// Clip, snap and push one line: the segment between `a` and `b`, drawn with `rule`, its
+/// ends' depths less `bias` (drawn over faces), in `colour` or its vertices' colours.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn line(ends: [&ClipVertex; 2], bias: [f64; 2], wireframe: &Wireframe, flat: bool, id: u32, viewport: &Viewport, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+    let Some([a, b]) = clip_segment(ends[0], ends[1], &viewport.planes()) else {
+        counts.lines_culled += 1;
+        return;
+    };
+    let (pa, pb) = (a.project(viewport), b.project(viewport));
+    let mut attributes = [pa.attributes, if flat { pa.attributes } else { pb.attributes }];
+    if let Some(c) = wireframe.colour {
+        for v in &mut attributes {
+            v[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&c);
+        }
+    }
+    let end = |p: &Projected, bias: f64, attributes| End { at: p.screen, depth: (p.depth as f64 - bias).max(0.0), attributes };
+    let (p0, p1) = (end(&pa, bias[0], &attributes[0]), end(&pb, bias[1], &attributes[1]));
+    let put = band(&p0, &p1, wireframe.rule, id, grid, out);
+    if put == 0 {
+        counts.lines_culled += 1;
+    } else {
+        counts.lines_drawn += 1;
+    }
+}
+
+/// The segment within every clipping plane, each cut made from its inside end (as faces are
+/// cut), or `None` where nothing of it is left.
+fn clip_segment(a: &ClipVertex, b: &ClipVertex, planes: &[[f64; 4]; 7]) -> Option<[ClipVertex; 2]> {
+    let (mut a, mut b) = (*a, *b);
+    for k in 0..planes.len() {
+        let (da, db) = (distance(planes, k, &a.clip), distance(planes, k, &b.clip));
+        match (da >= 0.0, db >= 0.0) {
+            (true, true) => {}
+            (false, false) => return None,
+            (true, false) => b = super::cut(&a, &b, da, db, k),
+            (false, true) => a = super::cut(&b, &a, db, da, k),
+        }
+    }
+    Some([a, b])
+}
+
+/// The index of the pixel whose interval holds `v` (snapped units), and its centre.
+fn pixel(v: i64) -> (i64, i64) {
+    let i = v >> RENDER_SNAP_BITS;
+    (i, (i << RENDER_SNAP_BITS) + HALF)
+}
+
+/// The first pixel index whose centre is at least `v`, and the last whose centre is at most `v`.
+fn centres_from(v: i64) -> i64 {
+    -((HALF - v) >> RENDER_SNAP_BITS)
+}
+fn centres_to(v: i64) -> i64 {
+    (v - HALF) >> RENDER_SNAP_BITS
+}
+
+/// Whether `(u, v)` lies inside the open diamond of the pixel that holds it.
+fn in_diamond((u, v): (i64, i64)) -> bool {
+    let (cu, cv) = (pixel(u).1, pixel(v).1);
+    (u - cu).abs() + (v - cv).abs() < HALF
+}
+
+/// The major-axis pixels a line lights, lowest and highest index (empty where `lo > hi`), and
+/// the segment whose band they take (Bresenham moves the ends to pixel centres), in
+/// `(major, minor)` coordinates, and whether `y` is the major axis.
+pub(super) fn columns(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<(i64, i64, (i64, i64), (i64, i64), bool)> {
+    let (q0, q1) = match rule {
+        LineRule::DiamondExit => (p0, p1),
+        LineRule::Bresenham => ((pixel(p0.0).1, pixel(p0.1).1), (pixel(p1.0).1, pixel(p1.1).1)),
+    };
+    let (dx, dy) = (q1.0 - q0.0, q1.1 - q0.1);
+    let y_major = dy.abs() > dx.abs();
+    let swap = |p: (i64, i64)| if y_major { (p.1, p.0) } else { p };
+    let (u0, u1) = (swap(q0), swap(q1));
+    let (lo, hi) = match rule {
+        LineRule::Bresenham => {
+            let (a, b) = (pixel(u0.0).0, pixel(u1.0).0);
+            (a.min(b), a.max(b))
+        }
+        LineRule::DiamondExit => {
+            if u0 == u1 {
+                return None;
+            }
+            // Columns whose centre the segment reaches, with the first pixel's where the
+            // segment starts inside its diamond and without the last's where it ends inside.
+            let start = in_diamond(u0).then(|| pixel(u0.0).0);
+            let end = in_diamond(u1).then(|| pixel(u1.0).0);
+            if u1.0 > u0.0 {
+                (start.unwrap_or_else(|| centres_from(u0.0)), end.map_or_else(|| centres_to(u1.0), |e| e - 1))
+            } else {
+                (end.map_or_else(|| centres_from(u1.0), |e| e + 1), start.unwrap_or_else(|| centres_to(u0.0)))
+            }
+        }
+    };
+    (lo <= hi).then_some((lo, hi, u0, u1, y_major))
+}
+
+/// Push the two triangles of a line's band over the columns its rule lights; how many were
+/// put (none where the rule lights no pixel of the frame).
+fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, grid: &Grid, out: &mut Emit<'_>) -> u64 {
+    let Some((lo, hi, u0, u1, y_major)) = columns(p0.at, p1.at, rule) else {
+        return 0;
+    };
+    // The band reaches at least half a pixel and a unit past both ends along the segment's
+    // exact direction (a whole multiple of its smallest integer step), so that no end edge
+    // crosses a column the rule lights.
+    let (du, dv) = (u1.0 - u0.0, u1.1 - u0.1);
+    let (du, dv) = if (du, dv) == (0, 0) { (1, 0) } else { (du, dv) };
+    let g = gcd(du.unsigned_abs(), dv.unsigned_abs()) as i64;
+    let step = (du / g, dv / g);
+    let k = (HALF + 1 + step.0.abs() - 1) / step.0.abs();
+    let e = (k * step.0, k * step.1);
+    let (a, b) = ((u0.0 - e.0, u0.1 - e.1), (u1.0 + e.0, u1.1 + e.1));
+    // Depth and attributes are affine along the band in screen space (`1/w` is left at one):
+    // extended as far as the band goes.
+    let t = if (u1.0 - u0.0, u1.1 - u0.1) == (0, 0) { 0.0 } else { k as f64 / g as f64 };
+    let extend = |v0: f64, v1: f64| [v0 - t * (v1 - v0), v1 + t * (v1 - v0)];
+    let [za, zb] = extend(p0.depth, p1.depth);
+    let mut attr_a = [0.0f32; ATTRIBUTES];
+    let mut attr_b = [0.0f32; ATTRIBUTES];
+    for n in 0..ATTRIBUTES {
+        let [x, y] = extend(p0.attributes[n] as f64, p1.attributes[n] as f64);
+        (attr_a[n], attr_b[n]) = (x as f32, y as f32);
+    }
+    let corner = |p: (i64, i64), side: i64| if y_major { (p.1 + side * HALF, p.0) } else { (p.0, p.1 + side * HALF) };
+    let (a_lo, b_lo, b_hi, a_hi) = (corner(a, -1), corner(b, -1), corner(b, 1), corner(a, 1));
+    let mut put = 0;
+    for tri in [[(a_lo, false), (b_lo, true), (b_hi, true)], [(a_lo, false), (b_hi, true), (a_hi, false)]] {
+        let mut v = tri;
+        let (x, y) = (v.map(|c| c.0 .0), v.map(|c| c.0 .1));
+        let area = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
+        if area < 0 {
+            v.swap(1, 2);
+        }
+        let (x, y) = (v.map(|c| c.0 .0), v.map(|c| c.0 .1));
+        let mut rect = pixel_rect(&x, &y, RENDER_SNAP_BITS, grid);
+        let (lo, hi) = (lo.clamp(i32::MIN as i64, i32::MAX as i64) as i32, hi.clamp(i32::MIN as i64, i32::MAX as i64) as i32);
+        if y_major {
+            (rect.j0, rect.j1) = (rect.j0.max(lo), rect.j1.min(hi));
+        } else {
+            (rect.i0, rect.i1) = (rect.i0.max(lo), rect.i1.min(hi));
+        }
+        if rect.is_empty() {
+            continue;
+        }
+        let extent = (x.iter().max().unwrap() - x.iter().min().unwrap()).max(y.iter().max().unwrap() - y.iter().min().unwrap());
+        debug_assert!(((extent >> RENDER_SNAP_BITS) + 2) << RENDER_SNAP_BITS < 1 << EXTENT_LIMIT_BITS, "the line guard band bounds every band");
+        put += 1;
+        out.put(|| {
+            // Entry k of the kernels' per-vertex data belongs to the vertex opposite edge k.
+            let opposite = [v[2].1, v[0].1, v[1].1];
+            let depth = |at_b: bool| (if at_b { zb } else { za }) as f32;
+            let attributes = |at_b: bool| if at_b { attr_b } else { attr_a };
+            let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), (1.0 / area.unsigned_abs() as f64) as f32] };
+            (
+                TriangleInput { x, y, rect, coeffs, ..Default::default() },
+                TriangleShading { attributes: opposite.map(attributes), inv_w: [1.0, 1.0, 1.0, 0.0], face: id, texture: NO_TEXTURE, flags: SHADING_UNLIT, _pad: 0 },
+            )
+        });
+    }
+    put
+}
+
+fn gcd(mut a: u64, mut b: u64) -> u64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edges_are_listed_once_in_first_use_order() {
+        let e = edges(&[[0, 1, 2], [2, 1, 3], [3, 3, 4]]);
+        assert_eq!(e, vec![[0, 1], [1, 2], [2, 0], [1, 3], [3, 2], [3, 4]]);
+    }
+
+    #[test]
+    fn centres_are_found_on_both_sides() {
+        // Centres at 128 + 256·i.
+        assert_eq!((centres_from(128), centres_to(128)), (0, 0));
+        assert_eq!((centres_from(129), centres_to(383)), (1, 0));
+        assert_eq!((centres_from(-200), centres_to(-200)), (0, -1));
+        assert!(in_diamond((128 + 60, 256 + 128 - 67)));
+        assert!(!in_diamond((128 + 60, 256 + 128 - 68)));
+    }
+}

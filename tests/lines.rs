@@ -1,7 +1,8 @@
 //! Lines (the wireframe view): every edge of the faces drawn one pixel wide, depth-tested and
 //! counted like triangles, the same bits on both backends; the pixels each rule lights,
-//! against references written here in integers (the diamond-exit rule from the diamonds
-//! themselves, Bresenham from its nearest-row definition); bad colours are typed errors.
+//! against references written here (the diamond-exit rule from the diamonds themselves and
+//! Bresenham from its nearest-row definition, in integers; the rectangle in `f64`); bad
+//! colours are typed errors.
 
 mod common;
 
@@ -43,7 +44,7 @@ fn lines_are_the_same_bits_on_both_backends() {
     let camera = Camera { eye: [0.3, -1.6, 0.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 70.0, near: 0.8, far: 5.0 };
     let (w, h) = (120, 90);
     let first_line = (sphere.triangles.len() + sphere.positions.len()) as u32;
-    for rule in [LineRule::DiamondExit, LineRule::Bresenham] {
+    for rule in [LineRule::DiamondExit, LineRule::Bresenham, LineRule::Rectangle] {
         for faces in [false, true] {
             for (shading, colour, interpolation) in [
                 (Shading::Smooth, None, Interpolation::Perspective),
@@ -153,6 +154,30 @@ fn bresenham_reference(p0: (i64, i64), p1: (i64, i64)) -> Option<HashSet<(i64, i
     Some(lit)
 }
 
+/// What the rectangle rule lights: pixel centres inside the rectangle one pixel wide around
+/// the segment (`f64`), with the pixels whose centre lies within 1/64 px of its edges apart
+/// (where rounding its corners to the 1/256-pixel lattice decides): `(lit, undecided)`.
+fn rectangle_reference(p0: (i64, i64), p1: (i64, i64)) -> (HashSet<(i64, i64)>, HashSet<(i64, i64)>) {
+    let (p0, p1) = ([p0.0 as f64 / UNIT as f64, p0.1 as f64 / UNIT as f64], [p1.0 as f64 / UNIT as f64, p1.1 as f64 / UNIT as f64]);
+    let d = [p1[0] - p0[0], p1[1] - p0[1]];
+    let length = d[0].hypot(d[1]);
+    let (mut lit, mut undecided) = (HashSet::new(), HashSet::new());
+    for j in 0..W as i64 {
+        for i in 0..W as i64 {
+            let v = [i as f64 + 0.5 - p0[0], j as f64 + 0.5 - p0[1]];
+            let along = (v[0] * d[0] + v[1] * d[1]) / length;
+            let across = (d[0] * v[1] - d[1] * v[0]) / length;
+            let margin = along.abs().min((along - length).abs()).min((across.abs() - 0.5).abs());
+            if margin < 1.0 / 64.0 {
+                undecided.insert((i, j));
+            } else if (0.0..length).contains(&along) && across.abs() < 0.5 {
+                lit.insert((i, j));
+            }
+        }
+    }
+    (lit, undecided)
+}
+
 /// One segment, alone in the frame.
 fn segment_mesh(p0: (i64, i64), p1: (i64, i64)) -> Mesh {
     // A face from the first vertex to the second and back: its one edge is the segment.
@@ -168,7 +193,7 @@ fn line_params(rule: LineRule) -> RenderParams {
 #[test]
 fn each_rule_lights_exactly_its_reference_pixels() {
     let mut rng = Rng::new(15);
-    let mut compared = [0; 2];
+    let mut compared = [0; 3];
     for n in 0..300 {
         let span = if n % 3 == 0 { 3.0 } else { 90.0 };
         let start = (rng.range(-10.0, 74.0), rng.range(-10.0, 74.0));
@@ -178,15 +203,20 @@ fn each_rule_lights_exactly_its_reference_pixels() {
             continue;
         }
         let mesh = segment_mesh(p0, p1);
-        for (k, rule) in [LineRule::DiamondExit, LineRule::Bresenham].into_iter().enumerate() {
-            let expected = match rule {
-                LineRule::DiamondExit => diamond_exit_reference(p0, p1),
-                LineRule::Bresenham => bresenham_reference(p0, p1),
+        for (k, rule) in [LineRule::DiamondExit, LineRule::Bresenham, LineRule::Rectangle].into_iter().enumerate() {
+            let (expected, undecided) = match rule {
+                LineRule::DiamondExit => (diamond_exit_reference(p0, p1), HashSet::new()),
+                LineRule::Bresenham => (bresenham_reference(p0, p1), HashSet::new()),
+                LineRule::Rectangle => {
+                    let (lit, undecided) = rectangle_reference(p0, p1);
+                    (Some(lit), undecided)
+                }
             };
             let Some(expected) = expected else { continue };
             let f = frame(&mesh, &line_params(rule), Backend::Cpu);
             // Ids: the face 0, the vertices 1 and 2, the line 3.
             let lit: HashSet<(i64, i64)> = f.ids.iter().enumerate().filter(|(_, id)| **id == 3).map(|(p, _)| ((p % W as usize) as i64, (p / W as usize) as i64)).collect();
+            let lit: HashSet<(i64, i64)> = lit.difference(&undecided).copied().collect();
             let (extra, missing): (Vec<_>, Vec<_>) = (lit.difference(&expected).collect(), expected.difference(&lit).collect());
             assert!(extra.is_empty() && missing.is_empty(), "{rule:?} {p0:?} → {p1:?}: lit but not expected {extra:?}, expected but not lit {missing:?}");
             assert!(f.fragments.iter().all(|&c| c <= 1), "{rule:?} {p0:?} → {p1:?}: a pixel lit twice");
@@ -195,7 +225,7 @@ fn each_rule_lights_exactly_its_reference_pixels() {
     }
     // Exact ties are rare at random positions for the diamonds (a segment through a corner);
     // between whole pixels a line halfway between two rows is common.
-    assert!(compared[0] > 250 && compared[1] > 150, "segments compared: {compared:?}");
+    assert!(compared[0] > 250 && compared[1] > 150 && compared[2] > 280, "segments compared: {compared:?}");
 }
 
 /// All those segments at once, both rules: CPU = GPU.
@@ -208,7 +238,7 @@ fn many_segments_are_the_same_bits_on_both_backends() {
         mesh.positions.extend(p);
         mesh.triangles.push([2 * k, 2 * k + 1, 2 * k]);
     }
-    for rule in [LineRule::DiamondExit, LineRule::Bresenham] {
+    for rule in [LineRule::DiamondExit, LineRule::Bresenham, LineRule::Rectangle] {
         let f = assert_parity(&format!("{rule:?}"), &mesh, &RenderParams { shading: Shading::Depth, ..line_params(rule) });
         assert!(f.stats.fragments > f.stats.pixels_covered, "{rule:?}: the lines should cross");
     }

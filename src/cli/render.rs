@@ -61,8 +61,8 @@ pub struct RenderArgs {
     #[arg(long)]
     no_faces: bool,
     /// Also draw every edge of the faces as a line one pixel wide, over the faces (a wireframe
-    /// view; with --no-faces, the edges alone), lit by the diamond-exit rule (Direct3D's and
-    /// Vulkan's) or Bresenham's.
+    /// view; with --no-faces, the edges alone), lit by the diamond-exit rule (Direct3D's),
+    /// Bresenham's, or as a rectangle one pixel wide (Vulkan's strict lines).
     #[arg(long, value_enum, value_name = "RULE", num_args = 0..=1, default_missing_value = "diamond-exit")]
     wireframe: Option<LineRuleArg>,
     /// The wireframe's colour, RGBA, each 0..255 (default: black over the faces; the vertices'
@@ -111,6 +111,7 @@ pub struct RenderArgs {
 enum LineRuleArg {
     DiamondExit,
     Bresenham,
+    Rectangle,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -239,6 +240,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         rule: match rule {
             LineRuleArg::DiamondExit => LineRule::DiamondExit,
             LineRuleArg::Bresenham => LineRule::Bresenham,
+            LineRuleArg::Rectangle => LineRule::Rectangle,
         },
         colour: match (wire_colour, no_faces) {
             (Some(c), _) => Some(c.map(|c| (c / 255.0) as f32)),

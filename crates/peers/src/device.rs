@@ -3,13 +3,16 @@
 
 pub(crate) use tileraster_gpu::device::{Gpu, Grown};
 
-/// A render pipeline of triangle lists from `module`'s `vs_main` and `fs_main`, with one vertex
-/// buffer of `stride`-byte vertices, no culling, one colour target of `format`, and a
-/// `Depth32Float` buffer with the `Less` test where `depth_tested`: how the peers draw meshes.
-pub(crate) fn triangle_pipeline(
+/// A render pipeline of `topology` (triangle or line lists) from `module`'s `vs_main` and
+/// `fs_main`, with one vertex buffer of `stride`-byte vertices, no culling, one colour target of
+/// `format`, and a `Depth32Float` buffer with the `Less` test where `depth_tested`: how the
+/// peers draw meshes.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn mesh_pipeline(
     device: &wgpu::Device,
     module: &wgpu::ShaderModule,
     label: &str,
+    topology: wgpu::PrimitiveTopology,
     stride: u64,
     attributes: &[wgpu::VertexAttribute],
     format: wgpu::TextureFormat,
@@ -24,7 +27,7 @@ pub(crate) fn triangle_pipeline(
             compilation_options: Default::default(),
             buffers: &[Some(wgpu::VertexBufferLayout { array_stride: stride, step_mode: wgpu::VertexStepMode::Vertex, attributes })],
         },
-        primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
+        primitive: wgpu::PrimitiveState { topology, cull_mode: None, ..Default::default() },
         depth_stencil: depth_tested.then(|| wgpu::DepthStencilState {
             format: wgpu::TextureFormat::Depth32Float,
             depth_write_enabled: Some(true),

@@ -47,11 +47,13 @@ pub const NO_ID: u32 = u32::MAX;
 /// A wgpu render pipeline drawing a mesh's triangles into an R32Uint target of triangle ids:
 /// with a `Depth32Float` depth buffer and the `Less` test, or with none (the last triangle drawn
 /// over a pixel keeps it, by the API's primitive order). No culling; pixel centres sampled
-/// with the device's rasterisation rules.
+/// with the device's rasterisation rules. It draws line lists likewise, without a depth test,
+/// as the device rasterises lines one pixel wide.
 pub struct MeshPipeline {
     gpu: Gpu,
     depth_tested: wgpu::RenderPipeline,
     in_order: wgpu::RenderPipeline,
+    lines: wgpu::RenderPipeline,
     uniforms: wgpu::Buffer,
     vertices: Grown,
     readback: Grown,
@@ -60,22 +62,25 @@ pub struct MeshPipeline {
 impl MeshPipeline {
     pub fn new() -> Result<Self, String> {
         let mut gpu = device::open("tileraster-peers mesh pipeline")?;
-        let (depth_tested, in_order, uniforms) = gpu.scoped(|gpu| {
+        let (depth_tested, in_order, lines, uniforms) = gpu.scoped(|gpu| {
+            use wgpu::PrimitiveTopology::TriangleList as Triangles;
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("mesh peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
-            let pipeline = |depth: bool| device::triangle_pipeline(&gpu.device, &module, "mesh peer", std::mem::size_of::<Vertex>() as u64, &attributes, IDS, depth);
+            let stride = std::mem::size_of::<Vertex>() as u64;
+            let pipeline = |topology, depth: bool| device::mesh_pipeline(&gpu.device, &module, "mesh peer", topology, stride, &attributes, IDS, depth);
             let uniforms = gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("mesh peer matrix"),
                 size: 64,
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            Ok((pipeline(true), pipeline(false), uniforms))
+            Ok((pipeline(Triangles, true), pipeline(Triangles, false), pipeline(wgpu::PrimitiveTopology::LineList, false), uniforms))
         })?;
         Ok(MeshPipeline {
             gpu,
             depth_tested,
             in_order,
+            lines,
             uniforms,
             vertices: Grown::new("mesh peer vertices", wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
             readback: Grown::new("mesh peer readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST),
@@ -91,16 +96,29 @@ impl MeshPipeline {
     /// space with depth 0..1 and NDC `y` down) into a `width × height` target and read back the
     /// triangle index per pixel, row 0 at the top, [`NO_ID`] where none.
     pub fn draw_ids(&mut self, positions: &[[f32; 3]], triangles: &[[u32; 3]], matrix: &[[f32; 4]; 4], width: u32, height: u32, depth_test: bool) -> Result<Vec<u32>, String> {
+        let pipeline = if depth_test { self.depth_tested.clone() } else { self.in_order.clone() };
+        self.draw(positions, triangles, matrix, width, height, pipeline, depth_test)
+    }
+
+    /// Draw `lines` (pairs of indices into `positions`) as `draw_ids` draws triangles, without
+    /// a depth test (the last line drawn over a pixel keeps it): the line index per pixel.
+    pub fn draw_line_ids(&mut self, positions: &[[f32; 3]], lines: &[[u32; 2]], matrix: &[[f32; 4]; 4], width: u32, height: u32) -> Result<Vec<u32>, String> {
+        let pipeline = self.lines.clone();
+        self.draw(positions, lines, matrix, width, height, pipeline, false)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn draw<const N: usize>(&mut self, positions: &[[f32; 3]], primitives: &[[u32; N]], matrix: &[[f32; 4]; 4], width: u32, height: u32, pipeline: wgpu::RenderPipeline, depth_test: bool) -> Result<Vec<u32>, String> {
         let limits = &self.gpu.limits;
         let max_dim = limits.max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max_dim || height > max_dim {
             return Err(format!("a {width}×{height} target is not between 1×1 and the device's {max_dim}×{max_dim}"));
         }
-        if let Some((t, tri)) = triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&i| i as usize >= positions.len())) {
-            return Err(format!("triangle {t} ({tri:?}) refers to a vertex beyond the {} vertices", positions.len()));
+        if let Some((t, p)) = primitives.iter().enumerate().find(|(_, p)| p.iter().any(|&i| i as usize >= positions.len())) {
+            return Err(format!("primitive {t} ({p:?}) refers to a vertex beyond the {} vertices", positions.len()));
         }
-        // One vertex per corner, each carrying its triangle's id (no primitive-id feature needed).
-        let vertices: Vec<Vertex> = triangles.iter().enumerate().flat_map(|(t, tri)| tri.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
+        // One vertex per corner, each carrying its primitive's id (no primitive-id feature needed).
+        let vertices: Vec<Vertex> = primitives.iter().enumerate().flat_map(|(t, p)| p.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
         let vertex_bytes = std::mem::size_of_val(vertices.as_slice()) as u64;
         let readback_bytes = device::readback_bytes(width, height);
         for (what, bytes) in [("vertex", vertex_bytes), ("readback", readback_bytes)] {
@@ -116,7 +134,6 @@ impl MeshPipeline {
         let depth = depth_test.then(|| texture("mesh peer depth", DEPTH));
         let vertex_buffer = self.vertices.get(&device, vertex_bytes.max(4));
         let readback = self.readback.get(&device, readback_bytes);
-        let pipeline = if depth_test { self.depth_tested.clone() } else { self.in_order.clone() };
         let uniforms = self.uniforms.clone();
         self.gpu.scoped(|gpu| {
             gpu.queue.write_buffer(&uniforms, 0, bytemuck::cast_slice(&columns));

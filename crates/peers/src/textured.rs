@@ -93,7 +93,7 @@ impl TexturedPipeline {
         let pipeline = gpu.scoped(|gpu| {
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("textured peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Float32x4];
-            Ok(device::triangle_pipeline(&gpu.device, &module, "textured peer", std::mem::size_of::<Vertex>() as u64, &attributes, COLOUR, true))
+            Ok(device::mesh_pipeline(&gpu.device, &module, "textured peer", wgpu::PrimitiveTopology::TriangleList, std::mem::size_of::<Vertex>() as u64, &attributes, COLOUR, true))
         })?;
         Ok(TexturedPipeline { gpu, pipeline, chain: None })
     }

@@ -1,14 +1,16 @@
 //! Lines: the wireframe view. Every edge of a mesh's faces is drawn once, one pixel wide, after
-//! the faces, depth-tested and counted like them.
+//! the faces, depth-tested and counted like them, as two triangles that both backends
+//! rasterise as any other, so the same bits come out.
 //!
-//! A line lights one pixel per column of its major axis (`x` where `|Δx| ≥ |Δy|`, else `y`):
-//! the pixel whose centre lies in the half-open band one pixel tall (or wide) centred on the
-//! segment, which the top-left rule of two triangles makes exact. The [`LineRule`] says which
-//! columns: those the segment crosses the diamond of and leaves (diamond-exit), or every
-//! column between its endpoints' pixels (Bresenham). The band's two triangles reach beyond the
-//! columns along the segment's exact direction, so that their end edges decide nothing, and
-//! their pixel rectangles keep the rule's columns: both backends rasterise them as any other
-//! triangle, and the same bits come out.
+//! Under the diamond-exit and Bresenham rules a line lights one pixel per column of its major
+//! axis (`x` where `|Δx| ≥ |Δy|`, else `y`): the pixel whose centre lies in the half-open band
+//! one pixel tall (or wide) centred on the segment, which the top-left rule of the band's two
+//! triangles makes exact. The rule says which columns: those whose diamond the segment passes
+//! through and leaves (diamond-exit), or every column between its endpoints' pixels
+//! (Bresenham). The band reaches beyond those columns along the segment's exact direction, so
+//! that its end edges decide nothing, and its triangles' pixel rectangles keep the rule's
+//! columns. The rectangle rule is Vulkan's strict line: the rectangle one pixel wide around
+//! the segment.
 
 use super::{distance, ClipVertex, Emit, GeometryCounts, Projected, Viewport, GUARD_PX, RENDER_SNAP_BITS};
 use crate::prepare::pixel_rect;
@@ -30,6 +32,10 @@ pub enum LineRule {
     /// from the first to the last, both included, lights the pixel nearest the line between
     /// them.
     Bresenham,
+    /// Vulkan's strict lines (what most Vulkan devices draw by default, lavapipe among them):
+    /// the rectangle one pixel wide centred on the segment, filled as a polygon. A diagonal
+    /// line is up to √2 pixels thick in its columns.
+    Rectangle,
 }
 
 impl LineRule {
@@ -37,6 +43,7 @@ impl LineRule {
         match self {
             LineRule::DiamondExit => "diamond-exit",
             LineRule::Bresenham => "bresenham",
+            LineRule::Rectangle => "rectangle",
         }
     }
 }
@@ -141,12 +148,12 @@ fn in_diamond((u, v): (i64, i64)) -> bool {
     (u - cu).abs() + (v - cv).abs() < HALF
 }
 
-/// The major-axis pixels a line lights, lowest and highest index (empty where `lo > hi`), and
+/// The major-axis pixels a diamond-exit or Bresenham line lights, lowest and highest index (empty where `lo > hi`), and
 /// the segment whose band they take (Bresenham moves the ends to pixel centres), in
 /// `(major, minor)` coordinates, and whether `y` is the major axis.
 pub(super) fn columns(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<(i64, i64, (i64, i64), (i64, i64), bool)> {
     let (q0, q1) = match rule {
-        LineRule::DiamondExit => (p0, p1),
+        LineRule::DiamondExit | LineRule::Rectangle => (p0, p1),
         LineRule::Bresenham => ((pixel(p0.0).1, pixel(p0.1).1), (pixel(p1.0).1, pixel(p1.1).1)),
     };
     let (dx, dy) = (q1.0 - q0.0, q1.1 - q0.1);
@@ -158,7 +165,7 @@ pub(super) fn columns(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<
             let (a, b) = (pixel(u0.0).0, pixel(u1.0).0);
             (a.min(b), a.max(b))
         }
-        LineRule::DiamondExit => {
+        LineRule::DiamondExit | LineRule::Rectangle => {
             if u0 == u1 {
                 return None;
             }
@@ -176,12 +183,18 @@ pub(super) fn columns(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<
     (lo <= hi).then_some((lo, hi, u0, u1, y_major))
 }
 
-/// Push the two triangles of a line's band over the columns its rule lights; how many were
-/// put (none where the rule lights no pixel of the frame).
-fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, grid: &Grid, out: &mut Emit<'_>) -> u64 {
-    let Some((lo, hi, u0, u1, y_major)) = columns(p0.at, p1.at, rule) else {
-        return 0;
-    };
+/// A line's quadrilateral: its corners (`a` end low side, `b` end low side, `b` high, `a` high),
+/// how far its ends reach beyond the segment's (a fraction of its length, for depth and
+/// attributes), and the major-axis pixels it may light, where its rule limits them.
+struct Quad {
+    corners: [(i64, i64); 4],
+    reach: f64,
+    columns: Option<(i64, i64, bool)>,
+}
+
+/// The band of a diamond-exit or Bresenham line, over the columns its rule lights.
+fn band_quad(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<Quad> {
+    let (lo, hi, u0, u1, y_major) = columns(p0, p1, rule)?;
     // The band reaches at least half a pixel and a unit past both ends along the segment's
     // exact direction (a whole multiple of its smallest integer step), so that no end edge
     // crosses a column the rule lights.
@@ -192,9 +205,36 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, grid: &Grid, out: &
     let k = (HALF + 1 + step.0.abs() - 1) / step.0.abs();
     let e = (k * step.0, k * step.1);
     let (a, b) = ((u0.0 - e.0, u0.1 - e.1), (u1.0 + e.0, u1.1 + e.1));
-    // Depth and attributes are affine along the band in screen space (`1/w` is left at one):
-    // extended as far as the band goes.
-    let t = if (u1.0 - u0.0, u1.1 - u0.1) == (0, 0) { 0.0 } else { k as f64 / g as f64 };
+    let reach = if (u1.0 - u0.0, u1.1 - u0.1) == (0, 0) { 0.0 } else { k as f64 / g as f64 };
+    let corner = |p: (i64, i64), side: i64| if y_major { (p.1 + side * HALF, p.0) } else { (p.0, p.1 + side * HALF) };
+    Some(Quad { corners: [corner(a, -1), corner(b, -1), corner(b, 1), corner(a, 1)], reach, columns: Some((lo, hi, y_major)) })
+}
+
+/// The rectangle one pixel wide around the segment, its corners rounded to the snapping
+/// lattice (in `f64`, on the host: the same corners for both backends).
+fn rectangle_quad(p0: (i64, i64), p1: (i64, i64)) -> Option<Quad> {
+    let (dx, dy) = ((p1.0 - p0.0) as f64, (p1.1 - p0.1) as f64);
+    let length = dx.hypot(dy);
+    if length == 0.0 {
+        return None;
+    }
+    let n = ((-dy * HALF as f64 / length).round() as i64, (dx * HALF as f64 / length).round() as i64);
+    let corner = |p: (i64, i64), side: i64| (p.0 + side * n.0, p.1 + side * n.1);
+    Some(Quad { corners: [corner(p0, -1), corner(p1, -1), corner(p1, 1), corner(p0, 1)], reach: 0.0, columns: None })
+}
+
+/// Push the two triangles of a line's quadrilateral; how many were put (none where the line
+/// lights no pixel of the frame).
+fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, grid: &Grid, out: &mut Emit<'_>) -> u64 {
+    let quad = match rule {
+        LineRule::Rectangle => rectangle_quad(p0.at, p1.at),
+        LineRule::DiamondExit | LineRule::Bresenham => band_quad(p0.at, p1.at, rule),
+    };
+    let Some(Quad { corners: [a_lo, b_lo, b_hi, a_hi], reach: t, columns }) = quad else {
+        return 0;
+    };
+    // Depth and attributes are affine along the line in screen space (`1/w` is left at one):
+    // extended as far as its quadrilateral goes.
     let extend = |v0: f64, v1: f64| [v0 - t * (v1 - v0), v1 + t * (v1 - v0)];
     let [za, zb] = extend(p0.depth, p1.depth);
     let mut attr_a = [0.0f32; ATTRIBUTES];
@@ -203,23 +243,26 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, grid: &Grid, out: &
         let [x, y] = extend(p0.attributes[n] as f64, p1.attributes[n] as f64);
         (attr_a[n], attr_b[n]) = (x as f32, y as f32);
     }
-    let corner = |p: (i64, i64), side: i64| if y_major { (p.1 + side * HALF, p.0) } else { (p.0, p.1 + side * HALF) };
-    let (a_lo, b_lo, b_hi, a_hi) = (corner(a, -1), corner(b, -1), corner(b, 1), corner(a, 1));
     let mut put = 0;
     for tri in [[(a_lo, false), (b_lo, true), (b_hi, true)], [(a_lo, false), (b_hi, true), (a_hi, false)]] {
         let mut v = tri;
         let (x, y) = (v.map(|c| c.0 .0), v.map(|c| c.0 .1));
         let area = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
+        if area == 0 {
+            continue;
+        }
         if area < 0 {
             v.swap(1, 2);
         }
         let (x, y) = (v.map(|c| c.0 .0), v.map(|c| c.0 .1));
         let mut rect = pixel_rect(&x, &y, RENDER_SNAP_BITS, grid);
-        let (lo, hi) = (lo.clamp(i32::MIN as i64, i32::MAX as i64) as i32, hi.clamp(i32::MIN as i64, i32::MAX as i64) as i32);
-        if y_major {
-            (rect.j0, rect.j1) = (rect.j0.max(lo), rect.j1.min(hi));
-        } else {
-            (rect.i0, rect.i1) = (rect.i0.max(lo), rect.i1.min(hi));
+        if let Some((lo, hi, y_major)) = columns {
+            let (lo, hi) = (lo.clamp(i32::MIN as i64, i32::MAX as i64) as i32, hi.clamp(i32::MIN as i64, i32::MAX as i64) as i32);
+            if y_major {
+                (rect.j0, rect.j1) = (rect.j0.max(lo), rect.j1.min(hi));
+            } else {
+                (rect.i0, rect.i1) = (rect.i0.max(lo), rect.i1.min(hi));
+            }
         }
         if rect.is_empty() {
             continue;

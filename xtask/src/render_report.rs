@@ -125,6 +125,64 @@ pub fn run(quick: bool) -> Result<String, String> {
     s.push_str(&hidden_section(quick, runs, gpu.is_some())?);
     s.push_str(&instance_section(quick, runs, gpu.is_some())?);
     s.push_str(&texture_section(quick, runs, gpu.is_some())?);
+    s.push_str(&line_section(quick, runs, gpu.is_some())?);
+    Ok(s)
+}
+
+/// The wireframe view against the render pipeline drawing the same edges as a line list
+/// (`MeshPipeline::draw_line_ids`), timed side by side, with the share of lit pixels that only
+/// one of the two lights.
+fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
+    use tileraster::render::{edges, LineRule, Wireframe};
+    let (n, w, h) = if quick { (40, 320, 180) } else { (224, 1920, 1080) };
+    let mesh = meshes::terrain(n, 1000.0, 60.0);
+    let camera = Camera::framing(&mesh, w as f64 / h as f64, 45.0);
+    let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
+    let lines = edges(&mesh.triangles);
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
+    let matrix_f32 = matrix.map(|r| r.map(|c| c as f32));
+    let mut peer = MeshPipeline::new()?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n### Lines\n\n\
+         The wireframe of a terrain mesh of {} triangles alone: {} edges one pixel wide, {w}×{h}, the ids view, medians of {runs} whole \
+         calls. The render pipeline is wgpu's on {} drawing the same edges as a line list (no depth test, the vertices transformed in \
+         `f32`); it draws Vulkan's strict lines, which tileraster's rectangle rule follows. \"differ\" is the share of pixels lit by \
+         either that only one lights ([docs/lines.md](lines.md)).\n",
+        mesh.triangles.len(),
+        lines.len(),
+        peer.adapter_name()
+    );
+    let _ = writeln!(s, "| rule | tileraster cpu | tileraster gpu | render pipeline | cpu vs render pipeline | cpu = gpu | differ |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | --- | ---: |");
+    let (peer_time, theirs) = timed(runs, || peer.draw_line_ids(&positions, &lines, &matrix_f32, w, h))?;
+    for rule in [LineRule::Rectangle, LineRule::DiamondExit, LineRule::Bresenham] {
+        let params = RenderParams { shading: Shading::Ids, faces: false, wireframe: Some(Wireframe { rule, colour: None }), eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, matrix) };
+        let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
+        let (gpu_cell, same) = if gpu {
+            let (t, g) = timed(runs, || render(&mesh, &params, Backend::Gpu).map_err(|e| e.to_string()))?;
+            (ms(&t), if g.colour == cpu.colour && g.ids == cpu.ids { "yes" } else { "**NO**" })
+        } else {
+            ("no adapter".into(), "–")
+        };
+        let (mut either, mut one) = (0u64, 0u64);
+        for (ours, theirs) in cpu.ids.iter().zip(&theirs) {
+            let (a, b) = (*ours != NO_FACE, *theirs != NO_ID);
+            either += u64::from(a || b);
+            one += u64::from(a != b);
+        }
+        let _ = writeln!(
+            s,
+            "| {} | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % |",
+            rule.name(),
+            ms(&cpu_time),
+            ms(&peer_time),
+            peer_time.median / cpu_time.median,
+            100.0 * one as f64 / either.max(1) as f64
+        );
+        eprintln!("render-report: lines, {} done", rule.name());
+    }
     Ok(s)
 }
 

@@ -67,7 +67,7 @@ const HALF: i64 = 1 << (RENDER_SNAP_BITS - 1);
 
 /// The edges of `triangles`, each once (either direction), in the order the faces first name
 /// them; an edge from a vertex to itself is no line.
-pub(super) fn edges(triangles: &[[u32; 3]]) -> Vec<[u32; 2]> {
+pub fn edges(triangles: &[[u32; 3]]) -> Vec<[u32; 2]> {
     let mut seen: HashMap<(u32, u32), ()> = HashMap::with_capacity(triangles.len() * 3 / 2);
     let mut out = Vec::with_capacity(triangles.len() * 3 / 2);
     for t in triangles {
@@ -169,8 +169,13 @@ pub(super) fn columns(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<
             if u0 == u1 {
                 return None;
             }
-            // Columns whose centre the segment reaches, with the first pixel's where the
-            // segment starts inside its diamond and without the last's where it ends inside.
+            // A line with |slope| ≤ 1 meets a diamond exactly where it crosses the diamond's
+            // vertical diagonal inside it (its L1 distance from the centre is least there), and
+            // the band's pixel is that diamond's: so the segment passes through the diamonds
+            // of the columns whose centre it reaches, and, before its start, at most the one
+            // it starts inside (moving away, its distance from any other grows). Those
+            // columns, with the first pixel's where it starts inside its diamond and without
+            // the last's where it ends inside one.
             let start = in_diamond(u0).then(|| pixel(u0.0).0);
             let end = in_diamond(u1).then(|| pixel(u1.0).0);
             if u1.0 > u0.0 {
@@ -307,7 +312,7 @@ mod tests {
         // Centres at 128 + 256·i.
         assert_eq!((centres_from(128), centres_to(128)), (0, 0));
         assert_eq!((centres_from(129), centres_to(383)), (1, 0));
-        assert_eq!((centres_from(-200), centres_to(-200)), (0, -1));
+        assert_eq!((centres_from(-200), centres_to(-200)), (-1, -2));
         assert!(in_diamond((128 + 60, 256 + 128 - 67)));
         assert!(!in_diamond((128 + 60, 256 + 128 - 68)));
     }

@@ -23,7 +23,7 @@ mod lines;
 mod texture;
 
 pub use instances::{Instance, World};
-pub use lines::{LineRule, Wireframe};
+pub use lines::{edges, LineRule, Wireframe};
 pub use texture::{Texture, MAX_TEXTURE_DIM};
 pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 use instances::validate_world;

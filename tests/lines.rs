@@ -6,27 +6,13 @@
 
 mod common;
 
-use common::gpu_or_skip;
+use common::{assert_frame_parity as assert_parity, render_frame as frame};
 use std::collections::HashSet;
-use tileraster::render::{render, Camera, Cull, Frame, Interpolation, LineRule, Mesh, RenderParams, Shading, Wireframe, IDENTITY, NO_FACE};
+use tileraster::render::{render, Camera, Cull, Interpolation, LineRule, Mesh, RenderParams, Shading, Wireframe, IDENTITY, NO_FACE};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 use tileraster_testkit::scenes::Rng;
 
-fn frame(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Frame {
-    render(mesh, params, backend).unwrap_or_else(|e| panic!("{backend:?}: {e}"))
-}
-
-fn assert_parity(what: &str, mesh: &Mesh, params: &RenderParams) -> Frame {
-    let cpu = frame(mesh, params, Backend::Cpu);
-    if gpu_or_skip(what) {
-        let gpu = frame(mesh, params, Backend::Gpu);
-        assert!(cpu.colour == gpu.colour && cpu.ids == gpu.ids && cpu.fragments == gpu.fragments, "{what}: the frames differ");
-        assert!(cpu.depth.iter().zip(&gpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}: depths differ");
-        assert_eq!(cpu.stats, gpu.stats, "{what}: statistics");
-    }
-    cpu
-}
 
 /// The undirected edges of a mesh's faces, each once.
 fn edge_count(mesh: &Mesh) -> u64 {

@@ -5,25 +5,11 @@
 
 mod common;
 
-use common::gpu_or_skip;
-use tileraster::render::{render, Camera, Cull, Frame, Mesh, RenderParams, Shading, IDENTITY, NO_FACE};
+use common::assert_frame_parity as assert_parity;
+use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading, IDENTITY, NO_FACE};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 
-fn frame(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Frame {
-    render(mesh, params, backend).unwrap_or_else(|e| panic!("{backend:?}: {e}"))
-}
-
-fn assert_parity(what: &str, mesh: &Mesh, params: &RenderParams) -> Frame {
-    let cpu = frame(mesh, params, Backend::Cpu);
-    if gpu_or_skip(what) {
-        let gpu = frame(mesh, params, Backend::Gpu);
-        assert!(cpu.colour == gpu.colour && cpu.ids == gpu.ids && cpu.fragments == gpu.fragments, "{what}: the frames differ");
-        assert!(cpu.depth.iter().zip(&gpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}: depths differ");
-        assert_eq!(cpu.stats, gpu.stats, "{what}: statistics");
-    }
-    cpu
-}
 
 /// Points alone (a point cloud) and over the faces (the vertices view), at several sizes, a
 /// sphere crossing the near plane and the frame's edges: CPU = GPU; every vertex is drawn or

@@ -88,3 +88,20 @@ pub fn expect_err(result: Result<Raster, Error>) -> Error {
     }
 }
 
+/// Render `mesh` on `backend`, panicking with the backend and the error on failure.
+pub fn render_frame(mesh: &tileraster::render::Mesh, params: &tileraster::render::RenderParams, backend: Backend) -> tileraster::render::Frame {
+    tileraster::render::render(mesh, params, backend).unwrap_or_else(|e| panic!("{backend:?}: {e}"))
+}
+
+/// The CPU frame, after checking that the GPU backend gives the same bits: colour, ids,
+/// fragment counts, depth and statistics.
+pub fn assert_frame_parity(what: &str, mesh: &tileraster::render::Mesh, params: &tileraster::render::RenderParams) -> tileraster::render::Frame {
+    let cpu = render_frame(mesh, params, Backend::Cpu);
+    if gpu_or_skip(what) {
+        let gpu = render_frame(mesh, params, Backend::Gpu);
+        assert!(cpu.colour == gpu.colour && cpu.ids == gpu.ids && cpu.fragments == gpu.fragments, "{what}: the frames differ");
+        assert!(cpu.depth.iter().zip(&gpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}: depths differ");
+        assert_eq!(cpu.stats, gpu.stats, "{what}: statistics");
+    }
+    cpu
+}

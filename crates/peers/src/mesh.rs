@@ -47,13 +47,14 @@ pub const NO_ID: u32 = u32::MAX;
 /// A wgpu render pipeline drawing a mesh's triangles into an R32Uint target of triangle ids:
 /// with a `Depth32Float` depth buffer and the `Less` test, or with none (the last triangle drawn
 /// over a pixel keeps it, by the API's primitive order). No culling; pixel centres sampled
-/// with the device's rasterisation rules. It draws line lists likewise, without a depth test,
-/// as the device rasterises lines one pixel wide.
+/// with the device's rasterisation rules. It draws line and point lists likewise, without a
+/// depth test, as the device rasterises lines and points one pixel wide.
 pub struct MeshPipeline {
     gpu: Gpu,
     depth_tested: wgpu::RenderPipeline,
     in_order: wgpu::RenderPipeline,
     lines: wgpu::RenderPipeline,
+    points: wgpu::RenderPipeline,
     uniforms: wgpu::Buffer,
     vertices: Grown,
     readback: Grown,
@@ -62,7 +63,7 @@ pub struct MeshPipeline {
 impl MeshPipeline {
     pub fn new() -> Result<Self, String> {
         let mut gpu = device::open("tileraster-peers mesh pipeline")?;
-        let (depth_tested, in_order, lines, uniforms) = gpu.scoped(|gpu| {
+        let (depth_tested, in_order, lines, points, uniforms) = gpu.scoped(|gpu| {
             use wgpu::PrimitiveTopology::TriangleList as Triangles;
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("mesh peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
@@ -74,13 +75,14 @@ impl MeshPipeline {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            Ok((pipeline(Triangles, true), pipeline(Triangles, false), pipeline(wgpu::PrimitiveTopology::LineList, false), uniforms))
+            Ok((pipeline(Triangles, true), pipeline(Triangles, false), pipeline(wgpu::PrimitiveTopology::LineList, false), pipeline(wgpu::PrimitiveTopology::PointList, false), uniforms))
         })?;
         Ok(MeshPipeline {
             gpu,
             depth_tested,
             in_order,
             lines,
+            points,
             uniforms,
             vertices: Grown::new("mesh peer vertices", wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
             readback: Grown::new("mesh peer readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST),
@@ -105,6 +107,14 @@ impl MeshPipeline {
     pub fn draw_line_ids(&mut self, positions: &[[f32; 3]], lines: &[[u32; 2]], matrix: &[[f32; 4]; 4], width: u32, height: u32) -> Result<Vec<u32>, String> {
         let pipeline = self.lines.clone();
         self.draw(positions, lines, matrix, width, height, pipeline, false)
+    }
+
+    /// Draw every vertex of `positions` as a point (one pixel wide, as WebGPU's points are), as
+    /// `draw_line_ids` draws lines: the vertex index per pixel.
+    pub fn draw_point_ids(&mut self, positions: &[[f32; 3]], matrix: &[[f32; 4]; 4], width: u32, height: u32) -> Result<Vec<u32>, String> {
+        let points: Vec<[u32; 1]> = (0..positions.len() as u32).map(|v| [v]).collect();
+        let pipeline = self.points.clone();
+        self.draw(positions, &points, matrix, width, height, pipeline, false)
     }
 
     #[allow(clippy::too_many_arguments)]

@@ -1,13 +1,14 @@
-//! Lines against an external reference: the same random segments drawn as a line list by
-//! wgpu's render pipeline on the same Vulkan adapter, one segment a frame, the lit pixels
-//! compared pixel by pixel with each of tileraster's rules. Endpoints lie on the 1/256-pixel
+//! Lines and points against an external reference: the same random segments drawn as a line
+//! list by wgpu's render pipeline on the same Vulkan adapter, one segment a frame, the lit
+//! pixels compared pixel by pixel with each of tileraster's rules; points one pixel wide
+//! (WebGPU's only size) as a point list. Endpoints lie on the 1/256-pixel
 //! lattice, so snapping is exact in both and only the rules can differ; what differs is
 //! printed, bounded here for the rule the device follows, and explained in `docs/lines.md`.
 
 mod common;
 
 use std::collections::HashSet;
-use tileraster::render::{render, Cull, LineRule, Mesh, RenderParams, Shading, Wireframe, IDENTITY};
+use tileraster::render::{render, Cull, LineRule, Mesh, RenderParams, Shading, Wireframe, IDENTITY, NO_FACE};
 use tileraster::Backend;
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::scenes::Rng;
@@ -119,4 +120,46 @@ fn rectangle_lines_match_the_render_pipeline() {
             assert!(c.identical > 380, "{line}");
         }
     }
+}
+
+/// Points one pixel wide at random positions on the 1/256-pixel lattice, a quarter of them on
+/// pixel edges or corners (where the fill rule decides), some beyond the frame's edges, all
+/// in one frame (far enough apart that none overlaps another): the same pixels as the
+/// device's point list.
+#[test]
+fn points_match_the_render_pipeline() {
+    if !common::gpu_or_skip("points against wgpu's render pipeline") {
+        return;
+    }
+    let mut peer = MeshPipeline::new().expect("the render pipeline peer");
+    let mut rng = Rng::new(18);
+    let size = 256u32;
+    let ndc = |px: f64| px / (size as f64 / 2.0) - 1.0;
+    // One point per 4 × 4 cell, within its middle two pixels, so no two touch.
+    let mut positions = Vec::new();
+    for cy in 0..size / 4 + 1 {
+        for cx in 0..size / 4 + 1 {
+            let mut at = |c: u32| {
+                let v = c as f64 * 4.0 - 1.0 + rng.range(0.0, 2.0);
+                if rng.next_u64().is_multiple_of(4) { v.round() } else { (v * UNIT).round() / UNIT }
+            };
+            let (x, y) = (at(cx), at(cy));
+            positions.push([ndc(x), ndc(y), 0.5]);
+        }
+    }
+    let triangles = vec![[0, 1, 2]];
+    let mesh = Mesh { positions: positions.clone(), triangles, ..Default::default() };
+    let params = RenderParams { cull: Cull::None, shading: Shading::Ids, faces: false, points: Some(1.0), eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(size, size, IDENTITY) };
+    let ours = render(&mesh, &params, Backend::Cpu).expect("render").ids;
+    let f32_positions: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
+    let theirs = peer.draw_point_ids(&f32_positions, &IDENTITY.map(|r| r.map(|c| c as f32)), size, size).expect("the point peer");
+    // Ours: the face 0, then vertex v's point is 1 + v; theirs: the vertex index.
+    let ours: Vec<u32> = ours.iter().map(|&id| if id == NO_FACE { NO_ID } else { id - 1 }).collect();
+    let lit = ours.iter().filter(|&&id| id != NO_ID).count();
+    let differing = ours.iter().zip(&theirs).filter(|(a, b)| a != b).count();
+    let line = format!("points against {}: {} points, {lit} pixels lit, {differing} differ", peer.adapter_name(), positions.len());
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
+    assert!(lit > 3500, "{line}");
+    assert_eq!(differing, 0, "{line}");
 }

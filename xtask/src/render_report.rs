@@ -145,11 +145,12 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "\n### Lines\n\n\
+        "\n### Lines and points\n\n\
          The wireframe of a terrain mesh of {} triangles alone: {} edges one pixel wide, {w}×{h}, the ids view, medians of {runs} whole \
          calls. The render pipeline is wgpu's on {} drawing the same edges as a line list (no depth test, the vertices transformed in \
-         `f32`); it draws Vulkan's strict lines, which tileraster's rectangle rule follows. \"differ\" is the share of pixels lit by \
-         either that only one lights ([docs/lines.md](lines.md)).\n",
+         `f32`); it draws Vulkan's strict lines, which tileraster's rectangle rule follows. Then the mesh's vertices as points one \
+         pixel wide against its point list. \"differ\" is the share of pixels lit by either that only one lights \
+         ([docs/lines.md](lines.md)).\n",
         mesh.triangles.len(),
         lines.len(),
         peer.adapter_name()
@@ -166,12 +167,6 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
         } else {
             ("no adapter".into(), "–")
         };
-        let (mut either, mut one) = (0u64, 0u64);
-        for (ours, theirs) in cpu.ids.iter().zip(&theirs) {
-            let (a, b) = (*ours != NO_FACE, *theirs != NO_ID);
-            either += u64::from(a || b);
-            one += u64::from(a != b);
-        }
         let _ = writeln!(
             s,
             "| {} | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % |",
@@ -179,11 +174,41 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
             ms(&cpu_time),
             ms(&peer_time),
             peer_time.median / cpu_time.median,
-            100.0 * one as f64 / either.max(1) as f64
+            100.0 * differing_share(&cpu.ids, &theirs)
         );
         eprintln!("render-report: lines, {} done", rule.name());
     }
+    // The vertices as points one pixel wide, against the device's point list.
+    let params = RenderParams { shading: Shading::Ids, faces: false, points: Some(1.0), eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, matrix) };
+    let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
+    let (gpu_cell, same) = if gpu {
+        let (t, g) = timed(runs, || render(&mesh, &params, Backend::Gpu).map_err(|e| e.to_string()))?;
+        (ms(&t), if g.colour == cpu.colour && g.ids == cpu.ids { "yes" } else { "**NO**" })
+    } else {
+        ("no adapter".into(), "–")
+    };
+    let (peer_time, theirs) = timed(runs, || peer.draw_point_ids(&positions, &matrix_f32, w, h))?;
+    let _ = writeln!(
+        s,
+        "| points, 1 px ({} vertices) | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % |",
+        mesh.positions.len(),
+        ms(&cpu_time),
+        ms(&peer_time),
+        peer_time.median / cpu_time.median,
+        100.0 * differing_share(&cpu.ids, &theirs)
+    );
     Ok(s)
+}
+
+/// The share of pixels lit by either of two id layers that only one lights.
+fn differing_share(ours: &[u32], theirs: &[u32]) -> f64 {
+    let (mut either, mut one) = (0u64, 0u64);
+    for (ours, theirs) in ours.iter().zip(theirs) {
+        let (a, b) = (*ours != NO_FACE, *theirs != NO_ID);
+        either += u64::from(a || b);
+        one += u64::from(a != b);
+    }
+    one as f64 / either.max(1) as f64
 }
 
 /// Textured frames against the render pipeline drawing the same mesh with the same texture

@@ -275,6 +275,9 @@ pub struct FrameParams {
     pub flags: FrameFlags,
     /// The render pipeline's depth test (unused by the heightfield's).
     pub depth_test: DepthTest,
+    /// Samples per pixel of a multisampled frame (binning reaches its tiles' border samples);
+    /// 0 or 1: one, at the centre.
+    pub samples: u32,
 }
 
 impl FrameParams {
@@ -444,7 +447,9 @@ pub struct ShadeParams {
     pub blend: u32,
     /// The frame's depth test, for the blended walk (as `FrameParams::depth_test`).
     pub depth_test: DepthTest,
-    pub _pad: u32,
+    /// Samples per pixel: 1 (0 reads as 1), or 4 or 8 at the standard positions
+    /// (`programs::multisample`).
+    pub samples: u32,
     /// Ambient light, RGB.
     pub ambient: [f32; 4],
     /// Specular colour, RGB.

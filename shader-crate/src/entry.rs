@@ -6,6 +6,7 @@
 use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::programs::depth::DepthProgram;
 use crate::programs::height::HeightProgram;
+use crate::programs::multisample::{self, SampleState, MAX_SAMPLES};
 use crate::programs::shade::{blend_pixel, shade_pixel};
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
@@ -152,6 +153,69 @@ pub fn shade(
         };
         colours[k] = out.colour;
         faces[k] = out.face;
+    }
+}
+
+/// Fine raster of the multisampled render pipeline (`programs::multisample`): every sample's
+/// coverage and depth, then each pixel shaded and resolved, in one workgroup per tile. Its
+/// tiles take neither the full-tile path nor the depth bounds (both speak of pixel centres).
+#[spirv(compute(threads(16, 16)))]
+#[allow(clippy::too_many_arguments)]
+pub fn fine_samples(
+    #[spirv(workgroup_id)] wg: UVec3,
+    #[spirv(local_invocation_index)] lid: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bins: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] values: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] params: &ShadeParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] shading: &[TriangleShading],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] textures: &[TextureInfo],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] texels: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] colours: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] faces: &mut [u32],
+    #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
+) {
+    let program = DepthProgram::of(frame);
+    let tile = wg.y * frame.tiles_x + wg.x;
+    let (bin_start, bin_len) = fine::bin_range(offsets, tile);
+    let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
+    let mut states = [SampleState::EMPTY; MAX_SAMPLES];
+    let mut count = 0;
+    // Uniform per workgroup: the whole tile takes the same branch, barriers included.
+    if fine::empty_tile(bin_len, frame) {
+        fine::count_tile(lid, Counter::TilesEmpty, stats);
+    } else {
+        fine::count_tile(lid, Counter::TilesPartial, stats);
+        let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
+        let mut batch_start = 0;
+        while batch_start < bin_len {
+            let batch_len = fine::batch_len(bin_len, batch_start);
+            fine::fine_load(&program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, u64::MAX, shared);
+            barrier();
+            multisample::test_samples(&program, i, j, batch_len, shared, params.samples, &mut states, &mut count);
+            barrier();
+            batch_start += BATCH;
+        }
+    }
+    fine::write_tile_stats(lid, tile, bin_len, 0, frame, tile_stats);
+    if inside {
+        let out = multisample::resolve_samples(params, &program, setups, shading, textures, texels, &states, params.samples, i, j);
+        let k = fine::window_index(i, j, frame);
+        values[k] = out.depth;
+        colours[k] = out.colour;
+        faces[k] = out.face;
+        if frame.outputs.contains(OutputSet::OWNER) {
+            owners[k] = out.slot;
+        }
+        if frame.outputs.contains(OutputSet::COVERAGE) {
+            coverage[k] = count;
+        }
     }
 }
 

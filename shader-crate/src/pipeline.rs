@@ -11,9 +11,10 @@
 //! Adding a stage or a buffer is one edit here (plus its entry point and its CPU twin, which
 //! the test and an exhaustive `match` on [`Stage`] ask for).
 //!
-//! Two pipelines share the table ([`Pipeline`]): the heightfield's and the render
-//! pipeline's. They share every stage up to fine raster; each has its own fine-raster program,
-//! and the render pipeline shades the pixels afterwards.
+//! Three pipelines share the table ([`Pipeline`]): the heightfield's, the render pipeline's
+//! and its multisampled form. They share every stage up to fine raster; each has its own
+//! fine-raster program; the render pipeline shades the pixels afterwards, the multisampled one
+//! in the same stage (a pixel's samples never leave its invocation).
 //!
 //! ```text
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
@@ -22,6 +23,8 @@
 //!  height:  setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
 //!  render:  setups, offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
 //!           shade params, setups, shading, textures, texels, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
+//!  multisampled render:
+//!           setups, offsets, bins, shade params, shading, textures, texels ─▶ fine_samples ─▶ values, owners, coverage, stats, tile stats, colours, faces
 //! ```
 
 use crate::{SCAN_GROUP, TILE, TRIANGLE_GROUP};
@@ -37,6 +40,7 @@ pub enum Stage {
     FineRaster,
     FineDepth,
     Shade,
+    FineSamples,
 }
 
 /// A pipeline: the rows of the table it runs.
@@ -46,9 +50,19 @@ pub enum Pipeline {
     Height,
     /// Depth-tested, shaded 3D triangles.
     Render,
+    /// The render pipeline with several samples per pixel: coverage, depth and shading in one
+    /// stage (`programs::multisample`).
+    RenderMultisampled,
 }
 
-const BOTH: &[Pipeline] = &[Pipeline::Height, Pipeline::Render];
+const ALL_PIPELINES: &[Pipeline] = &[Pipeline::Height, Pipeline::Render, Pipeline::RenderMultisampled];
+
+impl Pipeline {
+    /// Whether the pipeline renders 3D triangles (and so shades them).
+    pub fn renders(self) -> bool {
+        matches!(self, Pipeline::Render | Pipeline::RenderMultisampled)
+    }
+}
 
 /// A buffer the stages share, by role. Every binding of every stage is one of these.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
@@ -183,7 +197,7 @@ const FINE_BINDINGS: &[Binding] = &[
 ];
 
 /// The stages in the order they run.
-pub const STAGES: [StageInfo; 7] = [
+pub const STAGES: [StageInfo; 8] = [
     StageInfo {
         stage: Stage::Setup,
         name: "setup",
@@ -192,7 +206,7 @@ pub const STAGES: [StageInfo; 7] = [
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTriangle,
         bindings: &[read(Buffer::Frame), read(Buffer::Inputs), write(Buffer::Setups)],
-        pipelines: BOTH,
+        pipelines: ALL_PIPELINES,
     },
     StageInfo {
         stage: Stage::BinCount,
@@ -202,7 +216,7 @@ pub const STAGES: [StageInfo; 7] = [
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTrianglePart,
         bindings: &[read(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), write(Buffer::Counts)],
-        pipelines: BOTH,
+        pipelines: ALL_PIPELINES,
     },
     StageInfo {
         stage: Stage::BinScan,
@@ -212,7 +226,7 @@ pub const STAGES: [StageInfo; 7] = [
         workgroup: [SCAN_GROUP, 1, 1],
         dispatch: Dispatch::Single,
         bindings: &[read(Buffer::Frame), read(Buffer::Counts), write(Buffer::Offsets)],
-        pipelines: BOTH,
+        pipelines: ALL_PIPELINES,
     },
     StageInfo {
         stage: Stage::BinFill,
@@ -229,7 +243,7 @@ pub const STAGES: [StageInfo; 7] = [
             write(Buffer::Cursors),
             write(Buffer::Bins),
         ],
-        pipelines: BOTH,
+        pipelines: ALL_PIPELINES,
     },
     StageInfo {
         stage: Stage::FineRaster,
@@ -274,10 +288,36 @@ pub const STAGES: [StageInfo; 7] = [
         ],
         pipelines: &[Pipeline::Render],
     },
+    StageInfo {
+        stage: Stage::FineSamples,
+        name: "fine_samples",
+        entry_point: "entry::fine_samples",
+        scope: Scope::Window,
+        workgroup: [TILE, TILE, 1],
+        dispatch: Dispatch::PerTile,
+        bindings: &[
+            read(Buffer::Frame),
+            read(Buffer::Setups),
+            read(Buffer::Offsets),
+            read(Buffer::Bins),
+            write(Buffer::Values),
+            write(Buffer::Owners),
+            write(Buffer::Coverage),
+            write(Buffer::Stats),
+            write(Buffer::TileStats),
+            read(Buffer::ShadeParams),
+            read(Buffer::Shading),
+            read(Buffer::Textures),
+            read(Buffer::Texels),
+            write(Buffer::Colours),
+            write(Buffer::Faces),
+        ],
+        pipelines: &[Pipeline::RenderMultisampled],
+    },
 ];
 
 impl Stage {
-    pub const ALL: [Stage; 7] = [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster, Stage::FineDepth, Stage::Shade];
+    pub const ALL: [Stage; 8] = [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster, Stage::FineDepth, Stage::Shade, Stage::FineSamples];
 
     /// The stage's row of the table.
     pub fn info(self) -> &'static StageInfo {

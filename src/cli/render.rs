@@ -65,6 +65,10 @@ pub struct RenderArgs {
     /// Bresenham's, or as a rectangle one pixel wide (Vulkan's strict lines).
     #[arg(long, value_enum, value_name = "RULE", num_args = 0..=1, default_missing_value = "diamond-exit")]
     wireframe: Option<LineRuleArg>,
+    /// Samples per pixel: 1, or 4 or 8 at Vulkan's standard positions (coverage and depth per
+    /// sample, each triangle shaded once per pixel, the samples averaged).
+    #[arg(long, value_name = "SAMPLES", default_value_t = 1)]
+    msaa: u32,
     /// The wireframe's colour, RGBA, each 0..255 (default: black over the faces; the vertices'
     /// colours with --no-faces).
     #[arg(long, value_name = "R,G,B,A", value_parser = numbers::<4>)]
@@ -182,7 +186,7 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, points, no_faces, wireframe, wire_colour, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
+    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, points, no_faces, wireframe, msaa, wire_colour, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -235,7 +239,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     params.blend = blend;
     params.count_fragments = stats || heat_map.is_some();
     params.count_tiles = heat_map.is_some();
-    (params.points, params.faces) = (points, !no_faces);
+    (params.points, params.faces, params.samples) = (points, !no_faces, msaa);
     params.wireframe = wireframe.map(|rule| Wireframe {
         rule: match rule {
             LineRuleArg::DiamondExit => LineRule::DiamondExit,

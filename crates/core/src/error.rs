@@ -109,6 +109,9 @@ pub enum Error {
     #[error("the frame draws neither faces, lines nor points: draw the faces, the wireframe, or give a point size")]
     NothingToDraw,
 
+    #[error("{samples} samples per pixel: {reason}")]
+    InvalidSamples { samples: u32, reason: &'static str },
+
     #[error("{what}'s colour {colour:?} is not linear RGBA within [0, 1]")]
     InvalidColour { what: &'static str, colour: [f32; 4] },
 

@@ -279,6 +279,7 @@ impl Plan {
             bin_parts: 1,
             flags: self.flags,
             depth_test: prepared.render.as_ref().map_or(DepthTest::default(), |s| s.depth_test),
+            samples: prepared.render.as_ref().map_or(1, |s| s.params.samples),
         };
         // Enough bands for the tallest listed triangle in the part.
         let rows = listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();

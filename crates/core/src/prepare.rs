@@ -101,7 +101,11 @@ pub struct RenderInputs {
 impl Prepared {
     /// The pipeline this preparation runs.
     pub fn pipeline(&self) -> Pipeline {
-        if self.render.is_some() { Pipeline::Render } else { Pipeline::Height }
+        match &self.render {
+            Some(r) if r.params.samples > 1 => Pipeline::RenderMultisampled,
+            Some(_) => Pipeline::Render,
+            None => Pipeline::Height,
+        }
     }
 }
 

@@ -6,7 +6,7 @@
 
 mod stages;
 
-pub use stages::{bin_count, bin_fill, bin_scan, fine_depth, fine_raster, setup, setup_into, shade, FinePath};
+pub use stages::{bin_count, bin_fill, bin_scan, fine_depth, fine_raster, fine_samples, setup, setup_into, shade, FinePath};
 pub use tileraster_kernels::pipeline::StageBuffers;
 
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
@@ -136,6 +136,11 @@ fn rasterise_planned_with(
                 }
                 Stage::FineDepth => {
                     let stats = fine_depth(path, &frame, setups, &b.offsets, &b.bins, &mut raster);
+                    counters = stats.map(|c| c.into_inner() as u64);
+                }
+                Stage::FineSamples => {
+                    let inputs = prepared.render.as_ref().expect("the render pipeline has shading");
+                    let stats = fine_samples(&frame, inputs, setups, &b.offsets, &b.bins, &mut raster);
                     counters = stats.map(|c| c.into_inner() as u64);
                 }
                 Stage::Shade => {

@@ -378,7 +378,7 @@ impl GpuContext {
                     let local: Vec<u32> = (0..slots.len() as u32).collect();
                     let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
                     self.gpu.queue.write_buffer(&listed_buf, 0, bytemuck::cast_slice(&local));
-                    let owners = (prepared.pipeline() == Pipeline::Render).then_some(slots.as_slice());
+                    let owners = prepared.pipeline().renders().then_some(slots.as_slice());
                     self.rasterise_window(&frame, entries, &scene, &listed_buf, owners, raster)?
                 }
             };
@@ -441,7 +441,7 @@ impl GpuContext {
     /// layer is mapped back to the scene's slots as it is read.
     fn upload_and_setup(&mut self, prepared: &Prepared, part: Option<&[u32]>) -> Result<Resident, Error> {
         let n = part.map_or(prepared.triangles.len(), <[u32]>::len) as u64;
-        let renumber = prepared.pipeline() == Pipeline::Render;
+        let renumber = prepared.pipeline().renders();
         let inputs_part: Option<Vec<TriangleInput>> = part.map(|slots| {
             slots.par_iter().enumerate().map(|(k, &s)| {
                 let t = prepared.triangles[s as usize];
@@ -524,7 +524,7 @@ impl GpuContext {
         let stats = b.stats.get(device, stats_bytes);
         let tile_bytes = if frame.outputs.contains(OutputSet::TILES) { tiles * 8 } else { 0 };
         let tile_stats = b.tile_stats.get(device, tile_bytes);
-        let shaded_bytes = if scene.pipeline == Pipeline::Render { pixels * 4 } else { 0 };
+        let shaded_bytes = if scene.pipeline.renders() { pixels * 4 } else { 0 };
         let colours = b.colours.get(device, shaded_bytes);
         let faces = b.faces.get(device, shaded_bytes);
         let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes + 2 * shaded_bytes + tile_bytes);

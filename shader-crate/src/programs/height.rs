@@ -88,12 +88,19 @@ pub fn plane_f32_bits(coeffs: &FloatCoeffs, rect: &PixelRect, i: i32, j: i32) ->
 /// converted with the exact integer conversion so that only the products and sums round.
 #[inline]
 pub fn barycentric_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
-    let c = &s.coeffs.c;
     let rect = &s.coverage.rect;
     let di = (i - rect.i0) as i64;
     let dj = (j - rect.j0) as i64;
     let e = &s.coverage.edges;
-    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].at(di, dj), 0)) * c[3];
+    barycentric_bits_of(s, [e[0].at(di, dj), e[1].at(di, dj), e[2].at(di, dj)])
+}
+
+/// [`barycentric_bits`] from the edge functions' values at a point (a pixel centre, or one of
+/// its samples).
+#[inline]
+pub fn barycentric_bits_of(s: &TriangleSetup, edges: [i64; 3]) -> u32 {
+    let c = &s.coeffs.c;
+    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(edges[k], 0)) * c[3];
     (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
 }
 

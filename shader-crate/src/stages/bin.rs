@@ -88,7 +88,10 @@ pub fn tile_cover(c: &Coverage, tx: u32, ty: u32, frame: &FrameParams) -> TileCo
         let across_i = e.step_i * (i1 - i0) as i64;
         let across_j = e.step_j * (j1 - j0) as i64;
         let lo = at_corner + min_i64(across_i, 0) + min_i64(across_j, 0);
-        let hi = at_corner + max_i64(across_i, 0) + max_i64(across_j, 0);
+        // A multisampled tile's border pixels have samples up to 7/16 px beyond their centres
+        // (a step is a whole multiple of 16: the render pipeline snaps to 1/256 px).
+        let reach = if frame.samples > 1 { 7 * ((abs_i64(e.step_i) + abs_i64(e.step_j)) >> 4) } else { 0 };
+        let hi = at_corner + max_i64(across_i, 0) + max_i64(across_j, 0) + reach;
         if hi < 0 {
             return TileCover::Outside;
         }
@@ -111,6 +114,10 @@ fn max_i32(a: i32, b: i32) -> i32 {
 
 fn min_i64(a: i64, b: i64) -> i64 {
     if a < b { a } else { b }
+}
+
+fn abs_i64(a: i64) -> i64 {
+    if a < 0 { -a } else { a }
 }
 
 fn max_i64(a: i64, b: i64) -> i64 {

@@ -12,9 +12,7 @@
 //! columns. The rectangle rule is Vulkan's strict line: the rectangle one pixel wide around
 //! the segment.
 
-use super::{distance, ClipVertex, Emit, GeometryCounts, Projected, Viewport, GUARD_PX, RENDER_SNAP_BITS};
-use crate::prepare::pixel_rect;
-use crate::Grid;
+use super::{distance, ClipVertex, Emit, GeometryCounts, Projected, Target, Viewport, GUARD_PX, RENDER_SNAP_BITS};
 use std::collections::HashMap;
 use tileraster_kernels::abi::{FloatCoeffs, TriangleInput, TriangleShading, ATTRIBUTES, ATTR_COLOUR, NO_TEXTURE, SHADING_UNLIT};
 use tileraster_kernels::EXTENT_LIMIT_BITS;
@@ -90,7 +88,7 @@ struct End<'a> {
 /// Clip, snap and push one line: the segment between `a` and `b`, drawn with `rule`, its
 /// ends' depths less `bias` (drawn over faces), in `colour` or its vertices' colours.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn line(ends: [&ClipVertex; 2], bias: [f64; 2], wireframe: &Wireframe, flat: bool, id: u32, viewport: &Viewport, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+pub(super) fn line(ends: [&ClipVertex; 2], bias: [f64; 2], wireframe: &Wireframe, flat: bool, id: u32, viewport: &Viewport, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     let Some([a, b]) = clip_segment(ends[0], ends[1], &viewport.planes()) else {
         counts.lines_culled += 1;
         return;
@@ -104,7 +102,7 @@ pub(super) fn line(ends: [&ClipVertex; 2], bias: [f64; 2], wireframe: &Wireframe
     }
     let end = |p: &Projected, bias: f64, attributes| End { at: p.screen, depth: (p.depth as f64 - bias).max(0.0), attributes };
     let (p0, p1) = (end(&pa, bias[0], &attributes[0]), end(&pb, bias[1], &attributes[1]));
-    let put = band(&p0, &p1, wireframe.rule, id, grid, out);
+    let put = band(&p0, &p1, wireframe.rule, id, target, out);
     if put == 0 {
         counts.lines_culled += 1;
     } else {
@@ -230,7 +228,7 @@ fn rectangle_quad(p0: (i64, i64), p1: (i64, i64)) -> Option<Quad> {
 
 /// Push the two triangles of a line's quadrilateral; how many were put (none where the line
 /// lights no pixel of the frame).
-fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, grid: &Grid, out: &mut Emit<'_>) -> u64 {
+fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target<'_>, out: &mut Emit<'_>) -> u64 {
     let quad = match rule {
         LineRule::Rectangle => rectangle_quad(p0.at, p1.at),
         LineRule::DiamondExit | LineRule::Bresenham => band_quad(p0.at, p1.at, rule),
@@ -260,7 +258,7 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, grid: &Grid, out: &
             v.swap(1, 2);
         }
         let (x, y) = (v.map(|c| c.0 .0), v.map(|c| c.0 .1));
-        let mut rect = pixel_rect(&x, &y, RENDER_SNAP_BITS, grid);
+        let mut rect = target.rect(&x, &y);
         if let Some((lo, hi, y_major)) = columns {
             let (lo, hi) = (lo.clamp(i32::MIN as i64, i32::MAX as i64) as i32, hi.clamp(i32::MIN as i64, i32::MAX as i64) as i32);
             if y_major {

@@ -32,7 +32,7 @@ use crate::prepare::{pixel_rect, round_to_i64};
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
 use tileraster_kernels::abi::{
-    DepthFunc, DepthTest, FloatCoeffs, Interpolation, ShadeMode, ShadeParams, TriangleInput, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL,
+    DepthFunc, DepthTest, FloatCoeffs, Interpolation, PixelRect, ShadeMode, ShadeParams, TriangleInput, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL,
     ATTR_POSITION, ATTR_UV, MAX_LIGHTS,
 };
 use tileraster_kernels::EXTENT_LIMIT_BITS;
@@ -189,6 +189,11 @@ pub struct RenderParams {
     /// Draw every edge of the faces as a line one pixel wide, after the faces and before the
     /// points (the wireframe view); `None`: no lines.
     pub wireframe: Option<Wireframe>,
+    /// Samples per pixel: 1, or 4 or 8 at Vulkan's standard positions (multisampling: coverage
+    /// and depth per sample, each triangle shaded once per pixel, the samples averaged). The
+    /// depth, ids and fragments layers take sample 0's depth and owner and count the triangles
+    /// that cover a sample. Not with `blend`.
+    pub samples: u32,
     /// `empty_tiles`, `cull_window`, `hidden_triangles` and `cull_instances` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
@@ -222,6 +227,7 @@ impl RenderParams {
             faces: true,
             points: None,
             wireframe: None,
+            samples: 1,
             skips: Skips::ALL,
         }
     }
@@ -529,6 +535,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     let (world, vertices) = (&*world, &*vertices);
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
+    let target = Target { grid: &grid, samples: params.samples };
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
     // lines and the points likewise.
     let face_chunks = placements.iter().filter(|_| params.faces).flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces)));
@@ -555,7 +562,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
             for (k, edge) in edges.iter().enumerate().skip(start).take(CHUNK) {
                 let v = edge.map(|v| p.first_vertex + v as usize);
                 let bias = v.map(|v| line_bias.get(v).copied().unwrap_or(0.0));
-                lines::line(v.map(|v| &vertices[v]), bias, wireframe, flat, p.first_line + k as u32, &line_viewport, &grid, emit, counts);
+                lines::line(v.map(|v| &vertices[v]), bias, wireframe, flat, p.first_line + k as u32, &line_viewport, &target, emit, counts);
             }
             return;
         }
@@ -563,7 +570,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
             let size = params.points.expect("point chunks only with points");
             for v in start..(start + CHUNK).min(p.mesh.positions.len()) {
                 let bias = point_bias.get(p.first_vertex + v).copied().unwrap_or(0.0);
-                point(&vertices[p.first_vertex + v], size, bias, p.first_point + v as u32, &grid, emit, counts);
+                point(&vertices[p.first_vertex + v], size, bias, p.first_point + v as u32, &target, emit, counts);
             }
             return;
         }
@@ -608,7 +615,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
                 None => 0,
             };
             let texture = if texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + texture };
-            geometry(corners, FaceTag { id: face, texture }, params, &viewport, &grid, emit, counts);
+            geometry(corners, FaceTag { id: face, texture }, params, &viewport, &target, emit, counts);
         }
     };
     // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,
@@ -648,7 +655,8 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     let mut counts = counts;
     counts.rasterised = total as u64;
     let shade = shade_params(params, &lights, eye, depth_range(vertices));
-    let skips = Skips { full_tiles: false, overlap_free: false, ..params.skips };
+    // Multisampled tiles take neither path: both speak of pixel centres.
+    let skips = Skips { full_tiles: false, overlap_free: false, hidden_triangles: params.skips.hidden_triangles && params.samples == 1, ..params.skips };
     let grid_params = Params {
         grid,
         nodata: params.clear_depth,
@@ -694,6 +702,7 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, f
         specular: f4(params.specular),
         eye: f4(eye),
         depth_view: [near as f32, (1.0 / (far - near).max(1e-6)) as f32, 0.0, 0.0],
+        samples: params.samples,
         ..Default::default()
     };
     for (k, l) in lights.iter().enumerate() {
@@ -804,7 +813,7 @@ fn surface_bias(placements: &[Placement], vertices: &[ClipVertex], size: f32) ->
 /// triangles (the top-left rule then covers exactly `size²` pixel centres of a square of whole
 /// pixels wherever it lies), at the vertex's depth less `bias`, in its attributes; dropped
 /// where the vertex lies outside the view volume.
-fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     let c = &v.clip;
     if !(c[3] > W_MIN && c[0].abs() <= c[3] && c[1].abs() <= c[3] && c[2] >= 0.0 && c[2] <= c[3]) {
         counts.points_culled += 1;
@@ -817,7 +826,7 @@ fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, grid: &Grid, out: &mut E
     let depth = ((q.depth as f64 - bias).max(0.0)) as f32;
     let area = (2 * half) as f64 * (2 * half) as f64;
     for (x, y) in [([x0, x1, x1], [y0, y0, y1]), ([x0, x1, x0], [y0, y1, y1])] {
-        let rect = pixel_rect(&x, &y, RENDER_SNAP_BITS, grid);
+        let rect = target.rect(&x, &y);
         if rect.is_empty() {
             counts.culled_no_centre += 1;
             continue;
@@ -832,6 +841,25 @@ fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, grid: &Grid, out: &mut E
     }
 }
 
+/// The frame the geometry stages emit triangles for: its pixels and samples per pixel.
+#[derive(Clone, Copy)]
+struct Target<'a> {
+    grid: &'a Grid,
+    samples: u32,
+}
+
+impl Target<'_> {
+    /// The pixels a triangle with snapped vertices `x`, `y` may cover: those whose centre lies
+    /// in its box or, with several samples, whose samples may (the standard positions lie
+    /// within 7/16 px of the centre).
+    fn rect(&self, x: &[i64; 3], y: &[i64; 3]) -> PixelRect {
+        let reach = if self.samples > 1 { 7 << (RENDER_SNAP_BITS - 4) } else { 0 };
+        let (x0, x1) = (x[0].min(x[1]).min(x[2]) - reach, x[0].max(x[1]).max(x[2]) + reach);
+        let (y0, y1) = (y[0].min(y[1]).min(y[2]) - reach, y[0].max(y[1]).max(y[2]) + reach);
+        pixel_rect(&[x0, x1, x1], &[y0, y1, y1], RENDER_SNAP_BITS, self.grid)
+    }
+}
+
 /// What the kernels keep of a face besides its vertices: its id and its texture.
 #[derive(Clone, Copy)]
 struct FaceTag {
@@ -840,7 +868,7 @@ struct FaceTag {
 }
 
 /// Clip, cull, snap one face and push what reaches the rasteriser.
-fn geometry(corners: [&ClipVertex; 3], face: FaceTag, params: &RenderParams, viewport: &Viewport, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+fn geometry(corners: [&ClipVertex; 3], face: FaceTag, params: &RenderParams, viewport: &Viewport, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     // Wholly outside one plane of the view frustum: nothing to clip.
     let c = corners.map(|v| v.clip);
     let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
@@ -849,7 +877,7 @@ fn geometry(corners: [&ClipVertex; 3], face: FaceTag, params: &RenderParams, vie
         return;
     }
     if corners.iter().all(|v| v.outside == 0) {
-        return triangles(&corners.map(|v| v.projected), face, params, grid, out, counts);
+        return triangles(&corners.map(|v| v.projected), face, params, target, out, counts);
     }
     let polygon = clip_polygon(&corners.map(|v| *v), &viewport.planes());
     if polygon.len() < 3 {
@@ -858,12 +886,12 @@ fn geometry(corners: [&ClipVertex; 3], face: FaceTag, params: &RenderParams, vie
     }
     counts.clipped += 1;
     let projected: Vec<Projected> = polygon.iter().map(|v| v.project(viewport)).collect();
-    triangles(&projected, face, params, grid, out, counts);
+    triangles(&projected, face, params, target, out, counts);
 }
 
 /// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
 /// and push what reaches the rasteriser.
-fn triangles(polygon: &[Projected], face: FaceTag, params: &RenderParams, grid: &Grid, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+fn triangles(polygon: &[Projected], face: FaceTag, params: &RenderParams, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     for k in 1..polygon.len() - 1 {
         let mut v = [0, k, k + 1];
         let (mut x, mut y) = (v.map(|i| polygon[i].screen.0), v.map(|i| polygon[i].screen.1));
@@ -891,7 +919,7 @@ fn triangles(polygon: &[Projected], face: FaceTag, params: &RenderParams, grid: 
             x.swap(1, 2);
             y.swap(1, 2);
         }
-        let rect = pixel_rect(&x, &y, RENDER_SNAP_BITS, grid);
+        let rect = target.rect(&x, &y);
         if rect.is_empty() {
             counts.culled_no_centre += 1;
             continue;
@@ -1103,6 +1131,12 @@ fn validate_params(params: &RenderParams) -> Result<(), Error> {
         Some(size) if !(MIN_POINT_SIZE..=MAX_POINT_SIZE).contains(&size) => return Err(Error::InvalidPointSize { size }),
         None if !params.faces && params.wireframe.is_none() => return Err(Error::NothingToDraw),
         _ => {}
+    }
+    if ![1, 4, 8].contains(&params.samples) {
+        return Err(Error::InvalidSamples { samples: params.samples, reason: "give 1, 4 or 8 samples per pixel" });
+    }
+    if params.samples > 1 && params.blend {
+        return Err(Error::InvalidSamples { samples: params.samples, reason: "blending is drawn with one sample per pixel" });
     }
     if let Some(colour) = params.wireframe.and_then(|w| w.colour) {
         if colour.iter().any(|c| !(0.0..=1.0).contains(c)) {

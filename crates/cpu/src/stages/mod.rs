@@ -1,8 +1,10 @@
 //! One twin per kernel stage, with the stage's name, in files named as the kernel crate's
-//! `stages/` (`setup`, `bin`, `scan`, `fine`, `shade`).
+//! `stages/` (`setup`, `bin`, `scan`, `fine`, `shade`), and `multisample` for the stage its
+//! program of that name makes (`fine_samples`).
 
 mod bin;
 mod fine;
+mod multisample;
 #[cfg(test)]
 mod occlusion;
 mod scan;
@@ -11,6 +13,7 @@ mod shade;
 
 pub use bin::{bin_count, bin_fill};
 pub use fine::{fine_depth, fine_raster, FinePath};
+pub use multisample::fine_samples;
 pub use shade::shade;
 pub use scan::bin_scan;
 pub use setup::{setup, setup_into};

@@ -1,0 +1,201 @@
+//! Multisampling: coverage and depth per sample at Vulkan's standard sample positions, each
+//! triangle shaded once per pixel (at the pixel centre, as a fragment shader without sample
+//! shading runs), and the samples' colours averaged (a box resolve) in integers.
+//!
+//! A sample's edge functions are the pixel centre's plus the steps times the sample's offset:
+//! the render pipeline snaps to 1/256 px, so a step is a whole multiple of 256 and a sixteenth
+//! of it is exact, and the offsets are whole sixteenths. The fill rule holds per sample as it
+//! does per centre (the same `side_of` on exact integers), so meshes stay watertight at every
+//! sample. A sample's depth is the barycentric depth of its edge functions, the owner of a
+//! sample the smallest depth key among the triangles covering it (`programs::depth`).
+//!
+//! The depth and owner layers take sample 0's, as OpenGL resolves integer targets; the
+//! coverage layer counts the triangles that cover at least one sample of the pixel.
+
+use crate::abi::{Coverage, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
+use crate::math::edge::{side_of, Side};
+use crate::programs::depth::{depth_bits, DepthProgram};
+use crate::programs::height::barycentric_bits_of;
+use crate::programs::shade::fragment_colour;
+use crate::stages::fine::FineShared;
+use crate::NO_OWNER;
+
+/// Most samples per pixel.
+pub const MAX_SAMPLES: usize = 8;
+
+/// Sample `s`'s position in Vulkan's standard table for `samples` (4 or 8), in sixteenths of a
+/// pixel from its top-left corner.
+#[inline]
+pub fn sample_position(samples: u32, s: u32) -> (i64, i64) {
+    if samples == 4 {
+        match s {
+            0 => (6, 2),
+            1 => (14, 6),
+            2 => (2, 10),
+            _ => (10, 14),
+        }
+    } else {
+        match s {
+            0 => (9, 5),
+            1 => (7, 11),
+            2 => (13, 9),
+            3 => (5, 3),
+            4 => (3, 13),
+            5 => (1, 7),
+            6 => (11, 15),
+            _ => (15, 1),
+        }
+    }
+}
+
+/// The edge functions of coverage `c` at sample `s` of pixel `(i, j)`.
+#[inline]
+pub fn sample_edges(c: &Coverage, i: i32, j: i32, samples: u32, s: u32) -> [i64; 3] {
+    let (sx, sy) = sample_position(samples, s);
+    let (ox, oy) = (sx - 8, sy - 8);
+    let di = (i - c.rect.i0) as i64;
+    let dj = (j - c.rect.j0) as i64;
+    let e = &c.edges;
+    let at = |k: usize| e[k].at(di, dj) + (e[k].step_i >> 4) * ox + (e[k].step_j >> 4) * oy;
+    [at(0), at(1), at(2)]
+}
+
+/// What a pixel keeps of one sample: the smallest depth key of a triangle covering it and that
+/// triangle's setup slot (`NO_OWNER` where none).
+#[derive(Copy, Clone)]
+pub struct SampleState {
+    pub key: u64,
+    pub slot: u32,
+}
+
+impl SampleState {
+    pub const EMPTY: SampleState = SampleState { key: u64::MAX, slot: NO_OWNER };
+}
+
+/// Phase 2 of a multisampled tile: test pixel `(i, j)`'s samples against the `batch_len`
+/// staged triangles, keeping each sample's nearest passing fragment; `count` counts the
+/// triangles that cover at least one sample.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn test_samples(
+    program: &DepthProgram,
+    i: i32,
+    j: i32,
+    batch_len: u32,
+    shared: &FineShared<TriangleSetup, u64>,
+    samples: u32,
+    states: &mut [SampleState; MAX_SAMPLES],
+    count: &mut u32,
+) {
+    let mut k = 0;
+    while k < batch_len {
+        let staged = &shared.batch[k as usize];
+        let c = &staged.coverage;
+        if c.rect.contains(i, j) {
+            let mut covered = false;
+            let mut s = 0;
+            while s < samples {
+                let w = sample_edges(c, i, j, samples, s);
+                if side_of(w[0], w[1], w[2], c.excluded_edges) == Side::Inside {
+                    covered = true;
+                    let bits = barycentric_bits_of(staged, w);
+                    if program.passes(f32::from_bits(bits)) {
+                        let key = program.key_of(bits, c.index);
+                        if key < states[s as usize].key {
+                            states[s as usize] = SampleState { key, slot: c.slot };
+                        }
+                    }
+                }
+                s += 1;
+            }
+            if covered {
+                *count += 1;
+            }
+        }
+        k += 1;
+    }
+}
+
+/// A multisampled pixel's outputs.
+#[derive(Copy, Clone)]
+pub struct Resolved {
+    /// The samples' colours averaged, RGBA8.
+    pub colour: u32,
+    /// Sample 0's face, setup slot and depth bits.
+    pub face: u32,
+    pub slot: u32,
+    pub depth: u32,
+}
+
+/// Phase 3: shade each triangle that owns a sample of pixel `(i, j)` once, at the centre; the
+/// background where a sample has no owner; average the samples' colours channel by channel,
+/// rounded to nearest.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn resolve_samples(
+    params: &ShadeParams,
+    program: &DepthProgram,
+    setups: &[TriangleSetup],
+    shading: &[TriangleShading],
+    textures: &[TextureInfo],
+    texels: &[u32],
+    states: &[SampleState; MAX_SAMPLES],
+    samples: u32,
+    i: i32,
+    j: i32,
+) -> Resolved {
+    let mut colours = [0u32; MAX_SAMPLES];
+    let mut sums = [0u32; 4];
+    let mut s = 0;
+    while s < samples {
+        let slot = states[s as usize].slot;
+        let mut colour = params.background;
+        if slot != NO_OWNER {
+            // The colour of an earlier sample with the same owner, or the owner shaded now.
+            let mut t = 0;
+            while t < s && states[t as usize].slot != slot {
+                t += 1;
+            }
+            colour = if t < s {
+                colours[t as usize]
+            } else {
+                let setup = &setups[slot as usize];
+                fragment_colour(params, setup, &shading[slot as usize], textures, texels, depth_bits(setup, i, j), i, j)
+            };
+        }
+        colours[s as usize] = colour;
+        let mut c = 0u32;
+        while c < 4 {
+            sums[c as usize] += (colour >> (8 * c)) & 0xff;
+            c += 1;
+        }
+        s += 1;
+    }
+    let mean = |c: usize| (sums[c] + samples / 2) / samples;
+    let colour = mean(0) | mean(1) << 8 | mean(2) << 16 | mean(3) << 24;
+    let slot = states[0].slot;
+    if slot == NO_OWNER {
+        return Resolved { colour, face: NO_OWNER, slot, depth: program.clear.to_bits() };
+    }
+    let setup = &setups[slot as usize];
+    let depth = if program.write { barycentric_bits_of(setup, sample_edges(&setup.coverage, i, j, samples, 0)) } else { program.clear.to_bits() };
+    Resolved { colour, face: shading[slot as usize].face, slot, depth }
+}
+
+#[cfg(all(test, not(target_arch = "spirv")))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_standard_positions_are_distinct_and_inside_the_pixel() {
+        for samples in [4, 8] {
+            let mut seen = [[false; 16]; 16];
+            for s in 0..samples {
+                let (x, y) = sample_position(samples, s);
+                assert!((0..16).contains(&x) && (0..16).contains(&y));
+                assert!(!seen[x as usize][y as usize], "{samples}×: sample {s} repeats");
+                seen[x as usize][y as usize] = true;
+            }
+        }
+    }
+}

@@ -450,6 +450,9 @@ pub struct ShadeParams {
     /// Samples per pixel: 1 (0 reads as 1), or 4 or 8 at the standard positions
     /// (`programs::multisample`).
     pub samples: u32,
+    /// The sample whose depth and owner a multisampled frame's depth, owner and face layers
+    /// take.
+    pub layer_sample: u32,
     /// Ambient light, RGB.
     pub ambient: [f32; 4],
     /// Specular colour, RGB.

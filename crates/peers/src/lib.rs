@@ -5,6 +5,8 @@
 //!   interpolation of an f32 height attribute).
 //! - [`MeshPipeline`]: a mesh drawn by the same rasteriser with a depth buffer (or in API
 //!   order), writing triangle ids: the render pipeline's coverage reference and speed peer.
+//! - [`MultisampledPipeline`]: a mesh drawn by the same rasteriser 4× multisampled, every
+//!   sample's triangle id read back: the reference for multisampled coverage.
 //! - [`TexturedPipeline`]: a textured mesh drawn by the same rasteriser and its texture units:
 //!   the reference for texture sampling.
 //! - [`fill_cpu`] and [`GpuFill`]: store-bandwidth rooflines, the least work any raster call
@@ -15,11 +17,13 @@ mod device;
 mod fill;
 mod gdal;
 mod mesh;
+mod multisample;
 mod render;
 mod textured;
 
 pub use fill::{GpuFill, fill_cpu};
 pub use gdal::{gdal_grid_linear, gdal_grid_linear_radius, gdal_grid_version};
 pub use mesh::{MeshPipeline, NO_ID};
+pub use multisample::{MultisampledPipeline, NO_SAMPLE_ID, PEER_SAMPLES};
 pub use render::RenderPipeline;
 pub use textured::{mip_levels, TexturedPipeline};

@@ -9,8 +9,9 @@
 //! sample. A sample's depth is the barycentric depth of its edge functions, the owner of a
 //! sample the smallest depth key among the triangles covering it (`programs::depth`).
 //!
-//! The depth and owner layers take sample 0's, as OpenGL resolves integer targets; the
-//! coverage layer counts the triangles that cover at least one sample of the pixel.
+//! The depth, owner and face layers take one sample's (`ShadeParams::layer_sample`, sample 0
+//! by default, as OpenGL resolves integer targets); the coverage layer counts the triangles
+//! that cover at least one sample of the pixel.
 
 use crate::abi::{Coverage, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
 use crate::math::edge::{side_of, Side};
@@ -121,7 +122,7 @@ pub fn test_samples(
 pub struct Resolved {
     /// The samples' colours averaged, RGBA8.
     pub colour: u32,
-    /// Sample 0's face, setup slot and depth bits.
+    /// The layer sample's face, setup slot and depth bits (`ShadeParams::layer_sample`).
     pub face: u32,
     pub slot: u32,
     pub depth: u32,
@@ -173,12 +174,13 @@ pub fn resolve_samples(
     }
     let mean = |c: usize| (sums[c] + samples / 2) / samples;
     let colour = mean(0) | mean(1) << 8 | mean(2) << 16 | mean(3) << 24;
-    let slot = states[0].slot;
+    let layer = if params.layer_sample < samples { params.layer_sample } else { 0 };
+    let slot = states[layer as usize].slot;
     if slot == NO_OWNER {
         return Resolved { colour, face: NO_OWNER, slot, depth: program.clear.to_bits() };
     }
     let setup = &setups[slot as usize];
-    let depth = if program.write { barycentric_bits_of(setup, sample_edges(&setup.coverage, i, j, samples, 0)) } else { program.clear.to_bits() };
+    let depth = if program.write { barycentric_bits_of(setup, sample_edges(&setup.coverage, i, j, samples, layer)) } else { program.clear.to_bits() };
     Resolved { colour, face: shading[slot as usize].face, slot, depth }
 }
 

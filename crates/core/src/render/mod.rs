@@ -194,6 +194,9 @@ pub struct RenderParams {
     /// depth, ids and fragments layers take sample 0's depth and owner and count the triangles
     /// that cover a sample. Not with `blend`.
     pub samples: u32,
+    /// The sample whose depth and owner the depth and id layers take, with several samples
+    /// (0 by default; below `samples`).
+    pub layer_sample: u32,
     /// `empty_tiles`, `cull_window`, `hidden_triangles` and `cull_instances` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
@@ -228,6 +231,7 @@ impl RenderParams {
             points: None,
             wireframe: None,
             samples: 1,
+            layer_sample: 0,
             skips: Skips::ALL,
         }
     }
@@ -703,6 +707,7 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, f
         eye: f4(eye),
         depth_view: [near as f32, (1.0 / (far - near).max(1e-6)) as f32, 0.0, 0.0],
         samples: params.samples,
+        layer_sample: params.layer_sample,
         ..Default::default()
     };
     for (k, l) in lights.iter().enumerate() {
@@ -1134,6 +1139,9 @@ fn validate_params(params: &RenderParams) -> Result<(), Error> {
     }
     if ![1, 4, 8].contains(&params.samples) {
         return Err(Error::InvalidSamples { samples: params.samples, reason: "give 1, 4 or 8 samples per pixel" });
+    }
+    if params.layer_sample >= params.samples.max(1) {
+        return Err(Error::InvalidSamples { samples: params.samples, reason: "the layer sample must be one of the frame's samples" });
     }
     if params.samples > 1 && params.blend {
         return Err(Error::InvalidSamples { samples: params.samples, reason: "blending is drawn with one sample per pixel" });

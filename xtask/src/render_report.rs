@@ -47,6 +47,27 @@ fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
     Ok(out)
 }
 
+/// The GPU backend's median for `params` beside the CPU's frame `cpu`, and whether its frame
+/// has the same bits (colour, ids, depth); or no adapter.
+fn gpu_cell(gpu: bool, runs: usize, mesh: &Mesh, params: &RenderParams, cpu: &Frame) -> Result<(String, &'static str), String> {
+    if !gpu {
+        return Ok(("no adapter".into(), "–"));
+    }
+    let (t, g) = timed(runs, || render(mesh, params, Backend::Gpu).map_err(|e| e.to_string()))?;
+    let same = g.colour == cpu.colour && g.ids == cpu.ids && g.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits());
+    Ok((ms(&t), if same { "yes" } else { "**NO**" }))
+}
+
+/// The terrain mesh of the line and multisampling sections, framed: the mesh, its camera, the
+/// view-projection and the frame's size.
+fn framed_terrain(quick: bool) -> Result<(Mesh, Camera, [[f64; 4]; 4], u32, u32), String> {
+    let (n, w, h) = if quick { (40, 320, 180) } else { (224, 1920, 1080) };
+    let mesh = meshes::terrain(n, 1000.0, 60.0);
+    let camera = Camera::framing(&mesh, w as f64 / h as f64, 45.0);
+    let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
+    Ok((mesh, camera, matrix, w, h))
+}
+
 fn ms(t: &Timing) -> String {
     format!("{:.1} ms (±{:.0} %)", t.median * 1e3, 50.0 * t.spread())
 }
@@ -134,10 +155,7 @@ pub fn run(quick: bool) -> Result<String, String> {
 /// pipeline drawing it 4× multisampled (`MultisampledPipeline`, every sample read back).
 fn msaa_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     use tileraster_peers::{MultisampledPipeline, PEER_SAMPLES};
-    let (n, w, h) = if quick { (40, 320, 180) } else { (224, 1920, 1080) };
-    let mesh = meshes::terrain(n, 1000.0, 60.0);
-    let camera = Camera::framing(&mesh, w as f64 / h as f64, 45.0);
-    let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
+    let (mesh, camera, matrix, w, h) = framed_terrain(quick)?;
     let mut peer = MultisampledPipeline::new()?;
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
     let (peer_time, _) = timed(runs, || peer.draw_sample_ids(&positions, &mesh.triangles, &matrix.map(|r| r.map(|c| c as f32)), w, h))?;
@@ -159,12 +177,7 @@ fn msaa_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     for samples in [1, 4, 8] {
         let params = RenderParams { shading: Shading::Phong, samples, eye: Some(camera.eye), ..RenderParams::new(w, h, matrix) };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
-        let (gpu_cell, same) = if gpu {
-            let (t, g) = timed(runs, || render(&mesh, &params, Backend::Gpu).map_err(|e| e.to_string()))?;
-            (ms(&t), if g.colour == cpu.colour && g.ids == cpu.ids && g.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()) { "yes" } else { "**NO**" })
-        } else {
-            ("no adapter".into(), "–")
-        };
+        let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         let base = *single.get_or_insert(cpu_time.median);
         let peer_cell = if samples == PEER_SAMPLES { ms(&peer_time) } else { "–".into() };
         let _ = writeln!(s, "| {samples} | {} | {gpu_cell} | {:.2}× | {peer_cell} | {same} |", ms(&cpu_time), cpu_time.median / base);
@@ -178,10 +191,7 @@ fn msaa_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
 /// one of the two lights.
 fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     use tileraster::render::{edges, LineRule, Wireframe};
-    let (n, w, h) = if quick { (40, 320, 180) } else { (224, 1920, 1080) };
-    let mesh = meshes::terrain(n, 1000.0, 60.0);
-    let camera = Camera::framing(&mesh, w as f64 / h as f64, 45.0);
-    let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
+    let (mesh, camera, matrix, w, h) = framed_terrain(quick)?;
     let lines = edges(&mesh.triangles);
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
     let matrix_f32 = matrix.map(|r| r.map(|c| c as f32));
@@ -205,12 +215,7 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     for rule in [LineRule::Rectangle, LineRule::DiamondExit, LineRule::Bresenham] {
         let params = RenderParams { shading: Shading::Ids, faces: false, wireframe: Some(Wireframe { rule, colour: None }), eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, matrix) };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
-        let (gpu_cell, same) = if gpu {
-            let (t, g) = timed(runs, || render(&mesh, &params, Backend::Gpu).map_err(|e| e.to_string()))?;
-            (ms(&t), if g.colour == cpu.colour && g.ids == cpu.ids { "yes" } else { "**NO**" })
-        } else {
-            ("no adapter".into(), "–")
-        };
+        let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         let _ = writeln!(
             s,
             "| {} | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % |",
@@ -225,12 +230,7 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     // The vertices as points one pixel wide, against the device's point list.
     let params = RenderParams { shading: Shading::Ids, faces: false, points: Some(1.0), eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, matrix) };
     let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
-    let (gpu_cell, same) = if gpu {
-        let (t, g) = timed(runs, || render(&mesh, &params, Backend::Gpu).map_err(|e| e.to_string()))?;
-        (ms(&t), if g.colour == cpu.colour && g.ids == cpu.ids { "yes" } else { "**NO**" })
-    } else {
-        ("no adapter".into(), "–")
-    };
+    let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
     let (peer_time, theirs) = timed(runs, || peer.draw_point_ids(&positions, &matrix_f32, w, h))?;
     let _ = writeln!(
         s,
@@ -293,12 +293,7 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
     for filter in Filter::ALL {
         let params = RenderParams { shading: Shading::Unlit, cull: Cull::None, eye: Some(camera.eye), count_fragments: false, texture_filter: Some(filter), texture_address: Some(Address::Repeat), ..RenderParams::new(w, h, matrix) };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
-        let (gpu_cell, same) = if gpu {
-            let (t, g) = timed(runs, || render(&mesh, &params, Backend::Gpu).map_err(|e| e.to_string()))?;
-            (ms(&t), if g.colour == cpu.colour { "yes" } else { "**NO**" })
-        } else {
-            ("no adapter".into(), "–")
-        };
+        let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         let (peer_time, theirs) = timed(runs, || peer.draw(&mesh, &matrix, w, h, filter, Address::Repeat))?;
         let covered: Vec<usize> = (0..cpu.ids.len()).filter(|&k| cpu.ids[k] != NO_FACE).collect();
         let differ = covered.iter().filter(|&&k| (0..4).any(|c| cpu.colour[k].to_le_bytes()[c].abs_diff(theirs[k].to_le_bytes()[c]) > 1)).count();

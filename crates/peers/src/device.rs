@@ -47,6 +47,28 @@ pub(crate) fn mesh_pipeline(
     })
 }
 
+/// A render pass clearing `colour` to `clear` and, where given, `depth` to 1 (the depth is not
+/// kept): how the peers draw a frame.
+pub(crate) fn begin_pass<'e>(encoder: &'e mut wgpu::CommandEncoder, label: &str, colour: &wgpu::TextureView, clear: wgpu::Color, depth: Option<&wgpu::TextureView>) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: colour,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: depth.map(|view| wgpu::RenderPassDepthStencilAttachment {
+            view,
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
 /// A `width × height` render target of `format` that the peers draw into and copy out of.
 pub(crate) fn render_target(device: &wgpu::Device, label: &str, width: u32, height: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {

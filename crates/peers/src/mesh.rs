@@ -2,10 +2,10 @@
 
 use crate::device::{self, Gpu, Grown};
 
-/// The vertex stage multiplies by one 4×4 matrix (in `f32`, as a shader does) and flips `y`
-/// (wgpu's NDC `y` points up, tileraster's, as Vulkan's, down); the fragment stage writes the
-/// triangle's id, passed flat.
-const SHADER: &str = r#"
+/// The vertex stage of the peers that draw ids: it multiplies by one 4×4 matrix (in `f32`, as
+/// a shader does) and flips `y` (wgpu's NDC `y` points up, tileraster's, as Vulkan's, down),
+/// and passes the primitive's id on flat ([`Vertex`]).
+pub(crate) const ID_VERTEX_STAGE: &str = r#"
 struct Uniforms {
     m: mat4x4<f32>,
 };
@@ -24,7 +24,10 @@ fn vs_main(@location(0) position: vec3<f32>, @location(1) id: u32) -> Varyings {
     out.id = id;
     return out;
 }
+"#;
 
+/// The fragment stage writes the id.
+const FRAGMENT: &str = r#"
 @fragment
 fn fs_main(v: Varyings) -> @location(0) u32 {
     return v.id;
@@ -34,11 +37,12 @@ fn fs_main(v: Varyings) -> @location(0) u32 {
 const IDS: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
+/// A corner of a primitive, with the primitive's id.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Vertex {
-    position: [f32; 3],
-    id: u32,
+pub(crate) struct Vertex {
+    pub position: [f32; 3],
+    pub id: u32,
 }
 
 /// The id of a pixel no triangle covers.
@@ -65,7 +69,7 @@ impl MeshPipeline {
         let mut gpu = device::open("tileraster-peers mesh pipeline")?;
         let (depth_tested, in_order, lines, points, uniforms) = gpu.scoped(|gpu| {
             use wgpu::PrimitiveTopology::TriangleList as Triangles;
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("mesh peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("mesh peer"), source: wgpu::ShaderSource::Wgsl(format!("{ID_VERTEX_STAGE}{FRAGMENT}").into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
             let stride = std::mem::size_of::<Vertex>() as u64;
             let pipeline = |topology, depth: bool| device::mesh_pipeline(&gpu.device, &module, "mesh peer", topology, stride, &attributes, IDS, depth);
@@ -157,23 +161,7 @@ impl MeshPipeline {
             let depth_view = depth.as_ref().map(|d| d.create_view(&Default::default()));
             let mut encoder = gpu.device.create_command_encoder(&Default::default());
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("mesh peer"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &ids_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color { r: NO_ID as f64, g: 0.0, b: 0.0, a: 0.0 }), store: wgpu::StoreOp::Store },
-                    })],
-                    depth_stencil_attachment: depth_view.as_ref().map(|view| wgpu::RenderPassDepthStencilAttachment {
-                        view,
-                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = device::begin_pass(&mut encoder, "mesh peer", &ids_view, wgpu::Color { r: NO_ID as f64, g: 0.0, b: 0.0, a: 0.0 }, depth_view.as_ref());
                 if !vertices.is_empty() {
                     pass.set_pipeline(&pipeline);
                     pass.set_bind_group(0, &bind, &[]);

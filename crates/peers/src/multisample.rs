@@ -3,30 +3,11 @@
 //! one), the reference for tileraster's per-sample coverage and depth.
 
 use crate::device::{self, Gpu};
+use crate::mesh::{Vertex, ID_VERTEX_STAGE};
 
-/// The vertex stage of `MeshPipeline` (one matrix, `y` flipped); the fragment stage writes the
-/// triangle's id in the colour's three low bytes (exact in `Rgba8Unorm`, which every WebGPU
-/// device multisamples 4×).
-const DRAW: &str = r#"
-struct Uniforms {
-    m: mat4x4<f32>,
-};
-@group(0) @binding(0) var<uniform> u: Uniforms;
-
-struct Varyings {
-    @builtin(position) position: vec4<f32>,
-    @location(0) @interpolate(flat) id: u32,
-};
-
-@vertex
-fn vs_main(@location(0) position: vec3<f32>, @location(1) id: u32) -> Varyings {
-    let c = u.m * vec4<f32>(position, 1.0);
-    var out: Varyings;
-    out.position = vec4<f32>(c.x, -c.y, c.z, c.w);
-    out.id = id;
-    return out;
-}
-
+/// After `MeshPipeline`'s vertex stage, the fragment stage writes the triangle's id in the
+/// colour's three low bytes (exact in `Rgba8Unorm`, which every WebGPU device multisamples 4×).
+const FRAGMENT: &str = r#"
 @fragment
 fn fs_main(v: Varyings) -> @location(0) vec4<f32> {
     return vec4<f32>(f32(v.id & 255u), f32((v.id >> 8u) & 255u), f32((v.id >> 16u) & 255u), 255.0) / 255.0;
@@ -56,13 +37,6 @@ pub const PEER_SAMPLES: u32 = 4;
 /// The id of a sample no triangle covers.
 pub const NO_SAMPLE_ID: u32 = 0x00ff_ffff;
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Vertex {
-    position: [f32; 3],
-    id: u32,
-}
-
 /// A wgpu render pipeline drawing a mesh's triangles 4× multisampled, depth-tested (`Less`),
 /// with no culling; its samples' triangle ids are read back.
 pub struct MultisampledPipeline {
@@ -76,7 +50,7 @@ impl MultisampledPipeline {
         let mut gpu = device::open("tileraster-peers multisampled pipeline")?;
         let (draw, read) = gpu.scoped(|gpu| {
             let device = &gpu.device;
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("multisampled peer"), source: wgpu::ShaderSource::Wgsl(DRAW.into()) });
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("multisampled peer"), source: wgpu::ShaderSource::Wgsl(format!("{ID_VERTEX_STAGE}{FRAGMENT}").into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
             let draw = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("multisampled peer"),
@@ -182,23 +156,7 @@ impl MultisampledPipeline {
             });
             let mut encoder = device.create_command_encoder(&Default::default());
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("multisampled peer"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &target_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 }), store: wgpu::StoreOp::Store },
-                    })],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &depth_view,
-                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = device::begin_pass(&mut encoder, "multisampled peer", &target_view, wgpu::Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 }, Some(&depth_view));
                 pass.set_pipeline(&draw);
                 pass.set_bind_group(0, &draw_bind, &[]);
                 pass.set_vertex_buffer(0, vertex_buffer.slice(..));

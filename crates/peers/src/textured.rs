@@ -197,23 +197,7 @@ impl TexturedPipeline {
             let (colour_view, depth_view) = (colour.create_view(&Default::default()), depth.create_view(&Default::default()));
             let mut encoder = device.create_command_encoder(&Default::default());
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("textured peer"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &colour_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
-                    })],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &depth_view,
-                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = device::begin_pass(&mut encoder, "textured peer", &colour_view, wgpu::Color::TRANSPARENT, Some(&depth_view));
                 pass.set_pipeline(&pipeline);
                 pass.set_bind_group(0, &bind, &[]);
                 pass.set_vertex_buffer(0, vertex_buffer.slice(..));

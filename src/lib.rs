@@ -22,6 +22,9 @@ pub mod render;
 
 pub use tileraster_core::{Error, Grid, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window, MAX_GRID_DIM};
 pub use tileraster_core::kernels::pipeline::Stage;
+/// A fragment shader compiled for both backends (`render::FragmentStage`), from a shader crate
+/// that `tileraster-build` compiled in the build script: see `examples/procedural`.
+pub use tileraster_core::fragment_stage;
 
 /// Where the kernels run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -465,7 +465,12 @@ pub struct ShadeParams {
     pub light_colour: [[f32; 4]; MAX_LIGHTS],
     /// The depth view's range: `[near, 1 / (far − near)]`, depth `near` white, `far` black.
     pub depth_view: [f32; 4],
+    /// Values for a fragment program (`programs::fragment`), as the frame gives them.
+    pub constants: [f32; FRAGMENT_CONSTANTS],
 }
+
+/// Values a frame hands its fragment program (`ShadeParams::constants`).
+pub const FRAGMENT_CONSTANTS: usize = 8;
 
 impl ShadeParams {
     #[inline]

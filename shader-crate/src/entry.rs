@@ -1,4 +1,8 @@
-//! Compute entry points: unpack invocation ids and buffers, call the stage functions.
+//! Compute entry points: unpack invocation ids and buffers, call the stage functions. The
+//! stages that colour fragments come from `shading_entry_points!` (`programs::fragment`),
+//! whose bodies are here. Without the `entry-points` feature (in a fragment shader crate,
+//! which makes its own shading stages) only those bodies are compiled.
+#![cfg_attr(not(feature = "entry-points"), allow(unused_imports, dead_code))]
 //! The host dispatcher (`tileraster-cpu`) has one twin per entry point, with the same name.
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
@@ -7,6 +11,7 @@ use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::programs::depth::DepthProgram;
 use crate::programs::height::HeightProgram;
 use crate::programs::multisample::{self, SampleState, MAX_SAMPLES};
+use crate::programs::fragment::FragmentProgram;
 use crate::programs::shade::{blend_pixel, shade_pixel};
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
@@ -14,14 +19,15 @@ use crate::stages::setup::setup_triangle;
 use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use crate::BATCH;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
-use spirv_std::glam::UVec3;
-use spirv_std::spirv;
+pub use spirv_std::glam::UVec3;
+pub use spirv_std::spirv;
 
 /// Per-triangle stages are dispatched in 2D when there are more than 65,535 workgroups.
 fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
     gid.y * frame.dispatch_width + gid.x
 }
 
+#[cfg(feature = "entry-points")]
 #[spirv(compute(threads(64)))]
 pub fn setup(
     #[spirv(global_invocation_id)] gid: UVec3,
@@ -35,6 +41,7 @@ pub fn setup(
     }
 }
 
+#[cfg(feature = "entry-points")]
 #[spirv(compute(threads(64)))]
 pub fn bin_count(
     #[spirv(global_invocation_id)] gid: UVec3,
@@ -50,6 +57,7 @@ pub fn bin_count(
     }
 }
 
+#[cfg(feature = "entry-points")]
 #[spirv(compute(threads(256)))]
 pub fn bin_scan(
     #[spirv(local_invocation_index)] lid: u32,
@@ -66,6 +74,7 @@ pub fn bin_scan(
     scan::scan_write(lid, counts, n, shared, offsets);
 }
 
+#[cfg(feature = "entry-points")]
 #[spirv(compute(threads(64)))]
 pub fn bin_fill(
     #[spirv(global_invocation_id)] gid: UVec3,
@@ -83,6 +92,7 @@ pub fn bin_fill(
     }
 }
 
+#[cfg(feature = "entry-points")]
 #[spirv(compute(threads(16, 16)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fine_raster(
@@ -103,6 +113,7 @@ pub fn fine_raster(
 }
 
 /// Fine raster of the render pipeline: the depth test (`programs::depth`).
+#[cfg(feature = "entry-points")]
 #[spirv(compute(threads(16, 16)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fine_depth(
@@ -122,64 +133,69 @@ pub fn fine_depth(
     fine_raster_workgroup(&DepthProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
 }
 
-/// The render pipeline's shade stage (`programs::shade`): one invocation per window pixel,
-/// from the owner fine raster left there.
-#[spirv(compute(threads(16, 16)))]
+// The stages that colour fragments, with the built-in shadings (`programs::fragment`); a
+// user's shader crate compiles the same two around its own program.
+#[cfg(feature = "entry-points")]
+crate::shading_entry_points!(crate::programs::fragment::Builtin);
+
+/// The body of every `shade` entry point: one invocation per window pixel, from the owner fine
+/// raster left there, coloured by `program`.
 #[allow(clippy::too_many_arguments)]
-pub fn shade(
-    #[spirv(workgroup_id)] wg: UVec3,
-    #[spirv(local_invocation_index)] lid: u32,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] params: &ShadeParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] setups: &[TriangleSetup],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] shading: &[TriangleShading],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] textures: &[TextureInfo],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] texels: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] bins: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] values: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] owners: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] colours: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] faces: &mut [u32],
+pub fn shade_pixels<F: FragmentProgram>(
+    program: &F,
+    wg: UVec3,
+    lid: u32,
+    frame: &FrameParams,
+    params: &ShadeParams,
+    setups: &[TriangleSetup],
+    shading: &[TriangleShading],
+    textures: &[TextureInfo],
+    texels: &[u32],
+    offsets: &[u32],
+    bins: &[u32],
+    values: &[u32],
+    owners: &[u32],
+    colours: &mut [u32],
+    faces: &mut [u32],
 ) {
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
     if inside {
         let k = fine::window_index(i, j, frame);
         let out = if params.blend != 0 {
             let (bin_start, bin_len) = fine::bin_range(offsets, wg.y * frame.tiles_x + wg.x);
-            blend_pixel(params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
+            blend_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
         } else {
-            shade_pixel(params, setups, shading, textures, texels, owners[k], values[k], i, j)
+            shade_pixel(program, params, setups, shading, textures, texels, owners[k], values[k], i, j)
         };
         colours[k] = out.colour;
         faces[k] = out.face;
     }
 }
 
-/// Fine raster of the multisampled render pipeline (`programs::multisample`): every sample's
-/// coverage and depth, then each pixel shaded and resolved, in one workgroup per tile. Its
-/// tiles take neither the full-tile path nor the depth bounds (both speak of pixel centres).
-#[spirv(compute(threads(16, 16)))]
+/// The body of every `fine_samples` entry point: every sample's coverage and depth, then each
+/// pixel coloured by `fragment` and resolved, in one workgroup per tile. Its tiles take neither
+/// the full-tile path nor the depth bounds (both speak of pixel centres).
 #[allow(clippy::too_many_arguments)]
-pub fn fine_samples(
-    #[spirv(workgroup_id)] wg: UVec3,
-    #[spirv(local_invocation_index)] lid: u32,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bins: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] values: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owners: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] params: &ShadeParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] shading: &[TriangleShading],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] textures: &[TextureInfo],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] texels: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] colours: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] faces: &mut [u32],
-    #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
+pub fn fine_samples_workgroup<F: FragmentProgram>(
+    fragment: &F,
+    wg: UVec3,
+    lid: u32,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    values: &mut [u32],
+    owners: &mut [u32],
+    coverage: &mut [u32],
+    stats: &mut [u32],
+    tile_stats: &mut [u32],
+    params: &ShadeParams,
+    shading: &[TriangleShading],
+    textures: &[TextureInfo],
+    texels: &[u32],
+    colours: &mut [u32],
+    faces: &mut [u32],
+    shared: &mut FineShared<TriangleSetup, u64>,
 ) {
     let program = DepthProgram::of(frame);
     let tile = wg.y * frame.tiles_x + wg.x;
@@ -205,7 +221,7 @@ pub fn fine_samples(
     }
     fine::write_tile_stats(lid, tile, bin_len, 0, frame, tile_stats);
     if inside {
-        let out = multisample::resolve_samples(params, &program, setups, shading, textures, texels, &states, params.samples, i, j);
+        let out = multisample::resolve_samples(fragment, params, &program, setups, shading, textures, texels, &states, params.samples, i, j);
         let k = fine::window_index(i, j, frame);
         values[k] = out.depth;
         colours[k] = out.colour;

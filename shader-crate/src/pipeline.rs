@@ -327,6 +327,13 @@ impl Stage {
     pub fn name(self) -> &'static str {
         self.info().name
     }
+
+    /// Whether the stage colours fragments: its entry point comes from
+    /// `shading_entry_points!`, in the kernels or in a user's shader crate
+    /// (`programs::fragment`).
+    pub fn colours_fragments(self) -> bool {
+        matches!(self, Stage::Shade | Stage::FineSamples)
+    }
 }
 
 /// The stages of `pipeline`, in order.

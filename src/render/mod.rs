@@ -26,7 +26,7 @@ pub use camera::Camera;
 pub use diagnostics::{Checksums, TileCounts};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    edges, face_normals, prepare_render, prepare_world, validate_mesh, Address, Cull, Filter, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, LineRule, Mesh, RenderParams, Shading, Texture,
+    edges, face_normals, prepare_render, prepare_world, validate_mesh, Address, Cull, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, LineRule, Mesh, RenderParams, Shading, Texture,
     Wireframe, World, IDENTITY, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, NO_TEXTURE,
 };
 

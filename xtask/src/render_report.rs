@@ -148,6 +148,52 @@ pub fn run(quick: bool) -> Result<String, String> {
     s.push_str(&texture_section(quick, runs, gpu.is_some())?);
     s.push_str(&line_section(quick, runs, gpu.is_some())?);
     s.push_str(&msaa_section(quick, runs, gpu.is_some())?);
+    s.push_str(&fragment_section(quick, runs, gpu.is_some())?);
+    Ok(s)
+}
+
+/// The programmable fragment stage: the procedural marble of `examples/procedural` against the
+/// built-in Phong shading of the same frame, and against the same shader written in WGSL for
+/// the render pipeline (`MarblePipeline`), timed side by side, with the colours compared.
+fn fragment_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
+    let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
+    let mesh = procedural::scene();
+    let marble = procedural::params(&mesh, w, h).map_err(|e| e.to_string())?;
+    let phong = RenderParams { fragment: None, ..marble.clone() };
+    let mut peer = tileraster_peers::MarblePipeline::new()?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n### Programmable fragment stage\n\n\
+         The marble of `examples/procedural` (three octaves of value noise and Blinn-Phong lighting, a user's `no_std` function: \
+         [fragment-stage.md](fragment-stage.md)) on a sphere and a floor of {} triangles, {w}×{h}, against the built-in Phong shading of \
+         the same frame, medians of {runs} whole calls. The render pipeline is wgpu's on {} running the same shader written in WGSL \
+         (a depth buffer, the `Less` test, RGBA8 read back). \"differ\" is the share of covered pixels whose colour differs from \
+         tileraster's CPU frame by more than one unit in a channel, and the largest difference.\n",
+        mesh.triangles.len(),
+        peer.adapter_name()
+    );
+    let _ = writeln!(s, "| shading | tileraster cpu | tileraster gpu | render pipeline | cpu vs render pipeline | cpu = gpu | differ (largest) |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | --- | ---: |");
+    let (phong_time, phong_frame) = timed(runs, || render(&mesh, &phong, Backend::Cpu).map_err(|e| e.to_string()))?;
+    let (gpu_cell_phong, same_phong) = gpu_cell(gpu, runs, &mesh, &phong, &phong_frame)?;
+    let _ = writeln!(s, "| built-in Phong | {} | {gpu_cell_phong} | – | – | {same_phong} | – |", ms(&phong_time));
+    let (cpu_time, cpu) = timed(runs, || render(&mesh, &marble, Backend::Cpu).map_err(|e| e.to_string()))?;
+    let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &marble, &cpu)?;
+    let (peer_time, theirs) = timed(runs, || peer.draw(&mesh, &marble))?;
+    let covered: Vec<usize> = (0..cpu.ids.len()).filter(|&k| cpu.ids[k] != NO_FACE).collect();
+    let channel_diff = |k: usize| (0..4).map(|c| cpu.colour[k].to_le_bytes()[c].abs_diff(theirs[k].to_le_bytes()[c])).max().unwrap_or(0);
+    let differ = covered.iter().filter(|&&k| channel_diff(k) > 1).count();
+    let largest = covered.iter().map(|&k| channel_diff(k)).max().unwrap_or(0);
+    let _ = writeln!(
+        s,
+        "| marble (fragment shader) | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % ({largest}) |",
+        ms(&cpu_time),
+        ms(&peer_time),
+        peer_time.median / cpu_time.median,
+        100.0 * differ as f64 / covered.len().max(1) as f64
+    );
+    eprintln!("render-report: fragment stage done");
     Ok(s)
 }
 

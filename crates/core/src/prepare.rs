@@ -96,6 +96,8 @@ pub struct RenderInputs {
     /// The frame's textures and their texels (`programs::texture`).
     pub textures: Vec<TextureInfo>,
     pub texels: Vec<u32>,
+    /// The frame's fragment shader; `None`: the built-in shadings.
+    pub fragment: Option<crate::render::FragmentStage>,
 }
 
 impl Prepared {

@@ -3,6 +3,7 @@ use crate::device::{Gpu, Grown};
 use rayon::prelude::*;
 use crate::float_controls::{self, FloatControls};
 use std::sync::{Mutex, OnceLock};
+use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, Scope, StageBuffers, StageInfo, STAGES};
@@ -144,7 +145,16 @@ struct GpuContext {
     float_modes: Option<Result<(), String>>,
     /// One per row of the stage table, in its order.
     pipelines: Vec<StagePipeline>,
+    /// The fragment shaders' pipelines, built on first use.
+    fragments: Vec<FragmentPipelines>,
     buffers: Buffers,
+}
+
+/// A fragment shader's pipelines: the stage table's rows that colour fragments, from its
+/// module (`None` for the other rows, which the kernels' module runs).
+struct FragmentPipelines {
+    stage: FragmentStage,
+    pipelines: Vec<Option<StagePipeline>>,
 }
 
 /// Prefer a real GPU, then an integrated one, then a CPU implementation such as lavapipe.
@@ -189,7 +199,7 @@ impl GpuContext {
         let declared = float_controls.declared(&adapter.get_info());
         let kernels = if declared { crate::KERNELS_FLOAT_CONTROLS_SPV } else { crate::KERNELS_SPV };
         let scope = gpu.error_scope();
-        let pipelines = stage_pipelines(device, kernels);
+        let pipelines = stage_pipelines(device, "tileraster kernels", kernels, |_| true).into_iter().map(|p| p.expect("every row")).collect();
         if let Some(e) = scope.finish() {
             return Err(Error::Gpu(format!("the kernels were rejected by the device: {e}")));
         }
@@ -212,7 +222,7 @@ impl GpuContext {
             faces: Grown::storage("faces"),
             readback: Grown::readback("readback"),
         };
-        Ok(GpuContext { gpu, float_controls, float_controls_declared: declared, float_modes: None, pipelines, buffers })
+        Ok(GpuContext { gpu, float_controls, float_controls_declared: declared, float_modes: None, pipelines, fragments: Vec::new(), buffers })
     }
 
     /// The first `bytes` of `source`, copied out through a buffer the host maps.
@@ -316,6 +326,10 @@ impl GpuContext {
         if whole && resident.is_none() {
             *resident = Some(self.upload_and_setup(prepared, None)?);
         }
+        let fragment = match prepared.render.as_ref().and_then(|r| r.fragment.as_ref()) {
+            Some(stage) => Some(self.fragment_pipelines(stage)?),
+            None => None,
+        };
         let shade_params = prepared.render.as_ref().map(|s| {
             let buf = self.buffers.shade_params.get(&self.gpu.device, std::mem::size_of::<ShadeParams>() as u64);
             self.gpu.queue.write_buffer(&buf, 0, bytemuck::bytes_of(&s.params));
@@ -368,12 +382,12 @@ impl GpuContext {
             let window_counters = match &part {
                 None => {
                     let r = resident.as_ref().expect("a whole scene is set up before its windows");
-                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
+                    let scene = SceneBuffers { pipeline: prepared.pipeline(), fragment, setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
                     self.rasterise_window(&frame, entries, &scene, listed_buf.as_ref().expect("listed with the whole scene"), None, raster)?
                 }
                 Some(slots) => {
                     let r = self.upload_and_setup(prepared, Some(slots))?;
-                    let scene = SceneBuffers { pipeline: prepared.pipeline(), setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
+                    let scene = SceneBuffers { pipeline: prepared.pipeline(), fragment, setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
                     // The part's setups are its own slots 0, 1, ...: the binning stages take them all.
                     let local: Vec<u32> = (0..slots.len() as u32).collect();
                     let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
@@ -398,18 +412,41 @@ impl GpuContext {
         (x, y)
     }
 
+    /// The pipelines of fragment shader `stage` (an index into `self.fragments`), built from its
+    /// module on first use.
+    fn fragment_pipelines(&mut self, stage: &FragmentStage) -> Result<usize, Error> {
+        if let Some(k) = self.fragments.iter().position(|f| f.stage == *stage) {
+            return Ok(k);
+        }
+        let scope = self.gpu.error_scope();
+        let label = format!("fragment shader {}", stage.name);
+        let pipelines = stage_pipelines(&self.gpu.device, &label, stage.module(self.float_controls_declared), |info| info.stage.colours_fragments());
+        if let Some(e) = scope.finish() {
+            return Err(Error::Gpu(format!("the {label} was rejected by the device: {e}")));
+        }
+        self.fragments.push(FragmentPipelines { stage: *stage, pipelines });
+        Ok(self.fragments.len() - 1)
+    }
+
     /// Record the stages of `scope`, in the stage table's order, each with its bindings looked
-    /// up by role in `buffers` and its workgroups by its dispatch shape.
+    /// up by role in `buffers` and its workgroups by its dispatch shape; the stages that colour
+    /// fragments from fragment shader `fragment` where one is given.
+    #[allow(clippy::too_many_arguments)]
     fn encode_stages(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         pipeline: Pipeline,
+        fragment: Option<usize>,
         scope: Scope,
         frame: &FrameParams,
         triangle_groups: (u32, u32),
         buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
     ) -> Result<(), Error> {
-        for (info, stage) in STAGES.iter().zip(&self.pipelines).filter(|(info, _)| info.scope == scope && info.runs_in(pipeline)) {
+        for (k, info) in STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline)) {
+            let stage = match fragment {
+                Some(f) if info.stage.colours_fragments() => self.fragments[f].pipelines[k].as_ref().expect("a fragment shader has every row that colours fragments"),
+                _ => &self.pipelines[k],
+            };
             let bound: Vec<wgpu::Buffer> = info
                 .bindings
                 .iter()
@@ -481,7 +518,7 @@ impl GpuContext {
             Buffer::Setups => Some(setups.clone()),
             _ => None,
         };
-        self.encode_stages(&mut encoder, prepared.pipeline(), Scope::Scene, &frame, groups, &buffers)?;
+        self.encode_stages(&mut encoder, prepared.pipeline(), None, Scope::Scene, &frame, groups, &buffers)?;
         self.gpu.queue.submit([encoder.finish()]);
         Ok(Resident { setups, shading })
     }
@@ -558,7 +595,7 @@ impl GpuContext {
                 Buffer::Faces => faces.clone(),
             })
         };
-        self.encode_stages(&mut encoder, scene.pipeline, Scope::Window, &frame, groups, &buffers)?;
+        self.encode_stages(&mut encoder, scene.pipeline, scene.fragment, Scope::Window, &frame, groups, &buffers)?;
         encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
         encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
         encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_bytes);
@@ -615,6 +652,8 @@ impl GpuContext {
 /// A scene's buffers on the device, as one window's dispatches bind them.
 struct SceneBuffers<'a> {
     pipeline: Pipeline,
+    /// The frame's fragment shader (an index into `GpuContext::fragments`).
+    fragment: Option<usize>,
     setups: &'a wgpu::Buffer,
     /// The render pipeline's: per-triangle attributes, and the frame's shade parameters.
     shading: Option<&'a wgpu::Buffer>,
@@ -648,28 +687,32 @@ fn copy_tile_rows(src: &[u32], frame: &FrameParams, window: &tileraster_core::Wi
     }
 }
 
-/// Every stage's pipeline, from the stage table: an explicit bind group layout per stage
-/// (read-only or read-write storage buffers, as the table says) over one passthrough module
-/// (`kernels`), so the driver receives rust-gpu's SPIR-V with its `NoContraction` decorations
-/// and float controls intact.
-fn stage_pipelines(device: &wgpu::Device, kernels: &[u8]) -> Vec<StagePipeline> {
-    let words = wgpu::util::make_spirv_raw(kernels);
+/// The pipelines of the stage table's rows that `rows` picks (`None` for the others), from
+/// the table: an explicit bind group layout per stage (read-only or read-write storage
+/// buffers, as the table says) over one passthrough module (`module`: the kernels, or a
+/// fragment shader's), so the driver receives rust-gpu's SPIR-V with its `NoContraction`
+/// decorations and float controls intact.
+fn stage_pipelines(device: &wgpu::Device, label: &str, module: &[u8], rows: impl Fn(&StageInfo) -> bool) -> Vec<Option<StagePipeline>> {
+    let words = wgpu::util::make_spirv_raw(module);
     let entry_points: Vec<wgpu::PassthroughShaderEntryPoint> = STAGES
         .iter()
+        .filter(|s| rows(s))
         .map(|s| wgpu::PassthroughShaderEntryPoint { name: s.entry_point.into(), workgroup_size: (s.workgroup[0], s.workgroup[1], s.workgroup[2]) })
         .collect();
     // SAFETY: the module is rust-gpu's output, validated by spirv-val when it was built, and
     // `tests/spirv.rs` checks that every entry point binds exactly what its row of the stage
-    // table (and so the layout below) says, with the table's workgroup size.
+    // table (and so the layout below) says, with the table's workgroup size; a fragment
+    // shader's entry points are the same source (`shading_entry_points!`), and
+    // `tileraster-build` checks them against the table as it writes the module.
     let module = unsafe {
         device.create_shader_module_passthrough(wgpu::ShaderModuleDescriptorPassthrough {
-            label: Some("tileraster kernels"),
+            label: Some(label),
             entry_points: entry_points.into(),
             spirv: Some(words),
             ..Default::default()
         })
     };
-    STAGES.iter().map(|info| stage_pipeline(device, &module, info)).collect()
+    STAGES.iter().map(|info| rows(info).then(|| stage_pipeline(device, &module, info))).collect()
 }
 
 fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &StageInfo) -> StagePipeline {

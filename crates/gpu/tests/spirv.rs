@@ -6,9 +6,9 @@
 //! same module. Needs no adapter.
 
 use rspirv::dr::{load_words, Instruction, Module, Operand};
-use rspirv::spirv::{Capability, Decoration, ExecutionMode, Op, StorageClass};
-use std::collections::{BTreeMap, HashMap, HashSet};
-use tileraster_kernels::pipeline::{Access, STAGES};
+use rspirv::spirv::{Capability, Decoration, ExecutionMode, Op};
+use std::collections::HashSet;
+use tileraster_kernels::pipeline::STAGES;
 
 fn load(bytes: &[u8]) -> Module {
     let words: Vec<u32> = bytes.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b)).collect();
@@ -31,66 +31,48 @@ fn id(op: &Operand) -> u32 {
     }
 }
 
-/// Decorations by target id.
-fn decorations(m: &Module) -> HashMap<u32, Vec<(Decoration, Vec<Operand>)>> {
-    let mut out: HashMap<u32, Vec<_>> = HashMap::new();
-    for a in m.annotations.iter().filter(|a| a.class.opcode == Op::Decorate) {
-        if let Operand::Decoration(d) = a.operands[1] {
-            out.entry(id(&a.operands[0])).or_default().push((d, a.operands[2..].to_vec()));
-        }
-    }
-    out
-}
-
-fn literal(ops: &[Operand]) -> u32 {
-    match ops.first() {
-        Some(Operand::LiteralBit32(v)) => *v,
-        other => panic!("expected a literal, found {other:?}"),
-    }
-}
+use tileraster_build::check::{self, decorations};
 
 #[test]
 fn every_entry_point_binds_what_the_stage_table_says() {
-    let m = module();
-    let decorated = decorations(&m);
-    let storage_buffers: HashSet<u32> = m
-        .types_global_values
-        .iter()
-        .filter(|i| i.class.opcode == Op::Variable && i.operands.first() == Some(&Operand::StorageClass(StorageClass::StorageBuffer)))
-        .filter_map(|i| i.result_id)
-        .collect();
-    let entries: HashMap<String, &Instruction> = m
-        .entry_points
-        .iter()
-        .map(|e| match &e.operands[2] {
-            Operand::LiteralString(name) => (name.clone(), e),
-            other => panic!("entry point name: {other:?}"),
-        })
-        .collect();
-    assert_eq!(entries.len(), STAGES.len(), "the module's entry points {:?} are not the stage table's", entries.keys().collect::<Vec<_>>());
-    for info in &STAGES {
-        let entry = entries.get(info.entry_point).unwrap_or_else(|| panic!("{}: no entry point {:?} in the module", info.name, info.entry_point));
-        let function = id(&entry.operands[1]);
-        // Binding number → read-only, for every storage buffer the entry point's interface lists.
-        let mut bound = BTreeMap::new();
-        for var in entry.operands[3..].iter().map(id).filter(|v| storage_buffers.contains(v)) {
-            let ds = decorated.get(&var).map(Vec::as_slice).unwrap_or_default();
-            let find = |d: Decoration| ds.iter().find(|(k, _)| *k == d).map(|(_, ops)| literal(ops));
-            assert_eq!(find(Decoration::DescriptorSet), Some(0), "{}: buffer %{var} outside descriptor set 0", info.name);
-            let binding = find(Decoration::Binding).unwrap_or_else(|| panic!("{}: buffer %{var} has no binding", info.name));
-            let read_only = ds.iter().any(|(k, _)| *k == Decoration::NonWritable);
-            assert!(bound.insert(binding, read_only).is_none(), "{}: binding {binding} twice", info.name);
-        }
-        let table: BTreeMap<u32, bool> = info.bindings.iter().enumerate().map(|(k, b)| (k as u32, b.access == Access::Read)).collect();
-        assert_eq!(bound, table, "{}: bindings in the SPIR-V (number → read-only) differ from the stage table's", info.name);
-        let size = m
-            .execution_modes
-            .iter()
-            .find(|e| id(&e.operands[0]) == function && e.operands[1] == Operand::ExecutionMode(ExecutionMode::LocalSize))
-            .map(|e| [2, 3, 4].map(|k| literal(&e.operands[k..])))
-            .unwrap_or_else(|| panic!("{}: no LocalSize", info.name));
-        assert_eq!(size, info.workgroup, "{}: workgroup size", info.name);
+    for (name, m) in modules() {
+        let problems = check::entry_points(&m, |_| true);
+        assert!(problems.is_empty(), "{name}: the entry points differ from the stage table:\n{}", problems.join("\n"));
     }
+}
+
+/// The check above finds what it looks for: a module with an entry point's binding moved,
+/// one with a workgroup size changed, and one missing an entry point all fail it.
+#[test]
+fn the_stage_table_check_finds_a_broken_module() {
+    let mut moved = module();
+    let binding = moved.annotations.iter_mut().find(|a| a.operands.get(1) == Some(&Operand::Decoration(Decoration::Binding))).expect("a binding");
+    binding.operands[2] = Operand::LiteralBit32(40);
+    assert!(!check::entry_points(&moved, |_| true).is_empty(), "a moved binding");
+    let mut resized = module();
+    let size = resized.execution_modes.iter_mut().find(|e| e.operands[1] == Operand::ExecutionMode(ExecutionMode::LocalSize)).expect("a local size");
+    size.operands[2] = Operand::LiteralBit32(7);
+    assert!(!check::entry_points(&resized, |_| true).is_empty(), "a workgroup size");
+    let mut missing = module();
+    missing.entry_points.pop();
+    assert!(!check::entry_points(&missing, |_| true).is_empty(), "an entry point missing");
+    // Only the shading stages: the kernels' module has entry points such a module must not.
+    assert!(!check::entry_points(&module(), |info| info.stage.colours_fragments()).is_empty(), "extra entry points");
+}
+
+/// The kernels hold no float arithmetic whose bits differ between devices (what
+/// `tileraster-build` refuses in a fragment shader too), and the check finds such an
+/// instruction where there is one.
+#[test]
+fn the_kernels_hold_only_portable_arithmetic() {
+    for (name, m) in modules() {
+        let problems = check::portable(&m);
+        assert!(problems.is_empty(), "{name}:\n{}", problems.join("\n"));
+    }
+    let mut divided = module();
+    let product = divided.functions.iter_mut().flat_map(|f| f.blocks.iter_mut()).flat_map(|b| b.instructions.iter_mut()).find(|i| i.class.opcode == Op::FMul).expect("a float product");
+    *product = Instruction::new(Op::FDiv, product.result_type, product.result_id, product.operands.clone());
+    assert_eq!(check::portable(&divided).len(), 1, "one division");
 }
 
 /// Instructions that produce a float without arithmetic a driver could fuse: moves, loads,

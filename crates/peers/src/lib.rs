@@ -9,6 +9,8 @@
 //!   sample's triangle id read back: the reference for multisampled coverage.
 //! - [`TexturedPipeline`]: a textured mesh drawn by the same rasteriser and its texture units:
 //!   the reference for texture sampling.
+//! - [`MarblePipeline`]: the procedural marble of `examples/procedural` as a WGSL fragment
+//!   shader in the same rasteriser: the peer of the programmable fragment stage.
 //! - [`fill_cpu`] and [`GpuFill`]: store-bandwidth rooflines, the least work any raster call
 //!   must do (write every cell once and hand the raster to the host).
 //! - [`gdal_grid_linear`]: `gdal_grid -a linear` as an external process, when installed.
@@ -16,6 +18,7 @@
 mod device;
 mod fill;
 mod gdal;
+mod marble;
 mod mesh;
 mod multisample;
 mod render;
@@ -23,6 +26,7 @@ mod textured;
 
 pub use fill::{GpuFill, fill_cpu};
 pub use gdal::{gdal_grid_linear, gdal_grid_linear_radius, gdal_grid_version};
+pub use marble::MarblePipeline;
 pub use mesh::{MeshPipeline, NO_ID};
 pub use multisample::{MultisampledPipeline, NO_SAMPLE_ID, PEER_SAMPLES};
 pub use render::RenderPipeline;

@@ -1,9 +1,11 @@
 //! Pixel programs: what fine raster computes at a pixel once coverage has found the
 //! triangles over it (`stages::fine::PixelProgram`), one module per pipeline, and what the
 //! render pipeline's shade stage computes from the pixel's owner (`shade`); multisampled
-//! frames test, key and shade their samples in one stage (`multisample`).
+//! frames test, key and shade their samples in one stage (`multisample`). What colours a
+//! fragment is a program of its own (`fragment`): the built-in shadings or a user's.
 
 pub mod depth;
+pub mod fragment;
 pub mod height;
 pub mod multisample;
 pub mod occlusion;

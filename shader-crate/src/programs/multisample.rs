@@ -17,7 +17,7 @@ use crate::abi::{Coverage, ShadeParams, TextureInfo, TriangleSetup, TriangleShad
 use crate::math::edge::{side_of, Side};
 use crate::programs::depth::{depth_bits, DepthProgram};
 use crate::programs::height::barycentric_bits_of;
-use crate::programs::shade::fragment_colour;
+use crate::programs::fragment::FragmentProgram;
 use crate::stages::fine::FineShared;
 use crate::NO_OWNER;
 
@@ -128,12 +128,13 @@ pub struct Resolved {
     pub depth: u32,
 }
 
-/// Phase 3: shade each triangle that owns a sample of pixel `(i, j)` once, at the centre; the
-/// background where a sample has no owner; average the samples' colours channel by channel,
+/// Phase 3: shade each triangle that owns a sample of pixel `(i, j)` once, at the centre, with
+/// the fragment program `fragment`; the background where a sample has no owner; average the samples' colours channel by channel,
 /// rounded to nearest.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-pub fn resolve_samples(
+pub fn resolve_samples<F: FragmentProgram + ?Sized>(
+    fragment: &F,
     params: &ShadeParams,
     program: &DepthProgram,
     setups: &[TriangleSetup],
@@ -161,7 +162,7 @@ pub fn resolve_samples(
                 colours[t as usize]
             } else {
                 let setup = &setups[slot as usize];
-                fragment_colour(params, setup, &shading[slot as usize], textures, texels, depth_bits(setup, i, j), i, j)
+                fragment.colour(params, setup, &shading[slot as usize], textures, texels, depth_bits(setup, i, j), i, j)
             };
         }
         colours[s as usize] = colour;

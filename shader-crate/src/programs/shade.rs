@@ -13,6 +13,7 @@ use crate::math::fixed::fixed_to_f32_bits;
 use crate::math::float::{div, recip, sqrt};
 use crate::math::edge::Side;
 use crate::programs::depth::{depth_bits, DepthProgram};
+use crate::programs::fragment::FragmentProgram;
 use crate::programs::texture::{self, lod};
 use crate::stages::fine::side;
 use crate::{FULL_TILE_BIT, NO_OWNER};
@@ -57,13 +58,13 @@ pub fn interpolate(t: &TriangleShading, b: &[f32; 3], a: usize) -> f32 {
 
 /// The colour attribute interpolated with weights `b`.
 #[inline]
-fn colour_at(t: &TriangleShading, b: &[f32; 3]) -> [f32; 4] {
+pub(crate) fn colour_at(t: &TriangleShading, b: &[f32; 3]) -> [f32; 4] {
     [interpolate(t, b, ATTR_COLOUR), interpolate(t, b, ATTR_COLOUR + 1), interpolate(t, b, ATTR_COLOUR + 2), interpolate(t, b, ATTR_COLOUR + 3)]
 }
 
 /// Three consecutive attributes from `a`.
 #[inline]
-fn interpolate3(t: &TriangleShading, b: &[f32; 3], a: usize) -> [f32; 3] {
+pub(crate) fn interpolate3(t: &TriangleShading, b: &[f32; 3], a: usize) -> [f32; 3] {
     [interpolate(t, b, a), interpolate(t, b, a + 1), interpolate(t, b, a + 2)]
 }
 
@@ -148,9 +149,10 @@ pub fn id_colour(id: u32) -> u32 {
 }
 
 /// Lambert diffuse plus Blinn-Phong specular of the lights at a point with unit normal `n`,
-/// on the base colour `base`; `p` is the point in the world.
+/// on the base colour `base`; `p` is the point in the world. A fragment shader may light its
+/// own colour with it.
 #[inline]
-fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
+pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
     let eye = [params.eye[0] - p[0], params.eye[1] - p[1], params.eye[2] - p[2]];
     let v = normalise(eye);
     let mut diffuse = [params.ambient[0], params.ambient[1], params.ambient[2]];
@@ -183,15 +185,15 @@ fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32
 }
 
 /// The shaded pixel `(i, j)` owned by setup slot `slot` (`NO_OWNER`: the background), whose
-/// depth is `depth_bits`.
+/// depth is `depth_bits`, coloured by `program`.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn shade_pixel(params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], textures: &[TextureInfo], texels: &[u32], slot: u32, depth_bits: u32, i: i32, j: i32) -> Shaded {
+pub fn shade_pixel<P: FragmentProgram + ?Sized>(program: &P, params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], textures: &[TextureInfo], texels: &[u32], slot: u32, depth_bits: u32, i: i32, j: i32) -> Shaded {
     if slot == NO_OWNER {
         return Shaded { colour: params.background, face: NO_OWNER };
     }
     let t = &shading[slot as usize];
-    Shaded { colour: fragment_colour(params, &setups[slot as usize], t, textures, texels, depth_bits, i, j), face: t.face }
+    Shaded { colour: program.colour(params, &setups[slot as usize], t, textures, texels, depth_bits, i, j), face: t.face }
 }
 
 /// The texture coordinates of triangle `(s, t)` at pixel `(i, j)`.
@@ -209,7 +211,7 @@ fn uv_at(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: 
 /// they lie inside it.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], b: &[f32; 3], i: i32, j: i32) -> [f32; 4] {
+pub(crate) fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], b: &[f32; 3], i: i32, j: i32) -> [f32; 4] {
     let colour = colour_at(t, b);
     if t.texture == NO_TEXTURE {
         return colour;
@@ -234,7 +236,8 @@ fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, tex
     ]
 }
 
-/// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`.
+/// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`,
+/// in the built-in shading the frame names (`programs::fragment::Builtin`).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> u32 {
@@ -283,11 +286,13 @@ pub fn source_over(src: u32, dst: u32) -> u32 {
 /// The blended pixel `(i, j)`: every fragment of the tile's bin (`bin`, setup slots) whose
 /// triangle covers the centre, in submission order (ascending slot), tested against the
 /// running depth as the frame's depth test says (written back when it writes depth) and
-/// blended source-over onto the background; the face is the last fragment that passed.
+/// blended source-over onto the background, each coloured by `program`; the face is the last
+/// fragment that passed.
 /// Each step finds the next slot by a walk over the bin: `(fragments + 1) × bin` iterations.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn blend_pixel(
+pub fn blend_pixel<P: FragmentProgram + ?Sized>(
+    program: &P,
     params: &ShadeParams,
     clear_bits: u32,
     setups: &[TriangleSetup],
@@ -324,7 +329,7 @@ pub fn blend_pixel(
         let against = DepthProgram { clear: running, ..test };
         if against.passes(f32::from_bits(d)) {
             let t = &shading[next as usize];
-            out = Shaded { colour: source_over(fragment_colour(params, s, t, textures, texels, d, i, j), out.colour), face: t.face };
+            out = Shaded { colour: source_over(program.colour(params, s, t, textures, texels, d, i, j), out.colour), face: t.face };
             if write {
                 running = f32::from_bits(d);
             }

@@ -18,10 +18,12 @@
 //! - **Viewport and snapping**: pixel centres at `+0.5`, vertices rounded to 8 sub-pixel bits
 //!   (16.8 fixed point, as Direct3D 11 and Vulkan's 2022 roadmap require).
 
+mod fragment;
 mod instances;
 mod lines;
 mod texture;
 
+pub use fragment::{FragmentConstants, FragmentStage};
 pub use instances::{Instance, World};
 pub use lines::{edges, LineRule, Wireframe};
 pub use texture::{Texture, MAX_TEXTURE_DIM};
@@ -200,6 +202,11 @@ pub struct RenderParams {
     /// `empty_tiles`, `cull_window`, `hidden_triangles` and `cull_instances` apply; the depth test needs the
     /// rest off.
     pub skips: Skips,
+    /// A fragment shader that colours every fragment instead of `shading`
+    /// ([`fragment_stage!`](crate::fragment_stage)); `None`: the built-in shadings.
+    pub fragment: Option<FragmentStage>,
+    /// Values the fragment shader reads (`ShadeParams::constants`); zeros by default.
+    pub fragment_constants: FragmentConstants,
 }
 
 impl RenderParams {
@@ -233,6 +240,8 @@ impl RenderParams {
             samples: 1,
             layer_sample: 0,
             skips: Skips::ALL,
+            fragment: None,
+            fragment_constants: [0.0; tileraster_kernels::abi::FRAGMENT_CONSTANTS],
         }
     }
 }
@@ -483,8 +492,10 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{first_vertex} vertices, {bytes} bytes ({e})") })?;
     world.resize(first_vertex, [0.0; 3]);
     vertices.resize(first_vertex, ClipVertex::default());
+    // A fragment shader takes the vertex attributes as they are (no lighting on the host).
+    let shading = if params.fragment.is_some() { Shading::Unlit } else { params.shading };
     // The depth and id views read no attribute: they carry zeros, and no normal is computed.
-    let attributes_used = params.shading.reads_attributes();
+    let attributes_used = shading.reads_attributes();
     let mut base_normals: Vec<Option<Vec<[f32; 3]>>> = vec![None; meshes.len()];
     if attributes_used {
         for p in &placements {
@@ -524,7 +535,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
             }
             let n = normals[v].map(f64::from);
             let mut colour = mesh.colours.as_ref().map_or(GREY, |c| c[v]).map(f64::from);
-            if params.shading == Shading::Smooth {
+            if shading == Shading::Smooth {
                 colour = lit(colour, unit(n), p);
             }
             let uv = mesh.uvs.as_ref().map_or([0.0; 2], |t| t[v]).map(f64::from);
@@ -594,7 +605,7 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
                 flat = Some(corners[0].attributes);
             }
             let counting = emit.counting();
-            if !counting && params.shading == Shading::Flat {
+            if !counting && shading == Shading::Flat {
                 // One colour per face: its first vertex's, lit with the face normal there.
                 let q = tri.map(|v| world[v]);
                 let n = unit(cross(sub(q[1], q[0]), sub(q[2], q[0])));
@@ -679,7 +690,14 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
         culled: culled as usize,
         degenerate: counts.culled_zero_area as usize,
         overlap_free_rows: None,
-        render: Some(RenderInputs { triangles: shading, params: shade, depth_test: DepthTest::new(params.depth_func, params.depth_write), textures: texture_infos, texels }),
+        render: Some(RenderInputs {
+            triangles: shading,
+            params: shade,
+            depth_test: DepthTest::new(params.depth_func, params.depth_write),
+            textures: texture_infos,
+            texels,
+            fragment: params.fragment,
+        }),
     };
     Ok((prepared, counts))
 }
@@ -708,6 +726,7 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, f
         depth_view: [near as f32, (1.0 / (far - near).max(1e-6)) as f32, 0.0, 0.0],
         samples: params.samples,
         layer_sample: params.layer_sample,
+        constants: params.fragment_constants,
         ..Default::default()
     };
     for (k, l) in lights.iter().enumerate() {

@@ -1,6 +1,7 @@
 //! Twin of the `fine_samples` entry point (`programs::multisample`): each tile as the GPU runs
 //! its workgroup, with the entry point's branches, every invocation's `fine_load` and
-//! `test_samples` batch by batch, then `resolve_samples` per pixel; tiles in parallel.
+//! `test_samples` batch by batch, then `resolve_samples` per pixel with the frame's fragment
+//! program; tiles in parallel.
 
 use super::fine::StatCounters;
 use super::AtomicSlice;
@@ -24,6 +25,7 @@ struct TileOut {
 pub fn fine_samples(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
     let program = DepthProgram::of(frame);
     let params = &inputs.params;
+    let fragment = super::shade::fragment_program(inputs);
     let stats: StatCounters = std::array::from_fn(|_| AtomicU32::new(0));
     let tiles: Vec<TileOut> = (0..frame.tile_count())
         .into_par_iter()
@@ -56,7 +58,7 @@ pub fn fine_samples(frame: &FrameParams, inputs: &RenderInputs, setups: &[Triang
                 .filter_map(|lid| {
                     let (i, j, inside) = fine::tile_pixel(tx, ty, lid, frame);
                     inside.then(|| {
-                        let out = resolve_samples(params, &program, setups, &inputs.triangles, &inputs.textures, &inputs.texels, &states[lid as usize], params.samples, i, j);
+                        let out = resolve_samples(fragment, params, &program, setups, &inputs.triangles, &inputs.textures, &inputs.texels, &states[lid as usize], params.samples, i, j);
                         (i, j, out, counts[lid as usize])
                     })
                 })

@@ -1,13 +1,15 @@
 //! Twin of the `shade` entry point: every pixel of the frame, rows in parallel, through the
-//! kernel's `shade_pixel` (or `blend_pixel`, over the pixel's tile's bin).
+//! kernel's `shade_pixel` (or `blend_pixel`, over the pixel's tile's bin), with the frame's
+//! fragment program: the built-in shadings, or the user's shader called natively.
 //!
-//! The id view reads nothing of a pixel but its owner (`fragment_colour`'s `Ids` arm): there a
+//! The built-in id view reads nothing of a pixel but its owner (`fragment_colour`'s `Ids` arm): there a
 //! run of pixels with the same owner is shaded once, with the kernel's function, so the bits
 //! are the GPU's.
 
 use rayon::prelude::*;
 use tileraster_core::{Raster, RenderInputs};
 use tileraster_kernels::abi::{FrameParams, ShadeMode, TriangleSetup};
+use tileraster_kernels::programs::fragment::{Builtin, FragmentProgram};
 use tileraster_kernels::programs::shade::{blend_pixel, shade_pixel};
 use tileraster_kernels::stages::fine;
 use tileraster_kernels::TILE;
@@ -24,7 +26,8 @@ pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup
     };
     let first_row = (frame.win_y0 - y0) as usize;
     let columns = (frame.win_x0 - x0) as usize..(frame.win_x0 - x0 + frame.win_w) as usize;
-    let by_owner = params.blend == 0 && params.mode() == ShadeMode::Ids;
+    let program = fragment_program(inputs);
+    let by_owner = inputs.fragment.is_none() && params.blend == 0 && params.mode() == ShadeMode::Ids;
     colours
         .par_chunks_mut(stride)
         .zip(faces.par_chunks_mut(stride))
@@ -40,7 +43,7 @@ pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup
                     let owner = owners[k];
                     let out = match last {
                         Some((o, out)) if o == owner => out,
-                        _ => shade_pixel(params, setups, shading, textures, texels, owner, depths[k].to_bits(), (x0 as usize + x) as i32, j),
+                        _ => shade_pixel(program, params, setups, shading, textures, texels, owner, depths[k].to_bits(), (x0 as usize + x) as i32, j),
                     };
                     last = Some((owner, out));
                     colour_row[x] = out.colour;
@@ -54,12 +57,20 @@ pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup
                 let out = if params.blend != 0 {
                     let tile = (j as u32 - frame.win_y0) / TILE * frame.tiles_x + (i as u32 - frame.win_x0) / TILE;
                     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
-                    blend_pixel(params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
+                    blend_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
                 } else {
-                    shade_pixel(params, setups, shading, textures, texels, owners[k], depths[k].to_bits(), i, j)
+                    shade_pixel(program, params, setups, shading, textures, texels, owners[k], depths[k].to_bits(), i, j)
                 };
                 colour_row[x] = out.colour;
                 face_row[x] = out.face;
             }
         });
+}
+
+/// The frame's fragment program: its shader where it has one, else the built-in shadings.
+pub(crate) fn fragment_program(inputs: &RenderInputs) -> &(dyn FragmentProgram + Sync) {
+    match &inputs.fragment {
+        Some(stage) => stage.program,
+        None => &Builtin,
+    }
 }

@@ -1,0 +1,80 @@
+//! Compiling a crate with rust-gpu into the two checked modules, from a build script.
+
+use crate::{check, declare_float_controls, mark_no_contraction, BuildError, Role};
+use rspirv::binary::Assemble;
+use rspirv::dr::{load_words, Module};
+use spirv_builder::{Capability, SpirvBuilder};
+use std::path::{Path, PathBuf};
+
+/// A crate to compile to SPIR-V from a build script.
+pub struct Shader {
+    crate_path: PathBuf,
+    role: Role,
+    prefix: String,
+}
+
+impl Shader {
+    /// A fragment shader crate at `crate_path` (relative to the build script's crate), its
+    /// modules named by the environment variables `TILERASTER_FRAGMENT_SPV` and
+    /// `TILERASTER_FRAGMENT_FLOAT_CONTROLS_SPV`.
+    pub fn fragment(crate_path: impl AsRef<Path>) -> Shader {
+        Shader { crate_path: crate_path.as_ref().to_path_buf(), role: Role::Fragment, prefix: "TILERASTER_FRAGMENT".into() }
+    }
+
+    /// tileraster's kernels at `crate_path`, named by `TILERASTER_KERNELS_SPV` and
+    /// `TILERASTER_KERNELS_FLOAT_CONTROLS_SPV`.
+    pub fn kernels(crate_path: impl AsRef<Path>) -> Shader {
+        Shader { crate_path: crate_path.as_ref().to_path_buf(), role: Role::Kernels, prefix: "TILERASTER_KERNELS".into() }
+    }
+
+    /// Name the modules' environment variables `<prefix>_SPV` and
+    /// `<prefix>_FLOAT_CONTROLS_SPV` (for a crate that builds several shaders).
+    pub fn env_prefix(mut self, prefix: impl Into<String>) -> Shader {
+        self.prefix = prefix.into();
+        self
+    }
+
+    /// Compile, check, and write both modules into `OUT_DIR`, telling cargo where they are.
+    pub fn build(self) -> Result<(), BuildError> {
+        let manifest = std::env::var("CARGO_MANIFEST_DIR").map_err(|_| BuildError::NotInBuildScript("CARGO_MANIFEST_DIR"))?;
+        let out_dir = std::env::var("OUT_DIR").map_err(|_| BuildError::NotInBuildScript("OUT_DIR"))?;
+        let crate_path = Path::new(&manifest).join(&self.crate_path);
+        let mut module = self.compile(&crate_path)?;
+        let name = self.prefix.to_lowercase().replace('_', "-");
+        write_module(&module, &out_dir, &format!("{name}.spv"), &format!("{}_SPV", self.prefix))?;
+        declare_float_controls(&mut module);
+        write_module(&module, &out_dir, &format!("{name}-float-controls.spv"), &format!("{}_FLOAT_CONTROLS_SPV", self.prefix))?;
+        Ok(())
+    }
+
+    /// The crate's module, marked and checked.
+    fn compile(&self, crate_path: &Path) -> Result<Module, BuildError> {
+        let mut builder = SpirvBuilder::new(crate_path, "spirv-unknown-vulkan1.2").capability(Capability::Int64);
+        builder.build_script.defaults = true;
+        let compile_error = |reason: String| BuildError::Compile { crate_path: crate_path.to_path_buf(), reason };
+        let result = builder.build().map_err(|e| compile_error(e.to_string()))?;
+        let path = result.module.unwrap_single();
+        let read_error = |reason: String| BuildError::Read { crate_path: crate_path.to_path_buf(), reason };
+        let bytes = std::fs::read(path).map_err(|e| read_error(format!("{}: {e}", path.display())))?;
+        let words: Vec<u32> = bytes.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b)).collect();
+        let mut module = load_words(words).map_err(|e| read_error(e.to_string()))?;
+        let problems = check::portable(&module);
+        if !problems.is_empty() {
+            return Err(BuildError::NotPortable { crate_path: crate_path.to_path_buf(), problems });
+        }
+        let problems = check::entry_points(&module, |info| self.role.has(info));
+        if !problems.is_empty() {
+            return Err(BuildError::EntryPoints { crate_path: crate_path.to_path_buf(), problems });
+        }
+        mark_no_contraction(&mut module);
+        Ok(module)
+    }
+}
+
+fn write_module(module: &Module, out_dir: &str, name: &str, env: &str) -> Result<(), BuildError> {
+    let out = Path::new(out_dir).join(name);
+    let bytes: Vec<u8> = module.assemble().iter().flat_map(|w| w.to_le_bytes()).collect();
+    std::fs::write(&out, bytes).map_err(|e| BuildError::Write { path: out.clone(), reason: e.to_string() })?;
+    println!("cargo::rustc-env={env}={}", out.display());
+    Ok(())
+}

@@ -13,26 +13,24 @@ use tileraster_kernels::pipeline::{Access, StageInfo, STAGES};
 const NOT_PORTABLE: [Op; 6] = [Op::FDiv, Op::FRem, Op::FMod, Op::Dot, Op::VectorTimesMatrix, Op::MatrixTimesVector];
 
 /// GLSL.std.450 instructions whose results are exact on every Vulkan device: rounding to
-/// integers (`Round`, whose halfway direction is the driver's, left out), absolute values and
-/// signs, minima, maxima and clamps, `Fract` (`x − floor(x)`, exact), `Step`, `Ldexp`,
-/// `Frexp`, and bit searches.
-const EXACT_GLSL: [u32; 23] = [
+/// integers (`Round`, whose halfway direction is the driver's, left out), the absolute value,
+/// `Fract` (`x − floor(x)`, exact), `Step`, `Ldexp`, `Frexp`, integer signs, minima, maxima and
+/// clamps, and bit searches. The float minimum, maximum, clamp and sign are left out: Vulkan
+/// leaves their results on NaN (and the sign of a zero minimum) to the driver; a comparison
+/// does the same job exactly.
+const EXACT_GLSL: [u32; 19] = [
     2,  // RoundEven
     3,  // Trunc
     4,  // FAbs
     5,  // SAbs
-    6,  // FSign
     7,  // SSign
     8,  // Floor
     9,  // Ceil
     10, // Fract
-    37, // FMin
     38, // UMin
     39, // SMin
-    40, // FMax
     41, // UMax
     42, // SMax
-    43, // FClamp
     44, // UClamp
     45, // SClamp
     48, // Step

@@ -92,7 +92,9 @@ fn triangle_wave(x: f32) -> f32 {
 fn fs_main(v: Varyings) -> @location(0) vec4<f32> {
     let p = v.world * u.constants.x;
     let t = triangle_wave(p.x + p.y * 0.5 + u.constants.y * fbm(p));
-    let vein = t * t * t * t;
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    let vein = t4 * t4;
     let stone = mix(vec3<f32>(0.93, 0.91, 0.86), vec3<f32>(0.22, 0.25, 0.32), vein) * v.colour.rgb;
     // Blinn-Phong, as programs::shade::phong.
     let n = normalize(v.normal);

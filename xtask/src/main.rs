@@ -20,6 +20,7 @@
 //! - `cargo xtask render-report [--quick]`: the render pipeline against wgpu's render pipeline
 //!   on the same adapter (a 100k-triangle mesh at 1920×1080, a 1M-triangle mesh at 4096², a
 //!   fill-rate scene of overdraw 8), printed as markdown; also a section of `bench-report`.
+//!   `--fragment`: only its programmable fragment stage section.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
 //! - `cargo xtask stage-times`: a CPU call's time pass by pass (preparation, plan, each stage)
@@ -44,7 +45,7 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick]\n       cargo xtask fingerprint\n       cargo xtask stage-times [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
+    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
     ExitCode::from(2)
 }
 
@@ -150,6 +151,7 @@ fn main() -> ExitCode {
         ["render-report", rest @ ..] => match rest {
             [] => print_markdown("render-report", render_report::run(false)),
             ["--quick"] => print_markdown("render-report", render_report::run(true)),
+            ["--fragment"] => print_markdown("render-report", render_report::fragment_only()),
             _ => usage(),
         },
         ["skip-report", rest @ ..] => match rest {

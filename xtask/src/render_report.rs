@@ -152,6 +152,11 @@ pub fn run(quick: bool) -> Result<String, String> {
     Ok(s)
 }
 
+/// Only the programmable fragment stage's section, at full size.
+pub fn fragment_only() -> Result<String, String> {
+    fragment_section(false, 5, tileraster::gpu_adapter().is_ok())
+}
+
 /// The programmable fragment stage: the procedural marble of `examples/procedural` against the
 /// built-in Phong shading of the same frame, and against the same shader written in WGSL for
 /// the render pipeline (`MarblePipeline`), timed side by side, with the colours compared.

@@ -3,22 +3,22 @@
 //! read-only or not, workgroup size), and it holds no arithmetic whose bits differ between
 //! devices. Each check returns its problems, one line each; none means the module passes.
 
-use rspirv::dr::{Instruction, Module, Operand};
+use rspirv::dr::{load_words, Instruction, Module, Operand};
 use rspirv::spirv::{Decoration, ExecutionMode, Op, StorageClass};
 use std::collections::{BTreeMap, HashMap, HashSet};
 use tileraster_kernels::pipeline::{Access, StageInfo, STAGES};
 
 /// Float instructions Vulkan does not round correctly, or leaves the order of to the driver:
 /// division (2.5 ULP), remainders, and products that sum in an unspecified order.
-const NOT_PORTABLE: [Op; 6] = [Op::FDiv, Op::FRem, Op::FMod, Op::Dot, Op::VectorTimesMatrix, Op::MatrixTimesVector];
+const NOT_PORTABLE: [Op; 7] = [Op::FDiv, Op::FRem, Op::FMod, Op::Dot, Op::VectorTimesMatrix, Op::MatrixTimesVector, Op::MatrixTimesMatrix];
 
-/// GLSL.std.450 instructions whose results are exact on every Vulkan device: rounding to
+/// GLSL.std.450 instructions whose results are the same on every Vulkan device: rounding to
 /// integers (`Round`, whose halfway direction is the driver's, left out), the absolute value,
-/// `Fract` (`x − floor(x)`, exact), `Step`, `Ldexp`, `Frexp`, integer signs, minima, maxima and
-/// clamps, and bit searches. The float minimum, maximum, clamp and sign are left out: Vulkan
-/// leaves their results on NaN (and the sign of a zero minimum) to the driver; a comparison
-/// does the same job exactly.
-const EXACT_GLSL: [u32; 19] = [
+/// integer signs, minima, maxima and clamps, and bit searches. Left out besides: the float
+/// minimum, maximum, clamp, sign and step, whose results on NaN (and the sign of a zero
+/// minimum) are the driver's; `Fract`, which a driver may clamp below 1; `Ldexp` and `Frexp`,
+/// undefined where they overflow. A comparison or the integer bits do their jobs exactly.
+const EXACT_GLSL: [u32; 16] = [
     2,  // RoundEven
     3,  // Trunc
     4,  // FAbs
@@ -26,19 +26,87 @@ const EXACT_GLSL: [u32; 19] = [
     7,  // SSign
     8,  // Floor
     9,  // Ceil
-    10, // Fract
     38, // UMin
     39, // SMin
     41, // UMax
     42, // SMax
     44, // UClamp
     45, // SClamp
-    48, // Step
-    51, // Frexp
-    53, // Ldexp
+    73, // FindILsb
     74, // FindSMsb
     75, // FindUMsb
 ];
+
+/// Instructions that produce a float without arithmetic a driver could fuse: moves, loads,
+/// constants, selections, bit casts and conversions (exact, or correctly rounded on their own).
+const NOT_ARITHMETIC: [Op; 19] = [
+    Op::Load,
+    Op::Phi,
+    Op::Select,
+    Op::CopyObject,
+    Op::CompositeExtract,
+    Op::CompositeConstruct,
+    Op::CompositeInsert,
+    Op::VectorShuffle,
+    Op::VectorExtractDynamic,
+    Op::Bitcast,
+    Op::Undef,
+    Op::Constant,
+    Op::ConstantComposite,
+    Op::ConstantNull,
+    Op::FunctionParameter,
+    Op::FunctionCall,
+    Op::ConvertSToF,
+    Op::ConvertUToF,
+    Op::FConvert,
+];
+
+/// Every check a fragment shader's module (`bytes`) must pass before the GPU backend runs it:
+/// its entry points are the stages that colour fragments, binding what the stage table says;
+/// its arithmetic is portable; every float arithmetic result is marked `NoContraction`.
+pub fn fragment_module(bytes: &[u8]) -> Result<(), Vec<String>> {
+    let m = load(bytes).map_err(|e| vec![format!("  not a SPIR-V module: {e}")])?;
+    let mut problems = entry_points(&m, |info| info.stage.colours_fragments());
+    problems.extend(portable(&m));
+    problems.extend(contraction(&m).1);
+    if problems.is_empty() { Ok(()) } else { Err(problems) }
+}
+
+/// A module from its bytes (little-endian words).
+pub fn load(bytes: &[u8]) -> Result<Module, String> {
+    let words: Vec<u32> = bytes.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b)).collect();
+    load_words(words).map_err(|e| e.to_string())
+}
+
+/// The float arithmetic results that lack `NoContraction`, and how many such results the
+/// module has.
+pub fn contraction(m: &Module) -> (usize, Vec<String>) {
+    let decorated = decorations(m);
+    let mut float_types = HashSet::new();
+    for t in &m.types_global_values {
+        let float = match t.class.opcode {
+            Op::TypeFloat => true,
+            Op::TypeVector | Op::TypeMatrix => t.operands.first().and_then(Operand::id_ref_any).is_some_and(|c| float_types.contains(&c)),
+            _ => false,
+        };
+        if let (true, Some(id)) = (float, t.result_id) {
+            float_types.insert(id);
+        }
+    }
+    let mut checked = 0;
+    let mut missing = Vec::new();
+    for inst in m.functions.iter().flat_map(|f| f.all_inst_iter()) {
+        let (Some(ty), Some(result)) = (inst.result_type, inst.result_id) else { continue };
+        if !float_types.contains(&ty) || NOT_ARITHMETIC.contains(&inst.class.opcode) {
+            continue;
+        }
+        checked += 1;
+        if !decorated.get(&result).is_some_and(|ds| ds.iter().any(|(d, _)| *d == Decoration::NoContraction)) {
+            missing.push(format!("  %{result} = {:?}", inst.class.opcode));
+        }
+    }
+    (checked, missing)
+}
 
 /// The module's instructions whose bits may differ between devices, each with the function
 /// that holds it.
@@ -104,12 +172,12 @@ pub fn entry_points(m: &Module, rows: impl Fn(&StageInfo) -> bool) -> Vec<String
     let wanted: Vec<&StageInfo> = STAGES.iter().filter(|s| rows(s)).collect();
     for name in entries.keys().filter(|name| !wanted.iter().any(|s| s.entry_point == name.as_str())) {
         problems.push(format!(
-            "  {name:?} is not an entry point this module should have (a fragment shader crate takes tileraster-kernels with default-features = false, and invokes fragment_shader! once)"
+            "  {name:?} is not an entry point this module should have (a fragment shader crate takes tileraster-kernels with default-features = false, and makes its entry points with fragment_shader!)"
         ));
     }
     for info in wanted {
         let Some(entry) = entries.get(info.entry_point) else {
-            problems.push(format!("  no entry point {:?} (stage {}): invoke fragment_shader! in the crate", info.entry_point, info.name));
+            problems.push(format!("  no entry point {:?} (stage {})", info.entry_point, info.name));
             continue;
         };
         let Some(function) = entry.operands.get(1).and_then(Operand::id_ref_any) else { continue };

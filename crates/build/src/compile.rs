@@ -2,7 +2,7 @@
 
 use crate::{check, declare_float_controls, mark_no_contraction, BuildError, Role};
 use rspirv::binary::Assemble;
-use rspirv::dr::{load_words, Module};
+use rspirv::dr::Module;
 use spirv_builder::{Capability, SpirvBuilder};
 use std::path::{Path, PathBuf};
 
@@ -56,8 +56,7 @@ impl Shader {
         let path = result.module.unwrap_single();
         let read_error = |reason: String| BuildError::Read { crate_path: crate_path.to_path_buf(), reason };
         let bytes = std::fs::read(path).map_err(|e| read_error(format!("{}: {e}", path.display())))?;
-        let words: Vec<u32> = bytes.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b)).collect();
-        let mut module = load_words(words).map_err(|e| read_error(e.to_string()))?;
+        let mut module = check::load(&bytes).map_err(read_error)?;
         let problems = check::portable(&module);
         if !problems.is_empty() {
             return Err(BuildError::NotPortable { crate_path: crate_path.to_path_buf(), problems });

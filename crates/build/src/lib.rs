@@ -15,13 +15,13 @@
 //! stay out of its module) and invokes `fragment_shader!` once; a host crate builds it in
 //! its `build.rs`, with this crate's `compile` feature:
 //!
-//! ```ignore
+//! ```text
 //! fn main() -> Result<(), tileraster_build::BuildError> {
 //!     tileraster_build::Shader::fragment("shader").build()
 //! }
 //! ```
 //!
-//! and takes it with `tileraster::fragment_stage!(my_shader::MyShader)`.
+//! and takes it with `tileraster::fragment_stage!(my_shader)`.
 
 pub mod check;
 #[cfg(feature = "compile")]

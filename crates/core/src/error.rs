@@ -120,4 +120,7 @@ pub enum Error {
 
     #[error("the instances hold {faces} faces in all, more than the 2^32 − 2 a frame numbers; draw fewer instances per frame")]
     TooManyFaces { faces: u64 },
+
+    #[error("the fragment shader {name}'s module cannot run on the GPU backend:\n{}\nbuild its crate with tileraster-build (fragment_shader! in the crate, tileraster::fragment_stage! in the host) against this version of tileraster-kernels", .problems.join("\n"))]
+    FragmentShader { name: String, problems: Vec<String> },
 }

@@ -412,15 +412,18 @@ impl GpuContext {
         (x, y)
     }
 
-    /// The pipelines of fragment shader `stage` (an index into `self.fragments`), built from its
-    /// module on first use.
+    /// The index in `self.fragments` of fragment shader `stage`'s pipelines, built from its
+    /// module on first use, once the module has passed `tileraster-build`'s checks again (the
+    /// bytes are handed to the driver unvalidated).
     fn fragment_pipelines(&mut self, stage: &FragmentStage) -> Result<usize, Error> {
         if let Some(k) = self.fragments.iter().position(|f| f.stage == *stage) {
             return Ok(k);
         }
+        let module = stage.module(self.float_controls_declared);
+        tileraster_build::check::fragment_module(module).map_err(|problems| Error::FragmentShader { name: stage.name().into(), problems })?;
         let scope = self.gpu.error_scope();
-        let label = format!("fragment shader {}", stage.name);
-        let pipelines = stage_pipelines(&self.gpu.device, &label, stage.module(self.float_controls_declared), |info| info.stage.colours_fragments());
+        let label = format!("fragment shader {}", stage.name());
+        let pipelines = stage_pipelines(&self.gpu.device, &label, module, |info| info.stage.colours_fragments());
         if let Some(e) = scope.finish() {
             return Err(Error::Gpu(format!("the {label} was rejected by the device: {e}")));
         }
@@ -702,8 +705,8 @@ fn stage_pipelines(device: &wgpu::Device, label: &str, module: &[u8], rows: impl
     // SAFETY: the module is rust-gpu's output, validated by spirv-val when it was built, and
     // `tests/spirv.rs` checks that every entry point binds exactly what its row of the stage
     // table (and so the layout below) says, with the table's workgroup size; a fragment
-    // shader's entry points are the same source (`shading_entry_points!`), and
-    // `tileraster-build` checks them against the table as it writes the module.
+    // shader's entry points are the same source (`shading_entry_points!`), validated when its
+    // crate was built, and `fragment_pipelines` checks its bindings against the table again.
     let module = unsafe {
         device.create_shader_module_passthrough(wgpu::ShaderModuleDescriptorPassthrough {
             label: Some(label),

@@ -5,14 +5,13 @@
 //! round-to-nearest-even and subnormal preservation on every entry point, and is otherwise the
 //! same module. Needs no adapter.
 
-use rspirv::dr::{load_words, Instruction, Module, Operand};
+use rspirv::dr::{Instruction, Module, Operand};
 use rspirv::spirv::{Capability, Decoration, ExecutionMode, Op};
 use std::collections::HashSet;
 use tileraster_kernels::pipeline::STAGES;
 
 fn load(bytes: &[u8]) -> Module {
-    let words: Vec<u32> = bytes.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b)).collect();
-    load_words(words).expect("the embedded kernels are valid SPIR-V")
+    check::load(bytes).expect("the embedded kernels are valid SPIR-V")
 }
 
 fn module() -> Module {
@@ -31,7 +30,7 @@ fn id(op: &Operand) -> u32 {
     }
 }
 
-use tileraster_build::check::{self, decorations};
+use tileraster_build::check;
 
 #[test]
 fn every_entry_point_binds_what_the_stage_table_says() {
@@ -73,36 +72,26 @@ fn the_kernels_hold_only_portable_arithmetic() {
     let product = divided.functions.iter_mut().flat_map(|f| f.blocks.iter_mut()).flat_map(|b| b.instructions.iter_mut()).find(|i| i.class.opcode == Op::FMul).expect("a float product");
     *product = Instruction::new(Op::FDiv, product.result_type, product.result_id, product.operands.clone());
     assert_eq!(check::portable(&divided).len(), 1, "one division");
+    // GLSL.std.450 calls: `Floor` is exact everywhere, `FMin` leaves NaN to the driver.
+    for (number, refused) in [(8, false), (37, true)] {
+        let mut called = module();
+        let bound = called.header.as_ref().expect("a header").bound;
+        called.header.as_mut().expect("a header").bound = bound + 1;
+        called.ext_inst_imports.push(Instruction::new(Op::ExtInstImport, None, Some(bound), vec![Operand::LiteralString("GLSL.std.450".into())]));
+        let product = called.functions.iter_mut().flat_map(|f| f.blocks.iter_mut()).flat_map(|b| b.instructions.iter_mut()).find(|i| i.class.opcode == Op::FMul).expect("a float product");
+        let operands = vec![Operand::IdRef(bound), Operand::LiteralExtInstInteger(number), product.operands[0].clone(), product.operands[1].clone()];
+        *product = Instruction::new(Op::ExtInst, product.result_type, product.result_id, operands);
+        assert_eq!(check::portable(&called).len(), usize::from(refused), "GLSL.std.450 instruction {number}");
+    }
 }
-
-/// Instructions that produce a float without arithmetic a driver could fuse: moves, loads,
-/// constants, selections, bit casts and conversions (exact, or correctly rounded on their own).
-const NOT_ARITHMETIC: [Op; 19] = [
-    Op::Load,
-    Op::Phi,
-    Op::Select,
-    Op::CopyObject,
-    Op::CompositeExtract,
-    Op::CompositeConstruct,
-    Op::CompositeInsert,
-    Op::VectorShuffle,
-    Op::VectorExtractDynamic,
-    Op::Bitcast,
-    Op::Undef,
-    Op::Constant,
-    Op::ConstantComposite,
-    Op::ConstantNull,
-    Op::FunctionParameter,
-    Op::FunctionCall,
-    Op::ConvertSToF,
-    Op::ConvertUToF,
-    Op::FConvert,
-];
 
 #[test]
 fn every_float_arithmetic_result_carries_no_contraction() {
     for (name, m) in modules() {
-        no_contraction_on_every_float_result(name, &m);
+        let (checked, missing) = check::contraction(&m);
+        assert!(missing.is_empty(), "{name}: {} of {checked} float arithmetic results lack NoContraction:\n{}", missing.len(), missing[..missing.len().min(12)].join("\n"));
+        // The modes that compute in f32 are in the module: the check above has something to check.
+        assert!(checked > 0, "{name}: no float arithmetic found: the plane-f32 and barycentric modes should have some");
     }
 }
 
@@ -130,38 +119,4 @@ fn the_float_controls_module_declares_rte_and_denorm_preserve_on_every_entry_poi
     assert_eq!(controlled.execution_modes.len(), plain.execution_modes.len() + 2 * entries.len());
     use rspirv::binary::Disassemble;
     assert_eq!(controlled.functions.iter().map(|f| f.disassemble()).collect::<Vec<_>>(), plain.functions.iter().map(|f| f.disassemble()).collect::<Vec<_>>());
-}
-
-fn no_contraction_on_every_float_result(name: &str, m: &Module) {
-    let decorated = decorations(m);
-    let float_types: HashSet<u32> = {
-        let mut set = HashSet::new();
-        for t in &m.types_global_values {
-            let float = match t.class.opcode {
-                Op::TypeFloat => true,
-                Op::TypeVector | Op::TypeMatrix => set.contains(&id(&t.operands[0])),
-                _ => false,
-            };
-            if float {
-                set.insert(t.result_id.expect("types have ids"));
-            }
-        }
-        set
-    };
-    let mut checked = 0;
-    let mut missing = Vec::new();
-    for inst in m.functions.iter().flat_map(|f| f.all_inst_iter()) {
-        let (Some(ty), Some(result)) = (inst.result_type, inst.result_id) else { continue };
-        if !float_types.contains(&ty) || NOT_ARITHMETIC.contains(&inst.class.opcode) {
-            continue;
-        }
-        checked += 1;
-        let ok = decorated.get(&result).is_some_and(|ds| ds.iter().any(|(d, _)| *d == Decoration::NoContraction));
-        if !ok {
-            missing.push(format!("%{result} = {:?}", inst.class.opcode));
-        }
-    }
-    assert!(missing.is_empty(), "{name}: {} of {checked} float arithmetic results lack NoContraction: {:?}", missing.len(), &missing[..missing.len().min(12)]);
-    // The modes that compute in f32 are in the module: the check above has something to check.
-    assert!(checked > 0, "{name}: no float arithmetic found: the plane-f32 and barycentric modes should have some");
 }

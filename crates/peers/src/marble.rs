@@ -1,13 +1,15 @@
 //! The hardware render pipeline running the procedural marble of `examples/procedural` as a
 //! WGSL fragment shader: what a wgpu user writes for the same picture. The peer of
-//! tileraster's programmable fragment stage, in time and in colour.
+//! tileraster's programmable fragment stage, in time and in colour. It takes the vertex colour
+//! as the base colour (no texture), draws every face (no culling: the depth test hides the
+//! back faces of a closed mesh), and leaves the hardware its `floor`, `normalize`, `pow` (for
+//! the shader's repeated squaring) and any fusing of products and sums.
 
 use crate::device::{self, Gpu};
 use tileraster_core::render::{Mesh, RenderParams};
 
 /// The marble and the Blinn-Phong lighting of `procedural-shader` and `programs::shade`,
-/// line for line, in the hardware's arithmetic (its `floor`, `normalize`, `pow`, and whatever
-/// fusing the driver does).
+/// step for step, in the hardware's arithmetic.
 const SHADER: &str = r#"
 struct Uniforms {
     m: mat4x4<f32>,
@@ -54,10 +56,14 @@ fn smooth_weight(t: f32) -> f32 {
     return t * t * (3.0 - t * 2.0);
 }
 
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    return a + (b - a) * t;
+}
+
 fn plane(x: i32, y: i32, z: i32, w: vec2<f32>) -> f32 {
-    let bottom = mix(lattice(x, y, z), lattice(x + 1, y, z), w.x);
-    let top = mix(lattice(x, y + 1, z), lattice(x + 1, y + 1, z), w.x);
-    return mix(bottom, top, w.y);
+    let bottom = lerp(lattice(x, y, z), lattice(x + 1, y, z), w.x);
+    let top = lerp(lattice(x, y + 1, z), lattice(x + 1, y + 1, z), w.x);
+    return lerp(bottom, top, w.y);
 }
 
 fn noise(p: vec3<f32>) -> f32 {
@@ -68,7 +74,7 @@ fn noise(p: vec3<f32>) -> f32 {
     let x = i32(i.x);
     let y = i32(i.y);
     let z = i32(i.z);
-    return mix(plane(x, y, z, w.xy), plane(x, y, z + 1, w.xy), w.z);
+    return lerp(plane(x, y, z, w.xy), plane(x, y, z + 1, w.xy), w.z);
 }
 
 fn fbm(p: vec3<f32>) -> f32 {
@@ -95,7 +101,8 @@ fn fs_main(v: Varyings) -> @location(0) vec4<f32> {
     let t2 = t * t;
     let t4 = t2 * t2;
     let vein = t4 * t4;
-    let stone = mix(vec3<f32>(0.93, 0.91, 0.86), vec3<f32>(0.22, 0.25, 0.32), vein) * v.colour.rgb;
+    let light_stone = vec3<f32>(0.93, 0.91, 0.86);
+    let stone = (light_stone + (vec3<f32>(0.22, 0.25, 0.32) - light_stone) * vein) * v.colour.rgb;
     // Blinn-Phong, as programs::shade::phong.
     let n = normalize(v.normal);
     let view = normalize(u.eye.xyz - v.world);

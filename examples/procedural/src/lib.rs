@@ -6,7 +6,7 @@ use tileraster::render::{Camera, FragmentStage, Light, Mesh, RenderParams, Shadi
 use tileraster::Error;
 
 /// The marble shader on both backends.
-pub static MARBLE: FragmentStage = tileraster::fragment_stage!(procedural_shader::Marble);
+pub static MARBLE: FragmentStage = tileraster::fragment_stage!(procedural_shader);
 
 /// A sphere of radius 1 resting on a square floor 6 units wide (`+z` up), white, with normals.
 pub fn scene() -> Mesh {

@@ -1,6 +1,8 @@
 //! The procedural marble through the programmable fragment stage: the same bits on both
-//! backends (one sample, 4× and 8× multisampling, blending, the GPU's windows), the shader's
-//! colours where the built-in shading's would be, and the frame's constants reaching it.
+//! backends (one sample, 4× and 8× multisampling, blending, the GPU's windows, switching
+//! between the shader and the built-in shadings), the shader's colours where the built-in
+//! shading's would be, the frame's constants reaching it, and modules that are not what
+//! `tileraster-build` writes refused.
 
 #[path = "../../../tests/common/mod.rs"]
 mod common;
@@ -47,16 +49,64 @@ fn multisampled_and_blended_marble_is_the_same_bits_on_both_backends() {
     assert_frame_parity("marble, blended", &mesh, &p);
 }
 
+/// Restores the GPU backend's window limit when dropped, whatever the test did.
+struct WindowLimit;
+
+impl Drop for WindowLimit {
+    fn drop(&mut self) {
+        tileraster_gpu::set_window_limit(4096 * 4096);
+    }
+}
+
 #[test]
 fn the_marble_is_the_same_bits_through_the_gpus_windows() {
     let mesh = scene();
     let p = params(&mesh, 300, 200).unwrap();
     let whole = render_frame(&mesh, &p, Backend::Cpu);
     if common::gpu_or_skip("marble through windows") {
+        let _restore = WindowLimit;
+        // 64×64-pixel windows: the 300×200 frame takes at least 20.
         tileraster_gpu::set_window_limit(64 * 64);
         let windowed = render_frame(&mesh, &p, Backend::Gpu);
-        tileraster_gpu::set_window_limit(4096 * 4096);
-        assert!(whole.colour == windowed.colour && whole.ids == windowed.ids, "the windowed frame differs");
+        assert!(whole.colour == windowed.colour && whole.ids == windowed.ids && whole.fragments == windowed.fragments, "the windowed frame differs");
+        assert!(whole.depth.iter().zip(&windowed.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "the windowed depths differ");
+        assert_eq!(whole.stats, windowed.stats);
+    }
+}
+
+/// One GPU context switches between the kernels' shading stages and the shader's: the marble,
+/// the built-in Phong shading, the marble again, each the CPU backend's bits.
+#[test]
+fn the_gpu_switches_between_the_shader_and_the_built_in_shadings() {
+    let mesh = scene();
+    let marble = params(&mesh, 128, 96).unwrap();
+    let phong = tileraster::render::RenderParams { fragment: None, ..marble.clone() };
+    for (what, p) in [("marble", &marble), ("built-in phong", &phong), ("marble again", &marble)] {
+        assert_frame_parity(what, &mesh, p);
+    }
+}
+
+/// A module that is not what `tileraster-build` writes is refused with a typed error before it
+/// reaches the driver; the example's own modules pass the same checks.
+#[test]
+fn the_gpu_backend_checks_a_shaders_module_before_running_it() {
+    for float_controls in [false, true] {
+        if let Err(problems) = tileraster_build::check::fragment_module(procedural::MARBLE.module(float_controls)) {
+            panic!("the marble's module (float controls {float_controls}):\n{}", problems.join("\n"));
+        }
+    }
+    // The kernels' module has every stage's entry point, not just the shading stages'.
+    let kernels = tileraster::render::FragmentStage::from_parts("kernels", procedural::MARBLE.program(), tileraster_gpu::KERNELS_SPV, tileraster_gpu::KERNELS_FLOAT_CONTROLS_SPV);
+    let garbage = tileraster::render::FragmentStage::from_parts("garbage", procedural::MARBLE.program(), &[1, 2, 3, 4, 5, 6, 7, 8], &[1, 2, 3, 4, 5, 6, 7, 8]);
+    let mesh = scene();
+    if common::gpu_or_skip("a bad fragment module") {
+        for stage in [kernels, garbage] {
+            let p = tileraster::render::RenderParams { fragment: Some(stage), ..params(&mesh, 64, 48).unwrap() };
+            match tileraster::render::render(&mesh, &p, Backend::Gpu) {
+                Err(tileraster::Error::FragmentShader { name, problems }) => assert!(name == stage.name() && !problems.is_empty()),
+                other => panic!("{}: {other:?}", stage.name()),
+            }
+        }
     }
 }
 

@@ -42,7 +42,8 @@ impl FragmentProgram for Builtin {
 pub struct Fragment {
     /// Column and row of the pixel in the frame; its centre is at `+0.5`.
     pub pixel: [i32; 2],
-    /// The fragment's depth, in `[0, 1]`.
+    /// The depth of the triangle's plane at the pixel centre (in `[0, 1]` where the centre is
+    /// inside the triangle; a multisampled pixel's centre may lie outside it).
     pub depth: f32,
     /// The input face it belongs to.
     pub face: u32,
@@ -173,15 +174,21 @@ macro_rules! shading_entry_points {
     };
 }
 
-/// The shading stages' entry points around the fragment shader `$shader` (an expression whose
-/// type implements [`FragmentShader`]): what a shader crate invokes, once.
+/// What a shader crate invokes, once, with its fragment shader `$shader` (an expression whose
+/// type implements [`FragmentShader`]): on the GPU the shading stages' entry points around
+/// it; natively `FRAGMENT_PROGRAM`, the same shader as the CPU backend's program, which the
+/// host's `tileraster::fragment_stage!` takes. One expression for both, so the two backends
+/// cannot run different shaders.
 ///
-/// ```ignore
+/// ```text
 /// tileraster_kernels::fragment_shader!(Marble);
 /// ```
 #[macro_export]
 macro_rules! fragment_shader {
     ($shader:expr) => {
         $crate::shading_entry_points!($crate::programs::fragment::Programmed($shader));
+        /// This crate's fragment shader, for the CPU backend (`tileraster::fragment_stage!`).
+        #[cfg(not(target_arch = "spirv"))]
+        pub const FRAGMENT_PROGRAM: &(dyn $crate::programs::fragment::FragmentProgram + Sync) = &$crate::programs::fragment::Programmed($shader);
     };
 }

@@ -10,6 +10,7 @@ use std::sync::atomic::AtomicU32;
 use tileraster_core::{Raster, RenderInputs};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, TriangleSetup};
 use tileraster_kernels::programs::depth::DepthProgram;
+use tileraster_kernels::programs::fragment::{Builtin, FragmentProgram};
 use tileraster_kernels::programs::multisample::{resolve_samples, test_samples, Resolved, SampleState, MAX_SAMPLES};
 use tileraster_kernels::stages::fine::{self, FineShared};
 use tileraster_kernels::{BATCH, TILE, TILE_PIXELS};
@@ -23,9 +24,17 @@ struct TileOut {
 }
 
 pub fn fine_samples(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+    // The program is chosen once per frame: the built-in shadings are called directly.
+    match &inputs.fragment {
+        None => fine_samples_with(&Builtin, frame, inputs, setups, offsets, bins, raster),
+        Some(stage) => fine_samples_with(stage.program(), frame, inputs, setups, offsets, bins, raster),
+    }
+}
+
+/// [`fine_samples`] with the fragment program `fragment`.
+fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(fragment: &F, frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
     let program = DepthProgram::of(frame);
     let params = &inputs.params;
-    let fragment = super::shade::fragment_program(inputs);
     let stats: StatCounters = std::array::from_fn(|_| AtomicU32::new(0));
     let tiles: Vec<TileOut> = (0..frame.tile_count())
         .into_par_iter()

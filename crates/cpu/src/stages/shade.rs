@@ -15,6 +15,15 @@ use tileraster_kernels::stages::fine;
 use tileraster_kernels::TILE;
 
 pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
+    // The program is chosen once per frame: the built-in shadings are called directly.
+    match &inputs.fragment {
+        None => shade_with(&Builtin, frame, inputs, setups, offsets, bins, raster),
+        Some(stage) => shade_with(stage.program(), frame, inputs, setups, offsets, bins, raster),
+    }
+}
+
+/// [`shade`] with the fragment program `program`.
+fn shade_with<P: FragmentProgram + Sync + ?Sized>(program: &P, frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
     let (params, shading) = (&inputs.params, &inputs.triangles[..]);
     let (textures, texels) = (&inputs.textures[..], &inputs.texels[..]);
     let stride = raster.window.width as usize;
@@ -26,7 +35,6 @@ pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup
     };
     let first_row = (frame.win_y0 - y0) as usize;
     let columns = (frame.win_x0 - x0) as usize..(frame.win_x0 - x0 + frame.win_w) as usize;
-    let program = fragment_program(inputs);
     let by_owner = inputs.fragment.is_none() && params.blend == 0 && params.mode() == ShadeMode::Ids;
     colours
         .par_chunks_mut(stride)
@@ -65,12 +73,4 @@ pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup
                 face_row[x] = out.face;
             }
         });
-}
-
-/// The frame's fragment program: its shader where it has one, else the built-in shadings.
-pub(crate) fn fragment_program(inputs: &RenderInputs) -> &(dyn FragmentProgram + Sync) {
-    match &inputs.fragment {
-        Some(stage) => stage.program,
-        None => &Builtin,
-    }
 }

@@ -61,8 +61,8 @@ fn pow8(x: f32) -> f32 {
 
 /// The largest integer not above `x`, and `x` minus it rounded once (exact where `x ≥ 0`; a
 /// negative `x` just below an integer may round up to 1), in `[0, 1]`. `x` is clamped into
-/// `±2^22` first, where every float converts to an integer exactly and never overflows (which
-/// SPIR-V leaves undefined).
+/// `±2^22` first, where the conversion to an integer neither overflows nor saturates and the
+/// integer converts back exactly.
 #[inline]
 pub fn floor(x: f32) -> (i32, f32) {
     const LIMIT: f32 = 4_194_304.0;

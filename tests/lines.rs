@@ -140,10 +140,13 @@ fn bresenham_reference(p0: (i64, i64), p1: (i64, i64)) -> Option<HashSet<(i64, i
     Some(lit)
 }
 
+/// A set of pixels, by column and row.
+type Pixels = HashSet<(i64, i64)>;
+
 /// What the rectangle rule lights: pixel centres inside the rectangle one pixel wide around
 /// the segment (`f64`), with the pixels whose centre lies within 1/64 px of its edges apart
 /// (where rounding its corners to the 1/256-pixel lattice decides): `(lit, undecided)`.
-fn rectangle_reference(p0: (i64, i64), p1: (i64, i64)) -> (HashSet<(i64, i64)>, HashSet<(i64, i64)>) {
+fn rectangle_reference(p0: (i64, i64), p1: (i64, i64)) -> (Pixels, Pixels) {
     let (p0, p1) = ([p0.0 as f64 / UNIT as f64, p0.1 as f64 / UNIT as f64], [p1.0 as f64 / UNIT as f64, p1.1 as f64 / UNIT as f64]);
     let d = [p1[0] - p0[0], p1[1] - p0[1]];
     let length = d[0].hypot(d[1]);

@@ -58,9 +58,11 @@ fn gpu_cell(gpu: bool, runs: usize, mesh: &Mesh, params: &RenderParams, cpu: &Fr
     Ok((ms(&t), if same { "yes" } else { "**NO**" }))
 }
 
-/// The terrain mesh of the line and multisampling sections, framed: the mesh, its camera, the
-/// view-projection and the frame's size.
-fn framed_terrain(quick: bool) -> Result<(Mesh, Camera, [[f64; 4]; 4], u32, u32), String> {
+/// A framed mesh: the mesh, its camera, the view-projection and the frame's width and height.
+type Framed = (Mesh, Camera, [[f64; 4]; 4], u32, u32);
+
+/// The terrain mesh of the line and multisampling sections, framed.
+fn framed_terrain(quick: bool) -> Result<Framed, String> {
     let (n, w, h) = if quick { (40, 320, 180) } else { (224, 1920, 1080) };
     let mesh = meshes::terrain(n, 1000.0, 60.0);
     let camera = Camera::framing(&mesh, w as f64 / h as f64, 45.0);

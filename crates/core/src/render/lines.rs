@@ -146,10 +146,14 @@ fn in_diamond((u, v): (i64, i64)) -> bool {
     (u - cu).abs() + (v - cv).abs() < HALF
 }
 
+/// What [`columns`] finds: the lowest and highest major-axis pixel index, the segment's two
+/// ends in `(major, minor)` coordinates, and whether `y` is the major axis.
+type Columns = (i64, i64, (i64, i64), (i64, i64), bool);
+
 /// The major-axis pixels a diamond-exit or Bresenham line lights, lowest and highest index (empty where `lo > hi`), and
 /// the segment whose band they take (Bresenham moves the ends to pixel centres), in
 /// `(major, minor)` coordinates, and whether `y` is the major axis.
-pub(super) fn columns(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<(i64, i64, (i64, i64), (i64, i64), bool)> {
+pub(super) fn columns(p0: (i64, i64), p1: (i64, i64), rule: LineRule) -> Option<Columns> {
     let (q0, q1) = match rule {
         LineRule::DiamondExit | LineRule::Rectangle => (p0, p1),
         LineRule::Bresenham => ((pixel(p0.0).1, pixel(p0.1).1), (pixel(p1.0).1, pixel(p1.1).1)),

@@ -1165,10 +1165,10 @@ fn validate_params(params: &RenderParams) -> Result<(), Error> {
     if params.samples > 1 && params.blend {
         return Err(Error::InvalidSamples { samples: params.samples, reason: "blending is drawn with one sample per pixel" });
     }
-    if let Some(colour) = params.wireframe.and_then(|w| w.colour) {
-        if colour.iter().any(|c| !(0.0..=1.0).contains(c)) {
-            return Err(Error::InvalidColour { what: "the wireframe", colour });
-        }
+    if let Some(colour) = params.wireframe.and_then(|w| w.colour)
+        && colour.iter().any(|c| !(0.0..=1.0).contains(c))
+    {
+        return Err(Error::InvalidColour { what: "the wireframe", colour });
     }
     for (name, m) in [("model", &params.model), ("view-projection", &params.view_projection)] {
         for (row, r) in m.iter().enumerate() {

@@ -64,6 +64,9 @@ fn pow8(x: f32) -> f32 {
 /// `±2^22` first, where the conversion to an integer neither overflows nor saturates and the
 /// integer converts back exactly.
 #[inline]
+// Comparisons, not `f32::clamp`: the GPU's float clamp leaves NaN to the driver, and the build
+// refuses it.
+#[allow(clippy::manual_clamp)]
 pub fn floor(x: f32) -> (i32, f32) {
     const LIMIT: f32 = 4_194_304.0;
     let x = if x > LIMIT {

@@ -188,17 +188,14 @@ fn fragment_section(quick: bool, runs: usize, gpu: bool) -> Result<String, Strin
     let (cpu_time, cpu) = timed(runs, || render(&mesh, &marble, Backend::Cpu).map_err(|e| e.to_string()))?;
     let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &marble, &cpu)?;
     let (peer_time, theirs) = timed(runs, || peer.draw(&mesh, &marble))?;
-    let covered: Vec<usize> = (0..cpu.ids.len()).filter(|&k| cpu.ids[k] != NO_FACE).collect();
-    let channel_diff = |k: usize| (0..4).map(|c| cpu.colour[k].to_le_bytes()[c].abs_diff(theirs[k].to_le_bytes()[c])).max().unwrap_or(0);
-    let differ = covered.iter().filter(|&&k| channel_diff(k) > 1).count();
-    let largest = covered.iter().map(|&k| channel_diff(k)).max().unwrap_or(0);
+    let (differ, largest) = colour_difference(&cpu, &theirs);
     let _ = writeln!(
         s,
         "| marble (fragment shader) | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % ({largest}) |",
         ms(&cpu_time),
         ms(&peer_time),
         peer_time.median / cpu_time.median,
-        100.0 * differ as f64 / covered.len().max(1) as f64
+        100.0 * differ
     );
     eprintln!("render-report: fragment stage done");
     Ok(s)
@@ -298,6 +295,16 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
 }
 
 /// The share of pixels lit by either of two id layers that only one lights.
+/// The share of the pixels `ours` covers whose RGBA8 colour in `theirs` differs by more than
+/// one unit in some channel, and the largest difference in a channel over those pixels.
+fn colour_difference(ours: &Frame, theirs: &[u32]) -> (f64, u8) {
+    let channel_diff = |k: usize| (0..4).map(|c| ours.colour[k].to_le_bytes()[c].abs_diff(theirs[k].to_le_bytes()[c])).max().unwrap_or(0);
+    let covered: Vec<usize> = (0..ours.ids.len()).filter(|&k| ours.ids[k] != NO_FACE).collect();
+    let differ = covered.iter().filter(|&&k| channel_diff(k) > 1).count();
+    let largest = covered.iter().map(|&k| channel_diff(k)).max().unwrap_or(0);
+    (differ as f64 / covered.len().max(1) as f64, largest)
+}
+
 fn differing_share(ours: &[u32], theirs: &[u32]) -> f64 {
     let (mut either, mut one) = (0u64, 0u64);
     for (ours, theirs) in ours.iter().zip(theirs) {
@@ -348,15 +355,14 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         let (peer_time, theirs) = timed(runs, || peer.draw(&mesh, &matrix, w, h, filter, Address::Repeat))?;
-        let covered: Vec<usize> = (0..cpu.ids.len()).filter(|&k| cpu.ids[k] != NO_FACE).collect();
-        let differ = covered.iter().filter(|&&k| (0..4).any(|c| cpu.colour[k].to_le_bytes()[c].abs_diff(theirs[k].to_le_bytes()[c]) > 1)).count();
+        let (differ, _) = colour_difference(&cpu, &theirs);
         let _ = writeln!(
             s,
             "| {filter:?} | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % |",
             ms(&cpu_time),
             ms(&peer_time),
             peer_time.median / cpu_time.median,
-            100.0 * differ as f64 / covered.len().max(1) as f64
+            100.0 * differ
         );
         eprintln!("render-report: textures, {filter:?} done");
     }

@@ -4,8 +4,8 @@
 //! adapter (lavapipe counts); without one they are left out and the reason is printed.
 //! `cargo xtask bench-report` runs a reduced set with errors and peers and writes the report.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use tileraster::{rasterise, Backend, Grid, Mode, Params, Scene};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use tileraster::{Backend, Grid, Mode, Params, Scene, rasterise};
 use tileraster_testkit::scenes;
 
 fn backends() -> Vec<Backend> {

@@ -5,8 +5,8 @@
 
 mod common;
 
-use tileraster_testkit::reference::{accuracy, Reference};
-use tileraster::{rasterise, Backend, Grid, Params, Raster, Scene};
+use tileraster::{Backend, Grid, Params, Raster, Scene, rasterise};
+use tileraster_testkit::reference::{Reference, accuracy};
 use tileraster_testkit::scenes;
 
 /// The accuracy bounds, with every skip variant (each raster is checked on its own).

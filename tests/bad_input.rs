@@ -3,7 +3,7 @@
 mod common;
 
 use common::expect_err;
-use tileraster::{rasterise, rasterise_window, Backend, Error, Grid, Params, Scene, Window};
+use tileraster::{Backend, Error, Grid, Params, Scene, Window, rasterise, rasterise_window};
 
 fn triangle() -> Scene {
     Scene::new(vec![[0.0, 0.0, 1.0], [10.0, 0.0, 2.0], [0.0, 10.0, 3.0]], vec![[0, 1, 2]])
@@ -41,10 +41,7 @@ fn non_finite_coordinates() {
         scene.vertices[vertex][axis] = value;
         let e = both(&scene, &params());
         let want_axis = ['x', 'y', 'z'][axis];
-        assert!(
-            matches!(e, Error::NonFiniteCoordinate { vertex: v, axis: a, .. } if v == vertex && a == want_axis),
-            "{e:?}"
-        );
+        assert!(matches!(e, Error::NonFiniteCoordinate { vertex: v, axis: a, .. } if v == vertex && a == want_axis), "{e:?}");
         assert!(message(&e).contains(&format!("vertex {vertex}")), "{e}");
     }
 }
@@ -112,11 +109,7 @@ fn triangles_too_large_for_exact_coverage() {
 
 #[test]
 fn windows_outside_the_grid() {
-    for window in [
-        Window { x0: 0, y0: 0, width: 0, height: 4 },
-        Window { x0: 10, y0: 0, width: 7, height: 4 },
-        Window { x0: 0, y0: 16, width: 1, height: 1 },
-    ] {
+    for window in [Window { x0: 0, y0: 0, width: 0, height: 4 }, Window { x0: 10, y0: 0, width: 7, height: 4 }, Window { x0: 0, y0: 16, width: 1, height: 1 }] {
         let e = expect_err(rasterise_window(&triangle(), &params(), Some(window), Backend::Cpu));
         assert!(matches!(e, Error::InvalidWindow { .. }), "{e:?}");
     }

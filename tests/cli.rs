@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use tiff::decoder::{Decoder, DecodingResult};
 use tiff::tags::Tag;
-use tileraster::{rasterise, Backend, Grid, Params, Scene};
+use tileraster::{Backend, Grid, Params, Scene, rasterise};
 use tileraster_testkit::scenes;
 
 fn bin() -> Command {
@@ -19,11 +19,7 @@ fn scratch(name: &str) -> PathBuf {
 
 /// `tileraster rasterise MESH -o OUT --backend cpu` plus `args`.
 fn rasterise_cli(obj: &Path, tif: &Path, args: &[&str]) -> std::process::Output {
-    bin()
-        .args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu"])
-        .args(args)
-        .output()
-        .unwrap()
+    bin().args(["rasterise", obj.to_str().unwrap(), "-o", tif.to_str().unwrap(), "--backend", "cpu"]).args(args).output().unwrap()
 }
 
 /// `scene` as `m.obj` in a scratch folder of its own: the folder and the file.
@@ -52,11 +48,7 @@ fn rasterise_writes_a_gdal_grid_compatible_geotiff() {
     let scene = scenes::terrain(x0, y0, 600.0, 400.0, 20, 14, 4);
     let (obj, tif) = (dir.join("mesh.obj"), dir.join("out.tif"));
     write_obj(&scene, &obj);
-    let out = rasterise_cli(
-        &obj,
-        &tif,
-        &["--nodata", "-32768", "--txe", "499990", "500590", "--tye", "4999980", "5000410", "--outsize", "120", "86"],
-    );
+    let out = rasterise_cli(&obj, &tif, &["--nodata", "-32768", "--txe", "499990", "500590", "--tye", "4999980", "5000410", "--outsize", "120", "86"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 
     let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(&tif).unwrap())).unwrap();
@@ -408,9 +400,11 @@ fn bands_streamed_within_a_memory_budget_give_the_single_runs_cells() {
     assert_eq!(tile.map(|v| v.into_u32().unwrap()), Some(256), "streamed output is tiled");
     assert_same_bits(&read_tif_values(&banded), &read_tif_values(&single), "banded against single");
 
-    let params = Params::new(Grid::new(-20.0, 610.0, -5.0, 905.0, 700, 1100))
-        .with_nodata(-9999.0)
-        .with_outputs(tileraster::Outputs { owner: true, coverage: false, tiles: false });
+    let params = Params::new(Grid::new(-20.0, 610.0, -5.0, 905.0, 700, 1100)).with_nodata(-9999.0).with_outputs(tileraster::Outputs {
+        owner: true,
+        coverage: false,
+        tiles: false,
+    });
     let expected = rasterise(&scene, &params, Backend::Cpu).unwrap();
     let owners = read_tif_u32(&owner);
     assert_eq!(&owners, expected.owner.as_ref().unwrap(), "the owner raster is the library's");
@@ -455,7 +449,9 @@ fn parts_run_as_separate_processes_mosaic_to_the_single_run() {
     let mut mosaic = vec![f32::NAN; whole.len()];
     for source in xml.split("<SimpleSource>").skip(1) {
         let name = source.split("\">").nth(1).unwrap().split('<').next().unwrap();
-        let attr = |key: &str| -> usize { source.split("<DstRect").nth(1).unwrap().split(&format!("{key}=\"")).nth(1).unwrap().split('"').next().unwrap().parse().unwrap() };
+        let attr = |key: &str| -> usize {
+            source.split("<DstRect").nth(1).unwrap().split(&format!("{key}=\"")).nth(1).unwrap().split('"').next().unwrap().parse().unwrap()
+        };
         let (x, y, w) = (attr("xOff"), attr("yOff"), attr("xSize"));
         for (k, v) in read_tif_values(&dir.join(name)).into_iter().enumerate() {
             mosaic[(y + k / w) * 333 + x + k % w] = v;
@@ -503,10 +499,18 @@ fn the_tin_written_is_the_one_rasterised_and_owners_index_its_faces() {
     }
     let (points, tif, owner, tin) = (dir.join("p.csv"), dir.join("h.tif"), dir.join("o.tif"), dir.join("tin.obj"));
     std::fs::write(&points, csv).unwrap();
-    let out = rasterise_cli(&points, &tif, &["--txe", "0", "100", "--tye", "0", "80", "--outsize", "150", "120", "--owner", owner.to_str().unwrap(), "--tin", tin.to_str().unwrap()]);
+    let out = rasterise_cli(
+        &points,
+        &tif,
+        &["--txe", "0", "100", "--tye", "0", "80", "--outsize", "150", "120", "--owner", owner.to_str().unwrap(), "--tin", tin.to_str().unwrap()],
+    );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let mesh = tileraster_io::read_obj(&tin).unwrap();
-    let params = Params::new(Grid::new(0.0, 100.0, 0.0, 80.0, 150, 120)).with_nodata(-9999.0).with_outputs(tileraster::Outputs { owner: true, coverage: false, tiles: false });
+    let params = Params::new(Grid::new(0.0, 100.0, 0.0, 80.0, 150, 120)).with_nodata(-9999.0).with_outputs(tileraster::Outputs {
+        owner: true,
+        coverage: false,
+        tiles: false,
+    });
     let expected = rasterise(&mesh, &params, Backend::Cpu).unwrap();
     assert_same_bits(&read_tif_values(&tif), &expected.values, "the points' raster against their written TIN's");
     assert_eq!(&read_tif_u32(&owner), expected.owner.as_ref().unwrap(), "owners index the written TIN's faces");
@@ -517,7 +521,7 @@ fn the_tin_written_is_the_one_rasterised_and_owners_index_its_faces() {
 /// the layers the library's frame gives.
 #[test]
 fn render_writes_the_heat_map_and_checksums() {
-    use tileraster::render::{render, Camera, Mesh, RenderParams};
+    use tileraster::render::{Camera, Mesh, RenderParams, render};
     let dir = scratch("render-diagnostics");
     let sphere = tileraster_testkit::meshes::sphere([0.0, 0.0, 0.0], 1.0, 10, 16);
     let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
@@ -551,7 +555,7 @@ fn render_writes_the_heat_map_and_checksums() {
 /// that names it.
 #[test]
 fn render_draws_instances_from_a_file_of_transforms() {
-    use tileraster::render::{render_world, Camera, RenderParams, World};
+    use tileraster::render::{Camera, RenderParams, World, render_world};
     let dir = scratch("render-instances");
     let sphere = tileraster_testkit::meshes::sphere([0.0, 0.0, 0.0], 0.5, 8, 12);
     let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
@@ -586,7 +590,8 @@ fn render_draws_instances_from_a_file_of_transforms() {
 
     std::fs::write(&file, "1 0 0 0  0 1 0 0  0 0 1 0  0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1\n").unwrap();
     let bad = dir.join("bad.png");
-    let out = bin().args(["render", obj.to_str().unwrap(), "-o", bad.to_str().unwrap(), "--instances", file.to_str().unwrap(), "--backend", "cpu"]).output().unwrap();
+    let out =
+        bin().args(["render", obj.to_str().unwrap(), "-o", bad.to_str().unwrap(), "--instances", file.to_str().unwrap(), "--backend", "cpu"]).output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && stderr.contains("line 2") && stderr.contains("11 numbers") && !bad.exists(), "{stderr}");
 }
@@ -595,7 +600,7 @@ fn render_draws_instances_from_a_file_of_transforms() {
 /// the OBJ's faces in file order), `--stats` as JSON; bad input is an error that leaves no file.
 #[test]
 fn render_writes_the_frame_the_library_renders() {
-    use tileraster::render::{render, Mesh, RenderParams, Shading};
+    use tileraster::render::{Mesh, RenderParams, Shading, render};
     let dir = scratch("render");
     let sphere = tileraster_testkit::meshes::sphere([1.0, 2.0, 3.0], 1.5, 10, 16);
     let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
@@ -809,7 +814,11 @@ fn the_inputs_extent_classes_and_the_longest_edge() {
     let csv = dir.join("p.csv");
     std::fs::write(&csv, "0 0 1\n10 0 2\n0 10 3\n").unwrap();
     let out = rasterise_cli(&csv, &dir.join("refused.tif"), &["--tr", "1", "1", "--class", "2"]);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--class filters LAS/LAZ points by classification; this file has none"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--class filters LAS/LAZ points by classification; this file has none"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -845,7 +854,11 @@ fn cloud_optimised_geotiffs_validate_and_do_not_depend_on_bands() {
         }
     }
     // Predictor 3 is for floating point: refused for the owner file before anything is read.
-    let out = rasterise_cli(&obj, &dir.join("p3.tif"), &[&grid[..], &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=3", "--owner", dir.join("p3-owner.tif").to_str().unwrap()]].concat());
+    let out = rasterise_cli(
+        &obj,
+        &dir.join("p3.tif"),
+        &[&grid[..], &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=3", "--owner", dir.join("p3-owner.tif").to_str().unwrap()]].concat(),
+    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && stderr.contains("p3-owner.tif") && stderr.contains("PREDICTOR=2"), "{stderr}");
     assert!(!dir.join("p3.tif").exists() && !dir.join("p3-owner.tif").exists());
@@ -876,10 +889,9 @@ fn the_linear_algorithms_radius_fills_cells_outside_the_tin() {
     let near = run(&["--algorithm", "linear:radius=5:nodata=-1"]);
     assert_eq!((at(&near, 0, 0), at(&near, 6, 6), at(&near, 39, 39), at(&near, 34, 34)), (-1.0, 1.0, -1.0, 4.0));
     assert!(inside(&near));
-    for (args, expected) in [
-        (&["-a", "invdist:power=2"][..], "give linear[:radius=R][:nodata=V]"),
-        (&["-a", "linear:nodata=0", "--nodata", "5"], "differ; give one"),
-    ] {
+    for (args, expected) in
+        [(&["-a", "invdist:power=2"][..], "give linear[:radius=R][:nodata=V]"), (&["-a", "linear:nodata=0", "--nodata", "5"], "differ; give one")]
+    {
         let out = rasterise_cli(&csv, &tif, &[&grid[..], args].concat());
         assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains(expected), "{}", String::from_utf8_lossy(&out.stderr));
     }

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use tiff::decoder::{Decoder, DecodingResult};
 use tileraster::dem::{self, DemError, Destinations, GridSize, GridSpec};
-use tileraster::{rasterise_window, Backend, Outputs, Params, Window};
+use tileraster::{Backend, Outputs, Params, Window, rasterise_window};
 use tileraster_testkit::scenes;
 
 fn scratch(name: &str) -> PathBuf {
@@ -25,7 +25,9 @@ fn a_window_streamed_in_bands_is_the_single_call_bit_for_bit() {
     tileraster_io::write_obj(&scene, &dir.join("terrain.obj")).unwrap();
     let input = dem::read_scene(&dir.join("terrain.obj"), &Default::default(), &()).unwrap();
     assert!(input.points.is_none(), "a mesh is read as it is");
-    let grid = GridSpec { txe: Some([x0 - 50.0, x0 + 1050.0]), tye: Some([y0, y0 + 1000.0]), size: GridSize::Resolution { x: 1.5, y: 1.25 }, tap: false }.grid().unwrap();
+    let grid = GridSpec { txe: Some([x0 - 50.0, x0 + 1050.0]), tye: Some([y0, y0 + 1000.0]), size: GridSize::Resolution { x: 1.5, y: 1.25 }, tap: false }
+        .grid()
+        .unwrap();
     assert_eq!((grid.width, grid.height), (733, 800));
     let window = Window { x0: 20, y0: 30, width: 700, height: 700 };
     let params = Params::new(grid).with_nodata(-9999.0);

@@ -4,7 +4,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{render, Camera, Cull, Frame, Mesh, RenderParams, Shading, NO_FACE};
+use tileraster::render::{Camera, Cull, Frame, Mesh, NO_FACE, RenderParams, Shading, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 
@@ -25,7 +25,8 @@ fn scene() -> (Mesh, RenderParams) {
     let mut mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 16, 24);
     mesh.triangles.extend(meshes::fill_layers(3).triangles.iter().map(|t| t.map(|v| v % 4)));
     let camera = Camera { eye: [2.0, -2.5, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
-    let params = RenderParams { cull: Cull::None, shading: Shading::Phong, count_tiles: true, ..RenderParams::new(133, 97, camera.view_projection(133, 97).unwrap()) };
+    let params =
+        RenderParams { cull: Cull::None, shading: Shading::Phong, count_tiles: true, ..RenderParams::new(133, 97, camera.view_projection(133, 97).unwrap()) };
     (mesh, params)
 }
 

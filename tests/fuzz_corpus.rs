@@ -7,7 +7,7 @@
 mod decode;
 
 use std::collections::BTreeMap;
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::panic::{AssertUnwindSafe, catch_unwind};
 
 /// xorshift64: deterministic bytes.
 struct XorShift(u64);

@@ -14,7 +14,7 @@ mod part_check;
 use las_check::points_check;
 
 use std::io::Cursor;
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::panic::{AssertUnwindSafe, catch_unwind};
 
 /// xorshift64: deterministic bytes.
 fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
@@ -104,7 +104,8 @@ fn mesh_files_never_panic_and_are_refused_or_read_consistently() {
 #[test]
 fn point_files_never_panic_and_are_refused_or_triangulated_consistently() {
     let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
-    let pieces = ["x,y,h\n", "1,2,3\n", "0 0 0\n", "1e308 1 1\n", "NaN,1,2\n", "-0,0,1\n", "3;4;5\n", "#c\n", "\t", ",", " ", "\n", "inf", "7", "\r\n", "\u{fffd}"];
+    let pieces =
+        ["x,y,h\n", "1,2,3\n", "0 0 0\n", "1e308 1 1\n", "NaN,1,2\n", "-0,0,1\n", "3;4;5\n", "#c\n", "\t", ",", " ", "\n", "inf", "7", "\r\n", "\u{fffd}"];
     let (mut refused, mut points, mut triangulated) = (0, 0, 0);
     for k in 0..3000 {
         let mut data = vec![k as u8];

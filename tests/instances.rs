@@ -5,7 +5,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{render, render_world, Camera, Cull, Frame, GeometryCounts, Instance, Mesh, RenderParams, Shading, World};
+use tileraster::render::{Camera, Cull, Frame, GeometryCounts, Instance, Mesh, RenderParams, Shading, World, render, render_world};
 use tileraster::{Backend, Error, Skips};
 use tileraster_testkit::meshes;
 
@@ -16,7 +16,9 @@ fn frame(world: &World, params: &RenderParams, backend: Backend) -> Frame {
 /// Panics unless the frames have the same bits in every layer.
 fn assert_same_layers(what: &str, a: &Frame, b: &Frame) {
     let differing = (0..a.colour.len())
-        .filter(|&k| a.colour[k] != b.colour[k] || a.depth[k].to_bits() != b.depth[k].to_bits() || a.ids[k] != b.ids[k] || a.fragments.get(k) != b.fragments.get(k))
+        .filter(|&k| {
+            a.colour[k] != b.colour[k] || a.depth[k].to_bits() != b.depth[k].to_bits() || a.ids[k] != b.ids[k] || a.fragments.get(k) != b.fragments.get(k)
+        })
         .count();
     assert_eq!(differing, 0, "{what}: {differing} pixels differ");
     assert_eq!(a.fragments.len(), b.fragments.len(), "{what}: fragment layers");
@@ -78,7 +80,15 @@ fn a_world_renders_as_its_flattened_mesh() {
         assert_eq!(faces_only(&instanced.stats.geometry), faces_only(&flattened.stats.geometry), "{what}: geometry counts");
         assert_eq!(instanced.stats.geometry.instances_drawn, 5, "{what}");
         // Every instance shows: its faces' ids are on the screen.
-        let first_faces: Vec<u32> = world.instances.iter().scan(0, |n, i| { let f = *n; *n += world.meshes[i.mesh as usize].triangles.len() as u32; Some(f) }).collect();
+        let first_faces: Vec<u32> = world
+            .instances
+            .iter()
+            .scan(0, |n, i| {
+                let f = *n;
+                *n += world.meshes[i.mesh as usize].triangles.len() as u32;
+                Some(f)
+            })
+            .collect();
         for (k, pair) in first_faces.windows(2).enumerate() {
             assert!(instanced.ids.iter().any(|&id| id >= pair[0] && id < pair[1]), "{what}: instance {k} is not on the screen");
         }

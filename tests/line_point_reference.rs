@@ -8,8 +8,8 @@
 mod common;
 
 use std::collections::HashSet;
-use tileraster::render::{render, Cull, LineRule, Mesh, RenderParams, Shading, Wireframe, IDENTITY, NO_FACE};
 use tileraster::Backend;
+use tileraster::render::{Cull, IDENTITY, LineRule, Mesh, NO_FACE, RenderParams, Shading, Wireframe, render};
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::scenes::Rng;
 
@@ -66,7 +66,14 @@ fn compare(rule: LineRule, peer: &mut MeshPipeline) -> Comparison {
             continue;
         }
         let mesh = Mesh { positions: positions.to_vec(), triangles: vec![[0, 1, 0]], ..Default::default() };
-        let params = RenderParams { cull: Cull::None, shading: Shading::Ids, faces: false, wireframe: Some(Wireframe { rule, colour: None }), eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(W, W, IDENTITY) };
+        let params = RenderParams {
+            cull: Cull::None,
+            shading: Shading::Ids,
+            faces: false,
+            wireframe: Some(Wireframe { rule, colour: None }),
+            eye: Some([0.0, 0.0, -1.0]),
+            ..RenderParams::new(W, W, IDENTITY)
+        };
         let ours = lit_pixels(&render(&mesh, &params, Backend::Cpu).expect("render").ids, 3);
         let f32_positions = positions.map(|p| p.map(|c| c as f32));
         let theirs = lit_pixels(&peer.draw_line_ids(&f32_positions, &[[0, 1]], &IDENTITY.map(|r| r.map(|c| c as f32)), W, W).expect("the line peer"), 0);
@@ -149,7 +156,14 @@ fn points_match_the_render_pipeline() {
     }
     let triangles = vec![[0, 1, 2]];
     let mesh = Mesh { positions: positions.clone(), triangles, ..Default::default() };
-    let params = RenderParams { cull: Cull::None, shading: Shading::Ids, faces: false, points: Some(1.0), eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(size, size, IDENTITY) };
+    let params = RenderParams {
+        cull: Cull::None,
+        shading: Shading::Ids,
+        faces: false,
+        points: Some(1.0),
+        eye: Some([0.0, 0.0, -1.0]),
+        ..RenderParams::new(size, size, IDENTITY)
+    };
     let ours = render(&mesh, &params, Backend::Cpu).expect("render").ids;
     let f32_positions: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
     let theirs = peer.draw_point_ids(&f32_positions, &IDENTITY.map(|r| r.map(|c| c as f32)), size, size).expect("the point peer");

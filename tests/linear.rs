@@ -3,7 +3,7 @@
 //! (CI installs gdal-bin); `TILERASTER_SKIP_GDAL=1` skips the comparison, and says so.
 
 use tileraster::dem::Fallback;
-use tileraster::{rasterise, Backend, Grid, Outputs, Params};
+use tileraster::{Backend, Grid, Outputs, Params, rasterise};
 use tileraster_testkit::scenes;
 
 fn gdal_or_skip() -> bool {
@@ -29,8 +29,9 @@ fn cells_outside_the_tin_are_gdal_grids() {
         return;
     }
     let mut rng = scenes::Rng::new(17);
-    let mut points: Vec<[f64; 3]> =
-        (0..1500).map(|_| [rng.range(100_000.0, 400_000.0).round() / 1000.0, rng.range(50_000.0, 250_000.0).round() / 1000.0, rng.range(0.0, 50_000.0).round() / 1000.0]).collect();
+    let mut points: Vec<[f64; 3]> = (0..1500)
+        .map(|_| [rng.range(100_000.0, 400_000.0).round() / 1000.0, rng.range(50_000.0, 250_000.0).round() / 1000.0, rng.range(0.0, 50_000.0).round() / 1000.0])
+        .collect();
     // A lattice (equidistant neighbours: ties that only gdal_grid's search order decides) and
     // repeated positions with other heights.
     for k in 0..60 {
@@ -51,8 +52,15 @@ fn cells_outside_the_tin_are_gdal_grids() {
         let (gdal, _) = tileraster_peers::gdal_grid_linear_radius(&points, &grid, radius, nodata, &dir).unwrap();
         let owner = raster.owner.as_ref().unwrap();
         let outside: Vec<usize> = (0..owner.len()).filter(|&k| owner[k] == u32::MAX).collect();
-        let differing: Vec<(usize, f32, f32)> = outside.iter().filter(|&&k| raster.values[k].to_bits() != gdal[k].to_bits()).map(|&k| (k, raster.values[k], gdal[k])).collect();
-        assert!(differing.is_empty(), "radius {radius}: {} of {} cells outside the TIN differ from gdal_grid, first: {:?}", differing.len(), outside.len(), &differing[..differing.len().min(5)]);
+        let differing: Vec<(usize, f32, f32)> =
+            outside.iter().filter(|&&k| raster.values[k].to_bits() != gdal[k].to_bits()).map(|&k| (k, raster.values[k], gdal[k])).collect();
+        assert!(
+            differing.is_empty(),
+            "radius {radius}: {} of {} cells outside the TIN differ from gdal_grid, first: {:?}",
+            differing.len(),
+            outside.len(),
+            &differing[..differing.len().min(5)]
+        );
         let empty = outside.iter().filter(|&&k| raster.values[k] == nodata).count() as u64;
         match radius {
             0.0 => assert_eq!(filled, 0),

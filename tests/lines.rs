@@ -8,15 +8,15 @@ mod common;
 
 use common::{assert_frame_parity as assert_parity, render_frame as frame};
 use std::collections::HashSet;
-use tileraster::render::{render, Camera, Cull, Interpolation, LineRule, Mesh, RenderParams, Shading, Wireframe, IDENTITY, NO_FACE};
+use tileraster::render::{Camera, Cull, IDENTITY, Interpolation, LineRule, Mesh, NO_FACE, RenderParams, Shading, Wireframe, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 use tileraster_testkit::scenes::Rng;
 
-
 /// The undirected edges of a mesh's faces, each once.
 fn edge_count(mesh: &Mesh) -> u64 {
-    let edges: HashSet<(u32, u32)> = mesh.triangles.iter().flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]).filter(|(a, b)| a != b).map(|(a, b)| (a.min(b), a.max(b))).collect();
+    let edges: HashSet<(u32, u32)> =
+        mesh.triangles.iter().flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]).filter(|(a, b)| a != b).map(|(a, b)| (a.min(b), a.max(b))).collect();
     edges.len() as u64
 }
 
@@ -174,7 +174,14 @@ fn segment_mesh(p0: (i64, i64), p1: (i64, i64)) -> Mesh {
 }
 
 fn line_params(rule: LineRule) -> RenderParams {
-    RenderParams { cull: Cull::None, shading: Shading::Ids, faces: false, wireframe: Some(Wireframe { rule, colour: None }), eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(W, W, IDENTITY) }
+    RenderParams {
+        cull: Cull::None,
+        shading: Shading::Ids,
+        faces: false,
+        wireframe: Some(Wireframe { rule, colour: None }),
+        eye: Some([0.0, 0.0, -1.0]),
+        ..RenderParams::new(W, W, IDENTITY)
+    }
 }
 
 /// Random segments, long and short, in every direction, some reaching beyond the frame: the
@@ -204,7 +211,8 @@ fn each_rule_lights_exactly_its_reference_pixels() {
             let Some(expected) = expected else { continue };
             let f = frame(&mesh, &line_params(rule), Backend::Cpu);
             // Ids: the face 0, the vertices 1 and 2, the line 3.
-            let lit: HashSet<(i64, i64)> = f.ids.iter().enumerate().filter(|(_, id)| **id == 3).map(|(p, _)| ((p % W as usize) as i64, (p / W as usize) as i64)).collect();
+            let lit: HashSet<(i64, i64)> =
+                f.ids.iter().enumerate().filter(|(_, id)| **id == 3).map(|(p, _)| ((p % W as usize) as i64, (p / W as usize) as i64)).collect();
             let lit: HashSet<(i64, i64)> = lit.difference(&undecided).copied().collect();
             let (extra, missing): (Vec<_>, Vec<_>) = (lit.difference(&expected).collect(), expected.difference(&lit).collect());
             assert!(extra.is_empty() && missing.is_empty(), "{rule:?} {p0:?} → {p1:?}: lit but not expected {extra:?}, expected but not lit {missing:?}");

@@ -12,8 +12,8 @@
 
 mod common;
 
+use tileraster::{Backend, Grid, Mode, Outputs, Params, Scene, prepare, rasterise};
 use tileraster_testkit::reference::{degenerate, plane_at, ulps};
-use tileraster::{prepare, rasterise, Backend, Grid, Mode, Outputs, Params, Scene};
 use tileraster_testkit::scenes;
 
 /// Per-pixel gradients and pixel bounding box of a triangle given in raster space.

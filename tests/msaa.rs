@@ -4,7 +4,7 @@
 mod common;
 
 use common::{assert_frame_parity, render_frame};
-use tileraster::render::{render, Camera, Cull, LineRule, Mesh, RenderParams, Shading, Wireframe, IDENTITY, NO_FACE};
+use tileraster::render::{Camera, Cull, IDENTITY, LineRule, Mesh, NO_FACE, RenderParams, Shading, Wireframe, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 
@@ -68,7 +68,15 @@ fn multisampled_frames_are_the_same_bits_on_both_backends() {
         let base = RenderParams { samples, cull: Cull::None, eye: Some(camera.eye), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
         for (what, params) in [
             ("phong", RenderParams { shading: Shading::Phong, ..base.clone() }),
-            ("wireframe and points", RenderParams { shading: Shading::Smooth, wireframe: Some(Wireframe { rule: LineRule::Rectangle, colour: Some([0.0, 0.0, 0.0, 1.0]) }), points: Some(2.5), ..base.clone() }),
+            (
+                "wireframe and points",
+                RenderParams {
+                    shading: Shading::Smooth,
+                    wireframe: Some(Wireframe { rule: LineRule::Rectangle, colour: Some([0.0, 0.0, 0.0, 1.0]) }),
+                    points: Some(2.5),
+                    ..base.clone()
+                },
+            ),
             ("depth, layer sample 3", RenderParams { shading: Shading::Depth, layer_sample: 3, ..base.clone() }),
             ("ids, layer sample 1", RenderParams { shading: Shading::Ids, layer_sample: 1, ..base.clone() }),
         ] {
@@ -130,7 +138,14 @@ fn every_sample_matches_the_render_pipeline() {
         let positions32: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
         let theirs = peer.draw_sample_ids(&positions32, &faces, &IDENTITY.map(|r| r.map(|c| c as f32)), SIZE, SIZE).expect("the multisampled peer");
         for s in 0..PEER_SAMPLES {
-            let params = RenderParams { cull: Cull::None, shading: Shading::Ids, samples: PEER_SAMPLES, layer_sample: s, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(SIZE, SIZE, IDENTITY) };
+            let params = RenderParams {
+                cull: Cull::None,
+                shading: Shading::Ids,
+                samples: PEER_SAMPLES,
+                layer_sample: s,
+                eye: Some([0.0, 0.0, -1.0]),
+                ..RenderParams::new(SIZE, SIZE, IDENTITY)
+            };
             let ours = render_frame(&mesh, &params, Backend::Cpu);
             for (p, &a) in ours.ids.iter().enumerate() {
                 let b = theirs[p * PEER_SAMPLES as usize + s as usize];

@@ -1,7 +1,7 @@
 //! Without a usable adapter the GPU backend fails with a typed error that says how to install
 //! the Vulkan CPU driver. (Own test binary: the GPU context is chosen once per process.)
 
-use tileraster::{rasterise, Backend, Error, Grid, Params, Scene};
+use tileraster::{Backend, Error, Grid, Params, Scene, rasterise};
 
 #[test]
 fn missing_adapter_is_a_clear_error() {

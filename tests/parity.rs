@@ -64,7 +64,8 @@ fn utm_scale_offsets() {
 #[test]
 fn nan_nodata_and_huge_triangles() {
     let grid = Grid::new(0.0, 10.0, 0.0, 10.0, 333, 333);
-    let scene = Scene::new(vec![[-1e6, -1e6, 1.0], [1e6, -1e6, 2.0], [0.0, 1e6, 3.0], [2.0, 2.0, 5.0], [8.0, 3.0, 6.0], [5.0, 9.0, 7.0]], vec![[3, 4, 5], [0, 1, 2]]);
+    let scene =
+        Scene::new(vec![[-1e6, -1e6, 1.0], [1e6, -1e6, 2.0], [0.0, 1e6, 3.0], [2.0, 2.0, 5.0], [8.0, 3.0, 6.0], [5.0, 9.0, 7.0]], vec![[3, 4, 5], [0, 1, 2]]);
     assert_parity("huge triangle under a small one", &scene, &Params::new(grid));
 }
 

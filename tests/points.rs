@@ -6,10 +6,9 @@
 mod common;
 
 use common::assert_frame_parity as assert_parity;
-use tileraster::render::{render, Camera, Cull, Mesh, RenderParams, Shading, IDENTITY, NO_FACE};
+use tileraster::render::{Camera, Cull, IDENTITY, Mesh, NO_FACE, RenderParams, Shading, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
-
 
 /// Points alone (a point cloud) and over the faces (the vertices view), at several sizes, a
 /// sphere crossing the near plane and the frame's edges: CPU = GPU; every vertex is drawn or
@@ -23,7 +22,14 @@ fn points_are_the_same_bits_on_both_backends() {
     let (w, h) = (120, 90);
     for size in [1.0, 2.5, 4.0, 9.0] {
         for faces in [false, true] {
-            let params = RenderParams { cull: Cull::None, shading: Shading::Smooth, points: Some(size), faces, eye: Some(camera.eye), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
+            let params = RenderParams {
+                cull: Cull::None,
+                shading: Shading::Smooth,
+                points: Some(size),
+                faces,
+                eye: Some(camera.eye),
+                ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap())
+            };
             let what = format!("size {size}, faces {faces}");
             let f = assert_parity(&what, &sphere, &params);
             let g = f.stats.geometry;
@@ -53,7 +59,14 @@ fn a_point_of_whole_width_covers_its_square_of_pixels() {
             let (x, y) = (-0.2 + off * 2.0 / 64.0, 0.1 - off * 1.3 / 64.0);
             // The other two vertices lie beyond the far plane: their points are dropped.
             let mesh = Mesh { positions: vec![[x, y, 0.5], [0.0, 0.0, 5.0], [0.1, 0.0, 5.0]], triangles: vec![[0, 1, 2]], ..Default::default() };
-            let params = RenderParams { cull: Cull::None, shading: Shading::Ids, points: Some(size), faces: false, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, IDENTITY) };
+            let params = RenderParams {
+                cull: Cull::None,
+                shading: Shading::Ids,
+                points: Some(size),
+                faces: false,
+                eye: Some([0.0, 0.0, -1.0]),
+                ..RenderParams::new(w, h, IDENTITY)
+            };
             let f = assert_parity(&format!("size {size}, offset {off:.3}"), &mesh, &params);
             let covered = f.ids.iter().filter(|&&id| id == 1).count();
             assert_eq!(covered, (size * size) as usize, "size {size}, offset {off:.3}: {covered} pixels");

@@ -5,7 +5,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{prepare_render, render, Camera, Cull, DepthFunc, Frame, FrontFace, Interpolation, Mesh, RenderParams, Shading, NO_FACE};
+use tileraster::render::{Camera, Cull, DepthFunc, Frame, FrontFace, Interpolation, Mesh, NO_FACE, RenderParams, Shading, prepare_render, render};
 use tileraster::{Backend, Error, Skips};
 use tileraster_cpu::FinePath;
 use tileraster_kernels::math::edge::Side;
@@ -29,7 +29,9 @@ fn assert_same_frame(what: &str, a: &Frame, b: &Frame) {
     assert_eq!((a.width, a.height), (b.width, b.height), "{what}: sizes");
     assert_eq!(a.fragments.len(), b.fragments.len(), "{what}: one frame counts fragments, the other does not");
     let differing: Vec<usize> = (0..n)
-        .filter(|&k| a.colour[k] != b.colour[k] || a.depth[k].to_bits() != b.depth[k].to_bits() || a.ids[k] != b.ids[k] || a.fragments.get(k) != b.fragments.get(k))
+        .filter(|&k| {
+            a.colour[k] != b.colour[k] || a.depth[k].to_bits() != b.depth[k].to_bits() || a.ids[k] != b.ids[k] || a.fragments.get(k) != b.fragments.get(k)
+        })
         .collect();
     if !differing.is_empty() {
         let first: Vec<String> = differing
@@ -74,7 +76,12 @@ fn assert_plain_twin(name: &str, mesh: &Mesh, params: &RenderParams) {
     let run = |path| tileraster_cpu::rasterise_with(&prepared, path).unwrap_or_else(|e| panic!("{name}, {path:?}: {e}"));
     let (specialised, plain) = (run(FinePath::Specialised), run(FinePath::Plain));
     common::assert_same_bits(&format!("{name}: depth, CPU specialised vs plain twin"), &specialised, &plain);
-    for (layer, a, b) in [("owner", &specialised.owner, &plain.owner), ("coverage", &specialised.coverage, &plain.coverage), ("colour", &specialised.colours, &plain.colours), ("face", &specialised.faces, &plain.faces)] {
+    for (layer, a, b) in [
+        ("owner", &specialised.owner, &plain.owner),
+        ("coverage", &specialised.coverage, &plain.coverage),
+        ("colour", &specialised.colours, &plain.colours),
+        ("face", &specialised.faces, &plain.faces),
+    ] {
         assert!(a == b, "{name}: the {layer} layers of the CPU's specialised and plain twins differ");
     }
     assert_eq!(specialised.stats, plain.stats, "{name}: the CPU twins' statistics differ");
@@ -122,7 +129,13 @@ fn hidden_triangles_are_rejected_the_same_way_on_both_backends() {
     for (order, mesh) in [("back to front", &back_to_front), ("front to back", &front_to_back)] {
         for depth_func in DepthFunc::ALL {
             let clear_depth = if matches!(depth_func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
-            let params = RenderParams { cull: Cull::None, depth_func, clear_depth, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(181, 133, tileraster::render::IDENTITY) };
+            let params = RenderParams {
+                cull: Cull::None,
+                depth_func,
+                clear_depth,
+                eye: Some([0.0, 0.0, -1.0]),
+                ..RenderParams::new(181, 133, tileraster::render::IDENTITY)
+            };
             let name = format!("8 layers {order}, {}", depth_func.name());
             let frame = assert_render_parity(&name, mesh, &params);
             let hidden = frame.stats.raster.triangles_hidden;
@@ -212,7 +225,13 @@ fn screen_linear_interpolation_and_window_edges_are_the_same_bits_on_both_backen
         colours: Some(vec![[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]]),
         ..Default::default()
     };
-    let params = RenderParams { cull: Cull::None, shading: Shading::Unlit, interpolation: Interpolation::Flat, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(16, 16, tileraster::render::IDENTITY) };
+    let params = RenderParams {
+        cull: Cull::None,
+        shading: Shading::Unlit,
+        interpolation: Interpolation::Flat,
+        eye: Some([0.0, 0.0, -1.0]),
+        ..RenderParams::new(16, 16, tileraster::render::IDENTITY)
+    };
     let frame = assert_render_parity("flat quad", &quad, &params);
     for (k, &c) in frame.colour.iter().enumerate() {
         let want = if frame.ids[k] == 0 { [255, 0, 0, 255] } else { [0, 0, 255, 255] };
@@ -376,13 +395,19 @@ fn bad_input_is_a_typed_error() {
 /// here without bins).
 #[test]
 fn blending_is_in_submission_order_on_both_backends() {
-    use tileraster_kernels::programs::depth::{depth_bits, DepthProgram};
+    use tileraster_kernels::programs::depth::{DepthProgram, depth_bits};
     use tileraster_kernels::programs::shade::{fragment_colour, source_over};
     let mut mesh = meshes::soup(150, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.8, 21);
     for (k, c) in mesh.colours.as_mut().unwrap().iter_mut().enumerate() {
         c[3] = [0.25, 0.5, 0.75, 1.0][k % 4];
     }
-    let base = RenderParams { cull: Cull::None, blend: true, shading: Shading::Unlit, background: [20, 40, 60, 255], ..RenderParams::new(96, 80, view(96, 80, [2.5, 1.5, 2.0], 0.5, 9.0)) };
+    let base = RenderParams {
+        cull: Cull::None,
+        blend: true,
+        shading: Shading::Unlit,
+        background: [20, 40, 60, 255],
+        ..RenderParams::new(96, 80, view(96, 80, [2.5, 1.5, 2.0], 0.5, 9.0))
+    };
     for depth_func in [DepthFunc::Less, DepthFunc::GreaterEqual, DepthFunc::Always] {
         for depth_write in [true, false] {
             let clear_depth = if depth_func == DepthFunc::GreaterEqual { 0.0 } else { 1.0 };
@@ -401,7 +426,8 @@ fn blending_is_in_submission_order_on_both_backends() {
                         }
                         let d = depth_bits(s, i, j);
                         if (DepthProgram { func: depth_func, write: true, clear: running }).passes(f32::from_bits(d)) {
-                            colour = source_over(fragment_colour(&render.params, s, &render.triangles[slot], &render.textures, &render.texels, d, i, j), colour);
+                            colour =
+                                source_over(fragment_colour(&render.params, s, &render.triangles[slot], &render.textures, &render.texels, d, i, j), colour);
                             layers += 1;
                             if depth_write {
                                 running = f32::from_bits(d);
@@ -422,7 +448,14 @@ fn blending_is_in_submission_order_on_both_backends() {
         colours: Some(vec![[1.0, 0.0, 0.0, 0.5]; 4]),
         ..Default::default()
     };
-    let params = RenderParams { cull: Cull::None, blend: true, shading: Shading::Unlit, background: [0, 0, 255, 255], eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(8, 8, tileraster::render::IDENTITY) };
+    let params = RenderParams {
+        cull: Cull::None,
+        blend: true,
+        shading: Shading::Unlit,
+        background: [0, 0, 255, 255],
+        eye: Some([0.0, 0.0, -1.0]),
+        ..RenderParams::new(8, 8, tileraster::render::IDENTITY)
+    };
     let frame = assert_render_parity("half-transparent quad", &quad, &params);
     // α = 128/255: red (255·128 + 127) / 255 = 128, blue (255·127 + 127) / 255 = 127.
     assert!(frame.colour.iter().all(|&c| c.to_le_bytes() == [128, 0, 127, 255]), "{:08x}", frame.colour[0]);
@@ -435,7 +468,8 @@ fn a_model_matrix_is_the_same_as_moved_vertices() {
     let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 16, 24);
     // Scale x by 2 and turn 90° about z, then move by (0.5, -0.25, 0.1); exact in f64.
     let model = [[0.0, -1.0, 0.0, 0.5], [2.0, 0.0, 0.0, -0.25], [0.0, 0.0, 1.0, 0.1], [0.0, 0.0, 0.0, 1.0]];
-    let moved_positions: Vec<[f64; 3]> = mesh.positions.iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
+    let moved_positions: Vec<[f64; 3]> =
+        mesh.positions.iter().map(|p| std::array::from_fn(|r| model[r][0] * p[0] + model[r][1] * p[1] + model[r][2] * p[2] + model[r][3])).collect();
     // Normals by the inverse transpose of the linear part: (nx, ny, nz) → (−ny/2·…): here
     // (x, y, z) ↦ (−y, 2x, z), whose inverse transpose maps n to (−n.y, n.x/2, n.z), normalised.
     let moved_normals = mesh.normals.as_ref().unwrap().iter().map(|n| {
@@ -504,7 +538,10 @@ fn a_prepared_mesh_renders_what_render_does() {
             if k == 3 {
                 let covered = expected.ids.iter().enumerate().filter(|&(_, &id)| id != NO_FACE).map(|(p, _)| (p % w as usize, p / w as usize));
                 let (right, bottom) = covered.fold((0, 0), |(r, b), (x, y)| (r.max(x), b.max(y)));
-                assert!(expected.stats.pixels_covered > 20 && right < w as usize / 2 && bottom < h as usize / 2, "frame 3 puts the mesh in a corner (it reaches {right}, {bottom})");
+                assert!(
+                    expected.stats.pixels_covered > 20 && right < w as usize / 2 && bottom < h as usize / 2,
+                    "frame 3 puts the mesh in a corner (it reaches {right}, {bottom})"
+                );
             }
         }
     }

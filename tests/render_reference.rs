@@ -9,8 +9,8 @@
 
 mod common;
 
-use tileraster::render::{render, Cull, DepthFunc, Mesh, RenderParams, Shading};
 use tileraster::Backend;
+use tileraster::render::{Cull, DepthFunc, Mesh, RenderParams, Shading, render};
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::meshes::Rng;
 
@@ -64,7 +64,13 @@ fn compare(lo: f64, hi: f64, seed: u64) -> Comparison {
         let faces: Vec<[u32; 3]> = (0..PER_FRAME as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
         out.triangles += faces.len();
         let mesh = Mesh { positions: positions.clone(), triangles: faces.clone(), ..Default::default() };
-        let params = RenderParams { cull: Cull::None, shading: Shading::Ids, depth_func: DepthFunc::Always, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(SIZE, SIZE, identity) };
+        let params = RenderParams {
+            cull: Cull::None,
+            shading: Shading::Ids,
+            depth_func: DepthFunc::Always,
+            eye: Some([0.0, 0.0, -1.0]),
+            ..RenderParams::new(SIZE, SIZE, identity)
+        };
         let ours = render(&mesh, &params, Backend::Cpu).expect("tileraster");
         let positions32: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
         let theirs = peer.draw_ids(&positions32, &faces, &identity.map(|r| r.map(|c| c as f32)), SIZE, SIZE, false).expect("render pipeline");

@@ -6,7 +6,7 @@
 mod common;
 
 use common::{assert_same_bits, gpu_or_skip, skip_variants};
-use tileraster::{rasterise, rasterise_window, Backend, Grid, Outputs, Params, Pass, PreparedScene, Raster, Scene, Skip, Skips, Stage, Window};
+use tileraster::{Backend, Grid, Outputs, Params, Pass, PreparedScene, Raster, Scene, Skip, Skips, Stage, Window, rasterise, rasterise_window};
 use tileraster_testkit::scenes;
 
 /// The backends the tests can use here.
@@ -139,11 +139,8 @@ fn outputs_nobody_asked_for_are_not_written_and_change_nothing_else() {
 fn a_prepared_scene_uploads_and_sets_up_once() {
     let scene = scenes::terrain(0.0, 0.0, 1000.0, 800.0, 36, 30, 12);
     let grid = Grid::new(0.0, 1000.0, 0.0, 800.0, 203, 161);
-    let windows = [
-        Window { x0: 0, y0: 0, width: 100, height: 80 },
-        Window { x0: 100, y0: 0, width: 103, height: 80 },
-        Window { x0: 0, y0: 80, width: 203, height: 81 },
-    ];
+    let windows =
+        [Window { x0: 0, y0: 0, width: 100, height: 80 }, Window { x0: 100, y0: 0, width: 103, height: 80 }, Window { x0: 0, y0: 80, width: 203, height: 81 }];
     for backend in backends("a_prepared_scene_uploads_and_sets_up_once") {
         for (variant, skips) in skip_variants() {
             let params = Params::new(grid).with_nodata(-9999.0).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true, tiles: false });

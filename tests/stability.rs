@@ -28,9 +28,9 @@ use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::Index;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
-use tileraster::{rasterise, rasterise_window, Backend, Error, Grid, Mode, Outputs, Params, Raster, Scene, Window};
-use tileraster_testkit::scenes;
+use tileraster::{Backend, Error, Grid, Mode, Outputs, Params, Raster, Scene, Window, rasterise, rasterise_window};
 use tileraster_core::MAX_GRID_DIM;
+use tileraster_testkit::scenes;
 
 const BOTH: Outputs = Outputs { owner: true, coverage: true, tiles: false };
 
@@ -102,9 +102,7 @@ fn refused_as_beyond_f32(scene: &Scene, params: &Params, window: Option<Window>)
         Mode::Barycentric => zmax,
         _ => {
             let uv = tri.map(|k| params.grid.to_raster(scene.vertices[k as usize][0], scene.vertices[k as usize][1]));
-            let span = |f: fn(&(f64, f64)) -> f64| {
-                uv.iter().map(f).fold(f64::NEG_INFINITY, f64::max) - uv.iter().map(f).fold(f64::INFINITY, f64::min)
-            };
+            let span = |f: fn(&(f64, f64)) -> f64| uv.iter().map(f).fold(f64::NEG_INFINITY, f64::max) - uv.iter().map(f).fold(f64::INFINITY, f64::min);
             // The plane's value at the bounding box's corner pixel, plus its steps across it.
             zmax + 2.0 * gradient(scene, &params.grid, tri, exact.snap_bits) * (span(|p| p.0) + span(|p| p.1) + 2.0)
         }
@@ -143,8 +141,7 @@ impl Mesh {
     /// The scene in `grid`'s world coordinates, moved by `shift` pixels.
     fn on_grid(&self, grid: &Grid, shift: (f64, f64)) -> Scene {
         let (dx, dy) = (grid.dx(), grid.dy());
-        let vertices =
-            self.vertices.iter().map(|&[u, v, z]| [grid.xmin + (u + shift.0) * dx, grid.ymax - (v + shift.1) * dy, z]).collect();
+        let vertices = self.vertices.iter().map(|&[u, v, z]| [grid.xmin + (u + shift.0) * dx, grid.ymax - (v + shift.1) * dy, z]).collect();
         Scene::new(vertices, self.triangles.clone())
     }
 
@@ -188,8 +185,13 @@ fn grid_spec() -> impl Strategy<Value = GridSpec> {
         let c = 2f64.powi(e);
         GridSpec { width, height, exact: true, origin: (kx as f64 * 16.0 * c, ky as f64 * 16.0 * c), cell: (c, c) }
     });
-    let any = (48u32..=160, 48u32..=160, 0.05f64..20.0, 0.5f64..2.0, -1e6f64..1e6, 4e6f64..6e6)
-        .prop_map(|(width, height, c, aspect, x0, y0)| GridSpec { width, height, exact: false, origin: (x0, y0), cell: (c, c * aspect) });
+    let any = (48u32..=160, 48u32..=160, 0.05f64..20.0, 0.5f64..2.0, -1e6f64..1e6, 4e6f64..6e6).prop_map(|(width, height, c, aspect, x0, y0)| GridSpec {
+        width,
+        height,
+        exact: false,
+        origin: (x0, y0),
+        cell: (c, c * aspect),
+    });
     prop_oneof![3 => exact, 1 => any]
 }
 
@@ -268,8 +270,7 @@ fn tin_spec(extreme: bool) -> impl Strategy<Value = TinSpec> {
     ((1u32..=10, 1u32..=10), (start(), start()), (cell_size(), cell_size()), height_range(extreme), any::<bool>())
         .prop_flat_map(|((cols, rows), origin, cell, (base, scale), on_lattice)| {
             let n = ((cols + 1) * (rows + 1)) as usize;
-            let vertex =
-                ((-0.12f64..=0.12, -0.12f64..=0.12), place(), -1.0f64..=1.0).prop_map(move |(j, p, t)| (j, p, base + scale * t));
+            let vertex = ((-0.12f64..=0.12, -0.12f64..=0.12), place(), -1.0f64..=1.0).prop_map(move |(j, p, t)| (j, p, base + scale * t));
             (
                 (Just((cols, rows)), Just(origin), Just(cell), Just(on_lattice)),
                 vec(vertex, n),
@@ -281,8 +282,19 @@ fn tin_spec(extreme: bool) -> impl Strategy<Value = TinSpec> {
                 vec((any::<Index>(), 0u8..3), 0..4),
             )
         })
-        .prop_map(|(((cols, rows), origin, cell, on_lattice), vertices, straight_rows, straight_cols, diagonals, splits, degenerate, duplicates)| {
-            TinSpec { origin, cell, cols, rows, vertices, straight_rows, straight_cols, diagonals, splits, degenerate, duplicates, on_lattice }
+        .prop_map(|(((cols, rows), origin, cell, on_lattice), vertices, straight_rows, straight_cols, diagonals, splits, degenerate, duplicates)| TinSpec {
+            origin,
+            cell,
+            cols,
+            rows,
+            vertices,
+            straight_rows,
+            straight_cols,
+            diagonals,
+            splits,
+            degenerate,
+            duplicates,
+            on_lattice,
         })
 }
 
@@ -328,9 +340,8 @@ impl TinSpec {
             mesh.triangles[t] = [p, m, r];
             mesh.triangles.push([m, q_, r]);
             // The neighbour across the edge, which runs q → p in it.
-            let across = mesh.triangles.iter().enumerate().find_map(|(n, t2)| {
-                (0..3).find(|&k| t2[k] == q_ && t2[(k + 1) % 3] == p).map(|k| (n, t2[(k + 2) % 3]))
-            });
+            let across =
+                mesh.triangles.iter().enumerate().find_map(|(n, t2)| (0..3).find(|&k| t2[k] == q_ && t2[(k + 1) % 3] == p).map(|k| (n, t2[(k + 2) % 3])));
             if let Some((n, s)) = across {
                 mesh.triangles[n] = [q_, m, s];
                 mesh.triangles.push([m, p, s]);
@@ -509,13 +520,7 @@ impl SoupSpec {
 }
 
 fn nodata() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        Just(f32::NAN),
-        Just(f32::from_bits(0xffc0_0001)),
-        Just(-9999.0f32),
-        Just(0.0f32),
-        Just(f32::MAX),
-    ]
+    prop_oneof![Just(f32::NAN), Just(f32::from_bits(0xffc0_0001)), Just(-9999.0f32), Just(0.0f32), Just(f32::MAX),]
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -751,7 +756,14 @@ fn far_spec() -> impl Strategy<Value = FarSpec> {
     let mesh = prop_oneof![tin, soup];
     // Positions as fractions of the usable span, plus small moves.
     let at = || (0.0f64..1.0, 0.0f64..1.0);
-    (mesh, prop_oneof![Just(22u32), Just(30u32)], -1i32..=1, (-4i32..=4, -4i32..=4), at(), prop_oneof![at().prop_map(Ok), (-99i32..99, -99i32..99).prop_map(Err)])
+    (
+        mesh,
+        prop_oneof![Just(22u32), Just(30u32)],
+        -1i32..=1,
+        (-4i32..=4, -4i32..=4),
+        at(),
+        prop_oneof![at().prop_map(Ok), (-99i32..99, -99i32..99).prop_map(Err)],
+    )
         .prop_map(|(mesh, side_log2, cell_log2, origin, from, to)| {
             // Meshes are under 700 px across: keep them 1024 px inside the grid.
             let span = (1u64 << side_log2) as f64 - 2048.0;
@@ -1107,24 +1119,17 @@ fn plane_f32_takes_triangles_up_to_2_pow_24_plus_1_columns() {
 
     let wider = triangle(limit + 1);
     let e = expect_err("plane-f32 beyond the offset limit", rasterise_window(&wider, &params(grid, Mode::PlaneF32), window(limit + 1), Backend::Cpu));
-    assert!(
-        matches!(e, Error::TooWideForMode { triangle: 0, extent_px, limit_px, .. } if extent_px == limit as u64 + 1 && limit_px == limit as u64),
-        "{e:?}"
-    );
+    assert!(matches!(e, Error::TooWideForMode { triangle: 0, extent_px, limit_px, .. } if extent_px == limit as u64 + 1 && limit_px == limit as u64), "{e:?}");
     assert!(e.to_string().contains("use the exact mode"), "{e}");
     for mode in [Mode::Exact, Mode::Barycentric] {
-        rasterise_window(&wider, &params(grid, mode), window(limit + 1), Backend::Cpu)
-            .unwrap_or_else(|e| panic!("[{}] has no offset limit: {e}", mode.name()));
+        rasterise_window(&wider, &params(grid, mode), window(limit + 1), Backend::Cpu).unwrap_or_else(|e| panic!("[{}] has no offset limit: {e}", mode.name()));
     }
 }
 
 #[test]
 fn non_finite_coordinates_are_named() {
     let grid = Grid::new(0.0, 16.0, 0.0, 16.0, 16, 16);
-    let base = Scene::new(
-        (0..8).map(|k| [k as f64, (k * k % 16) as f64, k as f64]).collect(),
-        vec![[0, 1, 2], [2, 3, 4], [4, 5, 6], [5, 6, 7]],
-    );
+    let base = Scene::new((0..8).map(|k| [k as f64, (k * k % 16) as f64, k as f64]).collect(), vec![[0, 1, 2], [2, 3, 4], [4, 5, 6], [5, 6, 7]]);
     for vertex in [0usize, 3, 7] {
         for (axis, name) in ['x', 'y', 'z'].into_iter().enumerate() {
             for value in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
@@ -1146,7 +1151,11 @@ fn non_finite_coordinates_are_named() {
 fn subnormal_plane_f32_stays_within_its_absolute_bound() {
     let grid = Grid::new(0.0, 63.0 * 0.05, 4_000_000.0, 4_000_000.0 + 152.0 * 0.025, 63, 152);
     let scene = Scene::new(
-        vec![[1.684500967003627, 4000003.8, 1.3991397889882268e-39], [0.7772162573954957, 3999999.791050389, 0.0], [3.8002733566193587, 4000002.9320051474, 0.0]],
+        vec![
+            [1.684500967003627, 4000003.8, 1.3991397889882268e-39],
+            [0.7772162573954957, 3999999.791050389, 0.0],
+            [3.8002733566193587, 4000002.9320051474, 0.0],
+        ],
         vec![[0, 1, 2]],
     );
     let params = Params::new(grid).with_mode(Mode::PlaneF32).with_outputs(Outputs { owner: true, coverage: true, tiles: false });

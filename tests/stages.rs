@@ -6,9 +6,9 @@
 
 mod common;
 
-use tileraster::{prepare, Grid, Params, Scene, Skips};
-use tileraster_testkit::scenes;
+use tileraster::{Grid, Params, Scene, Skips, prepare};
 use tileraster_cpu::StageBuffers;
+use tileraster_testkit::scenes;
 
 /// The first index where `a` and `b` differ, with both values.
 fn first_difference<T: PartialEq + std::fmt::Debug>(a: &[T], b: &[T]) -> Option<String> {

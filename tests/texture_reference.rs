@@ -7,8 +7,8 @@
 
 mod common;
 
-use tileraster::render::{render, Address, Camera, Cull, Filter, Mesh, RenderParams, Shading, Texture, IDENTITY};
 use tileraster::Backend;
+use tileraster::render::{Address, Camera, Cull, Filter, IDENTITY, Mesh, RenderParams, Shading, Texture, render};
 use tileraster_peers::TexturedPipeline;
 
 /// A texture with gradients, a fine checker and varying alpha.
@@ -44,7 +44,14 @@ struct Found {
 
 fn compare(mesh: &Mesh, matrix: [[f64; 4]; 4], eye: [f64; 3], filter: Filter, address: Address, peer: &mut TexturedPipeline) -> Found {
     let (w, h) = (128, 96);
-    let params = RenderParams { cull: Cull::None, shading: Shading::Unlit, eye: Some(eye), texture_filter: Some(filter), texture_address: Some(address), ..RenderParams::new(w, h, matrix) };
+    let params = RenderParams {
+        cull: Cull::None,
+        shading: Shading::Unlit,
+        eye: Some(eye),
+        texture_filter: Some(filter),
+        texture_address: Some(address),
+        ..RenderParams::new(w, h, matrix)
+    };
     let ours = render(mesh, &params, Backend::Cpu).unwrap();
     let theirs = peer.draw(mesh, &matrix, w, h, filter, address).unwrap();
     let mut found = Found { covered: 0, differing: 0, beyond_one: 0, largest: 0 };
@@ -96,18 +103,30 @@ fn textured_frames_match_the_render_pipeline() {
     for srgb in [true, false] {
         let flat = quad([[-1.0, -1.0, 0.5], [1.0, -1.0, 0.5], [1.0, 1.0, 0.5], [-1.0, 1.0, 0.5]], [0.0, 0.0], [1.0, 1.0], srgb);
         let ground = quad([[-3.0, -1.0, 0.0], [3.0, -1.0, 0.0], [3.0, 30.0, 0.0], [-3.0, 30.0, 0.0]], [-1.3, -2.2], [6.7, 12.8], srgb);
-        let scenes = [("magnified, screen-aligned", false, &flat, IDENTITY, [0.0, 0.0, -1.0]), ("ground plane in perspective", true, &ground, camera.view_projection(128, 96).unwrap(), camera.eye)];
+        let scenes = [
+            ("magnified, screen-aligned", false, &flat, IDENTITY, [0.0, 0.0, -1.0]),
+            ("ground plane in perspective", true, &ground, camera.view_projection(128, 96).unwrap(), camera.eye),
+        ];
         for (name, perspective, mesh, matrix, eye) in scenes {
             for filter in Filter::ALL {
                 for address in Address::ALL {
                     let f = compare(mesh, matrix, eye, filter, address, &mut peer);
                     let beyond = 100.0 * f.beyond_one as f64 / f.covered as f64;
                     let what = format!("{name}, srgb {srgb}, {filter:?}, {address:?} on {adapter}");
-                    eprintln!("{what}: {} covered pixels, {:.2} % differ, {beyond:.2} % by more than 1, largest difference {}", f.covered, 100.0 * f.differing as f64 / f.covered as f64, f.largest);
+                    eprintln!(
+                        "{what}: {} covered pixels, {:.2} % differ, {beyond:.2} % by more than 1, largest difference {}",
+                        f.covered,
+                        100.0 * f.differing as f64 / f.covered as f64,
+                        f.largest
+                    );
                     assert!(f.covered > 5000, "{what}: {} pixels covered", f.covered);
                     if lavapipe {
                         let (share, largest) = lavapipe_bound(perspective, filter, srgb);
-                        assert!(beyond <= share && f.largest <= largest, "{what}: {beyond:.2} % differ by more than 1 (bound {share} %), largest {} (bound {largest})", f.largest);
+                        assert!(
+                            beyond <= share && f.largest <= largest,
+                            "{what}: {beyond:.2} % differ by more than 1 (bound {share} %), largest {} (bound {largest})",
+                            f.largest
+                        );
                     }
                 }
             }

@@ -6,7 +6,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{render, Address, Camera, Cull, Filter, Frame, Mesh, RenderParams, Shading, Texture, IDENTITY, MAX_TEXTURE_DIM, NO_TEXTURE};
+use tileraster::render::{Address, Camera, Cull, Filter, Frame, IDENTITY, MAX_TEXTURE_DIM, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, render};
 use tileraster::{Backend, Error};
 
 /// A texture whose every texel differs from its neighbours: smooth gradients and a checker.
@@ -15,7 +15,12 @@ fn pattern(w: u32, h: u32, srgb: bool) -> Texture {
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .flat_map(|(x, y)| {
             let checker = if (x / 2 + y / 2) % 2 == 0 { 200 } else { 40 };
-            [(x * 255 / w.max(2).saturating_sub(1).max(1)).min(255) as u8, (y * 255 / h.max(2).saturating_sub(1).max(1)).min(255) as u8, checker, (128 + (x * 7 + y * 13) % 128) as u8]
+            [
+                (x * 255 / w.max(2).saturating_sub(1).max(1)).min(255) as u8,
+                (y * 255 / h.max(2).saturating_sub(1).max(1)).min(255) as u8,
+                checker,
+                (128 + (x * 7 + y * 13) % 128) as u8,
+            ]
         })
         .collect();
     Texture { srgb, ..Texture::srgb(w, h, rgba) }
@@ -118,7 +123,10 @@ fn nearest_and_bilinear_match_an_f64_reference() {
                                 let (u, v) = (s - 0.5, t - 0.5);
                                 let (x0, y0) = (u.floor() as i64, v.floor() as i64);
                                 let (fx, fy) = (u - x0 as f64, v - y0 as f64);
-                                (1.0 - fx) * (1.0 - fy) * texel(x0, y0, c) + fx * (1.0 - fy) * texel(x0 + 1, y0, c) + (1.0 - fx) * fy * texel(x0, y0 + 1, c) + fx * fy * texel(x0 + 1, y0 + 1, c)
+                                (1.0 - fx) * (1.0 - fy) * texel(x0, y0, c)
+                                    + fx * (1.0 - fy) * texel(x0 + 1, y0, c)
+                                    + (1.0 - fx) * fy * texel(x0, y0 + 1, c)
+                                    + fx * fy * texel(x0 + 1, y0 + 1, c)
                             }
                         };
                         let error = (got as f64 - expected * 255.0).abs();
@@ -153,7 +161,9 @@ fn trilinear_reads_the_level_the_derivatives_give() {
             for i in 0..w as usize {
                 let got = frame.colour[j * w as usize + i].to_le_bytes();
                 for (c, &got) in got.iter().enumerate() {
-                    let mean: f64 = (0..block * block).map(|n| texture.rgba[((j * block + n / block) * 256 + i * block + n % block) * 4 + c] as f64).sum::<f64>() / (block * block) as f64;
+                    let mean: f64 =
+                        (0..block * block).map(|n| texture.rgba[((j * block + n / block) * 256 + i * block + n % block) * 4 + c] as f64).sum::<f64>()
+                            / (block * block) as f64;
                     assert!((got as f64 - mean).abs() <= 3.0, "level {k}, pixel ({i}, {j}), channel {c}: {got} against the mean {mean:.2}");
                 }
             }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use tileraster::{rasterise, Backend, Grid, Outputs, Params, Raster, Scene};
+use tileraster::{Backend, Grid, Outputs, Params, Raster, Scene, rasterise};
 use tileraster_testkit::scenes;
 
 fn coverage(scene: &Scene, grid: Grid, backend: Backend) -> Raster {

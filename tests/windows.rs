@@ -3,7 +3,7 @@
 
 mod common;
 
-use tileraster::{rasterise, rasterise_window, Backend, Grid, Outputs, Params, Raster, Window};
+use tileraster::{Backend, Grid, Outputs, Params, Raster, Window, rasterise, rasterise_window};
 use tileraster_testkit::scenes;
 
 fn assert_window_matches(name: &str, whole: &Raster, part: &Raster) {
@@ -72,7 +72,7 @@ fn gpu_results_do_not_depend_on_its_windowing() {
 /// included): the same frame as the CPU's at every window size.
 #[test]
 fn gpu_frames_do_not_depend_on_its_windowing() {
-    use tileraster::render::{render, Camera, Cull, RenderParams, Shading};
+    use tileraster::render::{Camera, Cull, RenderParams, Shading, render};
     if !common::gpu_or_skip("gpu_frames_do_not_depend_on_its_windowing") {
         return;
     }
@@ -83,12 +83,21 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
     }
     let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
     for blend in [false, true] {
-        let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, count_tiles: true, ..RenderParams::new(150, 110, camera.view_projection(150, 110).unwrap()) };
+        let params = RenderParams {
+            cull: Cull::None,
+            shading: Shading::Phong,
+            blend,
+            count_tiles: true,
+            ..RenderParams::new(150, 110, camera.view_projection(150, 110).unwrap())
+        };
         let cpu = render(&mesh, &params, Backend::Cpu).unwrap();
         for limit in [256, 1000, 16 * 150, 40_000] {
             tileraster::set_gpu_window_limit(limit);
             let gpu = render(&mesh, &params, Backend::Gpu).unwrap();
-            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(), "blend {blend}, window limit {limit}: the frames differ");
+            assert!(
+                gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(),
+                "blend {blend}, window limit {limit}: the frames differ"
+            );
             assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "blend {blend}, window limit {limit}: depths differ");
             assert_eq!(cpu.stats, gpu.stats, "blend {blend}, window limit {limit}: statistics");
         }
@@ -102,7 +111,7 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
 /// could set a scene up in parts.
 #[test]
 fn gpu_scenes_in_parts_equal_the_cpu() {
-    use tileraster::render::{render, Camera, Cull, RenderParams, Shading};
+    use tileraster::render::{Camera, Cull, RenderParams, Shading, render};
     use tileraster_kernels::abi::{TriangleSetup, TriangleShading};
     if !common::gpu_or_skip("gpu_scenes_in_parts_equal_the_cpu") {
         return;
@@ -140,13 +149,22 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
     for (name, mesh, limit) in [("sphere", &sphere, 64u64 << 10), ("soup", &soup, 12 << 10)] {
         assert!(mesh.triangles.len() as u64 * shading > limit, "{name}: the limit must split the scene");
         for blend in [false, true] {
-            let params = RenderParams { cull: Cull::None, shading: Shading::Phong, blend, count_tiles: true, ..RenderParams::new(190, 150, camera.view_projection(190, 150).unwrap()) };
+            let params = RenderParams {
+                cull: Cull::None,
+                shading: Shading::Phong,
+                blend,
+                count_tiles: true,
+                ..RenderParams::new(190, 150, camera.view_projection(190, 150).unwrap())
+            };
             let cpu = render(mesh, &params, Backend::Cpu).unwrap();
             tileraster::set_gpu_binding_limit(limit);
             let gpu = render(mesh, &params, Backend::Gpu);
             tileraster::set_gpu_binding_limit(u64::MAX);
             let gpu = gpu.unwrap_or_else(|e| panic!("{name}, blend {blend}: {e}"));
-            assert!(gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(), "{name}, blend {blend}: the frames differ");
+            assert!(
+                gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(),
+                "{name}, blend {blend}: the frames differ"
+            );
             assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}, blend {blend}: depths differ");
             assert_eq!(cpu.stats, gpu.stats, "{name}, blend {blend}: statistics");
         }
@@ -157,7 +175,7 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
 /// the tile, not a panic or a partial frame.
 #[test]
 fn gpu_tile_beyond_its_binding_is_an_error() {
-    use tileraster::render::{render, Cull, Mesh, RenderParams, IDENTITY};
+    use tileraster::render::{Cull, IDENTITY, Mesh, RenderParams, render};
     if !common::gpu_or_skip("gpu_tile_beyond_its_binding_is_an_error") {
         return;
     }

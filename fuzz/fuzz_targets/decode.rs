@@ -166,13 +166,22 @@ pub fn decode(data: &[u8]) -> Case {
         .map(|_| {
             [(); 3].map(|_| match b.u8() {
                 // Out of range, just or far.
-                255 => if b.u8() % 2 == 0 { n } else { b.u32() },
+                255 => {
+                    if b.u8() % 2 == 0 {
+                        n
+                    } else {
+                        b.u32()
+                    }
+                }
                 k if n > 0 => k as u32 % n,
                 k => k as u32,
             })
         })
         .collect();
-    Case { scene: Scene::new(vertices, triangles), params: Params::new(grid).with_mode(mode).with_nodata(nodata).with_outputs(Outputs { owner: true, coverage: true, tiles: true }) }
+    Case {
+        scene: Scene::new(vertices, triangles),
+        params: Params::new(grid).with_mode(mode).with_nodata(nodata).with_outputs(Outputs { owner: true, coverage: true, tiles: true }),
+    }
 }
 
 /// How a case that passed its checks came out.

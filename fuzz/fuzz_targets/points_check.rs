@@ -6,7 +6,7 @@
 #![allow(dead_code)]
 
 use std::path::Path;
-use tileraster_io::{parse_points, Column, PointColumns};
+use tileraster_io::{Column, PointColumns, parse_points};
 
 /// What the check saw, for the corpus test's tally.
 pub enum Outcome {

@@ -18,12 +18,7 @@ impl Counters for [u32] {
         use spirv_std::memory::{Scope, Semantics};
         // Queue-family scope covers every invocation of the dispatch; device scope would need
         // the VulkanMemoryModelDeviceScope capability for no gain here.
-        unsafe {
-            spirv_std::arch::atomic_i_add::<u32, { Scope::QueueFamily as u32 }, { Semantics::NONE.bits() }>(
-                &mut self[index],
-                value,
-            )
-        }
+        unsafe { spirv_std::arch::atomic_i_add::<u32, { Scope::QueueFamily as u32 }, { Semantics::NONE.bits() }>(&mut self[index], value) }
     }
 }
 

@@ -235,14 +235,7 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Window,
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTrianglePart,
-        bindings: &[
-            read(Buffer::Frame),
-            read(Buffer::Setups),
-            read(Buffer::Listed),
-            read(Buffer::Offsets),
-            write(Buffer::Cursors),
-            write(Buffer::Bins),
-        ],
+        bindings: &[read(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), read(Buffer::Offsets), write(Buffer::Cursors), write(Buffer::Bins)],
         pipelines: ALL_PIPELINES,
     },
     StageInfo {
@@ -317,7 +310,8 @@ pub const STAGES: [StageInfo; 8] = [
 ];
 
 impl Stage {
-    pub const ALL: [Stage; 8] = [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster, Stage::FineDepth, Stage::Shade, Stage::FineSamples];
+    pub const ALL: [Stage; 8] =
+        [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster, Stage::FineDepth, Stage::Shade, Stage::FineSamples];
 
     /// The stage's row of the table.
     pub fn info(self) -> &'static StageInfo {

@@ -2,5 +2,3 @@
 
 pub mod progress;
 pub mod render;
-
-

@@ -3,7 +3,7 @@
 //! gdal_grid does, and `--tap` aligns it to the cell size, as GDAL's tools do.
 
 use super::DemError;
-use crate::{Grid, Scene, Window, MAX_GRID_DIM};
+use crate::{Grid, MAX_GRID_DIM, Scene, Window};
 
 /// A grid as gdal_grid's flags give it: `-txe XMIN XMAX`, `-tye YMIN YMAX`, and `-outsize` or
 /// `-tr`, with GDAL's `-tap`.
@@ -60,9 +60,7 @@ impl GridSpec {
 
     /// The grid, with the extent `scene`'s vertices span where none is given.
     pub fn grid_for(&self, scene: &Scene) -> Result<Grid, DemError> {
-        let span = |axis: usize| {
-            scene.vertices.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(v[axis]), hi.max(v[axis])])
-        };
+        let span = |axis: usize| scene.vertices.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(v[axis]), hi.max(v[axis])]);
         let given = self.txe.is_some() && self.tye.is_some();
         if !given && scene.vertices.is_empty() {
             return Err(DemError::EmptyExtent);

@@ -29,10 +29,10 @@ mod input;
 mod linear;
 mod stream;
 
-pub use grid::{part_window, GridSize, GridSpec};
-pub use input::{drop_long_triangles, read_scene, Input, InputKind, PointsRead, ReadOptions};
+pub use grid::{GridSize, GridSpec, part_window};
+pub use input::{Input, InputKind, PointsRead, ReadOptions, drop_long_triangles, read_scene};
 pub use linear::{Fallback, Linear};
-pub use stream::{band_rows, bytes_per_cell, default_memory_budget, write_dem, Destinations, Run, PREVIEW_SIDE};
+pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, write_dem};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
 
 use std::path::PathBuf;

@@ -138,7 +138,19 @@ impl Sampled {
         let xmin = self.grid.xmin + self.window.x0 as f64 * self.grid.dx();
         let ymax = self.grid.ymax - self.window.y0 as f64 * self.grid.dy();
         let grid = Grid::new(xmin, xmin + dx * self.width as f64, ymax - dy * height as f64, ymax, self.width, height);
-        Raster { grid, window: Window::whole(&grid), nodata: self.nodata, values: self.values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits, stats: Stats::default() }
+        Raster {
+            grid,
+            window: Window::whole(&grid),
+            nodata: self.nodata,
+            values: self.values,
+            owner: None,
+            coverage: None,
+            colours: None,
+            faces: None,
+            tiles: None,
+            snap_bits,
+            stats: Stats::default(),
+        }
     }
 }
 
@@ -226,7 +238,10 @@ mod tests {
         assert_eq!(cgroup_room("0::/job\n", v2), Some(1_000_000_000));
         let v2_unlimited = files(&[("/sys/fs/cgroup/memory.max", "max\n")]);
         assert_eq!(cgroup_room("0::/\n", v2_unlimited), None);
-        let v1 = files(&[("/sys/fs/cgroup/memory/slurm/job_7/memory.limit_in_bytes", "2000\n"), ("/sys/fs/cgroup/memory/slurm/job_7/memory.usage_in_bytes", "500\n")]);
+        let v1 = files(&[
+            ("/sys/fs/cgroup/memory/slurm/job_7/memory.limit_in_bytes", "2000\n"),
+            ("/sys/fs/cgroup/memory/slurm/job_7/memory.usage_in_bytes", "500\n"),
+        ]);
         assert_eq!(cgroup_room("5:cpu,cpuacct:/\n4:memory:/slurm/job_7\n0::/\n", v1), Some(1500));
         let v1_namespaced = files(&[("/sys/fs/cgroup/memory/memory.limit_in_bytes", "4096\n"), ("/sys/fs/cgroup/memory/memory.usage_in_bytes", "96\n")]);
         assert_eq!(cgroup_room("4:memory:/kubepods/pod1\n", v1_namespaced), Some(4000));
@@ -246,7 +261,19 @@ mod tests {
         for (y0, height) in [(10, 4), (14, 3)] {
             let band = Window { x0: 0, y0, width: 10_000, height };
             let values = (0..band.pixel_count()).map(|k| (y0 as u64 * 100_000 + k) as f32).collect();
-            let raster = Raster { grid, window: band, nodata: -1.0, values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits: 0, stats: Stats::default() };
+            let raster = Raster {
+                grid,
+                window: band,
+                nodata: -1.0,
+                values,
+                owner: None,
+                coverage: None,
+                colours: None,
+                faces: None,
+                tiles: None,
+                snap_bits: 0,
+                stats: Stats::default(),
+            };
             sampled.add(&raster);
         }
         let preview = sampled.into_raster(0);

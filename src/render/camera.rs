@@ -49,7 +49,8 @@ impl Camera {
         };
         // ... then closer, until the bounding box's corners fill 90 % of the frame (the
         // corners' spread on the screen grows about as the inverse of the distance).
-        let corners: Vec<[f64; 3]> = (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, if k & 4 == 0 { lo[2] } else { hi[2] }]).collect();
+        let corners: Vec<[f64; 3]> =
+            (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, if k & 4 == 0 { lo[2] } else { hi[2] }]).collect();
         let (w, h) = if aspect >= 1.0 { ((1000.0 * aspect) as u32, 1000) } else { (1000, (1000.0 / aspect) as u32) };
         for _ in 0..4 {
             let Ok(m) = camera_at(distance).view_projection(w.max(1), h.max(1)) else { break };

@@ -26,15 +26,16 @@ pub use camera::Camera;
 pub use diagnostics::{Checksums, TileCounts};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    edges, face_normals, prepare_render, prepare_world, validate_mesh, Address, Cull, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, Instance, Light, LineRule, Mesh, RenderParams, Shading, Texture,
-    Wireframe, World, IDENTITY, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, NO_TEXTURE,
+    Address, Cull, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, IDENTITY, Instance, Light, LineRule, MAX_POINT_SIZE,
+    MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World, edges, face_normals, prepare_render,
+    prepare_world, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Stats};
 use rayon::prelude::*;
-use tileraster_core::{Layers, Raster};
 use std::path::Path;
+use tileraster_core::{Layers, Raster};
 
 /// The mesh in `path`: glTF 2.0 (`.gltf`, `.glb`) with its normals, colours and texture
 /// coordinates in world coordinates; PLY with its vertex normals and colours; OBJ with its normals,
@@ -220,7 +221,13 @@ impl PreparedMesh {
         let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(&self.mesh, params, &mut memory.geometry)?;
         let raster = match backend {
             Backend::Cpu => {
-                memory.cpu.recycle(Layers { values: Some(spare.depth), owner: memory.owner.take(), coverage: Some(spare.fragments), colours: Some(spare.colour), faces: Some(spare.ids) });
+                memory.cpu.recycle(Layers {
+                    values: Some(spare.depth),
+                    owner: memory.owner.take(),
+                    coverage: Some(spare.fragments),
+                    colours: Some(spare.colour),
+                    faces: Some(spare.ids),
+                });
                 tileraster_cpu::rasterise_in(&prepared, &mut memory.cpu)
             }
             Backend::Gpu => crate::rasterise_prepared(&prepared, backend),

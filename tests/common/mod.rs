@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use tileraster::{rasterise, Backend, Error, Params, Raster, Scene, Skip, Skips};
+use tileraster::{Backend, Error, Params, Raster, Scene, Skip, Skips, rasterise};
 use tileraster_cpu::FinePath;
 
 /// Whether GPU tests should run. Without an adapter they fail loudly, unless the user asked

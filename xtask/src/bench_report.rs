@@ -6,13 +6,13 @@
 //! shares no code with the rasteriser. Times are medians of several runs after a warm-up;
 //! each call is a whole `rasterise` (preparation, upload and read-back included).
 
-use crate::{svg, Timing};
+use crate::{Timing, svg};
 use std::fmt::Write as _;
 use std::time::Instant;
-use tileraster_testkit::reference::{accuracy, Accuracy, Reference};
-use tileraster::{rasterise, Backend, Grid, Mode, Params, Raster, Scene};
+use tileraster::{Backend, Grid, Mode, Params, Raster, Scene, rasterise};
+use tileraster_peers::{GpuFill, RenderPipeline, fill_cpu, gdal_grid_linear, gdal_grid_version};
+use tileraster_testkit::reference::{Accuracy, Reference, accuracy};
 use tileraster_testkit::scenes;
-use tileraster_peers::{fill_cpu, gdal_grid_linear, gdal_grid_version, GpuFill, RenderPipeline};
 
 const NODATA: f32 = -9999.0;
 
@@ -124,7 +124,19 @@ fn runs_for(cells: u64, quick: bool) -> usize {
 
 /// A peer's values as a raster shaped like `like`, for the same accuracy measure.
 fn as_raster(values: Vec<f32>, like: &Raster) -> Raster {
-    Raster { grid: like.grid, window: like.window, nodata: like.nodata, values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits: like.snap_bits, stats: Default::default() }
+    Raster {
+        grid: like.grid,
+        window: like.window,
+        nodata: like.nodata,
+        values,
+        owner: None,
+        coverage: None,
+        colours: None,
+        faces: None,
+        tiles: None,
+        snap_bits: like.snap_bits,
+        stats: Default::default(),
+    }
 }
 
 /// Everything measured, plus what the header needs.
@@ -191,10 +203,8 @@ pub fn run(options: &Options) -> Result<Report, String> {
             }
         };
         let compute_fill = fastest("compute fill", gpu_fill.as_mut().map(|fill| timed(roof_runs, || fill.fill(cells, NODATA)).map(|(t, _)| t)));
-        let render_clear = fastest(
-            "render-pass clear",
-            render.as_mut().map(|render| timed(roof_runs, || render.rasterise(&empty, &case.grid, NODATA)).map(|(t, _)| t)),
-        );
+        let render_clear =
+            fastest("render-pass clear", render.as_mut().map(|render| timed(roof_runs, || render.rasterise(&empty, &case.grid, NODATA)).map(|(t, _)| t)));
         let gpu_roof = match (compute_fill, render_clear) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -332,8 +342,16 @@ fn markdown(report: &Report) -> String {
     );
     let _ = writeln!(s, "![time against error](time-vs-error.svg)\n");
     let _ = writeln!(s, "{}", goals(report));
-    let _ = writeln!(s, "## Points in, GeoTIFF out, against gdal_grid\n\n`cargo xtask gdal-report` (the release build of the command line, `cargo build --release --bin tileraster`).\n\n{}", report.end_to_end.markdown);
-    let _ = writeln!(s, "## Any raster size, and the cluster recipe\n\n`cargo xtask stream-report` (the same release build; recipes in [cluster.md](cluster.md)).\n\n{}", report.streaming);
+    let _ = writeln!(
+        s,
+        "## Points in, GeoTIFF out, against gdal_grid\n\n`cargo xtask gdal-report` (the release build of the command line, `cargo build --release --bin tileraster`).\n\n{}",
+        report.end_to_end.markdown
+    );
+    let _ = writeln!(
+        s,
+        "## Any raster size, and the cluster recipe\n\n`cargo xtask stream-report` (the same release build; recipes in [cluster.md](cluster.md)).\n\n{}",
+        report.streaming
+    );
     let _ = writeln!(s, "{}", report.skips);
     let _ = writeln!(s, "## 3D rendering, against the render pipeline\n\n`cargo xtask render-report`.\n\n{}", report.render);
     let _ = writeln!(s, "## Run time against error\n");
@@ -423,7 +441,9 @@ fn goals(report: &Report) -> String {
         }
         _ => s.push_str("- The 4096² terrain TIN against the render pipeline is not in this run.\n"),
     }
-    for case in report.rows.iter().filter(|r| r.engine == "tileraster cpu" && r.mode == "exact" && (r.case.starts_with("micro") || r.case.starts_with("slivers"))) {
+    for case in
+        report.rows.iter().filter(|r| r.engine == "tileraster cpu" && r.mode == "exact" && (r.case.starts_with("micro") || r.case.starts_with("slivers")))
+    {
         let Some(render) = report.rows.iter().find(|r| r.engine == "render pipeline" && r.case == case.case) else { continue };
         let mtri = |r: &Row| r.triangles as f64 / r.time.median / 1e6;
         let _ = writeln!(

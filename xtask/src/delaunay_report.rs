@@ -7,7 +7,7 @@
 
 use std::fmt::Write as _;
 use std::time::Instant;
-use tileraster::{prepare, Grid, Params, Scene};
+use tileraster::{Grid, Params, Scene, prepare};
 use tileraster_testkit::scenes::Rng;
 
 fn uniform(n: usize) -> Vec<[f64; 3]> {
@@ -85,7 +85,10 @@ pub fn run(n: usize) -> Result<String, String> {
     let mut s = String::from(
         "| points | crate | time | triangles | Euler's count | overlap-free (tileraster's proof, 4096² grid) |\n| --- | --- | ---: | ---: | ---: | :---: |\n",
     );
-    for (name, points, collinear_hull) in [(format!("{n} uniform, UTM coordinates"), uniform(n), false), (format!("{} lattice (cocircular cells), UTM coordinates", lattice(n).len()), lattice(n), true)] {
+    for (name, points, collinear_hull) in [
+        (format!("{n} uniform, UTM coordinates"), uniform(n), false),
+        (format!("{} lattice (cocircular cells), UTM coordinates", lattice(n).len()), lattice(n), true),
+    ] {
         type Candidate<'a> = (&'a str, &'a dyn Fn(&[[f64; 3]]) -> Result<Mesh, String>);
         let candidates: [Candidate; 3] = [
             ("tileraster-tin (spade 2 with its vertex numbers, repeated points removed)", &|p| {

@@ -5,7 +5,7 @@
 //! itself must not change).
 
 use std::time::Instant;
-use tileraster::{prepare, rasterise, Backend, Grid, Mode, Params, Scene};
+use tileraster::{Backend, Grid, Mode, Params, Scene, prepare, rasterise};
 use tileraster_testkit::scenes;
 
 /// FNV-1a, 64 bits: stable across builds and toolchains, unlike `std`'s hasher.

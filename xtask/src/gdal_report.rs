@@ -4,10 +4,10 @@
 //! the same grid, timed as whole processes, the runs interleaved. Then the two rasters are
 //! compared cell by cell in f32 ulps. Prints markdown.
 
+use crate::{measure, median};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use crate::{measure, median};
 use tiff::decoder::{Decoder, DecodingResult};
 use tileraster_testkit::scenes::Rng;
 
@@ -245,7 +245,8 @@ fn cog_comparison(plain_run: &mut Command, plain: &Path, dir: &Path) -> Result<S
         size(&ours)? as f64 / 1e6,
         validate(&ours)
     );
-    let _ = writeln!(s, "| gdal_translate -of COG of the plain GeoTIFF | {:.0} ms | {:.1} MB | {} |", gdal_s * 1e3, size(&theirs)? as f64 / 1e6, validate(&theirs));
+    let _ =
+        writeln!(s, "| gdal_translate -of COG of the plain GeoTIFF | {:.0} ms | {:.1} MB | {} |", gdal_s * 1e3, size(&theirs)? as f64 / 1e6, validate(&theirs));
     let _ = writeln!(
         s,
         "\nFull-resolution cells of the two COGs: {}. Their overviews differ: GDAL's COG driver rounds each level's size down and may make one level fewer.",

@@ -9,11 +9,11 @@
 //! draws; so does tileraster's prepared form (`PreparedMesh::render_into`, its frames' memory
 //! and output layers kept), timed beside the one-shot `render`.
 
-use crate::bench_report::timed;
 use crate::Timing;
+use crate::bench_report::timed;
 use std::fmt::Write as _;
-use tileraster::render::{render, render_world, Camera, Cull, Frame, Mesh, PreparedMesh, RenderParams, Shading, World, IDENTITY, NO_FACE};
 use tileraster::Backend;
+use tileraster::render::{Camera, Cull, Frame, IDENTITY, Mesh, NO_FACE, PreparedMesh, RenderParams, Shading, World, render, render_world};
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::meshes;
 
@@ -117,7 +117,14 @@ pub fn run(quick: bool) -> Result<String, String> {
         let (peer_time, peer_ids) = timed(runs, || peer.draw_ids(&positions, &scene.mesh.triangles, &matrix, w, h, true))?;
         let agree = cpu.ids.iter().zip(&peer_ids).filter(|(a, b)| (**a == NO_FACE && **b == NO_ID) || a == b).count() as f64 / peer_ids.len() as f64;
         let (gpu_cell, same) = match &gpu_result {
-            Some(Ok((t, g))) => (ms(t), if g.colour == cpu.colour && g.ids == cpu.ids && g.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()) { "yes" } else { "**NO**" }),
+            Some(Ok((t, g))) => (
+                ms(t),
+                if g.colour == cpu.colour && g.ids == cpu.ids && g.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()) {
+                    "yes"
+                } else {
+                    "**NO**"
+                },
+            ),
             Some(Err(e)) => {
                 notes.push(format!("{}: the GPU backend refused the frame: {e}", scene.name));
                 ("refused (see below)".into(), "–")
@@ -144,7 +151,10 @@ pub fn run(quick: bool) -> Result<String, String> {
     for n in notes {
         let _ = writeln!(s, "\n- {n}");
     }
-    let _ = writeln!(s, "\nA ratio above 1 means tileraster's CPU backend is ahead. The goal: at least 1 on the same cores as llvmpipe's graphics pipeline, and within 2× of a hardware pipeline on a GPU.");
+    let _ = writeln!(
+        s,
+        "\nA ratio above 1 means tileraster's CPU backend is ahead. The goal: at least 1 on the same cores as llvmpipe's graphics pipeline, and within 2× of a hardware pipeline on a GPU."
+    );
     s.push_str(&hidden_section(quick, runs, gpu.is_some())?);
     s.push_str(&instance_section(quick, runs, gpu.is_some())?);
     s.push_str(&texture_section(quick, runs, gpu.is_some())?);
@@ -240,7 +250,7 @@ fn msaa_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
 /// (`MeshPipeline::draw_line_ids`), timed side by side, with the share of lit pixels that only
 /// one of the two lights.
 fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
-    use tileraster::render::{edges, LineRule, Wireframe};
+    use tileraster::render::{LineRule, Wireframe, edges};
     let (mesh, camera, matrix, w, h) = framed_terrain(quick)?;
     let lines = edges(&mesh.triangles);
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
@@ -263,7 +273,14 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | --- | ---: |");
     let (peer_time, theirs) = timed(runs, || peer.draw_line_ids(&positions, &lines, &matrix_f32, w, h))?;
     for rule in [LineRule::Rectangle, LineRule::DiamondExit, LineRule::Bresenham] {
-        let params = RenderParams { shading: Shading::Ids, faces: false, wireframe: Some(Wireframe { rule, colour: None }), eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, matrix) };
+        let params = RenderParams {
+            shading: Shading::Ids,
+            faces: false,
+            wireframe: Some(Wireframe { rule, colour: None }),
+            eye: Some(camera.eye),
+            count_fragments: false,
+            ..RenderParams::new(w, h, matrix)
+        };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         let _ = writeln!(
@@ -278,7 +295,14 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
         eprintln!("render-report: lines, {} done", rule.name());
     }
     // The vertices as points one pixel wide, against the device's point list.
-    let params = RenderParams { shading: Shading::Ids, faces: false, points: Some(1.0), eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, matrix) };
+    let params = RenderParams {
+        shading: Shading::Ids,
+        faces: false,
+        points: Some(1.0),
+        eye: Some(camera.eye),
+        count_fragments: false,
+        ..RenderParams::new(w, h, matrix)
+    };
     let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
     let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
     let (peer_time, theirs) = timed(runs, || peer.draw_point_ids(&positions, &matrix_f32, w, h))?;
@@ -322,11 +346,13 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
     use tileraster::render::{Address, Filter, Texture};
     let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
     let size = 1024u32;
-    let rgba: Vec<u8> = (0..size * size).flat_map(|k| {
-        let (x, y) = (k % size, k / size);
-        let checker = if (x / 16 + y / 16) % 2 == 0 { 230 } else { 40 };
-        [(x * 255 / (size - 1)) as u8, (y * 255 / (size - 1)) as u8, checker, 255]
-    }).collect();
+    let rgba: Vec<u8> = (0..size * size)
+        .flat_map(|k| {
+            let (x, y) = (k % size, k / size);
+            let checker = if (x / 16 + y / 16) % 2 == 0 { 230 } else { 40 };
+            [(x * 255 / (size - 1)) as u8, (y * 255 / (size - 1)) as u8, checker, 255]
+        })
+        .collect();
     let n = 64u32;
     // A ground plane of 2·n² triangles, its coordinates repeating 16 times across.
     let mut mesh = meshes::terrain(n, 100.0, 0.0);
@@ -351,7 +377,15 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
     let _ = writeln!(s, "| filter | tileraster cpu | tileraster gpu | render pipeline | cpu vs render pipeline | cpu = gpu | differ |");
     let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | --- | ---: |");
     for filter in Filter::ALL {
-        let params = RenderParams { shading: Shading::Unlit, cull: Cull::None, eye: Some(camera.eye), count_fragments: false, texture_filter: Some(filter), texture_address: Some(Address::Repeat), ..RenderParams::new(w, h, matrix) };
+        let params = RenderParams {
+            shading: Shading::Unlit,
+            cull: Cull::None,
+            eye: Some(camera.eye),
+            count_fragments: false,
+            texture_filter: Some(filter),
+            texture_address: Some(Address::Repeat),
+            ..RenderParams::new(w, h, matrix)
+        };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         let (peer_time, theirs) = timed(runs, || peer.draw(&mesh, &matrix, w, h, filter, Address::Repeat))?;
@@ -382,7 +416,12 @@ fn instance_section(quick: bool, runs: usize, gpu: bool) -> Result<String, Strin
     // way across: about a tenth of the instances lie in the view.
     let d = side as f64;
     let camera = Camera { eye: [-2.0, -2.0, 3.0], target: [d / 2.0, d / 2.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 0.42 * d };
-    let on = RenderParams { shading: Shading::Phong, eye: Some(camera.eye), count_fragments: false, ..RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?) };
+    let on = RenderParams {
+        shading: Shading::Phong,
+        eye: Some(camera.eye),
+        count_fragments: false,
+        ..RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?)
+    };
     let off = RenderParams { skips: tileraster::Skips { cull_instances: false, ..on.skips }, ..on.clone() };
     let probe = render_world(&world, &on, Backend::Cpu).map_err(|e| e.to_string())?;
     let drawn = probe.stats.geometry.instances_drawn;
@@ -449,7 +488,13 @@ fn hidden_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String>
                 mesh.triangles.reverse();
             }
             let name = format!("{n} full-frame layers, {order}");
-            let on = RenderParams { cull: Cull::None, shading: Shading::Ids, count_fragments: false, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, IDENTITY) };
+            let on = RenderParams {
+                cull: Cull::None,
+                shading: Shading::Ids,
+                count_fragments: false,
+                eye: Some([0.0, 0.0, -1.0]),
+                ..RenderParams::new(w, h, IDENTITY)
+            };
             let off = RenderParams { skips: tileraster::Skips { hidden_triangles: false, ..on.skips }, ..on.clone() };
             let backends: &[Backend] = if gpu { &[Backend::Cpu, Backend::Gpu] } else { &[Backend::Cpu] };
             for &backend in backends {

@@ -2,10 +2,10 @@
 //! run (the two runs interleaved, so that the machine's noise falls on both alike), prepare
 //! once against preparing per window, and a sparse scene over growing grids.
 
-use std::fmt::Write as _;
 use crate::median;
+use std::fmt::Write as _;
 use std::time::Instant;
-use tileraster::{rasterise, rasterise_window, Backend, Grid, Params, PreparedScene, Raster, Scene, Skip, Skips, Stats, Window};
+use tileraster::{Backend, Grid, Params, PreparedScene, Raster, Scene, Skip, Skips, Stats, Window, rasterise, rasterise_window};
 use tileraster_testkit::scenes;
 
 const NODATA: f32 = -9999.0;
@@ -88,7 +88,9 @@ pub fn run(quick: bool) -> Result<String, String> {
 /// One row per skip and backend: the scene that needs the skip, timed with it and without.
 fn each_skip(s: &Scenes, runs: usize) -> Result<String, String> {
     let n = s.tin_grid.width;
-    let mut t = String::from("| skip | scene | backend | with | without | gain | same bits | statistics with the skip |\n| --- | --- | --- | ---: | ---: | ---: | :---: | --- |\n");
+    let mut t = String::from(
+        "| skip | scene | backend | with | without | gain | same bits | statistics with the skip |\n| --- | --- | --- | ---: | ---: | ---: | :---: | --- |\n",
+    );
     let tin_name = format!("TIN, {} points, {n}²", s.tin.vertices.len());
     let sparse_name = format!("64² px TIN in a {n}² grid");
     // A window a quarter of the TIN's grid across, from a prepared scene (only the window differs).
@@ -97,7 +99,14 @@ fn each_skip(s: &Scenes, runs: usize) -> Result<String, String> {
     // (skip, scene name, scene, grid, window of a prepared scene, the skips without it)
     type SkipCase<'a> = (&'static str, String, &'a Scene, Grid, Option<Window>, Skips);
     let cases: Vec<SkipCase> = vec![
-        (Skip::CullWindow.name(), format!("{}² window of the {tin_name} (prepared once)", n / 4), &s.tin, s.tin_grid, Some(window), Skips::all_but(Skip::CullWindow)),
+        (
+            Skip::CullWindow.name(),
+            format!("{}² window of the {tin_name} (prepared once)", n / 4),
+            &s.tin,
+            s.tin_grid,
+            Some(window),
+            Skips::all_but(Skip::CullWindow),
+        ),
         (Skip::EmptyTiles.name(), sparse_name.clone(), &s.sparse, s.sparse_grid, None, Skips::all_but(Skip::EmptyTiles)),
         (Skip::FullTiles.name(), format!("plane, 2 triangles, {n}²"), &plane, s.plane_grid, None, Skips::all_but(Skip::FullTiles)),
         (Skip::OverlapFree.name(), tin_name.clone(), &s.tin, s.tin_grid, None, Skips::all_but(Skip::OverlapFree)),
@@ -197,7 +206,8 @@ fn prepare_once(s: &Scenes, runs: usize) -> Result<String, String> {
             Ok((rasters, bytes))
         };
         let each = || -> Result<(Vec<Raster>, u64), String> {
-            let rasters: Vec<Raster> = windows.iter().map(|&w| rasterise_window(&s.tin, &params, Some(w), backend)).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+            let rasters: Vec<Raster> =
+                windows.iter().map(|&w| rasterise_window(&s.tin, &params, Some(w), backend)).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
             let bytes = rasters.iter().map(|r| r.stats.bytes_uploaded).sum();
             Ok((rasters, bytes))
         };

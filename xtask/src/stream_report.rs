@@ -192,11 +192,12 @@ fn report(bin: &Path, dir: &Path, points: usize, size: u32, limit_mib: u64) -> R
     eprintln!("stream-report: {size}² as a COG under ulimit -v {limit_mib} MiB ...");
     let mut command = limited_address_space(&rasterise(&cog, size, &["--of", "COG", "--co", "COMPRESS=DEFLATE", "--co", "PREDICTOR=YES"]), limit);
     let m = measure(&mut command)?;
-    let validator = match Command::new("/usr/bin/python3").args(["-m", "osgeo_utils.samples.validate_cloud_optimized_geotiff", "--full-check=yes"]).arg(&cog).output() {
-        Ok(out) if out.status.success() => String::from_utf8_lossy(&out.stdout).trim().replace('\n', " "),
-        Ok(out) => format!("**refused**: {}", String::from_utf8_lossy(&out.stdout).trim().replace('\n', " ")),
-        Err(e) => format!("not run ({e})"),
-    };
+    let validator =
+        match Command::new("/usr/bin/python3").args(["-m", "osgeo_utils.samples.validate_cloud_optimized_geotiff", "--full-check=yes"]).arg(&cog).output() {
+            Ok(out) if out.status.success() => String::from_utf8_lossy(&out.stdout).trim().replace('\n', " "),
+            Ok(out) => format!("**refused**: {}", String::from_utf8_lossy(&out.stdout).trim().replace('\n', " ")),
+            Err(e) => format!("not run ({e})"),
+        };
     let mut checked = Vec::new();
     for (x0, y0) in [(0, 0), (size / 2 / 256 * 256, size / 3 / 256 * 256), (size - 1024, size - 1024)] {
         let differ = same_bits(&read_tiled_window(&cog, x0, y0, 1024)?, &read_tiled_window(&big, x0, y0, 1024)?);

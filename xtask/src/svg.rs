@@ -20,10 +20,8 @@ fn decades(lo: f64, hi: f64) -> (f64, f64) {
 }
 
 pub fn time_vs_error(rows: &[Row]) -> String {
-    let points: Vec<(&Row, f64, f64)> = rows
-        .iter()
-        .filter_map(|r| r.accuracy.as_ref().map(|a| (r, r.time.median * 1e3, a.max_ulps.max(ERROR_FLOOR))))
-        .collect();
+    let points: Vec<(&Row, f64, f64)> =
+        rows.iter().filter_map(|r| r.accuracy.as_ref().map(|a| (r, r.time.median * 1e3, a.max_ulps.max(ERROR_FLOOR)))).collect();
     let mut series: Vec<String> = Vec::new();
     for (r, _, _) in &points {
         let name = format!("{} · {}", r.engine, r.mode);
@@ -43,7 +41,8 @@ pub fn time_vs_error(rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" font-family="sans-serif" font-size="12">"#);
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(s, r#"<text x="{}" y="22" font-size="15" text-anchor="middle">Run time against error (each point: one scene)</text>"#, LEFT + plot_w / 2.0);
+    let _ =
+        writeln!(s, r#"<text x="{}" y="22" font-size="15" text-anchor="middle">Run time against error (each point: one scene)</text>"#, LEFT + plot_w / 2.0);
     for d in tx0 as i32..=tx1 as i32 {
         let px = x(10f64.powi(d));
         let _ = writeln!(s, r##"<line x1="{px:.1}" y1="{TOP}" x2="{px:.1}" y2="{:.1}" stroke="#ddd"/>"##, TOP + plot_h);

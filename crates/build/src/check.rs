@@ -3,10 +3,10 @@
 //! read-only or not, workgroup size), and it holds no arithmetic whose bits differ between
 //! devices. Each check returns its problems, one line each; none means the module passes.
 
-use rspirv::dr::{load_words, Instruction, Module, Operand};
+use rspirv::dr::{Instruction, Module, Operand, load_words};
 use rspirv::spirv::{Decoration, ExecutionMode, Op, StorageClass};
 use std::collections::{BTreeMap, HashMap, HashSet};
-use tileraster_kernels::pipeline::{Access, StageInfo, STAGES};
+use tileraster_kernels::pipeline::{Access, STAGES, StageInfo};
 
 /// Float instructions Vulkan does not round correctly, or leaves the order of to the driver:
 /// division (2.5 ULP), remainders, and products that sum in an unspecified order.
@@ -203,7 +203,10 @@ pub fn entry_points(m: &Module, rows: impl Fn(&StageInfo) -> bool) -> Vec<String
         let size = m
             .execution_modes
             .iter()
-            .find(|e| e.operands.first().and_then(Operand::id_ref_any) == Some(function) && e.operands.get(1) == Some(&Operand::ExecutionMode(ExecutionMode::LocalSize)))
+            .find(|e| {
+                e.operands.first().and_then(Operand::id_ref_any) == Some(function)
+                    && e.operands.get(1) == Some(&Operand::ExecutionMode(ExecutionMode::LocalSize))
+            })
             .map(|e| [2, 3, 4].map(|k| literal(&e.operands[k..]).unwrap_or(0)));
         if size != Some(info.workgroup) {
             problems.push(format!("  {}: workgroup size {size:?}, the stage table's {:?}", info.name, info.workgroup));

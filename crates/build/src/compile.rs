@@ -1,6 +1,6 @@
 //! Compiling a crate with rust-gpu into the two checked modules, from a build script.
 
-use crate::{check, declare_float_controls, mark_no_contraction, BuildError, Role};
+use crate::{BuildError, Role, check, declare_float_controls, mark_no_contraction};
 use rspirv::binary::Assemble;
 use rspirv::dr::Module;
 use spirv_builder::{Capability, SpirvBuilder};

@@ -91,13 +91,8 @@ pub const CONTRACTIBLE: [Op; 14] = [
 
 /// Decorates every float arithmetic result `NoContraction`.
 pub fn mark_no_contraction(module: &mut Module) {
-    let contractible: Vec<u32> = module
-        .functions
-        .iter()
-        .flat_map(|f| f.all_inst_iter())
-        .filter(|i| CONTRACTIBLE.contains(&i.class.opcode))
-        .filter_map(|i| i.result_id)
-        .collect();
+    let contractible: Vec<u32> =
+        module.functions.iter().flat_map(|f| f.all_inst_iter()).filter(|i| CONTRACTIBLE.contains(&i.class.opcode)).filter_map(|i| i.result_id).collect();
     for id in contractible {
         module.annotations.push(Instruction::new(Op::Decorate, None, None, vec![Operand::IdRef(id), Operand::Decoration(Decoration::NoContraction)]));
     }

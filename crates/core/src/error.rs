@@ -33,9 +33,7 @@ pub enum Error {
     #[error("invalid grid extent: {reason}")]
     InvalidExtent { reason: String },
 
-    #[error(
-        "raster {width}×{height} is too large: {reason}; rasterise it in windows or use a coarser grid"
-    )]
+    #[error("raster {width}×{height} is too large: {reason}; rasterise it in windows or use a coarser grid")]
     RasterTooLarge { width: u64, height: u64, reason: String },
 
     #[error(
@@ -88,7 +86,9 @@ pub enum Error {
     #[error("the camera is singular: {reason}")]
     SingularCamera { reason: String },
 
-    #[error("the model matrix's last row is {last_row:?}; a model transform is affine: make its last row 0, 0, 0, 1 and put any projection in the view-projection matrix")]
+    #[error(
+        "the model matrix's last row is {last_row:?}; a model transform is affine: make its last row 0, 0, 0, 1 and put any projection in the view-projection matrix"
+    )]
     NonAffineModel { last_row: [f64; 4] },
 
     #[error("the heat map needs the frame's {layer}: render with RenderParams::{flag} on (the command line's --heat-map does)")]

@@ -56,11 +56,7 @@ impl Grid {
             return Err(Error::ZeroSizedRaster { width: w, height: h });
         }
         if w > MAX_GRID_DIM || h > MAX_GRID_DIM {
-            return Err(Error::RasterTooLarge {
-                width: w,
-                height: h,
-                reason: format!("each side may be at most {MAX_GRID_DIM} pixels"),
-            });
+            return Err(Error::RasterTooLarge { width: w, height: h, reason: format!("each side may be at most {MAX_GRID_DIM} pixels") });
         }
         for (name, v) in [("xmin", self.xmin), ("xmax", self.xmax), ("ymin", self.ymin), ("ymax", self.ymax)] {
             if !v.is_finite() {
@@ -68,20 +64,14 @@ impl Grid {
             }
         }
         if self.xmax <= self.xmin {
-            return Err(Error::InvalidExtent {
-                reason: format!("xmax ({}) must be greater than xmin ({})", self.xmax, self.xmin),
-            });
+            return Err(Error::InvalidExtent { reason: format!("xmax ({}) must be greater than xmin ({})", self.xmax, self.xmin) });
         }
         if self.ymax <= self.ymin {
-            return Err(Error::InvalidExtent {
-                reason: format!("ymax ({}) must be greater than ymin ({})", self.ymax, self.ymin),
-            });
+            return Err(Error::InvalidExtent { reason: format!("ymax ({}) must be greater than ymin ({})", self.ymax, self.ymin) });
         }
         let (dx, dy) = (self.dx(), self.dy());
         if !(dx.is_normal() && dy.is_normal()) {
-            return Err(Error::InvalidExtent {
-                reason: format!("the cell size ({dx:e} × {dy:e}) is not a normal positive number"),
-            });
+            return Err(Error::InvalidExtent { reason: format!("the cell size ({dx:e} × {dy:e}) is not a normal positive number") });
         }
         Ok(())
     }
@@ -178,7 +168,8 @@ impl std::str::FromStr for Skip {
 
 impl Skips {
     pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true, hidden_triangles: true, cull_instances: true };
-    pub const NONE: Skips = Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false, hidden_triangles: false, cull_instances: false };
+    pub const NONE: Skips =
+        Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false, hidden_triangles: false, cull_instances: false };
 
     /// All skips but `skip`.
     pub fn all_but(skip: Skip) -> Skips {

@@ -17,10 +17,10 @@ mod scene;
 mod scenes;
 
 pub use error::Error;
-pub use grid::{Grid, Mode, Outputs, Params, Skip, Skips, MAX_GRID_DIM};
+pub use grid::{Grid, MAX_GRID_DIM, Mode, Outputs, Params, Skip, Skips};
 pub use overlap::overlap_free;
 pub use plan::{Pass, Plan, Stats};
-pub use prepare::{prepare, Prepared, RenderInputs, Window};
-pub use raster::{zeroed_cells, Difference, Layers, Raster};
+pub use prepare::{Prepared, RenderInputs, Window, prepare};
+pub use raster::{Difference, Layers, Raster, zeroed_cells};
 pub use scene::Scene;
 pub use tileraster_kernels as kernels;

@@ -15,8 +15,8 @@
 //! row of `p` is a running sum over the chain's crossings of that row to the right of `p*`.
 //! The scene is overlap-free when that sum never exceeds one on any pixel row of the grid.
 
-use std::ops::Range;
 use rayon::prelude::*;
+use std::ops::Range;
 use tileraster_kernels::abi::TriangleInput;
 
 /// Crossings the analysis may sort per triangle and per pixel row before it gives up (and
@@ -112,7 +112,14 @@ fn residual_crossings(triangles: &[TriangleInput], corners: &[[u32; 3]], snap_bi
 }
 
 /// [`residual_crossings`] of the edges whose smaller vertex index lies in `lows`.
-fn crossings_of_range(triangles: &[TriangleInput], all_edges: &[[Option<EdgeKey>; 3]], lows: Range<usize>, snap_bits: u32, rows: Range<u32>, budget: usize) -> Option<Vec<Crossing>> {
+fn crossings_of_range(
+    triangles: &[TriangleInput],
+    all_edges: &[[Option<EdgeKey>; 3]],
+    lows: Range<usize>,
+    snap_bits: u32,
+    rows: Range<u32>,
+    budget: usize,
+) -> Option<Vec<Crossing>> {
     // Each edge by its two vertex indices, bucketed by the smaller one (a counting sort: a
     // vertex has a handful of edges); sorting each small bucket by the larger index brings an
     // edge's uses together. (Edges that meet only in coordinates, through duplicate vertices,
@@ -121,7 +128,8 @@ fn crossings_of_range(triangles: &[TriangleInput], all_edges: &[[Option<EdgeKey>
     let vertices = lows.len();
     let mut starts = vec![0u32; vertices + 1];
     // One scan of all the edges for this range's (the counting sort then walks only those).
-    let mine: Vec<EdgeKey> = all_edges.as_flattened().iter().flatten().filter(|e| lows.contains(&(e.0 as usize))).map(|&(l, h, code)| (l - base as u32, h, code)).collect();
+    let mine: Vec<EdgeKey> =
+        all_edges.as_flattened().iter().flatten().filter(|e| lows.contains(&(e.0 as usize))).map(|&(l, h, code)| (l - base as u32, h, code)).collect();
     for &(low, _, _) in &mine {
         starts[low as usize + 1] += 1;
     }
@@ -218,8 +226,8 @@ fn max_winding(mut crossings: Vec<Crossing>) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tileraster_kernels::abi::TriangleInput;
     use std::ops::Range;
+    use tileraster_kernels::abi::TriangleInput;
 
     const S: u32 = 4; // 16 units a pixel; centres at 8 + 16·k
 
@@ -228,10 +236,12 @@ mod tests {
         let mut ids = std::collections::HashMap::new();
         let corners: Vec<[u32; 3]> = triangles
             .iter()
-            .map(|t| [0, 1, 2].map(|k| {
-                let n = ids.len() as u32;
-                *ids.entry((t.x[k], t.y[k])).or_insert(n)
-            }))
+            .map(|t| {
+                [0, 1, 2].map(|k| {
+                    let n = ids.len() as u32;
+                    *ids.entry((t.x[k], t.y[k])).or_insert(n)
+                })
+            })
             .collect();
         super::overlap_free(triangles, &corners, snap_bits, rows)
     }
@@ -296,8 +306,8 @@ mod tests {
     /// must hold at every pixel centre, and meshes must be proven.
     #[test]
     fn agrees_with_counting_every_pixel_centre() {
-        use crate::prepare::{prepare_with, Analysis};
-        use crate::{scenes, Grid, Params};
+        use crate::prepare::{Analysis, prepare_with};
+        use crate::{Grid, Params, scenes};
         use tileraster_kernels::math::edge::Side;
         use tileraster_kernels::stages::fine::side;
         use tileraster_kernels::stages::setup::setup_triangle;

@@ -3,12 +3,12 @@
 //! of the window they can cover (the rest is nodata with no kernel work), the specialisations
 //! the kernels may use, and the statistics the host already knows.
 
-use crate::raster::{reuse_cells, Layers};
-use rayon::prelude::*;
+use crate::raster::{Layers, reuse_cells};
 use crate::{Error, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
-use tileraster_kernels::pipeline::{window_stages, Stage};
+use rayon::prelude::*;
 use tileraster_kernels::abi::DepthTest;
+use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
+use tileraster_kernels::pipeline::{Stage, window_stages};
 use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
 
@@ -150,12 +150,8 @@ impl Prepared {
     pub fn plan(&self, window: Window, resident: bool) -> Result<Plan, Error> {
         window.validate(&self.params.grid)?;
         let skips = self.params.skips;
-        let area = PixelRect {
-            i0: window.x0 as i32,
-            j0: window.y0 as i32,
-            i1: (window.x0 + window.width - 1) as i32,
-            j1: (window.y0 + window.height - 1) as i32,
-        };
+        let area =
+            PixelRect { i0: window.x0 as i32, j0: window.y0 as i32, i1: (window.x0 + window.width - 1) as i32, j1: (window.y0 + window.height - 1) as i32 };
         // One pass over the triangles, on all cores, in chunks kept in scene order: the ones
         // listed (with `cull_window`, those reaching the window), and the union of what they
         // reach of it.

@@ -16,10 +16,10 @@
 
 use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
-use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::abi::{DepthTest, FloatCoeffs, PixelRect, Plane, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
-use tileraster_kernels::pipeline::Pipeline;
 use tileraster_kernels::math::edge::Side;
+use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
+use tileraster_kernels::pipeline::Pipeline;
 use tileraster_kernels::stages::fine::side;
 use tileraster_kernels::stages::setup::setup_triangle;
 use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS};
@@ -165,10 +165,7 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
         let p = tri.map(|k| raster[k as usize]);
         let (umin, umax) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
         let (vmin, vmax) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
-        let reaches_grid = umax >= 0.5 - CULL_MARGIN_PX
-            && umin <= w - 0.5 + CULL_MARGIN_PX
-            && vmax >= 0.5 - CULL_MARGIN_PX
-            && vmin <= h - 0.5 + CULL_MARGIN_PX;
+        let reaches_grid = umax >= 0.5 - CULL_MARGIN_PX && umin <= w - 0.5 + CULL_MARGIN_PX && vmax >= 0.5 - CULL_MARGIN_PX && vmin <= h - 0.5 + CULL_MARGIN_PX;
         reaches_grid.then(|| (umax - umin).max(vmax - vmin))
     };
 
@@ -465,12 +462,7 @@ pub(crate) fn pixel_rect(x: &[i64; 3], y: &[i64; 3], snap_bits: u32, grid: &Grid
     // First and last centre inside [min, max], clamped to the grid (an empty rectangle stays empty).
     let first = |v: i64, n: u32| ceil_shr(v - half, snap_bits).clamp(0, n as i64) as i32;
     let last = |v: i64, n: u32| floor_shr(v - half, snap_bits).clamp(-1, n as i64 - 1) as i32;
-    PixelRect {
-        i0: first(xmin, grid.width),
-        j0: first(ymin, grid.height),
-        i1: last(xmax, grid.width),
-        j1: last(ymax, grid.height),
-    }
+    PixelRect { i0: first(xmin, grid.width), j0: first(ymin, grid.height), i1: last(xmax, grid.width), j1: last(ymax, grid.height) }
 }
 
 /// The plane through the unsnapped vertices (or, where those are flat or flipped, through the
@@ -482,9 +474,8 @@ fn fit_plane(scene: &Scene, raster: &[[f64; 2]], s: &Snapped, snap_bits: u32) ->
     let unit = (1i64 << snap_bits) as f64;
     let snapped = [0, 1, 2].map(|k| [s.x[k] as f64 / unit, s.y[k] as f64 / unit]);
     let (ci, cj) = (s.rect.i0 as f64 + 0.5, s.rect.j0 as f64 + 0.5);
-    let (zr, gi, gj) = plane_through(&unsnapped, &z, ci, cj).unwrap_or_else(|| {
-        plane_through(&snapped, &z, ci, cj).expect("snapped triangles have positive area")
-    });
+    let (zr, gi, gj) =
+        plane_through(&unsnapped, &z, ci, cj).unwrap_or_else(|| plane_through(&snapped, &z, ci, cj).expect("snapped triangles have positive area"));
     (quantise_plane(zr, gi, gj, &s.rect), [zr, gi, gj])
 }
 
@@ -582,11 +573,8 @@ mod tests {
         let grid = Grid::new(0.0, 64.0, 0.0, 64.0, 64, 64);
         let (micro, micro_grid) = crate::scenes::micro_triangles(64, 0.25, 7);
         assert!(micro.triangles.len() > 2 * CHUNK, "several chunks");
-        let cases = [
-            (micro, micro_grid),
-            (crate::scenes::terrain(0.0, 0.0, 64.0, 64.0, 40, 40, 5), grid),
-            (crate::scenes::triangle_soup(&grid, 3000, 6.0, 9), grid),
-        ];
+        let cases =
+            [(micro, micro_grid), (crate::scenes::terrain(0.0, 0.0, 64.0, 64.0, 40, 40, 5), grid), (crate::scenes::triangle_soup(&grid, 3000, 6.0, 9), grid)];
         for (scene, grid) in &cases {
             for mode in Mode::ALL {
                 let params = Params::new(*grid).with_mode(mode);

@@ -36,7 +36,6 @@ pub struct Layers {
     pub faces: Option<Vec<u32>>,
 }
 
-
 /// `len` cells in `spare`'s memory where it holds them (its old entries kept, zeroes after
 /// them: for arrays the caller overwrites), else fresh zeroed memory as [`zeroed_cells`] gives
 /// (rather than a copy of the old entries into a larger allocation).

@@ -6,12 +6,12 @@
 
 mod stages;
 
-pub use stages::{bin_count, bin_fill, bin_scan, fine_depth, fine_raster, fine_samples, setup, setup_into, shade, FinePath};
+pub use stages::{FinePath, bin_count, bin_fill, bin_scan, fine_depth, fine_raster, fine_samples, setup, setup_into, shade};
 pub use tileraster_kernels::pipeline::StageBuffers;
 
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{Counter, TriangleSetup};
-use tileraster_kernels::pipeline::{stages, Stage};
+use tileraster_kernels::pipeline::{Stage, stages};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
 /// twin of the GPU backend's resident buffers).

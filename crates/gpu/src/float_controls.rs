@@ -9,7 +9,7 @@
 //! frame the backend checks, on a small frame built to expose both, that the adapter gives the
 //! CPU backend's bits. An adapter that does not is refused for those modes with a typed error.
 
-use tileraster_core::{prepare, Error, Grid, Mode, Params, Raster, Scene};
+use tileraster_core::{Error, Grid, Mode, Params, Raster, Scene, prepare};
 
 /// What the adapter reports it can guarantee for 32-bit floats when a shader declares it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -69,7 +69,13 @@ fn the_kernels_hold_only_portable_arithmetic() {
         assert!(problems.is_empty(), "{name}:\n{}", problems.join("\n"));
     }
     let mut divided = module();
-    let product = divided.functions.iter_mut().flat_map(|f| f.blocks.iter_mut()).flat_map(|b| b.instructions.iter_mut()).find(|i| i.class.opcode == Op::FMul).expect("a float product");
+    let product = divided
+        .functions
+        .iter_mut()
+        .flat_map(|f| f.blocks.iter_mut())
+        .flat_map(|b| b.instructions.iter_mut())
+        .find(|i| i.class.opcode == Op::FMul)
+        .expect("a float product");
     *product = Instruction::new(Op::FDiv, product.result_type, product.result_id, product.operands.clone());
     assert_eq!(check::portable(&divided).len(), 1, "one division");
     // GLSL.std.450 calls: `Floor` is exact everywhere, `FMin` leaves NaN to the driver.
@@ -78,7 +84,13 @@ fn the_kernels_hold_only_portable_arithmetic() {
         let bound = called.header.as_ref().expect("a header").bound;
         called.header.as_mut().expect("a header").bound = bound + 1;
         called.ext_inst_imports.push(Instruction::new(Op::ExtInstImport, None, Some(bound), vec![Operand::LiteralString("GLSL.std.450".into())]));
-        let product = called.functions.iter_mut().flat_map(|f| f.blocks.iter_mut()).flat_map(|b| b.instructions.iter_mut()).find(|i| i.class.opcode == Op::FMul).expect("a float product");
+        let product = called
+            .functions
+            .iter_mut()
+            .flat_map(|f| f.blocks.iter_mut())
+            .flat_map(|b| b.instructions.iter_mut())
+            .find(|i| i.class.opcode == Op::FMul)
+            .expect("a float product");
         let operands = vec![Operand::IdRef(bound), Operand::LiteralExtInstInteger(number), product.operands[0].clone(), product.operands[1].clone()];
         *product = Instruction::new(Op::ExtInst, product.result_type, product.result_id, operands);
         assert_eq!(check::portable(&called).len(), usize::from(refused), "GLSL.std.450 instruction {number}");
@@ -89,7 +101,12 @@ fn the_kernels_hold_only_portable_arithmetic() {
 fn every_float_arithmetic_result_carries_no_contraction() {
     for (name, m) in modules() {
         let (checked, missing) = check::contraction(&m);
-        assert!(missing.is_empty(), "{name}: {} of {checked} float arithmetic results lack NoContraction:\n{}", missing.len(), missing[..missing.len().min(12)].join("\n"));
+        assert!(
+            missing.is_empty(),
+            "{name}: {} of {checked} float arithmetic results lack NoContraction:\n{}",
+            missing.len(),
+            missing[..missing.len().min(12)].join("\n")
+        );
         // The modes that compute in f32 are in the module: the check above has something to check.
         assert!(checked > 0, "{name}: no float arithmetic found: the plane-f32 and barycentric modes should have some");
     }
@@ -101,10 +118,14 @@ fn every_float_arithmetic_result_carries_no_contraction() {
 fn the_float_controls_module_declares_rte_and_denorm_preserve_on_every_entry_point() {
     let [(_, plain), (_, controlled)] = modules();
     let modes = |m: &Module, wanted: ExecutionMode| -> HashSet<u32> {
-        m.execution_modes.iter().filter(|e| e.operands[1] == Operand::ExecutionMode(wanted)).map(|e| {
-            assert_eq!(e.operands[2], Operand::LiteralBit32(32), "{wanted:?} must name 32-bit floats");
-            id(&e.operands[0])
-        }).collect()
+        m.execution_modes
+            .iter()
+            .filter(|e| e.operands[1] == Operand::ExecutionMode(wanted))
+            .map(|e| {
+                assert_eq!(e.operands[2], Operand::LiteralBit32(32), "{wanted:?} must name 32-bit floats");
+                id(&e.operands[0])
+            })
+            .collect()
     };
     let entries: HashSet<u32> = controlled.entry_points.iter().map(|e| id(&e.operands[1])).collect();
     assert_eq!(entries.len(), STAGES.len());

@@ -138,7 +138,7 @@ impl GeoTiffOptions {
             _ => {
                 return Err(format!(
                     "unsupported creation option '{option}'; supported: TILED=YES|NO, COMPRESS=NONE|DEFLATE|ZSTD, PREDICTOR=NO|STANDARD|FLOATING_POINT|YES (or 1|2|3), BIGTIFF=YES|NO|IF_NEEDED, COG=YES|NO"
-                ))
+                ));
             }
         }
         Ok(())
@@ -169,9 +169,11 @@ impl GeoTiffOptions {
 
 /// The EPSG code of `--a_srs` (`EPSG:32633`, case-insensitive).
 pub fn parse_epsg(srs: &str) -> Result<u16, String> {
-    let code = srs.trim().strip_prefix("EPSG:").or_else(|| srs.trim().strip_prefix("epsg:")).ok_or_else(|| {
-        format!("'{srs}': only EPSG codes are supported as a CRS (for example EPSG:32633 or EPSG:4326)")
-    })?;
+    let code = srs
+        .trim()
+        .strip_prefix("EPSG:")
+        .or_else(|| srs.trim().strip_prefix("epsg:"))
+        .ok_or_else(|| format!("'{srs}': only EPSG codes are supported as a CRS (for example EPSG:32633 or EPSG:4326)"))?;
     match code.parse::<u32>() {
         Ok(n) if (1024..=32766).contains(&n) => Ok(n as u16),
         Ok(n) => Err(format!("EPSG:{n} is outside the codes GeoTIFF's keys hold (1024 to 32766)")),
@@ -372,9 +374,7 @@ impl GeoTiffWriter {
             BigTiff::Yes => true,
             BigTiff::IfNeeded => bound > CLASSIC_LIMIT,
             BigTiff::No if bound > CLASSIC_LIMIT && options.compress == Compression::None => {
-                return Err(format(format!(
-                    "{data} bytes of image do not fit a classic TIFF (4 GiB); allow BigTIFF (-co BIGTIFF=IF_NEEDED or YES)"
-                )))
+                return Err(format(format!("{data} bytes of image do not fit a classic TIFF (4 GiB); allow BigTIFF (-co BIGTIFF=IF_NEEDED or YES)")));
             }
             BigTiff::No => false,
         };
@@ -756,7 +756,19 @@ mod tests {
     fn raster(w: u32, h: u32) -> Raster {
         let grid = Grid::new(500_000.0, 500_000.0 + w as f64, 5_000_000.0, 5_000_000.0 + h as f64, w, h);
         let values = (0..w * h).map(|k| if k % 7 == 0 { -9999.0 } else { k as f32 * 0.25 }).collect();
-        Raster { grid, window: Window::whole(&grid), nodata: -9999.0, values, owner: None, coverage: None, colours: None, faces: None, tiles: None, snap_bits: 16, stats: Default::default() }
+        Raster {
+            grid,
+            window: Window::whole(&grid),
+            nodata: -9999.0,
+            values,
+            owner: None,
+            coverage: None,
+            colours: None,
+            faces: None,
+            tiles: None,
+            snap_bits: 16,
+            stats: Default::default(),
+        }
     }
 
     struct Read {

@@ -9,7 +9,7 @@
 
 use crate::IoError;
 use std::path::Path;
-use tileraster_core::render::{normal_matrix, transform_normal, Address, Filter, Instance, Mesh, Texture, World, NO_TEXTURE};
+use tileraster_core::render::{Address, Filter, Instance, Mesh, NO_TEXTURE, Texture, World, normal_matrix, transform_normal};
 
 /// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates.
 pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
@@ -17,7 +17,9 @@ pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
     let (gltf, buffers) = open(path)?;
     let mut out = Parts::default();
     walk(&gltf.document, &mut |node, world| match node.mesh() {
-        Some(mesh) => mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &Sources { base: path.parent(), buffers: &buffers }, &mut out)),
+        Some(mesh) => {
+            mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &Sources { base: path.parent(), buffers: &buffers }, &mut out))
+        }
         None => Ok(()),
     })
     .map_err(format)?;
@@ -39,7 +41,8 @@ pub fn read_gltf_world(path: &Path) -> Result<World, IoError> {
             Some(&index) => index,
             None => {
                 let mut parts = Parts::default();
-                mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &Sources { base: path.parent(), buffers: &buffers }, &mut parts))?;
+                mesh.primitives()
+                    .try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &Sources { base: path.parent(), buffers: &buffers }, &mut parts))?;
                 let index = parts.into_mesh().map(|m| {
                     world.meshes.push(m);
                     world.meshes.len() as u32 - 1
@@ -119,7 +122,8 @@ impl Sources<'_> {
         use gltf::image::Format;
         use gltf::texture::{MagFilter, MinFilter, WrappingMode};
         let image = texture.source();
-        let data = gltf::image::Data::from_source(image.source(), self.base, self.buffers).map_err(|e| format!("image {} of texture {}: {e}", image.index(), texture.index()))?;
+        let data = gltf::image::Data::from_source(image.source(), self.base, self.buffers)
+            .map_err(|e| format!("image {} of texture {}: {e}", image.index(), texture.index()))?;
         let n = data.width as usize * data.height as usize;
         let p = &data.pixels;
         let rgba: Vec<u8> = match data.format {
@@ -148,7 +152,15 @@ impl Sources<'_> {
             (None, Some(MagFilter::Nearest)) => Filter::Nearest,
             _ => Filter::Trilinear,
         };
-        Ok(Texture { width: data.width, height: data.height, rgba, srgb: true, filter, address_u: address(sampler.wrap_s()), address_v: address(sampler.wrap_t()) })
+        Ok(Texture {
+            width: data.width,
+            height: data.height,
+            rgba,
+            srgb: true,
+            filter,
+            address_u: address(sampler.wrap_s()),
+            address_v: address(sampler.wrap_t()),
+        })
     }
 }
 
@@ -236,7 +248,8 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     let m = world;
     // A mirroring transform (negative determinant) turns counter-clockwise faces clockwise:
     // glTF then defines the winding the other way round, so swap two corners back.
-    let linear_det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    let linear_det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     let triangles: Vec<[u32; 3]> = if linear_det < 0.0 { triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect() } else { triangles };
     out.positions.extend(positions.iter().map(|p| {
         let p = p.map(f64::from);
@@ -244,7 +257,9 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     }));
     let material = primitive.material();
     let texture = match material.pbr_metallic_roughness().base_color_texture() {
-        Some(info) if info.tex_coord() != 0 => return Err(format!("unsupported glTF feature: {}'s base colour texture reads TEXCOORD_{}", name(), info.tex_coord())),
+        Some(info) if info.tex_coord() != 0 => {
+            return Err(format!("unsupported glTF feature: {}'s base colour texture reads TEXCOORD_{}", name(), info.tex_coord()));
+        }
         Some(info) => {
             let t = info.texture();
             match out.texture_of.get(&t.index()) {

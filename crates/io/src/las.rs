@@ -108,7 +108,11 @@ fn points(reader: &mut las::Reader, len: u64, classes: &[u8], fail: &dyn Fn(Stri
     if points.is_empty() && seen.iter().any(|&n| n > 0) {
         let held: Vec<String> = (0..256).filter(|&c| seen[c] > 0).map(|c| format!("class {c}: {} points", seen[c])).collect();
         let asked: Vec<String> = classes.iter().map(u8::to_string).collect();
-        return Err(fail(format!("no point is of class {} (the file holds {}); choose other classes or leave --class out", asked.join(" or "), held.join(", "))));
+        return Err(fail(format!(
+            "no point is of class {} (the file holds {}); choose other classes or leave --class out",
+            asked.join(" or "),
+            held.join(", ")
+        )));
     }
     if points.is_empty() {
         return Err(fail("the file holds no points".into()));
@@ -269,7 +273,8 @@ fn vet_laz<R: Read + Seek>(source: &mut R, len: u64, data: u64, count: u64, vlr:
     }
     // Each item: type, size, version. Layered ones (version 3): its raw first point's bytes
     // and its number of layers.
-    let items: Option<Vec<[u16; 3]>> = (0..usize::from(items)).map(|k| Some([u16_at(vlr, 34 + 6 * k)?, u16_at(vlr, 36 + 6 * k)?, u16_at(vlr, 38 + 6 * k)?])).collect();
+    let items: Option<Vec<[u16; 3]>> =
+        (0..usize::from(items)).map(|k| Some([u16_at(vlr, 34 + 6 * k)?, u16_at(vlr, 36 + 6 * k)?, u16_at(vlr, 38 + 6 * k)?])).collect();
     let Some(items) = items else {
         return Ok(Plan::default()); // too short: `laz` refuses it
     };
@@ -364,12 +369,17 @@ mod tests {
             let mut builder = las::Builder::from((1, minor));
             builder.point_format = las::point::Format::new(format).unwrap();
             builder.point_format.is_compressed = chunk.is_some();
-            builder.transforms = las::Vector { x: las::Transform { scale: 0.01, offset: 1000.0 }, y: las::Transform { scale: 0.01, offset: 2000.0 }, z: las::Transform { scale: 0.01, offset: 0.0 } };
+            builder.transforms = las::Vector {
+                x: las::Transform { scale: 0.01, offset: 1000.0 },
+                y: las::Transform { scale: 0.01, offset: 2000.0 },
+                z: las::Transform { scale: 0.01, offset: 0.0 },
+            };
             builder.vlrs = vlrs;
             let mut writer = las::Writer::new(Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
             let format = *writer.header().point_format();
             for &[x, y, z] in points {
-                let (gps_time, color, nir) = (format.has_gps_time.then_some(x), format.has_color.then_some(las::Color::new(1, 2, 3)), format.has_nir.then_some(4));
+                let (gps_time, color, nir) =
+                    (format.has_gps_time.then_some(x), format.has_color.then_some(las::Color::new(1, 2, 3)), format.has_nir.then_some(4));
                 writer.write_point(las::Point { x, y, z, gps_time, color, nir, ..Default::default() }).unwrap();
             }
             writer.into_inner().unwrap().into_inner()
@@ -400,7 +410,8 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("tileraster-las-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         // Values on the default 0.001 grid of LAS's scaled integers.
-        let points: Vec<[f64; 3]> = (0..500).map(|k| [500_000.0 + (k % 25) as f64 * 1.5, 5_000_000.0 + (k / 25) as f64 * 2.25, 100.0 + k as f64 * 0.125]).collect();
+        let points: Vec<[f64; 3]> =
+            (0..500).map(|k| [500_000.0 + (k % 25) as f64 * 1.5, 5_000_000.0 + (k / 25) as f64 * 2.25, 100.0 + k as f64 * 0.125]).collect();
         for (name, compressed) in [("p.las", false), ("p.laz", true)] {
             let path = dir.join(name);
             let mut builder = las::Builder::from((1, 2));
@@ -434,7 +445,11 @@ mod tests {
             let path = dir.join(name);
             let mut builder = las::Builder::from((1, 4));
             builder.point_format.is_compressed = name.ends_with('z');
-            builder.transforms = las::Vector { x: las::Transform { scale: 0.01, offset: 1000.0 }, y: las::Transform { scale: 0.01, offset: 2000.0 }, z: las::Transform { scale: 0.01, offset: 0.0 } };
+            builder.transforms = las::Vector {
+                x: las::Transform { scale: 0.01, offset: 1000.0 },
+                y: las::Transform { scale: 0.01, offset: 2000.0 },
+                z: las::Transform { scale: 0.01, offset: 0.0 },
+            };
             let mut writer = las::Writer::from_path(&path, builder.into_header().unwrap()).unwrap();
             for (k, p) in points.iter().enumerate() {
                 let classification = las::point::Classification::new(class(k)).unwrap();

@@ -16,15 +16,17 @@ mod preview;
 mod stl;
 mod vrt;
 
-pub use geotiff::{parse_epsg, write_geotiff, write_geotiff_with, BigTiff, Compression, GeoTiffOptionError, GeoTiffOptions, GeoTiffWriter, Predictor, Sample, TILE};
+pub use geotiff::{
+    BigTiff, Compression, GeoTiffOptionError, GeoTiffOptions, GeoTiffWriter, Predictor, Sample, TILE, parse_epsg, write_geotiff, write_geotiff_with,
+};
 pub use gltf_mesh::{read_gltf, read_gltf_world};
-pub use obj::{parse_obj, parse_obj_mesh, read_obj, read_obj_mesh, read_texture, write_obj, write_obj_textured};
 pub use las::{parse_las, read_las, read_las_classes};
+pub use obj::{parse_obj, parse_obj_mesh, read_obj, read_obj_mesh, read_texture, write_obj, write_obj_textured};
 pub use ply::{parse_ply, parse_ply_mesh, read_ply, read_ply_mesh};
-pub use stl::{parse_stl, read_stl};
-pub use points::{parse_points, read_points, Column, PointColumns};
+pub use points::{Column, PointColumns, parse_points, read_points};
 pub use preview::{write_preview_png, write_rgba_png};
-pub use vrt::{parse_part, read_part, write_mosaic_vrt, Mosaic, Part};
+pub use stl::{parse_stl, read_stl};
+pub use vrt::{Mosaic, Part, parse_part, read_part, write_mosaic_vrt};
 
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
@@ -110,7 +112,7 @@ impl PartialFile {
                 return Err(IoError::Format {
                     path: path.to_owned(),
                     message: format!("another run is writing this file ({} is in use); wait for it, or give another destination", tmp.display()),
-                })
+                });
             }
             Err(std::fs::TryLockError::Error(e)) => return Err(io(e)),
         }
@@ -158,10 +160,7 @@ impl Drop for PartialFile {
 }
 
 /// Write a whole file at once through a [`PartialFile`].
-pub(crate) fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<(), String>,
-) -> Result<(), IoError> {
+pub(crate) fn write_atomically(path: &Path, write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<(), String>) -> Result<(), IoError> {
     let mut file = PartialFile::create(path)?;
     write(file.out()).map_err(|message| IoError::Format { path: path.to_owned(), message })?;
     file.commit()

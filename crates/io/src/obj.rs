@@ -1,8 +1,8 @@
-use crate::{write_atomically, IoError};
+use crate::{IoError, write_atomically};
 use std::io::Write as _;
 use std::path::Path;
-use tileraster_core::render::{Mesh, Texture, NO_TEXTURE};
 use tileraster_core::Scene;
+use tileraster_core::render::{Mesh, NO_TEXTURE, Texture};
 
 /// Read a Wavefront OBJ mesh: `v x y z` vertices (world x, y and height z) and `f` faces
 /// (1-based or negative indices, `v/vt/vn` forms accepted; polygons are fanned into
@@ -76,9 +76,10 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Scene, IoError> {
             }
             Some("f") => {
                 let count = scene.vertices.len();
-                let corners = words
-                    .map(|w| resolve_index(w.split('/').next().unwrap_or(""), count, "vertex").map_err(|m| err(line_no, m)))
-                    .collect::<Result<Vec<u32>, IoError>>()?;
+                let corners =
+                    words
+                        .map(|w| resolve_index(w.split('/').next().unwrap_or(""), count, "vertex").map_err(|m| err(line_no, m)))
+                        .collect::<Result<Vec<u32>, IoError>>()?;
                 if corners.len() < 3 {
                     return Err(err(line_no, format!("face has {} corners; a face needs at least 3", corners.len())));
                 }
@@ -92,11 +93,7 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Scene, IoError> {
     if scene.vertices.is_empty() || scene.triangles.is_empty() {
         return Err(IoError::Format {
             path: path.to_owned(),
-            message: format!(
-                "no mesh: {} vertices and {} faces found; expected `v x y z` and `f a b c` lines",
-                scene.vertices.len(),
-                scene.triangles.len()
-            ),
+            message: format!("no mesh: {} vertices and {} faces found; expected `v x y z` and `f a b c` lines", scene.vertices.len(), scene.triangles.len()),
         });
     }
     Ok(scene)
@@ -135,7 +132,12 @@ pub fn read_texture(path: &Path) -> Result<Texture, IoError> {
 
 /// Parse OBJ text with its attributes; `materials` reads a `mtllib` file by name, `images` a
 /// `map_Kd` texture by its path from the OBJ's folder.
-pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Result<String, IoError>, images: &dyn Fn(&str) -> Result<Texture, IoError>) -> Result<Mesh, IoError> {
+pub fn parse_obj_mesh(
+    text: &str,
+    path: &Path,
+    materials: &dyn Fn(&str) -> Result<String, IoError>,
+    images: &dyn Fn(&str) -> Result<Texture, IoError>,
+) -> Result<Mesh, IoError> {
     let err = |line: usize, message: String| IoError::Parse { path: path.to_owned(), line, message };
     let (mut positions, mut normals, mut uvs) = (Vec::<[f64; 3]>::new(), Vec::<[f32; 3]>::new(), Vec::<[f32; 2]>::new());
     let mut colours: std::collections::HashMap<String, Material> = Default::default();
@@ -149,7 +151,8 @@ pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Resul
     let (mut out_normals, mut out_uvs, mut out_colours) = (Vec::new(), Vec::new(), Vec::new());
     let (mut any_normal, mut all_normals, mut any_uv, mut any_colour) = (false, true, false, false);
     let numbers = |words: &mut std::str::SplitWhitespace, n: usize, line: usize, what: &str| -> Result<Vec<f64>, IoError> {
-        let values: Vec<f64> = words.take(n).map(|w| w.parse::<f64>().map_err(|_| err(line, format!("{what} value {w:?} is not a number")))).collect::<Result<_, _>>()?;
+        let values: Vec<f64> =
+            words.take(n).map(|w| w.parse::<f64>().map_err(|_| err(line, format!("{what} value {w:?} is not a number")))).collect::<Result<_, _>>()?;
         if values.len() < n || values.iter().any(|v| !v.is_finite()) {
             return Err(err(line, format!("{what} needs {n} finite numbers")));
         }
@@ -237,7 +240,10 @@ pub fn parse_obj_mesh(text: &str, path: &Path, materials: &dyn Fn(&str) -> Resul
         }
     }
     if mesh.triangles.is_empty() {
-        return Err(IoError::Format { path: path.to_owned(), message: format!("no mesh: {} vertices and no faces found; expected `v x y z` and `f a b c` lines", positions.len()) });
+        return Err(IoError::Format {
+            path: path.to_owned(),
+            message: format!("no mesh: {} vertices and no faces found; expected `v x y z` and `f a b c` lines", positions.len()),
+        });
     }
     mesh.normals = (any_normal && all_normals).then_some(out_normals);
     mesh.uvs = any_uv.then_some(out_uvs);
@@ -320,7 +326,8 @@ mod tests {
         assert!(mesh.uvs.is_none());
         let e = parse_obj_mesh("v 0 0 0\nusemtl missing\n", Path::new("m.obj"), &|_| unreachable!(), &|_| unreachable!()).unwrap_err().to_string();
         assert!(e.starts_with("m.obj:2:") && e.contains("\"missing\""), "{e}");
-        let e = parse_obj_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//2 2 3\n", Path::new("m.obj"), &|_| unreachable!(), &|_| unreachable!()).unwrap_err().to_string();
+        let e =
+            parse_obj_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//2 2 3\n", Path::new("m.obj"), &|_| unreachable!(), &|_| unreachable!()).unwrap_err().to_string();
         assert!(e.starts_with("m.obj:4:") && e.contains("normal index 2 is out of range"), "{e}");
     }
 
@@ -341,7 +348,9 @@ mod tests {
         assert_eq!(mesh.textures.len(), 1);
         assert_eq!(mesh.face_textures, Some(vec![0, NO_TEXTURE, 0]));
         assert_eq!(mesh.uvs.as_ref().unwrap()[1], [1.0, 0.75]);
-        let e = parse_obj_mesh(obj, Path::new("m.obj"), &|_| Ok(mtl.to_string()), &|name| Err(IoError::Format { path: name.into(), message: "broken".into() })).unwrap_err().to_string();
+        let e = parse_obj_mesh(obj, Path::new("m.obj"), &|_| Ok(mtl.to_string()), &|name| Err(IoError::Format { path: name.into(), message: "broken".into() }))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("brick.png") && e.contains("broken"), "{e}");
     }
 

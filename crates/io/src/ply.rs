@@ -7,8 +7,8 @@
 
 use crate::IoError;
 use std::path::Path;
-use tileraster_core::render::Mesh;
 use tileraster_core::Scene;
+use tileraster_core::render::Mesh;
 
 /// Read a PLY mesh's positions and faces.
 pub fn read_ply(path: &Path) -> Result<Scene, IoError> {
@@ -221,7 +221,13 @@ pub fn parse_ply_mesh(bytes: &[u8], path: &Path) -> Result<Mesh, IoError> {
                             let vertices = scene.vertices.len();
                             let ids: Vec<u32> = items
                                 .iter()
-                                .map(|&i| if i >= 0.0 && (i as usize) < vertices && i.fract() == 0.0 { Ok(i as u32) } else { Err(format!("vertex index {i} is out of range: there are {vertices} vertices")) })
+                                .map(|&i| {
+                                    if i >= 0.0 && (i as usize) < vertices && i.fract() == 0.0 {
+                                        Ok(i as u32)
+                                    } else {
+                                        Err(format!("vertex index {i} is out of range: there are {vertices} vertices"))
+                                    }
+                                })
                                 .collect::<Result<_, _>>()
                                 .map_err(|m| reader.error(path, &element.name, record, m))?;
                             if ids.len() < 3 {

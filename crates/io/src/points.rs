@@ -76,7 +76,8 @@ impl Separator {
     }
 }
 
-const DEFAULT_NAMES: [&[&str]; 3] = [&["x", "easting", "lon", "longitude"], &["y", "northing", "lat", "latitude"], &["z", "elevation", "height", "alt", "altitude"]];
+const DEFAULT_NAMES: [&[&str]; 3] =
+    [&["x", "easting", "lon", "longitude"], &["y", "northing", "lat", "latitude"], &["z", "elevation", "height", "alt", "altitude"]];
 
 /// Parse delimited-text points (`path` names the source in errors).
 pub fn parse_points(text: &str, path: &Path, columns: &PointColumns) -> Result<Vec<[f64; 3]>, IoError> {
@@ -90,7 +91,8 @@ pub fn parse_points(text: &str, path: &Path, columns: &PointColumns) -> Result<V
     };
     let separator = Separator::of(first);
     let first_fields = separator.fields(first);
-    let header: Option<Vec<String>> = first_fields.iter().any(|f| f.parse::<f64>().is_err()).then(|| first_fields.iter().map(|f| f.trim_matches('"').to_lowercase()).collect());
+    let header: Option<Vec<String>> =
+        first_fields.iter().any(|f| f.parse::<f64>().is_err()).then(|| first_fields.iter().map(|f| f.trim_matches('"').to_lowercase()).collect());
 
     // 0-based field indices of x, y, z.
     let mut at = [0usize; 3];
@@ -99,14 +101,21 @@ pub fn parse_points(text: &str, path: &Path, columns: &PointColumns) -> Result<V
         let axis_name = ["x", "y", "z"][axis];
         *slot = match (choice, &header) {
             (Some(Column::Position(p)), _) => p - 1,
-            (Some(Column::Name(name)), Some(names)) => names.iter().position(|n| *n == name.to_lowercase()).ok_or_else(|| {
-                fail(first_no, format!("no column named '{name}' for {axis_name}; the header has: {}", names.join(", ")))
-            })?,
+            (Some(Column::Name(name)), Some(names)) => names
+                .iter()
+                .position(|n| *n == name.to_lowercase())
+                .ok_or_else(|| fail(first_no, format!("no column named '{name}' for {axis_name}; the header has: {}", names.join(", "))))?,
             (Some(Column::Name(name)), None) => {
-                return Err(fail(first_no, format!("column '{name}' for {axis_name} is chosen by name, but the file has no header line; choose it by position (1, 2, ...)")));
+                return Err(fail(
+                    first_no,
+                    format!("column '{name}' for {axis_name} is chosen by name, but the file has no header line; choose it by position (1, 2, ...)"),
+                ));
             }
             (None, Some(names)) => names.iter().position(|n| defaults.contains(&n.as_str())).ok_or_else(|| {
-                fail(first_no, format!("no column for {axis_name} among {}; name it (one of {}) or choose it by name or position", names.join(", "), defaults.join(", ")))
+                fail(
+                    first_no,
+                    format!("no column for {axis_name} among {}; name it (one of {}) or choose it by name or position", names.join(", "), defaults.join(", ")),
+                )
             })?,
             (None, None) => axis,
         };

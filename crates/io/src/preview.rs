@@ -1,15 +1,10 @@
-use crate::{write_atomically, IoError};
+use crate::{IoError, write_atomically};
 use std::path::Path;
 use tileraster_core::Raster;
 
 /// Hypsometric colour ramp: (fraction of the height range, RGB).
-const RAMP: [(f32, [f32; 3]); 5] = [
-    (0.00, [46.0, 110.0, 60.0]),
-    (0.30, [120.0, 165.0, 85.0]),
-    (0.55, [215.0, 200.0, 130.0]),
-    (0.80, [160.0, 115.0, 80.0]),
-    (1.00, [245.0, 245.0, 245.0]),
-];
+const RAMP: [(f32, [f32; 3]); 5] =
+    [(0.00, [46.0, 110.0, 60.0]), (0.30, [120.0, 165.0, 85.0]), (0.55, [215.0, 200.0, 130.0]), (0.80, [160.0, 115.0, 80.0]), (1.00, [245.0, 245.0, 245.0])];
 
 fn ramp(t: f32) -> [f32; 3] {
     let t = t.clamp(0.0, 1.0);
@@ -69,8 +64,7 @@ pub fn write_preview_png(raster: &Raster, path: &Path) -> Result<(), IoError> {
         }
     }
     write_atomically(path, |out| {
-        image::write_buffer_with_format(out, &rgba, w as u32, h as u32, image::ExtendedColorType::Rgba8, image::ImageFormat::Png)
-            .map_err(|e| e.to_string())
+        image::write_buffer_with_format(out, &rgba, w as u32, h as u32, image::ExtendedColorType::Rgba8, image::ImageFormat::Png).map_err(|e| e.to_string())
     })
 }
 

@@ -65,7 +65,10 @@ fn binary_corners(bytes: &[u8], n: usize, path: &Path) -> Result<Vec<[f64; 3]>, 
             let at = |a: usize| f32::from_le_bytes(record[12 + 12 * k + 4 * a..][..4].try_into().expect("4 bytes")) as f64;
             let c = [at(0), at(1), at(2)];
             if c.iter().any(|v| !v.is_finite()) {
-                return Err(IoError::Format { path: path.to_owned(), message: format!("triangle {t} (record {}): corner {k} is {c:?}; coordinates must be finite", t + 1) });
+                return Err(IoError::Format {
+                    path: path.to_owned(),
+                    message: format!("triangle {t} (record {}): corner {k} is {c:?}; coordinates must be finite", t + 1),
+                });
             }
             corners.push(c);
         }

@@ -2,7 +2,7 @@
 //! processes, cluster jobs) read back as one raster. Each part's place comes from its own
 //! georeferencing, so the parts may be listed in any order.
 
-use crate::{write_atomically, IoError};
+use crate::{IoError, write_atomically};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use tiff::decoder::Decoder;
@@ -78,7 +78,9 @@ pub fn write_mosaic_vrt(output: &Path, parts: &[Part]) -> Result<Mosaic, IoError
     let fail = |message: String| IoError::Format { path: output.to_owned(), message };
     let first = parts.first().ok_or_else(|| fail("no parts to mosaic".into()))?;
     for p in parts {
-        let differs = |what: &str, a: String, b: String| fail(format!("{} has {what} {a}, but {} has {b}: not windows of one grid", p.path.display(), first.path.display()));
+        let differs = |what: &str, a: String, b: String| {
+            fail(format!("{} has {what} {a}, but {} has {b}: not windows of one grid", p.path.display(), first.path.display()))
+        };
         if (p.dx, p.dy) != (first.dx, first.dy) {
             return Err(differs("cell size", format!("{} × {}", p.dx, p.dy), format!("{} × {}", first.dx, first.dy)));
         }
@@ -110,7 +112,8 @@ pub fn write_mosaic_vrt(output: &Path, parts: &[Part]) -> Result<Mosaic, IoError
         height = height.max(j as u64 + p.height as u64);
         offsets.push((i, j));
     }
-    let (width, height) = (u32::try_from(width).map_err(|_| fail("wider than 2^32 cells".into()))?, u32::try_from(height).map_err(|_| fail("taller than 2^32 cells".into()))?);
+    let (width, height) =
+        (u32::try_from(width).map_err(|_| fail("wider than 2^32 cells".into()))?, u32::try_from(height).map_err(|_| fail("taller than 2^32 cells".into()))?);
     let covered = covered_cells(parts, &offsets);
     let folder = output.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }).unwrap_or(Path::new("."));
     let mut xml = format!("<VRTDataset rasterXSize=\"{width}\" rasterYSize=\"{height}\">\n");
@@ -217,7 +220,18 @@ mod tests {
             w.finish().unwrap();
             let part = read_part(&path).unwrap();
             let nodata = if data_type == "Float32" { "-9999" } else { "4294967295" };
-            let expected = Part { path: path.clone(), width: 30, height: 5, x0: 110.0, y0: 30.0, dx: 1.0, dy: 1.0, nodata: Some(nodata.into()), data_type, epsg: Some(4326) };
+            let expected = Part {
+                path: path.clone(),
+                width: 30,
+                height: 5,
+                x0: 110.0,
+                y0: 30.0,
+                dx: 1.0,
+                dy: 1.0,
+                nodata: Some(nodata.into()),
+                data_type,
+                epsg: Some(4326),
+            };
             assert_eq!(part, expected);
             assert_eq!(parse_part(&std::fs::read(&path).unwrap(), &path).unwrap(), expected);
         }

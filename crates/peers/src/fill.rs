@@ -70,10 +70,8 @@ impl GpuFill {
     pub fn new() -> Result<Self, String> {
         let mut gpu = device::open("tileraster-peers fill")?;
         let pipeline = gpu.scoped(|gpu| {
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("fill peer"),
-                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-            });
+            let module =
+                gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("fill peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
             Ok(gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some("fill peer"),
                 layout: None,

@@ -24,24 +24,13 @@ pub fn gdal_grid_version() -> Option<String> {
 /// -outsize w h -ot Float32 -of GTiff -l points <vrt> <out.tif>` and reads the GeoTIFF back:
 /// row-major, row 0 at `ymax`. Returns the values and the seconds the `gdal_grid` process took
 /// (start to exit, file writing included, the CSV and the reading back excluded).
-pub fn gdal_grid_linear(
-    points: &[[f64; 3]],
-    grid: &Grid,
-    nodata: f32,
-    workdir: &Path,
-) -> Result<(Vec<f32>, f64), String> {
+pub fn gdal_grid_linear(points: &[[f64; 3]], grid: &Grid, nodata: f32, workdir: &Path) -> Result<(Vec<f32>, f64), String> {
     gdal_grid_linear_radius(points, grid, 0.0, nodata, workdir)
 }
 
 /// [`gdal_grid_linear`] with `-a linear:radius=<radius>:nodata=<nodata>`: outside the hull,
 /// the nearest point's z within `radius` (any distance when negative).
-pub fn gdal_grid_linear_radius(
-    points: &[[f64; 3]],
-    grid: &Grid,
-    radius: f64,
-    nodata: f32,
-    workdir: &Path,
-) -> Result<(Vec<f32>, f64), String> {
+pub fn gdal_grid_linear_radius(points: &[[f64; 3]], grid: &Grid, radius: f64, nodata: f32, workdir: &Path) -> Result<(Vec<f32>, f64), String> {
     grid.validate().map_err(|e| e.to_string())?;
     if let Some((i, p)) = points.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
         return Err(format!("point {i} ({p:?}) has a non-finite coordinate"));
@@ -113,12 +102,7 @@ fn read_geotiff(path: &Path, grid: &Grid) -> Result<Vec<f32>, String> {
     let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(err)?;
     let (width, height) = decoder.dimensions().map_err(err)?;
     if (width, height) != (grid.width, grid.height) {
-        return Err(format!(
-            "{} is {width}×{height}, not the {}×{} asked for",
-            path.display(),
-            grid.width,
-            grid.height
-        ));
+        return Err(format!("{} is {width}×{height}, not the {}×{} asked for", path.display(), grid.width, grid.height));
     }
     // GDAL writes a south-up raster (positive y pixel size, row 0 at ymin) with a full
     // transformation matrix instead of a pixel scale; flip it so row 0 is at ymax.
@@ -153,8 +137,7 @@ mod tests {
             return;
         };
         let plane = |x: f64, y: f64| 10.0 + 2.0 * x - 3.0 * y;
-        let points: Vec<[f64; 3]> =
-            (0..25).map(|k| ((k % 5) as f64, (k / 5) as f64)).map(|(x, y)| [x, y, plane(x, y)]).collect();
+        let points: Vec<[f64; 3]> = (0..25).map(|k| ((k % 5) as f64, (k / 5) as f64)).map(|(x, y)| [x, y, plane(x, y)]).collect();
         let grid = Grid::new(-1.0, 5.0, -1.0, 5.0, 24, 24);
         let workdir = std::env::temp_dir().join(format!("tileraster-peers-gdal-{}", std::process::id()));
         for nodata in [-9999.0, f32::NAN] {
@@ -169,11 +152,7 @@ mod tests {
                         let want = plane(x, y);
                         assert!((got as f64 - want).abs() <= 1e-4, "cell ({i}, {j}) at ({x}, {y}): {got}, want {want}");
                     } else {
-                        assert_eq!(
-                            got.to_bits(),
-                            nodata.to_bits(),
-                            "cell ({i}, {j}) at ({x}, {y}) is outside the hull"
-                        );
+                        assert_eq!(got.to_bits(), nodata.to_bits(), "cell ({i}, {j}) at ({x}, {y}) is outside the hull");
                     }
                 }
             }

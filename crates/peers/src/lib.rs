@@ -30,4 +30,4 @@ pub use marble::MarblePipeline;
 pub use mesh::{MeshPipeline, NO_ID};
 pub use multisample::{MultisampledPipeline, NO_SAMPLE_ID, PEER_SAMPLES};
 pub use render::RenderPipeline;
-pub use textured::{mip_levels, TexturedPipeline};
+pub use textured::{TexturedPipeline, mip_levels};

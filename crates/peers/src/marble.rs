@@ -156,9 +156,19 @@ impl MarblePipeline {
     pub fn new() -> Result<Self, String> {
         let mut gpu = device::open("tileraster-peers marble pipeline")?;
         let pipeline = gpu.scoped(|gpu| {
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("marble peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+            let module =
+                gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("marble peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4];
-            Ok(device::mesh_pipeline(&gpu.device, &module, "marble peer", wgpu::PrimitiveTopology::TriangleList, std::mem::size_of::<Vertex>() as u64, &attributes, COLOUR, true))
+            Ok(device::mesh_pipeline(
+                &gpu.device,
+                &module,
+                "marble peer",
+                wgpu::PrimitiveTopology::TriangleList,
+                std::mem::size_of::<Vertex>() as u64,
+                &attributes,
+                COLOUR,
+                true,
+            ))
         })?;
         Ok(MarblePipeline { gpu, pipeline })
     }
@@ -225,9 +235,19 @@ impl MarblePipeline {
             });
             gpu.queue.write_buffer(&uniform_buffer, 0, bytemuck::bytes_of(&uniforms));
             let vertex_bytes = (std::mem::size_of_val(vertices.as_slice()) as u64).max(4);
-            let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor { label: Some("marble peer vertices"), size: vertex_bytes, usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+            let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("marble peer vertices"),
+                size: vertex_bytes,
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
             gpu.queue.write_buffer(&vertex_buffer, 0, bytemuck::cast_slice(&vertices));
-            let readback = device.create_buffer(&wgpu::BufferDescriptor { label: Some("marble peer readback"), size: readback_bytes, usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("marble peer readback"),
+                size: readback_bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
             let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("marble peer"),
                 layout: &pipeline.get_bind_group_layout(0),

@@ -69,7 +69,10 @@ impl MeshPipeline {
         let mut gpu = device::open("tileraster-peers mesh pipeline")?;
         let (depth_tested, in_order, lines, points, uniforms) = gpu.scoped(|gpu| {
             use wgpu::PrimitiveTopology::TriangleList as Triangles;
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("mesh peer"), source: wgpu::ShaderSource::Wgsl(format!("{ID_VERTEX_STAGE}{FRAGMENT}").into()) });
+            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("mesh peer"),
+                source: wgpu::ShaderSource::Wgsl(format!("{ID_VERTEX_STAGE}{FRAGMENT}").into()),
+            });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
             let stride = std::mem::size_of::<Vertex>() as u64;
             let pipeline = |topology, depth: bool| device::mesh_pipeline(&gpu.device, &module, "mesh peer", topology, stride, &attributes, IDS, depth);
@@ -79,7 +82,13 @@ impl MeshPipeline {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            Ok((pipeline(Triangles, true), pipeline(Triangles, false), pipeline(wgpu::PrimitiveTopology::LineList, false), pipeline(wgpu::PrimitiveTopology::PointList, false), uniforms))
+            Ok((
+                pipeline(Triangles, true),
+                pipeline(Triangles, false),
+                pipeline(wgpu::PrimitiveTopology::LineList, false),
+                pipeline(wgpu::PrimitiveTopology::PointList, false),
+                uniforms,
+            ))
         })?;
         Ok(MeshPipeline {
             gpu,
@@ -101,7 +110,15 @@ impl MeshPipeline {
     /// Draw `triangles` (indices into `positions`) transformed by `matrix` (row-major, to clip
     /// space with depth 0..1 and NDC `y` down) into a `width × height` target and read back the
     /// triangle index per pixel, row 0 at the top, [`NO_ID`] where none.
-    pub fn draw_ids(&mut self, positions: &[[f32; 3]], triangles: &[[u32; 3]], matrix: &[[f32; 4]; 4], width: u32, height: u32, depth_test: bool) -> Result<Vec<u32>, String> {
+    pub fn draw_ids(
+        &mut self,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+        matrix: &[[f32; 4]; 4],
+        width: u32,
+        height: u32,
+        depth_test: bool,
+    ) -> Result<Vec<u32>, String> {
         let pipeline = if depth_test { self.depth_tested.clone() } else { self.in_order.clone() };
         self.draw(positions, triangles, matrix, width, height, pipeline, depth_test)
     }
@@ -122,7 +139,16 @@ impl MeshPipeline {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn draw<const N: usize>(&mut self, positions: &[[f32; 3]], primitives: &[[u32; N]], matrix: &[[f32; 4]; 4], width: u32, height: u32, pipeline: wgpu::RenderPipeline, depth_test: bool) -> Result<Vec<u32>, String> {
+    fn draw<const N: usize>(
+        &mut self,
+        positions: &[[f32; 3]],
+        primitives: &[[u32; N]],
+        matrix: &[[f32; 4]; 4],
+        width: u32,
+        height: u32,
+        pipeline: wgpu::RenderPipeline,
+        depth_test: bool,
+    ) -> Result<Vec<u32>, String> {
         let limits = &self.gpu.limits;
         let max_dim = limits.max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max_dim || height > max_dim {
@@ -132,7 +158,8 @@ impl MeshPipeline {
             return Err(format!("primitive {t} ({p:?}) refers to a vertex beyond the {} vertices", positions.len()));
         }
         // One vertex per corner, each carrying its primitive's id (no primitive-id feature needed).
-        let vertices: Vec<Vertex> = primitives.iter().enumerate().flat_map(|(t, p)| p.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
+        let vertices: Vec<Vertex> =
+            primitives.iter().enumerate().flat_map(|(t, p)| p.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
         let vertex_bytes = std::mem::size_of_val(vertices.as_slice()) as u64;
         let readback_bytes = device::readback_bytes(width, height);
         for (what, bytes) in [("vertex", vertex_bytes), ("readback", readback_bytes)] {
@@ -161,7 +188,8 @@ impl MeshPipeline {
             let depth_view = depth.as_ref().map(|d| d.create_view(&Default::default()));
             let mut encoder = gpu.device.create_command_encoder(&Default::default());
             {
-                let mut pass = device::begin_pass(&mut encoder, "mesh peer", &ids_view, wgpu::Color { r: NO_ID as f64, g: 0.0, b: 0.0, a: 0.0 }, depth_view.as_ref());
+                let mut pass =
+                    device::begin_pass(&mut encoder, "mesh peer", &ids_view, wgpu::Color { r: NO_ID as f64, g: 0.0, b: 0.0, a: 0.0 }, depth_view.as_ref());
                 if !vertices.is_empty() {
                     pass.set_pipeline(&pipeline);
                     pass.set_bind_group(0, &bind, &[]);

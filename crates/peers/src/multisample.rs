@@ -3,7 +3,7 @@
 //! one), the reference for tileraster's per-sample coverage and depth.
 
 use crate::device::{self, Gpu};
-use crate::mesh::{Vertex, ID_VERTEX_STAGE};
+use crate::mesh::{ID_VERTEX_STAGE, Vertex};
 
 /// After `MeshPipeline`'s vertex stage, the fragment stage writes the triangle's id in the
 /// colour's three low bytes (exact in `Rgba8Unorm`, which every WebGPU device multisamples 4×).
@@ -50,7 +50,10 @@ impl MultisampledPipeline {
         let mut gpu = device::open("tileraster-peers multisampled pipeline")?;
         let (draw, read) = gpu.scoped(|gpu| {
             let device = &gpu.device;
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("multisampled peer"), source: wgpu::ShaderSource::Wgsl(format!("{ID_VERTEX_STAGE}{FRAGMENT}").into()) });
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("multisampled peer"),
+                source: wgpu::ShaderSource::Wgsl(format!("{ID_VERTEX_STAGE}{FRAGMENT}").into()),
+            });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
             let draw = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("multisampled peer"),
@@ -59,7 +62,11 @@ impl MultisampledPipeline {
                     module: &module,
                     entry_point: Some("vs_main"),
                     compilation_options: Default::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<Vertex>() as u64, step_mode: wgpu::VertexStepMode::Vertex, attributes: &attributes })],
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<Vertex>() as u64,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &attributes,
+                    })],
                 },
                 primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
                 depth_stencil: Some(wgpu::DepthStencilState {
@@ -79,7 +86,8 @@ impl MultisampledPipeline {
                 multiview_mask: None,
                 cache: None,
             });
-            let reader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("multisampled peer read"), source: wgpu::ShaderSource::Wgsl(READ.into()) });
+            let reader = device
+                .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("multisampled peer read"), source: wgpu::ShaderSource::Wgsl(READ.into()) });
             let read = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some("multisampled peer read"),
                 layout: None,
@@ -101,7 +109,14 @@ impl MultisampledPipeline {
     /// space with depth 0..1 and NDC `y` down) into a `width × height` target, and read back
     /// the triangle index of every sample: [`PEER_SAMPLES`] per pixel, rows from the top,
     /// [`NO_SAMPLE_ID`] where none. At most 2^24 − 1 triangles.
-    pub fn draw_sample_ids(&mut self, positions: &[[f32; 3]], triangles: &[[u32; 3]], matrix: &[[f32; 4]; 4], width: u32, height: u32) -> Result<Vec<u32>, String> {
+    pub fn draw_sample_ids(
+        &mut self,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+        matrix: &[[f32; 4]; 4],
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<u32>, String> {
         if triangles.len() >= NO_SAMPLE_ID as usize {
             return Err(format!("{} triangles: at most {} have ids in three bytes", triangles.len(), NO_SAMPLE_ID - 1));
         }
@@ -112,7 +127,8 @@ impl MultisampledPipeline {
         if width == 0 || height == 0 || width > max_dim || height > max_dim {
             return Err(format!("a {width}×{height} target is not between 1×1 and the device's {max_dim}×{max_dim}"));
         }
-        let vertices: Vec<Vertex> = triangles.iter().enumerate().flat_map(|(t, tri)| tri.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
+        let vertices: Vec<Vertex> =
+            triangles.iter().enumerate().flat_map(|(t, tri)| tri.map(|v| Vertex { position: positions[v as usize], id: t as u32 })).collect();
         let columns: [f32; 16] = std::array::from_fn(|k| matrix[k % 4][k / 4]);
         let out_bytes = width as u64 * height as u64 * PEER_SAMPLES as u64 * 4;
         let (draw, read) = (self.draw.clone(), self.read.clone());
@@ -135,10 +151,24 @@ impl MultisampledPipeline {
                     view_formats: &[],
                 })
             };
-            let target = texture("multisampled peer ids", wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING);
+            let target = texture(
+                "multisampled peer ids",
+                wgpu::TextureFormat::Rgba8Unorm,
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            );
             let depth = texture("multisampled peer depth", wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-            let out = device.create_buffer(&wgpu::BufferDescriptor { label: Some("multisampled peer samples"), size: out_bytes, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC, mapped_at_creation: false });
-            let readback = device.create_buffer(&wgpu::BufferDescriptor { label: Some("multisampled peer readback"), size: out_bytes, usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+            let out = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("multisampled peer samples"),
+                size: out_bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("multisampled peer readback"),
+                size: out_bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
             let (target_view, depth_view) = (target.create_view(&Default::default()), depth.create_view(&Default::default()));
             let draw_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("multisampled peer"),
@@ -156,7 +186,8 @@ impl MultisampledPipeline {
             });
             let mut encoder = device.create_command_encoder(&Default::default());
             {
-                let mut pass = device::begin_pass(&mut encoder, "multisampled peer", &target_view, wgpu::Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 }, Some(&depth_view));
+                let mut pass =
+                    device::begin_pass(&mut encoder, "multisampled peer", &target_view, wgpu::Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 }, Some(&depth_view));
                 pass.set_pipeline(&draw);
                 pass.set_bind_group(0, &draw_bind, &[]);
                 pass.set_vertex_buffer(0, vertex_buffer.slice(..));

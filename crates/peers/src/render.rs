@@ -55,10 +55,8 @@ impl RenderPipeline {
     pub fn new() -> Result<Self, String> {
         let mut gpu = device::open("tileraster-peers render pipeline")?;
         let pipeline = gpu.scoped(|gpu| {
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("render peer"),
-                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-            });
+            let module =
+                gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("render peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32];
             Ok(gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("render peer"),
@@ -85,11 +83,7 @@ impl RenderPipeline {
                     module: &module,
                     entry_point: Some("fs_main"),
                     compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: FORMAT,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
+                    targets: &[Some(wgpu::ColorTargetState { format: FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
                 }),
                 multiview_mask: None,
                 cache: None,
@@ -119,9 +113,7 @@ impl RenderPipeline {
         let limits = &self.gpu.limits;
         let max_dim = limits.max_texture_dimension_2d;
         if width > max_dim || height > max_dim {
-            return Err(format!(
-                "a {width}×{height} grid exceeds the device's largest render target ({max_dim}×{max_dim})"
-            ));
+            return Err(format!("a {width}×{height} grid exceeds the device's largest render target ({max_dim}×{max_dim})"));
         }
         // Texture-to-buffer copies need rows padded to 256 bytes; the padding is dropped below.
         let readback_bytes = crate::device::readback_bytes(width, height);
@@ -141,9 +133,7 @@ impl RenderPipeline {
         }
         // An out-of-range index would be undefined behaviour for the GPU: reject it here.
         let vertex_count = scene.vertices.len();
-        if let Some((t, tri)) =
-            scene.triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&i| i as usize >= vertex_count))
-        {
+        if let Some((t, tri)) = scene.triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&i| i as usize >= vertex_count)) {
             return Err(format!("triangle {t} ({tri:?}) refers to a vertex beyond the {vertex_count} vertices"));
         }
 
@@ -154,10 +144,7 @@ impl RenderPipeline {
             .iter()
             .map(|&[x, y, z]| {
                 let (u, v) = grid.to_raster(x, y);
-                Vertex {
-                    ndc: [(2.0 * u / width as f64 - 1.0) as f32, (1.0 - 2.0 * v / height as f64) as f32],
-                    height: z as f32,
-                }
+                Vertex { ndc: [(2.0 * u / width as f64 - 1.0) as f32, (1.0 - 2.0 * v / height as f64) as f32], height: z as f32 }
             })
             .collect();
 
@@ -241,10 +228,7 @@ mod tests {
                     let rel = ((got as f64 - want) / want).abs();
                     assert!(rel <= 1e-3, "cell ({i}, {j}) at ({x}, {y}): got {got}, the plane gives {want}");
                 } else {
-                    assert!(
-                        got.to_bits() == nodata.to_bits(),
-                        "cell ({i}, {j}) at ({x}, {y}) is outside the square but holds {got}, not nodata {nodata}"
-                    );
+                    assert!(got.to_bits() == nodata.to_bits(), "cell ({i}, {j}) at ({x}, {y}) is outside the square but holds {got}, not nodata {nodata}");
                 }
             }
         }

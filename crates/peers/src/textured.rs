@@ -91,9 +91,19 @@ impl TexturedPipeline {
     pub fn new() -> Result<Self, String> {
         let mut gpu = device::open("tileraster-peers textured pipeline")?;
         let pipeline = gpu.scoped(|gpu| {
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("textured peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+            let module =
+                gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("textured peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
             let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Float32x4];
-            Ok(device::mesh_pipeline(&gpu.device, &module, "textured peer", wgpu::PrimitiveTopology::TriangleList, std::mem::size_of::<Vertex>() as u64, &attributes, COLOUR, true))
+            Ok(device::mesh_pipeline(
+                &gpu.device,
+                &module,
+                "textured peer",
+                wgpu::PrimitiveTopology::TriangleList,
+                std::mem::size_of::<Vertex>() as u64,
+                &attributes,
+                COLOUR,
+                true,
+            ))
         })?;
         Ok(TexturedPipeline { gpu, pipeline, chain: None })
     }
@@ -119,11 +129,7 @@ impl TexturedPipeline {
             .triangles
             .iter()
             .flat_map(|t| t.map(|v| v as usize))
-            .map(|v| Vertex {
-                position: mesh.positions[v].map(|c| c as f32),
-                uv: uvs[v],
-                colour: mesh.colours.as_ref().map_or([1.0; 4], |c| c[v]),
-            })
+            .map(|v| Vertex { position: mesh.positions[v].map(|c| c as f32), uv: uvs[v], colour: mesh.colours.as_ref().map_or([1.0; 4], |c| c[v]) })
             .collect();
         let levels = if filter == Filter::Trilinear {
             // The chain is the texture's while the texture is the one it was built from.
@@ -178,12 +184,27 @@ impl TexturedPipeline {
                 mipmap_filter: mip,
                 ..Default::default()
             });
-            let uniforms = device.create_buffer(&wgpu::BufferDescriptor { label: Some("textured peer matrix"), size: 64, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+            let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("textured peer matrix"),
+                size: 64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
             gpu.queue.write_buffer(&uniforms, 0, bytemuck::cast_slice(&columns));
             let vertex_bytes = (std::mem::size_of_val(vertices.as_slice()) as u64).max(4);
-            let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor { label: Some("textured peer vertices"), size: vertex_bytes, usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+            let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("textured peer vertices"),
+                size: vertex_bytes,
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
             gpu.queue.write_buffer(&vertex_buffer, 0, bytemuck::cast_slice(&vertices));
-            let readback = device.create_buffer(&wgpu::BufferDescriptor { label: Some("textured peer readback"), size: readback_bytes, usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("textured peer readback"),
+                size: readback_bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
             let base_view = base.create_view(&Default::default());
             let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("textured peer"),

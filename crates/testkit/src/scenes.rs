@@ -101,8 +101,7 @@ pub fn delaunay_terrain(x0: f64, y0: f64, width: f64, height: f64, cols: u32, ro
 fn in_circle(a: [f64; 3], b: [f64; 3], c: [f64; 3], p: [f64; 3]) -> bool {
     let d = |q: [f64; 3]| (q[0] - p[0], q[1] - p[1]);
     let ((ax, ay), (bx, by), (cx, cy)) = (d(a), d(b), d(c));
-    let det = (ax * ax + ay * ay) * (bx * cy - cx * by) - (bx * bx + by * by) * (ax * cy - cx * ay)
-        + (cx * cx + cy * cy) * (ax * by - bx * ay);
+    let det = (ax * ax + ay * ay) * (bx * cy - cx * by) - (bx * bx + by * by) * (ax * cy - cx * ay) + (cx * cx + cy * cy) * (ax * by - bx * ay);
     let orientation = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
     det * orientation.signum() > 0.0
 }

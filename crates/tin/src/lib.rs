@@ -74,11 +74,8 @@ pub fn triangulate(points: &[[f64; 3]]) -> Result<Tin, TinError> {
     if keep.len() < 3 {
         return Err(TinError::TooFew { distinct: keep.len() });
     }
-    let sites: Vec<Site> = keep
-        .iter()
-        .enumerate()
-        .map(|(vertex, &i)| Site { position: Point2::new(points[i][0] + 0.0, points[i][1] + 0.0), vertex: vertex as u32 })
-        .collect();
+    let sites: Vec<Site> =
+        keep.iter().enumerate().map(|(vertex, &i)| Site { position: Point2::new(points[i][0] + 0.0, points[i][1] + 0.0), vertex: vertex as u32 }).collect();
     // Bulk loading reorders the sites but carries each one's vertex number with it; it has no
     // randomness, so the same points give the same triangles.
     let dt = DelaunayTriangulation::<Site>::bulk_load(sites).map_err(|e| TinError::Triangulation(format!("{e:?}")))?;

@@ -207,11 +207,8 @@ impl NearestPoints {
             } else {
                 // Nearer child last, so that it is searched first.
                 let [a, b] = node.children;
-                let (near, far) = if lower_bound(&self.nodes[a as usize].rect, x, y) <= lower_bound(&self.nodes[b as usize].rect, x, y) {
-                    (a, b)
-                } else {
-                    (b, a)
-                };
+                let (near, far) =
+                    if lower_bound(&self.nodes[a as usize].rect, x, y) <= lower_bound(&self.nodes[b as usize].rect, x, y) { (a, b) } else { (b, a) };
                 stack[top] = far;
                 stack[top + 1] = near;
                 top += 2;
@@ -523,12 +520,7 @@ mod tests {
         for &(x, y) in queries {
             for &r in radii {
                 let want = reference(points, &order, nearest.initial_radius, x, y, r);
-                assert_eq!(
-                    bits(nearest.value(x, y, r)),
-                    bits(want),
-                    "({x}, {y}) radius {r}: got {:?}, want {want:?}",
-                    nearest.value(x, y, r)
-                );
+                assert_eq!(bits(nearest.value(x, y, r)), bits(want), "({x}, {y}) radius {r}: got {:?}, want {want:?}", nearest.value(x, y, r));
             }
         }
     }
@@ -564,8 +556,7 @@ mod tests {
         queries.extend((0..200).map(|_| (rng.uniform(-5.0, 105.0, 0) + 0.5, rng.uniform(-5.0, 105.0, 0))));
         let radii = [-1.0, f64::NAN, 0.0, 0.5, 3.0, 10.0, 1e9, f64::INFINITY];
 
-        let random: Vec<[f64; 3]> =
-            (0..1500).map(|_| [rng.uniform(0.0, 100.0, 3), rng.uniform(0.0, 100.0, 3), rng.uniform(0.0, 1000.0, 2)]).collect();
+        let random: Vec<[f64; 3]> = (0..1500).map(|_| [rng.uniform(0.0, 100.0, 3), rng.uniform(0.0, 100.0, 3), rng.uniform(0.0, 1000.0, 2)]).collect();
         check_against_reference(&random, &queries, &radii);
         // Coarse coordinates: many exact ties and repeated positions with other z.
         let coarse: Vec<[f64; 3]> = (0..1500).map(|k| [rng.uniform(0.0, 100.0, -1), rng.uniform(0.0, 100.0, -1), k as f64]).collect();
@@ -676,14 +667,7 @@ mod tests {
     /// back to its nearest point: the bounding box is the hull of the point sets used, or
     /// the cell is outside the hull anyway) with `NearestPoints::value`. Returns the number
     /// of cells compared, and of those where ties by input order would have differed.
-    fn compare_with_gdal_grid(
-        dir: &Path,
-        name: &str,
-        points: &[[f64; 3]],
-        extent: [f64; 4],
-        size: [usize; 2],
-        radius: f64,
-    ) -> (usize, usize) {
+    fn compare_with_gdal_grid(dir: &Path, name: &str, points: &[[f64; 3]], extent: [f64; 4], size: [usize; 2], radius: f64) -> (usize, usize) {
         let csv = dir.join(format!("{name}.csv"));
         let mut text = String::from("x,y,z\n");
         for p in points {
@@ -735,11 +719,7 @@ mod tests {
                 }
                 let gdal = grid[j * nx + i];
                 let ours = nearest.value(x, y, radius).unwrap_or(-9999.0);
-                assert_eq!(
-                    ours.to_bits(),
-                    gdal.to_bits(),
-                    "{name} radius {radius}: cell ({i}, {j}) at ({x:?}, {y:?}): ours {ours:?}, gdal_grid {gdal:?}"
-                );
+                assert_eq!(ours.to_bits(), gdal.to_bits(), "{name} radius {radius}: cell ({i}, {j}) at ({x:?}, {y:?}): ours {ours:?}, gdal_grid {gdal:?}");
                 compared += 1;
                 order_mattered += usize::from(by_input.value(x, y, radius).unwrap_or(-9999.0).to_bits() != gdal.to_bits());
             }
@@ -755,9 +735,7 @@ mod tests {
                 eprintln!("matches_gdal_grid: SKIPPED (gdal_grid not found, TILERASTER_SKIP_GDAL=1)");
                 return;
             }
-            panic!(
-                "gdal_grid (GDAL 3.6.2, package gdal-bin) is not on PATH: install it, or set TILERASTER_SKIP_GDAL=1 to skip this comparison"
-            );
+            panic!("gdal_grid (GDAL 3.6.2, package gdal-bin) is not on PATH: install it, or set TILERASTER_SKIP_GDAL=1 to skip this comparison");
         };
         // The reproduced behaviour is 3.6.2's; another version may legitimately differ.
         eprintln!("matches_gdal_grid: {version}");
@@ -779,10 +757,7 @@ mod tests {
         let mut run = |name: &str, points: &[[f64; 3]], extent: [f64; 4], size: [usize; 2], radii: &[f64]| {
             for &r in radii {
                 let (n, mattered) = compare_with_gdal_grid(&dir, name, points, extent, size, r);
-                eprintln!(
-                    "gdal_grid {name}: {} points, radius {r}: {n} cells equal ({mattered} decided by GDAL's tree order)",
-                    points.len()
-                );
+                eprintln!("gdal_grid {name}: {} points, radius {r}: {n} cells equal ({mattered} decided by GDAL's tree order)", points.len());
                 total += n;
                 total_mattered += mattered;
             }

@@ -2,8 +2,8 @@
 //! `procedural-shader`, compiled to SPIR-V by `build.rs` and linked natively, as one
 //! [`FragmentStage`] that both backends run with the same bits.
 
-use tileraster::render::{Camera, FragmentStage, Light, Mesh, RenderParams, Shading};
 use tileraster::Error;
+use tileraster::render::{Camera, FragmentStage, Light, Mesh, RenderParams, Shading};
 
 /// The marble shader on both backends.
 pub static MARBLE: FragmentStage = tileraster::fragment_stage!(procedural_shader);

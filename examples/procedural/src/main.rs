@@ -5,8 +5,8 @@
 
 use std::process::ExitCode;
 use std::time::Instant;
-use tileraster::render::render;
 use tileraster::Backend;
+use tileraster::render::render;
 
 fn main() -> ExitCode {
     match run() {

@@ -9,8 +9,8 @@ mod common;
 
 use common::{assert_frame_parity, render_frame};
 use procedural::{params, scene};
-use tileraster::render::{Frame, Shading, NO_FACE};
 use tileraster::Backend;
+use tileraster::render::{Frame, NO_FACE, Shading};
 
 fn covered(f: &Frame) -> usize {
     f.ids.iter().filter(|&&id| id != NO_FACE).count()
@@ -96,7 +96,12 @@ fn the_gpu_backend_checks_a_shaders_module_before_running_it() {
         }
     }
     // The kernels' module has every stage's entry point, not just the shading stages'.
-    let kernels = tileraster::render::FragmentStage::from_parts("kernels", procedural::MARBLE.program(), tileraster_gpu::KERNELS_SPV, tileraster_gpu::KERNELS_FLOAT_CONTROLS_SPV);
+    let kernels = tileraster::render::FragmentStage::from_parts(
+        "kernels",
+        procedural::MARBLE.program(),
+        tileraster_gpu::KERNELS_SPV,
+        tileraster_gpu::KERNELS_FLOAT_CONTROLS_SPV,
+    );
     let garbage = tileraster::render::FragmentStage::from_parts("garbage", procedural::MARBLE.program(), &[1, 2, 3, 4, 5, 6, 7, 8], &[1, 2, 3, 4, 5, 6, 7, 8]);
     let mesh = scene();
     if common::gpu_or_skip("a bad fragment module") {

@@ -3,5 +3,5 @@
 //! (`float`).
 
 pub mod edge;
-pub mod float;
 pub mod fixed;
+pub mod float;

@@ -13,13 +13,13 @@
 //! by default, as OpenGL resolves integer targets); the coverage layer counts the triangles
 //! that cover at least one sample of the pixel.
 
-use crate::abi::{Coverage, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
-use crate::math::edge::{side_of, Side};
-use crate::programs::depth::{depth_bits, DepthProgram};
-use crate::programs::height::barycentric_bits_of;
-use crate::programs::fragment::FragmentProgram;
-use crate::stages::fine::FineShared;
 use crate::NO_OWNER;
+use crate::abi::{Coverage, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
+use crate::math::edge::{Side, side_of};
+use crate::programs::depth::{DepthProgram, depth_bits};
+use crate::programs::fragment::FragmentProgram;
+use crate::programs::height::barycentric_bits_of;
+use crate::stages::fine::FineShared;
 
 /// Most samples per pixel.
 pub const MAX_SAMPLES: usize = 8;

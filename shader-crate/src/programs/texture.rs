@@ -16,7 +16,7 @@
 //! differences (correctly rounded, never contracted) and the final scaling of a 16-bit channel
 //! to `[0, 1]`.
 
-use crate::abi::{Address, Filter, TextureInfo, MAX_MIP_LEVELS};
+use crate::abi::{Address, Filter, MAX_MIP_LEVELS, TextureInfo};
 use crate::math::fixed::msb;
 
 /// Sub-texel bits of a filtered coordinate.
@@ -65,7 +65,15 @@ pub fn address(i: i64, n: u32, mode: Address) -> u32 {
     let n = n as i64;
     match mode {
         Address::Repeat => i.rem_euclid(n) as u32,
-        Address::ClampToEdge => (if i < 0 { 0 } else if i >= n { n - 1 } else { i }) as u32,
+        Address::ClampToEdge => {
+            (if i < 0 {
+                0
+            } else if i >= n {
+                n - 1
+            } else {
+                i
+            }) as u32
+        }
         Address::MirroredRepeat => {
             let m = i.rem_euclid(2 * n);
             (if m >= n { 2 * n - 1 - m } else { m }) as u32
@@ -231,7 +239,22 @@ mod tests {
     #[test]
     fn fixed_floor_is_the_floor_of_the_scaled_value() {
         let limit = 1i64 << 38;
-        let specials = [0.0, -0.0, 0.5, -0.5, 1.0 / 256.0, -1.0 / 256.0, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1e-45, -1e-45, f32::MAX, f32::MIN, f32::INFINITY, f32::NEG_INFINITY];
+        let specials = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0 / 256.0,
+            -1.0 / 256.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
         for x in values().chain(specials) {
             let exact = (x as f64 * 256.0).floor().clamp(-limit as f64, limit as f64) as i64;
             assert_eq!(fixed_floor(x, 8, limit), exact, "{x:e}");

@@ -8,9 +8,9 @@
 //! its bins, and tiles it covers entirely are marked with `FULL_TILE_BIT`. Both passes run the
 //! same classification, so the counts and the entries agree.
 
-use crate::{FULL_TILE_BIT, TILE};
-use crate::memory::{Counters, Slots};
 use crate::abi::{Coverage, FrameParams, PixelRect, TriangleSetup};
+use crate::memory::{Counters, Slots};
+use crate::{FULL_TILE_BIT, TILE};
 
 /// Tiles `tx0..=tx1` × `ty0..=ty1` of the window (empty when `tx0 > tx1` or `ty0 > ty1`).
 #[derive(Copy, Clone)]
@@ -41,13 +41,7 @@ pub fn tile_span(rect: &PixelRect, frame: &FrameParams) -> TileSpan {
     if x0 > x1 || y0 > y1 {
         return TileSpan { tx0: 1, ty0: 1, tx1: 0, ty1: 0, empty: true };
     }
-    TileSpan {
-        tx0: (x0 - wx0) as u32 / TILE,
-        ty0: (y0 - wy0) as u32 / TILE,
-        tx1: (x1 - wx0) as u32 / TILE,
-        ty1: (y1 - wy0) as u32 / TILE,
-        empty: false,
-    }
+    TileSpan { tx0: (x0 - wx0) as u32 / TILE, ty0: (y0 - wy0) as u32 / TILE, tx1: (x1 - wx0) as u32 / TILE, ty1: (y1 - wy0) as u32 / TILE, empty: false }
 }
 
 /// How a triangle meets the pixel centres of a tile that lie in the window.

@@ -25,7 +25,12 @@ impl FragmentStage {
     /// declared). The GPU backend checks a module against the stage table and the numeric
     /// contract again before it runs it.
     #[doc(hidden)]
-    pub const fn from_parts(name: &'static str, program: &'static (dyn FragmentProgram + Sync), spirv: &'static [u8], spirv_float_controls: &'static [u8]) -> Self {
+    pub const fn from_parts(
+        name: &'static str,
+        program: &'static (dyn FragmentProgram + Sync),
+        spirv: &'static [u8],
+        spirv_float_controls: &'static [u8],
+    ) -> Self {
         FragmentStage { name, program, spirv, spirv_float_controls }
     }
 

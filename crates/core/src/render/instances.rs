@@ -9,7 +9,7 @@
 //! no bit of a frame; it only saves the vertex work, and `GeometryCounts::instances_culled`
 //! counts it.
 
-use super::{multiply, Mesh, IDENTITY, NO_TEXTURE};
+use super::{IDENTITY, Mesh, NO_TEXTURE, multiply};
 use crate::Error;
 
 /// One placement of a mesh. A mirroring placement (a transform of negative determinant) keeps
@@ -143,7 +143,8 @@ impl World {
 
 /// Whether affine `m` mirrors: its linear part's determinant is negative.
 pub(super) fn mirrors(m: &[[f64; 4]; 4]) -> bool {
-    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     det < 0.0
 }
 
@@ -165,9 +166,9 @@ pub(super) fn instance_to_world(model: &[[f64; 4]; 4], instance: &Instance) -> [
 
 /// The smallest box holding a mesh's positions: `[min, max]`.
 pub(super) fn bounding_box(mesh: &Mesh) -> [[f64; 3]; 2] {
-    mesh.positions.iter().fold([[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]], |[lo, hi], p| {
-        [std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))]
-    })
+    mesh.positions
+        .iter()
+        .fold([[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]], |[lo, hi], p| [std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))])
 }
 
 /// Whether a mesh of bounding box `bounds`, placed by `to_world` and seen through
@@ -179,7 +180,9 @@ pub(super) fn outside_frustum(bounds: &[[f64; 3]; 2], to_world: &[[f64; 4]; 4], 
     for (k, c) in clip.iter_mut().enumerate() {
         let corner = std::array::from_fn(|a| bounds[k >> a & 1][a]);
         let world = transform_point(to_world, &corner);
-        *c = std::array::from_fn(|r| view_projection[r][0] * world[0] + view_projection[r][1] * world[1] + view_projection[r][2] * world[2] + view_projection[r][3]);
+        *c = std::array::from_fn(|r| {
+            view_projection[r][0] * world[0] + view_projection[r][1] * world[1] + view_projection[r][2] * world[2] + view_projection[r][3]
+        });
         size = size.max(corner.iter().fold(1.0f64, |a, v| a.max(v.abs())));
     }
     // Every vertex's clip coordinates are within a few units in the last place of this size of

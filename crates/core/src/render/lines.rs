@@ -12,10 +12,10 @@
 //! columns. The rectangle rule is Vulkan's strict line: the rectangle one pixel wide around
 //! the segment.
 
-use super::{distance, ClipVertex, Emit, GeometryCounts, Projected, Target, Viewport, GUARD_PX, RENDER_SNAP_BITS};
+use super::{ClipVertex, Emit, GUARD_PX, GeometryCounts, Projected, RENDER_SNAP_BITS, Target, Viewport, distance};
 use std::collections::HashMap;
-use tileraster_kernels::abi::{FloatCoeffs, TriangleInput, TriangleShading, ATTRIBUTES, ATTR_COLOUR, NO_TEXTURE, SHADING_UNLIT};
 use tileraster_kernels::EXTENT_LIMIT_BITS;
+use tileraster_kernels::abi::{ATTR_COLOUR, ATTRIBUTES, FloatCoeffs, NO_TEXTURE, SHADING_UNLIT, TriangleInput, TriangleShading};
 
 /// Which pixels a line lights.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
@@ -88,7 +88,17 @@ struct End<'a> {
 /// Clip, snap and push one line: the segment between `a` and `b`, drawn with `rule`, its
 /// ends' depths less `bias` (drawn over faces), in `colour` or its vertices' colours.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn line(ends: [&ClipVertex; 2], bias: [f64; 2], wireframe: &Wireframe, flat: bool, id: u32, viewport: &Viewport, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+pub(super) fn line(
+    ends: [&ClipVertex; 2],
+    bias: [f64; 2],
+    wireframe: &Wireframe,
+    flat: bool,
+    id: u32,
+    viewport: &Viewport,
+    target: &Target<'_>,
+    out: &mut Emit<'_>,
+    counts: &mut GeometryCounts,
+) {
     let Some([a, b]) = clip_segment(ends[0], ends[1], &viewport.planes()) else {
         counts.lines_culled += 1;
         return;
@@ -253,7 +263,7 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target<'_>
     let mut put = 0;
     for tri in [[(a_lo, false), (b_lo, true), (b_hi, true)], [(a_lo, false), (b_hi, true), (a_hi, false)]] {
         let mut v = tri;
-        let (x, y) = (v.map(|c| c.0 .0), v.map(|c| c.0 .1));
+        let (x, y) = (v.map(|c| c.0.0), v.map(|c| c.0.1));
         let area = (x[1] - x[0]) as i128 * (y[2] - y[0]) as i128 - (y[1] - y[0]) as i128 * (x[2] - x[0]) as i128;
         if area == 0 {
             continue;
@@ -261,7 +271,7 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target<'_>
         if area < 0 {
             v.swap(1, 2);
         }
-        let (x, y) = (v.map(|c| c.0 .0), v.map(|c| c.0 .1));
+        let (x, y) = (v.map(|c| c.0.0), v.map(|c| c.0.1));
         let mut rect = target.rect(&x, &y);
         if let Some((lo, hi, y_major)) = columns {
             let (lo, hi) = (lo.clamp(i32::MIN as i64, i32::MAX as i64) as i32, hi.clamp(i32::MIN as i64, i32::MAX as i64) as i32);
@@ -285,7 +295,14 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target<'_>
             let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), (1.0 / area.unsigned_abs() as f64) as f32] };
             (
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
-                TriangleShading { attributes: opposite.map(attributes), inv_w: [1.0, 1.0, 1.0, 0.0], face: id, texture: NO_TEXTURE, flags: SHADING_UNLIT, _pad: 0 },
+                TriangleShading {
+                    attributes: opposite.map(attributes),
+                    inv_w: [1.0, 1.0, 1.0, 0.0],
+                    face: id,
+                    texture: NO_TEXTURE,
+                    flags: SHADING_UNLIT,
+                    _pad: 0,
+                },
             )
         });
     }

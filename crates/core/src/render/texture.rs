@@ -6,7 +6,7 @@
 
 use crate::Error;
 use rayon::prelude::*;
-use tileraster_kernels::abi::{Address, Filter, TextureInfo, MAX_MIP_LEVELS};
+use tileraster_kernels::abi::{Address, Filter, MAX_MIP_LEVELS, TextureInfo};
 
 /// Largest width or height of a texture (Vulkan's required `maxImageDimension2D` is 4096;
 /// every desktop GPU has 16384).
@@ -43,7 +43,10 @@ impl Texture {
         }
         let expected = self.width as usize * self.height as usize * 4;
         if self.rgba.len() != expected {
-            return Err(Error::InvalidTexture { texture: index, reason: format!("{} bytes of RGBA8 for {}×{} texels; give {expected}", self.rgba.len(), self.width, self.height) });
+            return Err(Error::InvalidTexture {
+                texture: index,
+                reason: format!("{} bytes of RGBA8 for {}×{} texels; give {expected}", self.rgba.len(), self.width, self.height),
+            });
         }
         Ok(())
     }

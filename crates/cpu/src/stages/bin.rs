@@ -1,7 +1,7 @@
 //! Twins of the `bin_count` and `bin_fill` entry points: one invocation per (listed triangle,
 //! band of its tile rows), grouped by triangle; the bins' atomics are host atomics.
 
-use super::{atomic_zeroed, AtomicSlice};
+use super::{AtomicSlice, atomic_zeroed};
 use rayon::prelude::*;
 use std::sync::atomic::AtomicU32;
 use tileraster_kernels::abi::{FrameParams, TriangleSetup};

@@ -12,11 +12,11 @@ mod setup;
 mod shade;
 
 pub use bin::{bin_count, bin_fill};
-pub use fine::{fine_depth, fine_raster, FinePath};
+pub use fine::{FinePath, fine_depth, fine_raster};
 pub use multisample::fine_samples;
-pub use shade::shade;
 pub use scan::bin_scan;
 pub use setup::{setup, setup_into};
+pub use shade::shade;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::memory::{Counters, Slots};
@@ -40,4 +40,3 @@ impl Slots for AtomicSlice<'_> {
 pub(crate) fn atomic_zeroed(len: usize) -> Vec<AtomicU32> {
     (0..len).map(|_| AtomicU32::new(0)).collect()
 }
-

@@ -3,15 +3,15 @@
 //! `test_samples` batch by batch, then `resolve_samples` per pixel with the frame's fragment
 //! program; tiles in parallel.
 
-use super::fine::StatCounters;
 use super::AtomicSlice;
+use super::fine::StatCounters;
 use rayon::prelude::*;
 use std::sync::atomic::AtomicU32;
 use tileraster_core::{Raster, RenderInputs};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, TriangleSetup};
 use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::programs::fragment::{Builtin, FragmentProgram};
-use tileraster_kernels::programs::multisample::{resolve_samples, test_samples, Resolved, SampleState, MAX_SAMPLES};
+use tileraster_kernels::programs::multisample::{MAX_SAMPLES, Resolved, SampleState, resolve_samples, test_samples};
 use tileraster_kernels::stages::fine::{self, FineShared};
 use tileraster_kernels::{BATCH, TILE, TILE_PIXELS};
 
@@ -32,7 +32,15 @@ pub fn fine_samples(frame: &FrameParams, inputs: &RenderInputs, setups: &[Triang
 }
 
 /// [`fine_samples`] with the fragment program `fragment`.
-fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(fragment: &F, frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(
+    fragment: &F,
+    frame: &FrameParams,
+    inputs: &RenderInputs,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    raster: &mut Raster,
+) -> StatCounters {
     let program = DepthProgram::of(frame);
     let params = &inputs.params;
     let stats: StatCounters = std::array::from_fn(|_| AtomicU32::new(0));
@@ -67,7 +75,19 @@ fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(fragment: &F, frame: &F
                 .filter_map(|lid| {
                     let (i, j, inside) = fine::tile_pixel(tx, ty, lid, frame);
                     inside.then(|| {
-                        let out = resolve_samples(fragment, params, &program, setups, &inputs.triangles, &inputs.textures, &inputs.texels, &states[lid as usize], params.samples, i, j);
+                        let out = resolve_samples(
+                            fragment,
+                            params,
+                            &program,
+                            setups,
+                            &inputs.triangles,
+                            &inputs.textures,
+                            &inputs.texels,
+                            &states[lid as usize],
+                            params.samples,
+                            i,
+                            j,
+                        );
                         (i, j, out, counts[lid as usize])
                     })
                 })

@@ -2,13 +2,13 @@
 //! hides loses every pixel of its tile. (That it changes no bit is checked on whole frames by
 //! the render parity tests and `tests/skips.rs`.)
 
-use tileraster_core::render::{prepare_render, Cull, RenderParams, IDENTITY};
+use tileraster_core::render::{Cull, IDENTITY, RenderParams, prepare_render};
+use tileraster_kernels::FULL_TILE_BIT;
 use tileraster_kernels::abi::{DepthFunc, TriangleSetup};
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::programs::height::barycentric_bits;
-use tileraster_kernels::stages::fine::{bin_range, side, tile_rect, PixelProgram};
-use tileraster_kernels::FULL_TILE_BIT;
+use tileraster_kernels::stages::fine::{PixelProgram, bin_range, side, tile_rect};
 use tileraster_testkit::meshes;
 
 /// On full-frame layers drawn back to front, every tile's nearest layer hides the others
@@ -33,7 +33,8 @@ fn hidden_triangles_lose_every_pixel_of_their_tile() {
             let (start, len) = bin_range(&buffers.offsets, tile_index);
             let bin = &buffers.bins[start as usize..][..len as usize];
             let occluders = bin.iter().filter(|&&e| e & FULL_TILE_BIT != 0);
-            let occluding = occluders.map(|&e| program.occluder_key(&buffers.setups[(e & !FULL_TILE_BIT) as usize], &tile)).min().unwrap_or(DepthProgram::NO_KEY);
+            let occluding =
+                occluders.map(|&e| program.occluder_key(&buffers.setups[(e & !FULL_TILE_BIT) as usize], &tile)).min().unwrap_or(DepthProgram::NO_KEY);
             // Off the quads' diagonals, one triangle of each layer covers the tile whole.
             layered_tiles += u32::from(bin.len() == 6 && bin.iter().all(|&e| e & FULL_TILE_BIT != 0));
             let key_at = |s: &TriangleSetup, i: i32, j: i32| {

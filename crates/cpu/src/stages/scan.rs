@@ -1,9 +1,9 @@
 //! Twin of the `bin_scan` entry point: one workgroup of `SCAN_GROUP` invocations, phase by
 //! phase.
 
+use tileraster_kernels::SCAN_GROUP;
 use tileraster_kernels::abi::FrameParams;
 use tileraster_kernels::stages::scan;
-use tileraster_kernels::SCAN_GROUP;
 
 pub fn bin_scan(frame: &FrameParams, counts: &[u32]) -> Vec<u32> {
     let n = frame.tile_count();

@@ -13,10 +13,5 @@ pub fn setup(prepared: &Prepared, frame: &FrameParams) -> Vec<TriangleSetup> {
 
 /// [`setup`] into `setups`, reusing its memory.
 pub fn setup_into(prepared: &Prepared, frame: &FrameParams, setups: &mut Vec<TriangleSetup>) {
-    prepared
-        .triangles
-        .par_iter()
-        .enumerate()
-        .map(|(slot, input)| setup_triangle(input, slot as u32, frame.snap_bits))
-        .collect_into_vec(setups);
+    prepared.triangles.par_iter().enumerate().map(|(slot, input)| setup_triangle(input, slot as u32, frame.snap_bits)).collect_into_vec(setups);
 }

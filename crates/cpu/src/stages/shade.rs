@@ -8,11 +8,11 @@
 
 use rayon::prelude::*;
 use tileraster_core::{Raster, RenderInputs};
+use tileraster_kernels::TILE;
 use tileraster_kernels::abi::{FrameParams, ShadeMode, TriangleSetup};
 use tileraster_kernels::programs::fragment::{Builtin, FragmentProgram};
 use tileraster_kernels::programs::shade::{blend_pixel, shade_pixel};
 use tileraster_kernels::stages::fine;
-use tileraster_kernels::TILE;
 
 pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
     // The program is chosen once per frame: the built-in shadings are called directly.
@@ -23,7 +23,15 @@ pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup
 }
 
 /// [`shade`] with the fragment program `program`.
-fn shade_with<P: FragmentProgram + Sync + ?Sized>(program: &P, frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
+fn shade_with<P: FragmentProgram + Sync + ?Sized>(
+    program: &P,
+    frame: &FrameParams,
+    inputs: &RenderInputs,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    raster: &mut Raster,
+) {
     let (params, shading) = (&inputs.params, &inputs.triangles[..]);
     let (textures, texels) = (&inputs.textures[..], &inputs.texels[..]);
     let stride = raster.window.width as usize;
@@ -36,13 +44,8 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(program: &P, frame: &FramePara
     let first_row = (frame.win_y0 - y0) as usize;
     let columns = (frame.win_x0 - x0) as usize..(frame.win_x0 - x0 + frame.win_w) as usize;
     let by_owner = inputs.fragment.is_none() && params.blend == 0 && params.mode() == ShadeMode::Ids;
-    colours
-        .par_chunks_mut(stride)
-        .zip(faces.par_chunks_mut(stride))
-        .enumerate()
-        .skip(first_row)
-        .take(frame.win_h as usize)
-        .for_each(|(row, (colour_row, face_row))| {
+    colours.par_chunks_mut(stride).zip(faces.par_chunks_mut(stride)).enumerate().skip(first_row).take(frame.win_h as usize).for_each(
+        |(row, (colour_row, face_row))| {
             let j = (y0 as usize + row) as i32;
             if by_owner {
                 let mut last = None;
@@ -72,5 +75,6 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(program: &P, frame: &FramePara
                 colour_row[x] = out.colour;
                 face_row[x] = out.face;
             }
-        });
+        },
+    );
 }

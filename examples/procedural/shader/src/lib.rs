@@ -11,7 +11,7 @@
 //! `constants[1]` the turbulence (1.5 when 0).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
-use tileraster_kernels::abi::{ShadeParams, SHADING_UNLIT};
+use tileraster_kernels::abi::{SHADING_UNLIT, ShadeParams};
 use tileraster_kernels::programs::fragment::{Fragment, FragmentShader};
 use tileraster_kernels::programs::shade::phong;
 

@@ -17,14 +17,17 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 
+mod auto;
 pub mod dem;
 pub mod render;
 
-pub use tileraster_core::{Error, Grid, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window, MAX_GRID_DIM};
-pub use tileraster_core::kernels::pipeline::Stage;
+pub use auto::{BackendChoice, GPU_MIN_PIXELS, choose_backend};
+
 /// A fragment shader compiled for both backends (`render::FragmentStage`), from a shader crate
 /// that `tileraster-build` compiled in the build script: see `examples/procedural`.
 pub use tileraster_core::fragment_stage;
+pub use tileraster_core::kernels::pipeline::Stage;
+pub use tileraster_core::{Error, Grid, MAX_GRID_DIM, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window};
 
 /// Where the kernels run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -133,7 +136,7 @@ impl PreparedScene {
     }
 }
 
-pub use tileraster_gpu::{set_binding_limit as set_gpu_binding_limit, set_window_limit as set_gpu_window_limit, Adapter};
+pub use tileraster_gpu::{Adapter, set_binding_limit as set_gpu_binding_limit, set_window_limit as set_gpu_window_limit};
 
 /// The Vulkan adapter [`Backend::Gpu`] uses, or why there is none.
 pub fn gpu_adapter() -> Result<Adapter, Error> {

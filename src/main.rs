@@ -6,11 +6,11 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 mod cli;
 
-use cli::progress::{note, set_quiet, Progress};
+use cli::progress::{Progress, note, set_quiet};
 use tileraster::dem::{self, Destinations, GridSize, GridSpec};
-use tileraster::{rasterise, Backend, Grid, Mode, Params, Raster, Skip, Skips, Window};
-use tileraster_testkit::scenes;
+use tileraster::{Backend, Grid, Mode, Params, Raster, Skip, Skips, Window, rasterise};
 use tileraster_io::{GeoTiffOptions, PointColumns, Sample};
+use tileraster_testkit::scenes;
 
 #[derive(Parser)]
 #[command(name = "tileraster", version, about = "Deterministic triangle rasteriser: bit-identical heightfields on CPU and GPU")]
@@ -210,11 +210,40 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
 
 /// `tileraster rasterise`: read, triangulate if points, rasterise in bands, write.
 fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
-    let RasteriseArgs { input, columns, output, txe, tye, outsize, tr, tap, classes, max_edge, window, part, owner, tin, memory, quiet, backend, nodata, algorithm, a_srs, creation_options, format, preview, mode, stats, no_skip } = *args;
+    let RasteriseArgs {
+        input,
+        columns,
+        output,
+        txe,
+        tye,
+        outsize,
+        tr,
+        tap,
+        classes,
+        max_edge,
+        window,
+        part,
+        owner,
+        tin,
+        memory,
+        quiet,
+        backend,
+        nodata,
+        algorithm,
+        a_srs,
+        creation_options,
+        format,
+        preview,
+        mode,
+        stats,
+        no_skip,
+    } = *args;
     set_quiet(quiet);
     let linear = algorithm.unwrap_or_default();
     let nodata = match (nodata, linear.nodata) {
-        (Some(a), Some(b)) if a.to_bits() != b.to_bits() => return Err(format!("--nodata {a} and --algorithm's nodata={b} differ; give one")),
+        (Some(a), Some(b)) if a.to_bits() != b.to_bits() => {
+            return Err(format!("--nodata {a} and --algorithm's nodata={b} differ; give one"));
+        }
         (a, b) => a.or(b).unwrap_or(-9999.0),
     };
     let mut tiff = GeoTiffOptions { epsg: a_srs, ..Default::default() };
@@ -288,12 +317,22 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         None => spec.grid_for(&read.scene).map_err(grid_error)?,
     };
     if given.is_none() || tap {
-        note(format!("tileraster: extent x {} to {}, y {} to {}: {}×{} cells of {} × {}", grid.xmin, grid.xmax, grid.ymin, grid.ymax, grid.width, grid.height, grid.dx(), grid.dy()));
+        note(format!(
+            "tileraster: extent x {} to {}, y {} to {}: {}×{} cells of {} × {}",
+            grid.xmin,
+            grid.xmax,
+            grid.ymin,
+            grid.ymax,
+            grid.width,
+            grid.height,
+            grid.dx(),
+            grid.dy()
+        ));
     }
     let window = window_of(&grid)?;
     let scene = read.scene;
     let fallback = dem::Fallback::new(read.points_read.as_deref().unwrap_or(&scene.vertices), linear.radius);
-    let backend = choose_backend(backend)?;
+    let (backend, chosen) = choose_backend(backend, window.width as u64 * window.height as u64);
     let mut skips = Skips::ALL;
     for &skip in &no_skip {
         skips = skips.without(skip);
@@ -342,6 +381,9 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         note(format!("tileraster: --algorithm linear:radius={}: {} cells outside every triangle took the nearest point's z", linear.radius, run.filled));
     }
     if stats {
+        if let Some(choice) = &chosen {
+            eprintln!("{}", choice.to_json());
+        }
         for band in &run.bands {
             eprintln!("{}", band.to_json());
         }
@@ -397,10 +439,14 @@ fn stop_cleanly_when_interrupted() {
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
         Ok(signals) => signals,
-        Err(e) => return eprintln!("tileraster: warning: cannot handle interrupts ({e}); an interrupted run may leave *{} files", tileraster_io::PARTIAL_SUFFIX),
+        Err(e) => {
+            return eprintln!("tileraster: warning: cannot handle interrupts ({e}); an interrupted run may leave *{} files", tileraster_io::PARTIAL_SUFFIX);
+        }
     };
     std::thread::spawn(move || {
-        let Some(signal) = signals.forever().next() else { return };
+        let Some(signal) = signals.forever().next() else {
+            return;
+        };
         // Held until the process ends: no file is created or renamed into place after this.
         let abandoned = tileraster_io::abandon_partial_files();
         let name = match signal {
@@ -427,24 +473,17 @@ fn stop_cleanly_when_interrupted() {
     });
 }
 
-fn choose_backend(arg: BackendArg) -> Result<Backend, String> {
+/// The backend a call of `pixels` cells runs on, and what `auto` chose and why (`None` where
+/// the user named the backend).
+fn choose_backend(arg: BackendArg, pixels: u64) -> (Backend, Option<tileraster::BackendChoice>) {
     match arg {
-        BackendArg::Cpu => Ok(Backend::Cpu),
-        BackendArg::Gpu => Ok(Backend::Gpu),
-        BackendArg::Auto => match tileraster::gpu_adapter() {
-            Ok(a) if !a.software => {
-                note(format!("tileraster: backend auto: GPU {a}"));
-                Ok(Backend::Gpu)
-            }
-            Ok(a) => {
-                note(format!("tileraster: backend auto: CPU (the only Vulkan adapter, {a}, is itself a CPU implementation)"));
-                Ok(Backend::Cpu)
-            }
-            Err(e) => {
-                note(format!("tileraster: backend auto: CPU ({e})"));
-                Ok(Backend::Cpu)
-            }
-        },
+        BackendArg::Cpu => (Backend::Cpu, None),
+        BackendArg::Gpu => (Backend::Gpu, None),
+        BackendArg::Auto => {
+            let choice = tileraster::choose_backend(pixels);
+            note(format!("tileraster: backend auto: {}: {}", choice.backend.name(), choice.reason));
+            (choice.backend, Some(choice))
+        }
     }
 }
 
@@ -522,7 +561,7 @@ fn demo(dir: &Path, size: u32, cells: u32) -> Result<ExitCode, String> {
 /// The demo's terrain in perspective: Phong-shaded, heights exaggerated four times and coloured
 /// by a ramp, on both backends, compared bit for bit (colour, depth and ids).
 fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
-    use tileraster::render::{render, Camera, Mesh, RenderParams, Shading};
+    use tileraster::render::{Camera, Mesh, RenderParams, Shading, render};
     const RUNS: usize = 5;
     let (w, h) = (1280, 720);
     let (lo, hi) = scene.vertices.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v[2]), hi.max(v[2])));
@@ -542,7 +581,11 @@ fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
         ..Default::default()
     };
     let camera = Camera::framing(&mesh, w as f64 / h as f64, 40.0);
-    let params = RenderParams { shading: Shading::Phong, background: [30, 34, 42, 255], ..RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?) };
+    let params = RenderParams {
+        shading: Shading::Phong,
+        background: [30, 34, 42, 255],
+        ..RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?)
+    };
     println!("tileraster demo: the same terrain in perspective, {} triangles, Phong-shaded, {w}×{h}", mesh.triangles.len());
     let timed_render = |backend| -> Result<(Duration, tileraster::render::Frame), String> {
         let mut times = Vec::with_capacity(RUNS);
@@ -562,7 +605,10 @@ fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
     tileraster_io::write_obj(scene, &obj).map_err(|e| e.to_string())?;
     println!("  wrote {} (the TIN, for `tileraster render`)", obj.display());
     // The TIN again with the DEM's preview draped over it as a texture (north at the top row).
-    let ([x0, y0], [x1, y1]) = scene.vertices.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), v| ([lo[0].min(v[0]), lo[1].min(v[1])], [hi[0].max(v[0]), hi[1].max(v[1])]));
+    let ([x0, y0], [x1, y1]) = scene
+        .vertices
+        .iter()
+        .fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), v| ([lo[0].min(v[0]), lo[1].min(v[1])], [hi[0].max(v[0]), hi[1].max(v[1])]));
     let uvs: Vec<[f32; 2]> = scene.vertices.iter().map(|v| [((v[0] - x0) / (x1 - x0)) as f32, ((y1 - v[1]) / (y1 - y0)) as f32]).collect();
     let textured = dir.join("terrain-textured.obj");
     tileraster_io::write_obj_textured(scene, &uvs, "demo.png", &textured).map_err(|e| e.to_string())?;

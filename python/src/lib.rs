@@ -39,7 +39,9 @@ impl Grid {
         let size = match (outsize, tr) {
             (Some((width, height)), None) => GridSize::Cells { width, height },
             (None, Some((x, y))) => GridSize::Resolution { x, y },
-            _ => return Err(error("give the raster size as outsize=(width, height) or the cell size as tr=(xres, yres), one of them")),
+            _ => {
+                return Err(error("give the raster size as outsize=(width, height) or the cell size as tr=(xres, yres), one of them"));
+            }
         };
         let spec = GridSpec { txe: txe.map(|(a, b)| [a, b]), tye: tye.map(|(a, b)| [a, b]), size, tap };
         spec.check().map_err(error)?;
@@ -143,9 +145,10 @@ fn triangles_of(value: &Bound<'_, PyAny>) -> PyResult<Vec<[u32; 3]>> {
     (0..flat.len() / 3).map(|t| Ok([index(3 * t)?, index(3 * t + 1)?, index(3 * t + 2)?])).collect()
 }
 
-/// How a call runs: its backend and the `Params` beyond the grid.
+/// How a call runs: its backend (`None`: `auto`, chosen once the raster's size is known) and
+/// the `Params` beyond the grid.
 struct Settings {
-    backend: Backend,
+    backend: Option<Backend>,
     mode: Mode,
     nodata: f32,
     owner: bool,
@@ -154,17 +157,21 @@ struct Settings {
 impl Settings {
     fn new(py: Python<'_>, backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Settings> {
         let backend = match backend {
-            "cpu" => Backend::Cpu,
-            "gpu" => Backend::Gpu,
-            // A hardware GPU if there is one; a CPU implementation of Vulkan is slower than the
-            // CPU backend. (Finding it may wait for a GPU call of another thread: not with the GIL.)
-            "auto" => match py.detach(tileraster::gpu_adapter) {
-                Ok(adapter) if !adapter.software => Backend::Gpu,
-                _ => Backend::Cpu,
-            },
-            other => return Err(error(format!("backend '{other}': give \"cpu\", \"gpu\" or \"auto\""))),
+            "cpu" => Some(Backend::Cpu),
+            "gpu" => Some(Backend::Gpu),
+            "auto" => None,
+            other => {
+                return Err(error(format!("backend '{other}': give \"cpu\", \"gpu\" or \"auto\"")));
+            }
         };
         Ok(Settings { backend, mode: mode.parse().map_err(error)?, nodata, owner })
+    }
+
+    /// The backend for a raster of `grid` (its `window`): `auto` decides without opening a
+    /// device (`tileraster::choose_backend`).
+    fn backend_for(&self, grid: &tileraster::Grid, window: Option<Window>) -> Backend {
+        let window = window.unwrap_or_else(|| Window::whole(grid));
+        self.backend.unwrap_or_else(|| tileraster::choose_backend(window.width as u64 * window.height as u64).backend)
     }
 
     fn params(&self, grid: tileraster::Grid) -> Params {
@@ -200,7 +207,9 @@ fn interruptible<T: Send + 'static>(py: Python<'_>, work: impl FnOnce(&AtomicBoo
                     return Err(interrupt);
                 }
             }
-            Err(RecvTimeoutError::Disconnected) => return Err(error("the rasterising thread stopped without a result (a panic: please report it)")),
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(error("the rasterising thread stopped without a result (a panic: please report it)"));
+            }
         }
     }
 }
@@ -331,7 +340,16 @@ impl Raster {
         let bands = self.bands.bind(py);
         let first = bands.get_item(0)?.cast_into::<PyDict>()?.copy()?;
         if bands.len() > 1 {
-            for key in ["tiles_total", "tiles_empty_skipped", "tiles_full", "tiles_partial", "triangles_culled", "triangles_flat", "triangles_binned", "bytes_uploaded"] {
+            for key in [
+                "tiles_total",
+                "tiles_empty_skipped",
+                "tiles_full",
+                "tiles_partial",
+                "triangles_culled",
+                "triangles_flat",
+                "triangles_binned",
+                "bytes_uploaded",
+            ] {
                 let mut total = 0u64;
                 for band in bands.iter() {
                     total += band.get_item(key)?.extract::<u64>()?;
@@ -401,7 +419,14 @@ impl Raster {
     }
 }
 
-fn write_layer<T: bytemuck::Pod>(path: &std::path::Path, grid: tileraster::Grid, window: Window, sample: Sample, options: &GeoTiffOptions, cells: &[T]) -> PyResult<()> {
+fn write_layer<T: bytemuck::Pod>(
+    path: &std::path::Path,
+    grid: tileraster::Grid,
+    window: Window,
+    sample: Sample,
+    options: &GeoTiffOptions,
+    cells: &[T],
+) -> PyResult<()> {
     let mut file = GeoTiffWriter::create(path, &grid, window, sample, options).map_err(error)?;
     file.write_rows(cells).map_err(error)?;
     file.finish().map_err(error)
@@ -422,7 +447,7 @@ impl Prepared {
         let (scene, spec) = (scene.scene.clone(), grid.spec);
         let prepared = interruptible(py, move |_| -> PyResult<PreparedScene> {
             let grid = spec.grid_for(&scene).map_err(error)?;
-            PreparedScene::new(&scene, &settings.params(grid), settings.backend).map_err(error)
+            PreparedScene::new(&scene, &settings.params(grid), settings.backend_for(&grid, None)).map_err(error)
         })??;
         Ok(Prepared { inner: Arc::new(Mutex::new(prepared)) })
     }
@@ -480,10 +505,13 @@ fn rasterise(
     };
     let (scene, spec, window) = (scene.scene.clone(), grid.spec, window_of(window));
     let done = interruptible(py, move |cancel| -> PyResult<_> {
-        let params = settings.params(spec.grid_for(&scene).map_err(error)?);
-        let mut prepared = PreparedScene::from_prepared(tileraster::prepare(&scene, &params, window).map_err(error)?, settings.backend);
+        let grid = spec.grid_for(&scene).map_err(error)?;
+        let params = settings.params(grid);
+        let mut prepared = PreparedScene::from_prepared(tileraster::prepare(&scene, &params, window).map_err(error)?, settings.backend_for(&grid, window));
         let window = prepared.prepared().window;
-        let Some((mut raster, stats)) = rasterise_banded(&mut prepared, window, cancel).map_err(error)? else { return Ok(None) };
+        let Some((mut raster, stats)) = rasterise_banded(&mut prepared, window, cancel).map_err(error)? else {
+            return Ok(None);
+        };
         if let Some(fallback) = points.and_then(|points| dem::Fallback::new(&points, radius)) {
             fallback.fill(&mut raster);
         }
@@ -496,14 +524,12 @@ fn rasterise(
     Raster::new(py, raster, &stats)
 }
 
-/// The backend "auto" picks here, and the Vulkan adapter if there is one.
+/// The backend "auto" picks here for a large raster, and the Vulkan adapter if there is one.
+/// It opens no device (`tileraster::choose_backend`).
 #[pyfunction]
 fn backends(py: Python<'_>) -> (String, Option<String>) {
-    match py.detach(tileraster::gpu_adapter) {
-        Ok(adapter) if !adapter.software => ("gpu".into(), Some(adapter.to_string())),
-        Ok(adapter) => ("cpu".into(), Some(adapter.to_string())),
-        Err(_) => ("cpu".into(), None),
-    }
+    let choice = py.detach(|| tileraster::choose_backend(tileraster::GPU_MIN_PIXELS));
+    (choice.backend.name().into(), choice.adapter)
 }
 
 #[pymodule]

@@ -8,6 +8,7 @@ target/release in the repository). GPU checks need a Vulkan adapter (lavapipe co
 
 from __future__ import annotations
 
+import ast
 import os
 import re
 import signal
@@ -264,3 +265,24 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
     with rasterio.open(tmp_path / "dem.tif") as ours, rasterio.open(tmp_path / "dem-rasterio.tif") as theirs:
         a, b = ours.read(1), theirs.read(1)
         assert a.tobytes() == b.tobytes() and ours.transform == theirs.transform and ours.nodata == theirs.nodata
+
+
+def test_auto_decides_without_a_device_and_prints_no_error(tmp_path):
+    """The default backend on a fresh process: the adapters surveyed (or read back from the
+    cache the first process kept), no device opened for a raster the CPU takes, and no line on
+    stderr that says error."""
+    code = (
+        "import numpy as np, tileraster\n"
+        "pts = np.random.default_rng(1).uniform(0, 100, (500, 3))\n"
+        "dem = tileraster.points_to_dem(pts, tileraster.Grid(tr=(1, 1)))\n"
+        "assert dem.values.shape == (100, 100)\n"
+        "print(tileraster.backends())\n"
+    )
+    env = dict(os.environ, TILERASTER_CACHE_DIR=str(tmp_path / "cache"))
+    env.pop("XDG_RUNTIME_DIR", None)
+    for run in ("surveyed", "read back"):
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, (run, out.stderr)
+        assert "error" not in out.stderr.lower(), (run, out.stderr)
+        choice, adapter = ast.literal_eval(out.stdout.strip())
+        assert choice in ("cpu", "gpu"), out.stdout

@@ -37,7 +37,9 @@ def rasterise(vertices, triangles, grid: Grid, *, backend: str = "auto", mode: s
     with ``triangles=None``) onto ``grid``.
 
     - ``backend``: ``"cpu"``, ``"gpu"`` (a Vulkan adapter; lavapipe counts) or ``"auto"`` (a
-      hardware GPU if there is one, else the CPU). Both give the same bits.
+      hardware GPU if there is one and the grid has at least 1024² cells, else the CPU; decided
+      without opening a device, from a survey of the adapters cached under
+      ``~/.cache/tileraster``). Both give the same bits.
     - ``mode``: ``"exact"`` (correctly rounded), ``"plane-f32"`` or ``"barycentric"``.
     - ``owner=True`` also returns ``Raster.owner``: the index of the triangle each cell's value
       comes from (uint32; 4294967295 where none).

@@ -453,6 +453,9 @@ pub struct ShadeParams {
     /// The sample whose depth and owner a multisampled frame's depth, owner and face layers
     /// take.
     pub layer_sample: u32,
+    /// Non-zero where some triangle of the frame has a texture; zero lets shading leave the
+    /// sampling out.
+    pub textured: u32,
     /// Ambient light, RGB.
     pub ambient: [f32; 4],
     /// Specular colour, RGB.
@@ -476,6 +479,67 @@ impl ShadeParams {
     #[inline]
     pub fn mode(&self) -> ShadeMode {
         ShadeMode::from_code(self.shading)
+    }
+}
+
+/// The frame-wide choices of the stages that colour fragments, in one word: the shading mode,
+/// the interpolation, blending, the number of lights, the samples and whether anything is
+/// textured. On the GPU each frame's word is a specialisation constant of its shading
+/// pipelines, so that the driver compiles only the branches the frame takes: a CPU
+/// implementation of Vulkan runs every branch of a kernel, taken or not, and a GPU's registers
+/// are sized for the longest. Every field repeats one of `ShadeParams`, so a specialised stage
+/// computes exactly what the generic one computes from the parameters.
+#[derive(Copy, Clone, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Debug, Hash))]
+pub struct ShadeVariant(pub u32);
+
+const _: () = assert!(MAX_LIGHTS < 4, "ShadeVariant holds the lights in two bits");
+
+impl ShadeVariant {
+    /// Not specialised: every choice is read from `ShadeParams` (the modules' default, and the
+    /// CPU backend's).
+    pub const GENERIC: ShadeVariant = ShadeVariant(0);
+    /// The specialisation constant's `SpecId` in the shading entry points.
+    pub const SPEC_ID: u32 = 0;
+    const SPECIALISED: u32 = 1 << 31;
+
+    /// The word that fixes `params`' choices.
+    #[inline]
+    pub fn of(params: &ShadeParams) -> ShadeVariant {
+        let field = |value: u32, bits: u32, at: u32| (value & ((1 << bits) - 1)) << at;
+        ShadeVariant(
+            Self::SPECIALISED
+                | field(params.shading, 4, 0)
+                | field(params.interpolation, 2, 4)
+                | field((params.blend != 0) as u32, 1, 6)
+                | field(params.lights, 2, 7)
+                | field(params.samples, 4, 9)
+                | field((params.textured != 0) as u32, 1, 13),
+        )
+    }
+
+    /// Whether `params` has choices this word cannot hold (then the frame runs the generic
+    /// stage).
+    #[inline]
+    pub fn holds(params: &ShadeParams) -> bool {
+        params.shading < 16 && params.interpolation < 4 && params.lights <= MAX_LIGHTS as u32 && params.samples < 16
+    }
+
+    /// `params` with this word's choices in place of its own (unchanged where generic). A
+    /// specialisation constant makes every one of them a constant to the driver's compiler.
+    #[inline]
+    pub fn apply(self, params: &ShadeParams) -> ShadeParams {
+        let mut p = *params;
+        let w = self.0;
+        if w & Self::SPECIALISED != 0 {
+            p.shading = w & 0xf;
+            p.interpolation = w >> 4 & 0x3;
+            p.blend = w >> 6 & 1;
+            p.lights = w >> 7 & 0x3;
+            p.samples = w >> 9 & 0xf;
+            p.textured = w >> 13 & 1;
+        }
+        p
     }
 }
 

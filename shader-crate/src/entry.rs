@@ -7,17 +7,17 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
+use crate::BATCH;
+use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use crate::programs::depth::DepthProgram;
-use crate::programs::height::HeightProgram;
-use crate::programs::multisample::{self, SampleState, MAX_SAMPLES};
 use crate::programs::fragment::FragmentProgram;
+use crate::programs::height::HeightProgram;
+use crate::programs::multisample::{self, MAX_SAMPLES, SampleState};
 use crate::programs::shade::{blend_pixel, shade_pixel};
+use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
-use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
-use crate::BATCH;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 pub use spirv_std::glam::UVec3;
 pub use spirv_std::spirv;
@@ -284,7 +284,9 @@ fn fine_raster_workgroup<P: PixelProgram>(
                 if lid == 0 {
                     hidden += fine::batch_hidden(batch_len, shared);
                 }
-                fine::fine_test(program, i, j, batch_len, shared, overlap_free, count_hidden, &mut state);
+                fine::span_lists::<P>(lid, wg.x, wg.y, frame, batch_len, count_hidden, shared);
+                barrier();
+                fine::fine_test(program, lid, i, j, shared, overlap_free, count_hidden, &mut state);
                 barrier();
                 batch_start += BATCH;
             }

@@ -5,7 +5,9 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use tileraster::render::{read_mesh, read_world, render_world, Address, Camera, Cull, Filter, Interpolation, LineRule, Mesh, RenderParams, Shading, Wireframe, World, IDENTITY};
+use tileraster::render::{
+    Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, Mesh, RenderParams, Shading, Wireframe, World, read_mesh, read_world, render_world,
+};
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
@@ -167,7 +169,11 @@ fn read_transforms(path: &std::path::Path) -> Result<Vec<[[f64; 4]; 4]>, String>
             continue;
         }
         let at = || format!("--instances {}, line {}", path.display(), k + 1);
-        let values: Vec<f64> = line.split(|c: char| c == ',' || c.is_whitespace()).filter(|v| !v.is_empty()).map(|v| v.parse::<f64>().map_err(|e| format!("{}: '{v}': {e}", at()))).collect::<Result<_, _>>()?;
+        let values: Vec<f64> = line
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|v| !v.is_empty())
+            .map(|v| v.parse::<f64>().map_err(|e| format!("{}: '{v}': {e}", at())))
+            .collect::<Result<_, _>>()?;
         if values.len() != 16 {
             return Err(format!("{}: {} numbers; give the 16 entries of a 4×4 matrix, row-major", at(), values.len()));
         }
@@ -186,7 +192,35 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs { input, output, size, camera, fov, mvp, instances, z_scale, background, cull, shading, interpolation, points, no_faces, wireframe, msaa, wire_colour, filter, address, blend, depth, ids, backend, stats, heat_map, no_skip, quiet } = args;
+    let RenderArgs {
+        input,
+        output,
+        size,
+        camera,
+        fov,
+        mvp,
+        instances,
+        z_scale,
+        background,
+        cull,
+        shading,
+        interpolation,
+        points,
+        no_faces,
+        wireframe,
+        msaa,
+        wire_colour,
+        filter,
+        address,
+        blend,
+        depth,
+        ids,
+        backend,
+        stats,
+        heat_map,
+        no_skip,
+        quiet,
+    } = args;
     if !(z_scale.is_finite() && z_scale != 0.0) {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
@@ -213,7 +247,8 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         let [lo, hi] = world.bounds().map_err(|e| e.to_string())?;
         model[2] = [0.0, 0.0, z_scale, lo[2] * (1.0 - z_scale)];
         let scaled = |z: f64| lo[2] + z_scale * (z - lo[2]);
-        let corners = (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, scaled(if k & 4 == 0 { lo[2] } else { hi[2] })]);
+        let corners =
+            (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, scaled(if k & 4 == 0 { lo[2] } else { hi[2] })]);
         &Mesh { positions: corners.collect(), triangles: vec![[0, 1, 2]], ..Default::default() }
     };
     let view_projection = match (mvp, camera) {
@@ -282,7 +317,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     if let Some(c) = camera {
         params.eye = Some([c[0], c[1], c[2]]);
     }
-    let backend = crate::choose_backend(backend)?;
+    let (backend, chosen) = crate::choose_backend(backend, width as u64 * height as u64);
     let start = Instant::now();
     let frame = render_world(&world, &params, backend).map_err(|e| e.to_string())?;
     let took = start.elapsed();
@@ -294,7 +329,8 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     let grid = Grid::new(0.0, width as f64, 0.0, height as f64, width, height);
     let window = Window::whole(&grid);
     if let Some(path) = &depth {
-        let mut tiff = GeoTiffWriter::create(path, &grid, window, Sample::Float32 { nodata: params.clear_depth }, &GeoTiffOptions::default()).map_err(|e| e.to_string())?;
+        let mut tiff = GeoTiffWriter::create(path, &grid, window, Sample::Float32 { nodata: params.clear_depth }, &GeoTiffOptions::default())
+            .map_err(|e| e.to_string())?;
         tiff.write_rows(&frame.depth).and_then(|()| tiff.finish()).map_err(|e| e.to_string())?;
     }
     if let Some(path) = &ids {
@@ -312,6 +348,9 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         output.display()
     ));
     if stats {
+        if let Some(choice) = &chosen {
+            eprintln!("{}", choice.to_json());
+        }
         let json = frame.stats.to_json();
         eprintln!("{},\"checksums\":{}}}", &json[..json.len() - 1], frame.checksums().to_json());
     }

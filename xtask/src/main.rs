@@ -23,8 +23,10 @@
 //!   `--fragment`: only its programmable fragment stage section.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
-//! - `cargo xtask stage-times`: a CPU call's time pass by pass (preparation, plan, each stage)
-//!   on the micro-triangles, the slivers and the 4096² TIN, printed as markdown.
+//! - `cargo xtask stage-times [--cpu | --gpu] [NAME_PART]`: a call's time pass by pass on
+//!   each backend (the CPU's host times, the GPU's device times from timestamp queries, with
+//!   its dispatches, waits and bytes moved) on the micro-triangles, the slivers, the 4096² TIN
+//!   and the render pipeline's meshes, printed as markdown.
 
 mod bench_report;
 mod delaunay_report;
@@ -45,7 +47,9 @@ const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]");
+    eprintln!(
+        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
+    );
     ExitCode::from(2)
 }
 
@@ -146,8 +150,18 @@ fn main() -> ExitCode {
             None => usage(),
         },
         ["fingerprint"] => print_markdown("fingerprint", fingerprint::run()),
-        ["stage-times"] => print_markdown("stage-times", stage_times::run(None)),
-        ["stage-times", only] => print_markdown("stage-times", stage_times::run(Some(only))),
+        ["stage-times", rest @ ..] => {
+            let (backends, only) = match rest {
+                ["--cpu", only @ ..] => (stage_times::Backends::Cpu, only),
+                ["--gpu", only @ ..] => (stage_times::Backends::Gpu, only),
+                only => (stage_times::Backends::Both, only),
+            };
+            match only {
+                [] => print_markdown("stage-times", stage_times::run(None, backends)),
+                [only] => print_markdown("stage-times", stage_times::run(Some(only), backends)),
+                _ => usage(),
+            }
+        }
         ["render-report", rest @ ..] => match rest {
             [] => print_markdown("render-report", render_report::run(false)),
             ["--quick"] => print_markdown("render-report", render_report::run(true)),

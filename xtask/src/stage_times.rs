@@ -1,15 +1,23 @@
-//! `cargo xtask stage-times`: where a CPU call's time goes, pass by pass, on the scenes the
-//! small-triangle goals name and on the render pipeline's benchmark meshes: preparation (the
-//! render pipeline's geometry stages), the plan, then each stage of the pipeline's rows of the
-//! table as the CPU executor runs it (`tileraster_cpu::rasterise_observed`; the raster's
-//! allocation counts with the first stage). Medians of several calls, each call's result
-//! dropped before the next.
+//! `cargo xtask stage-times`: where a call's time goes, pass by pass, on the scenes the
+//! small-triangle goals name and on the render pipeline's benchmark meshes.
+//!
+//! - CPU backend: preparation (the render pipeline's geometry stages), the plan, then each
+//!   stage of the pipeline's rows of the table as the CPU executor runs it
+//!   (`tileraster_cpu::rasterise_observed`; the raster's allocation counts with the first
+//!   stage).
+//! - GPU backend: the device time of each stage from timestamp queries written around its
+//!   compute passes (summed over the call's windows), the whole call's wall time (upload,
+//!   dispatches, waits and read-back included), and what the call moved: dispatches,
+//!   submissions, waits for the device, bytes up and down (`tileraster_gpu::rasterise_profiled`).
+//!   Each call is a fresh one: the scene is uploaded and set up in it.
+//!
+//! Medians of several calls, each call's result dropped before the next.
 
 use std::fmt::Write;
 use std::time::Instant;
-use tileraster::render::{prepare_render, Camera, Cull, Mesh, RenderParams, Shading, IDENTITY};
+use tileraster::render::{Camera, Cull, IDENTITY, Mesh, RenderParams, Shading, prepare_render};
 use tileraster::{Grid, Params, Prepared, Scene};
-use tileraster_core::kernels::pipeline::{stages, Pipeline};
+use tileraster_core::kernels::pipeline::{Pipeline, stages};
 use tileraster_testkit::{meshes, scenes};
 
 /// A scene to time: a heightfield onto a grid, or a mesh in perspective.
@@ -49,7 +57,10 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     let camera = Camera::framing(&mesh, 1920.0 / 1080.0, 45.0);
     let base = RenderParams { eye: Some(camera.eye), ..RenderParams::new(1920, 1080, camera.view_projection(1920, 1080).map_err(|e| e.to_string())?) };
     for shading in [Shading::Ids, Shading::Phong] {
-        cases.push((format!("render: terrain mesh, 100352 triangles, 1920×1080, {}", shading.name()), Case::Render(mesh.clone(), Box::new(RenderParams { shading, ..base.clone() }))));
+        cases.push((
+            format!("render: terrain mesh, 100352 triangles, 1920×1080, {}", shading.name()),
+            Case::Render(mesh.clone(), Box::new(RenderParams { shading, ..base.clone() })),
+        ));
     }
     let fill = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), shading: Shading::Ids, ..RenderParams::new(1920, 1080, IDENTITY) };
     cases.push(("render: fill rate, 8 full-frame layers, 1920×1080, ids".into(), Case::Render(meshes::fill_layers(8), Box::new(fill))));
@@ -79,30 +90,93 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     Ok(laps)
 }
 
-/// The table, over the cases whose name contains `only` (all of them without it).
-pub fn run(only: Option<&str>) -> Result<String, String> {
+/// One GPU call: its profile and wall time (ms).
+fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, f64), String> {
+    let prepared = case.prepare()?;
+    let plan = prepared.plan(prepared.window, false).map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let (raster, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, true).map_err(|e| e.to_string())?;
+    let ms = start.elapsed().as_secs_f64() * 1e3;
+    drop(raster);
+    Ok((profile, ms))
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Which backends a report times.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Backends {
+    Cpu,
+    Gpu,
+    Both,
+}
+
+/// The tables, over the cases whose name contains `only` (all of them without it).
+pub fn run(only: Option<&str>, backends: Backends) -> Result<String, String> {
+    let cases: Vec<(String, Case)> = cases()?.into_iter().filter(|(name, _)| only.is_none_or(|o| name.contains(o))).collect();
+    let mut s = String::new();
+    if backends != Backends::Gpu {
+        s += &cpu_table(&cases)?;
+    }
+    if backends != Backends::Cpu {
+        s += &gpu_table(&cases)?;
+    }
+    Ok(s)
+}
+
+fn cpu_table(cases: &[(String, Case)]) -> Result<String, String> {
     const RUNS: usize = 15;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut s = format!("CPU backend ({threads} threads; heightfields in exact mode); median ms per pass of {RUNS} calls after a warm-up.\n");
     let mut header = None;
-    for (name, case) in cases()?.into_iter().filter(|(name, _)| only.is_none_or(|o| name.contains(o))) {
+    for (name, case) in cases {
         let names: Vec<&str> = ["prepare", "plan"].into_iter().chain(stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
         if header.as_ref() != Some(&names) {
             let _ = writeln!(s, "\n| scene | {} |", names.join(" | "));
             let _ = writeln!(s, "| --- |{}", " ---: |".repeat(names.len()));
             header = Some(names.clone());
         }
-        one_call(&case)?;
-        let calls = (0..RUNS).map(|_| one_call(&case)).collect::<Result<Vec<_>, _>>()?;
-        let medians: Vec<String> = (0..names.len())
-            .map(|k| {
-                let mut v: Vec<f64> = calls.iter().map(|c| c[k]).collect();
-                v.sort_by(f64::total_cmp);
-                format!("{:.1}", v[RUNS / 2])
-            })
-            .collect();
+        one_call(case)?;
+        let calls = (0..RUNS).map(|_| one_call(case)).collect::<Result<Vec<_>, _>>()?;
+        let medians: Vec<String> = (0..names.len()).map(|k| format!("{:.1}", median(calls.iter().map(|c| c[k]).collect()))).collect();
         let _ = writeln!(s, "| {name} | {} |", medians.join(" | "));
-        eprintln!("{name} done");
+        eprintln!("cpu: {name} done");
+    }
+    Ok(s)
+}
+
+fn gpu_table(cases: &[(String, Case)]) -> Result<String, String> {
+    const RUNS: usize = 5;
+    let adapter = tileraster::gpu_adapter().map_err(|e| e.to_string())?;
+    let mut s = format!(
+        "\nGPU backend on {adapter}; median of {RUNS} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time (upload, waits and read-back included).\n"
+    );
+    let mut header = None;
+    for (name, case) in cases {
+        let rows: Vec<_> = stages(case.pipeline()).collect();
+        let names: Vec<&str> = rows.iter().map(|info| info.name).chain(["device", "call", "dispatches", "submissions", "waits", "MB up", "MB down"]).collect();
+        if header.as_ref() != Some(&names) {
+            let _ = writeln!(s, "\n| scene | {} |", names.join(" | "));
+            let _ = writeln!(s, "| --- |{}", " ---: |".repeat(names.len()));
+            header = Some(names.clone());
+        }
+        one_gpu_call(case)?;
+        let calls = (0..RUNS).map(|_| one_gpu_call(case)).collect::<Result<Vec<_>, _>>()?;
+        let Some(_) = calls[0].0.stage_ms else {
+            return Err(format!("{adapter} writes no timestamps: the GPU's stage times cannot be measured on it"));
+        };
+        let stage = |k: usize| median(calls.iter().map(|(p, _)| p.stage(rows[k].stage).unwrap_or(f64::NAN)).collect());
+        let mut cells: Vec<String> = (0..rows.len()).map(|k| format!("{:.1}", stage(k))).collect();
+        cells.push(format!("{:.1}", median(calls.iter().map(|(p, _)| rows.iter().map(|info| p.stage(info.stage).unwrap_or(0.0)).sum()).collect())));
+        cells.push(format!("{:.1}", median(calls.iter().map(|(_, ms)| *ms).collect())));
+        let (p, _) = &calls[0];
+        cells.extend([p.dispatches.to_string(), p.submissions.to_string(), p.waits.to_string()]);
+        cells.extend([p.bytes_up, p.bytes_down].map(|b| format!("{:.2}", b as f64 / 1e6)));
+        let _ = writeln!(s, "| {name} | {} |", cells.join(" | "));
+        eprintln!("gpu: {name} done");
     }
     Ok(s)
 }

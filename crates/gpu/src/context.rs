@@ -1,12 +1,13 @@
-use std::sync::atomic::{AtomicU64, Ordering};
 use crate::device::{Gpu, Grown};
-use rayon::prelude::*;
 use crate::float_controls::{self, FloatControls};
+use crate::profile::{CallProfile, Recorder};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
-use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, Scope, StageBuffers, StageInfo, STAGES};
+use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
+use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, StageBuffers, StageInfo};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
@@ -90,13 +91,27 @@ pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option
     ctx.rasterise(prepared, plan, resident)
 }
 
+/// [`rasterise_planned`], and what the call did on the device: its dispatches, submissions,
+/// waits and bytes moved each way, and with `time_stages` (where the adapter writes
+/// timestamps) the device time of each stage.
+pub fn rasterise_profiled(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, time_stages: bool) -> Result<(Raster, CallProfile), Error> {
+    let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+    let timing = time_stages && ctx.timestamps;
+    ctx.recorder.start(timing);
+    let raster = ctx.rasterise(prepared, plan, resident);
+    let profile = ctx.recorder.finish(&ctx.gpu.device, ctx.gpu.queue.get_timestamp_period()).map_err(Error::Gpu)?;
+    Ok((raster?, profile))
+}
+
 /// The buffers the stages before fine raster leave for the preparation's window (see
 /// `StageBuffers`), read back after rasterising it: the stage-by-stage comparison of the
 /// backends. `None` when no triangle reaches the window; an error for a window the backend
 /// would cut into several (only the last one's buffers would be left).
 pub fn stage_buffers(prepared: &Prepared) -> Result<Option<StageBuffers>, Error> {
     let plan = prepared.plan(prepared.window, false)?;
-    let Some(active) = plan.active else { return Ok(None) };
+    let Some(active) = plan.active else {
+        return Ok(None);
+    };
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     let frame = plan.frame(prepared, active);
     if windows(&active, ctx.max_window_pixels(prepared)).len() != 1 || plan.bin_capacity(prepared, &frame) * 4 > ctx.max_binding() {
@@ -143,17 +158,32 @@ struct GpuContext {
     float_controls_declared: bool,
     /// Whether the `f32` modes give the CPU backend's bits here: checked on first use.
     float_modes: Option<Result<(), String>>,
-    /// One per row of the stage table, in its order.
-    pipelines: Vec<StagePipeline>,
-    /// The fragment shaders' pipelines, built on first use.
-    fragments: Vec<FragmentPipelines>,
+    /// The kernels' module, as the device gets it (with float controls where declared)...
+    kernels: &'static [u8],
+    /// ... and as a shader module of the rows that do not colour fragments.
+    kernel_module: wgpu::ShaderModule,
+    /// One per row of the stage table, in its order, built when a frame first runs the row
+    /// (a driver compiles each: a heightfield never pays for the render pipeline's); always
+    /// `None` for the rows that colour fragments, whose pipelines are specialised per frame
+    /// (`shading`).
+    pipelines: Vec<Option<StagePipeline>>,
+    /// The fragment shaders seen so far (their modules checked).
+    fragments: Vec<FragmentStage>,
+    /// The pipelines of the rows that colour fragments, one set per module (the kernels' or a
+    /// fragment shader's) and frame variant, built on first use.
+    shading: Vec<ShadingPipelines>,
     buffers: Buffers,
+    /// The dispatches, transfers and (in profiled calls) stage times of the call in progress.
+    recorder: Recorder,
+    /// Whether the device writes timestamps (`TIMESTAMP_QUERY`).
+    timestamps: bool,
 }
 
-/// A fragment shader's pipelines: the stage table's rows that colour fragments, from its
-/// module (`None` for the other rows, which the kernels' module runs).
-struct FragmentPipelines {
-    stage: FragmentStage,
+/// The stage table's rows that colour fragments, from one module (the kernels', or fragment
+/// shader `fragment`'s) specialised for one frame variant (`None` for the other rows).
+struct ShadingPipelines {
+    fragment: Option<usize>,
+    variant: ShadeVariant,
     pipelines: Vec<Option<StagePipeline>>,
 }
 
@@ -162,7 +192,7 @@ struct FragmentPipelines {
 fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String> {
     let wanted = std::env::var("TILERASTER_ADAPTER").ok();
     let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
-    let needed = wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS;
+    let needed = crate::survey::needed_features();
     let usable = adapters.into_iter().filter(|a| a.features().contains(needed));
     let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
         wgpu::DeviceType::DiscreteGpu => 0,
@@ -185,21 +215,24 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>
 
 impl GpuContext {
     fn new() -> Result<Self, Error> {
-        let features = wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS;
-        let (gpu, adapter) = Gpu::open("tileraster", features, choose_adapter).map_err(|details| Error::NoAdapter { details })?;
+        // Timestamps where the adapter has them: profiled calls time each stage's passes.
+        let (gpu, adapter) = Gpu::open("tileraster", crate::survey::needed_features(), wgpu::Features::TIMESTAMP_QUERY, choose_adapter)
+            .map_err(|details| Error::NoAdapter { details })?;
         // Every stage binds its storage buffers at once: an adapter that binds fewer per stage
         // cannot run the table (Vulkan guarantees only 4; desktop GPUs and lavapipe bind far more).
         let needed = STAGES.iter().map(|s| s.bindings.len() as u32).max().unwrap_or(0);
         let bound = gpu.limits.max_storage_buffers_per_shader_stage;
         if bound < needed {
-            return Err(Error::NoAdapter { details: format!("{} binds at most {bound} storage buffers per shader stage; tileraster's stages bind up to {needed}", gpu.info.name) });
+            return Err(Error::NoAdapter {
+                details: format!("{} binds at most {bound} storage buffers per shader stage; tileraster's stages bind up to {needed}", gpu.info.name),
+            });
         }
         let device = &gpu.device;
         let float_controls = FloatControls::of(&adapter);
         let declared = float_controls.declared(&adapter.get_info());
         let kernels = if declared { crate::KERNELS_FLOAT_CONTROLS_SPV } else { crate::KERNELS_SPV };
         let scope = gpu.error_scope();
-        let pipelines = stage_pipelines(device, "tileraster kernels", kernels, |_| true).into_iter().map(|p| p.expect("every row")).collect();
+        let kernel_module = passthrough_module(device, "tileraster kernels", kernels, None, |info| !info.stage.colours_fragments());
         if let Some(e) = scope.finish() {
             return Err(Error::Gpu(format!("the kernels were rejected by the device: {e}")));
         }
@@ -222,7 +255,21 @@ impl GpuContext {
             faces: Grown::storage("faces"),
             readback: Grown::readback("readback"),
         };
-        Ok(GpuContext { gpu, float_controls, float_controls_declared: declared, float_modes: None, pipelines, fragments: Vec::new(), buffers })
+        let timestamps = gpu.device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        Ok(GpuContext {
+            gpu,
+            float_controls,
+            float_controls_declared: declared,
+            float_modes: None,
+            kernels,
+            kernel_module,
+            pipelines: STAGES.iter().map(|_| None).collect(),
+            fragments: Vec::new(),
+            shading: Vec::new(),
+            buffers,
+            recorder: Recorder::default(),
+            timestamps,
+        })
     }
 
     /// The first `bytes` of `source`, copied out through a buffer the host maps.
@@ -238,6 +285,8 @@ impl GpuContext {
         encoder.copy_buffer_to_buffer(source, 0, &readback, 0, size);
         let mut out = Vec::new();
         let scope = self.gpu.error_scope();
+        self.recorder.submit();
+        self.recorder.wait(size);
         let read = self.gpu.submit_and_read(encoder, &readback, size, |b| out.extend_from_slice(&b[..bytes as usize]));
         match (scope.finish(), read) {
             (Some(e), _) | (None, Err(e)) => Err(Error::Gpu(format!("reading a stage buffer back: {e}"))),
@@ -249,7 +298,8 @@ impl GpuContext {
     /// `tiles` tiles, as the stages left them.
     fn read_stage_buffers(&mut self, triangles: u64, tiles: u64, setups: &wgpu::Buffer) -> Result<StageBuffers, Error> {
         let device = &self.gpu.device;
-        let (counts, offsets, bins) = (self.buffers.counts.get(device, tiles * 4), self.buffers.offsets.get(device, (tiles + 1) * 4), self.buffers.bins.get(device, 0));
+        let (counts, offsets, bins) =
+            (self.buffers.counts.get(device, tiles * 4), self.buffers.offsets.get(device, (tiles + 1) * 4), self.buffers.bins.get(device, 0));
         let words = |bytes: Vec<u8>| -> Vec<u32> { bytemuck::pod_collect_to_vec(&bytes) };
         let offsets = words(self.read_buffer(&offsets, (tiles + 1) * 4)?);
         let entries = offsets[tiles as usize] as u64;
@@ -321,18 +371,19 @@ impl GpuContext {
         raster: &mut Raster,
         counters: &mut [u64; Counter::COUNT],
     ) -> Result<(), Error> {
+        self.build_rows(prepared.pipeline())?;
         let max_pixels = self.max_window_pixels(prepared);
         let whole = self.scene_fits(prepared, prepared.triangles.len() as u64);
         if whole && resident.is_none() {
             *resident = Some(self.upload_and_setup(prepared, None)?);
         }
-        let fragment = match prepared.render.as_ref().and_then(|r| r.fragment.as_ref()) {
-            Some(stage) => Some(self.fragment_pipelines(stage)?),
+        let fragment = match prepared.render.as_ref() {
+            Some(r) => Some(self.shading_pipelines(r.fragment.as_ref(), &r.params)?),
             None => None,
         };
         let shade_params = prepared.render.as_ref().map(|s| {
             let buf = self.buffers.shade_params.get(&self.gpu.device, std::mem::size_of::<ShadeParams>() as u64);
-            self.gpu.queue.write_buffer(&buf, 0, bytemuck::bytes_of(&s.params));
+            self.recorder.upload(&self.gpu.queue, &buf, bytemuck::bytes_of(&s.params));
             buf
         });
         // The frame's textures, once for all its windows (bindings hold at least one element).
@@ -342,10 +393,13 @@ impl GpuContext {
                 if texel_bytes > self.max_binding() {
                     return Err(Error::TexturesTooLarge { bytes: texel_bytes, limit: self.max_binding() });
                 }
-                let infos = self.buffers.textures.get(&self.gpu.device, (std::mem::size_of_val(s.textures.as_slice()) as u64).max(std::mem::size_of::<TextureInfo>() as u64));
-                self.gpu.queue.write_buffer(&infos, 0, bytemuck::cast_slice(&s.textures));
+                let infos = self
+                    .buffers
+                    .textures
+                    .get(&self.gpu.device, (std::mem::size_of_val(s.textures.as_slice()) as u64).max(std::mem::size_of::<TextureInfo>() as u64));
+                self.recorder.upload(&self.gpu.queue, &infos, bytemuck::cast_slice(&s.textures));
                 let texels = self.buffers.texels.get(&self.gpu.device, texel_bytes);
-                self.gpu.queue.write_buffer(&texels, 0, bytemuck::cast_slice(&s.texels));
+                self.recorder.upload(&self.gpu.queue, &texels, bytemuck::cast_slice(&s.texels));
                 Some((infos, texels))
             }
             None => None,
@@ -354,7 +408,7 @@ impl GpuContext {
         let listed_buf = whole.then(|| {
             let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
             let buf = self.buffers.listed.get(&self.gpu.device, listed.len() as u64);
-            self.gpu.queue.write_buffer(&buf, 0, listed);
+            self.recorder.upload(&self.gpu.queue, &buf, listed);
             buf
         });
         let mut pending = windows(&active, max_pixels);
@@ -367,7 +421,9 @@ impl GpuContext {
                 let slots = plan.listed_reaching(prepared, window);
                 if !self.scene_fits(prepared, slots.len() as u64) {
                     let bytes = slots.len() as u64 * scene_bytes_per_triangle(prepared);
-                    split(&mut pending, window, || format!("{} triangles reach it, {bytes} bytes of setup, more than the GPU binds at once ({} bytes)", slots.len(), self.max_binding()))?;
+                    split(&mut pending, window, || {
+                        format!("{} triangles reach it, {bytes} bytes of setup, more than the GPU binds at once ({} bytes)", slots.len(), self.max_binding())
+                    })?;
                     continue;
                 }
                 Some(slots)
@@ -382,16 +438,30 @@ impl GpuContext {
             let window_counters = match &part {
                 None => {
                     let r = resident.as_ref().expect("a whole scene is set up before its windows");
-                    let scene = SceneBuffers { pipeline: prepared.pipeline(), fragment, setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
+                    let scene = SceneBuffers {
+                        pipeline: prepared.pipeline(),
+                        fragment,
+                        setups: &r.setups,
+                        shading: r.shading.as_ref(),
+                        shade_params: shade_params.as_ref(),
+                        materials: materials.as_ref(),
+                    };
                     self.rasterise_window(&frame, entries, &scene, listed_buf.as_ref().expect("listed with the whole scene"), None, raster)?
                 }
                 Some(slots) => {
                     let r = self.upload_and_setup(prepared, Some(slots))?;
-                    let scene = SceneBuffers { pipeline: prepared.pipeline(), fragment, setups: &r.setups, shading: r.shading.as_ref(), shade_params: shade_params.as_ref(), materials: materials.as_ref() };
+                    let scene = SceneBuffers {
+                        pipeline: prepared.pipeline(),
+                        fragment,
+                        setups: &r.setups,
+                        shading: r.shading.as_ref(),
+                        shade_params: shade_params.as_ref(),
+                        materials: materials.as_ref(),
+                    };
                     // The part's setups are its own slots 0, 1, ...: the binning stages take them all.
                     let local: Vec<u32> = (0..slots.len() as u32).collect();
                     let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
-                    self.gpu.queue.write_buffer(&listed_buf, 0, bytemuck::cast_slice(&local));
+                    self.recorder.upload(&self.gpu.queue, &listed_buf, bytemuck::cast_slice(&local));
                     let owners = prepared.pipeline().renders().then_some(slots.as_slice());
                     self.rasterise_window(&frame, entries, &scene, &listed_buf, owners, raster)?
                 }
@@ -412,63 +482,112 @@ impl GpuContext {
         (x, y)
     }
 
-    /// The index in `self.fragments` of fragment shader `stage`'s pipelines, built from its
-    /// module on first use, once the module has passed `tileraster-build`'s checks again (the
-    /// bytes are handed to the driver unvalidated).
-    fn fragment_pipelines(&mut self, stage: &FragmentStage) -> Result<usize, Error> {
-        if let Some(k) = self.fragments.iter().position(|f| f.stage == *stage) {
+    /// Build the pipelines of `pipeline`'s rows that do not colour fragments and are not built
+    /// yet.
+    fn build_rows(&mut self, pipeline: Pipeline) -> Result<(), Error> {
+        let scope = self.gpu.error_scope();
+        for (k, info) in STAGES.iter().enumerate() {
+            if info.runs_in(pipeline) && !info.stage.colours_fragments() && self.pipelines[k].is_none() {
+                self.pipelines[k] = Some(stage_pipeline(&self.gpu.device, &self.kernel_module, info));
+            }
+        }
+        match scope.finish() {
+            Some(e) => Err(Error::Gpu(format!("the kernels were rejected by the device: {e}"))),
+            None => Ok(()),
+        }
+    }
+
+    /// The index in `self.fragments` of fragment shader `stage`, its module checked on first
+    /// use by `tileraster-build`'s checks again (the bytes are handed to the driver unvalidated).
+    fn fragment_index(&mut self, stage: &FragmentStage) -> Result<usize, Error> {
+        if let Some(k) = self.fragments.iter().position(|f| f == stage) {
             return Ok(k);
         }
         let module = stage.module(self.float_controls_declared);
         tileraster_build::check::fragment_module(module).map_err(|problems| Error::FragmentShader { name: stage.name().into(), problems })?;
-        let scope = self.gpu.error_scope();
-        let label = format!("fragment shader {}", stage.name());
-        let pipelines = stage_pipelines(&self.gpu.device, &label, module, |info| info.stage.colours_fragments());
-        if let Some(e) = scope.finish() {
-            return Err(Error::Gpu(format!("the {label} was rejected by the device: {e}")));
-        }
-        self.fragments.push(FragmentPipelines { stage: *stage, pipelines });
+        self.fragments.push(*stage);
         Ok(self.fragments.len() - 1)
+    }
+
+    /// The index in `self.shading` of the pipelines that colour a frame of shade parameters
+    /// `params`, from fragment shader `fragment` (the built-in shadings without one),
+    /// specialised for the frame's variant: built on first use.
+    fn shading_pipelines(&mut self, fragment: Option<&FragmentStage>, params: &ShadeParams) -> Result<usize, Error> {
+        let fragment = fragment.map(|stage| self.fragment_index(stage)).transpose()?;
+        let variant = if ShadeVariant::holds(params) { ShadeVariant::of(params) } else { ShadeVariant::GENERIC };
+        if let Some(k) = self.shading.iter().position(|p| p.fragment == fragment && p.variant == variant) {
+            return Ok(k);
+        }
+        let (module, label) = match fragment {
+            Some(f) => (self.fragments[f].module(self.float_controls_declared), format!("fragment shader {}", self.fragments[f].name())),
+            None => (self.kernels, "built-in shadings".to_string()),
+        };
+        let scope = self.gpu.error_scope();
+        let pipelines = stage_pipelines(&self.gpu.device, &label, module, Some(variant), |info| info.stage.colours_fragments());
+        if let Some(e) = scope.finish() {
+            return Err(Error::Gpu(format!("the {label} were rejected by the device: {e}")));
+        }
+        self.shading.push(ShadingPipelines { fragment, variant, pipelines });
+        Ok(self.shading.len() - 1)
     }
 
     /// Record the stages of `scope`, in the stage table's order, each with its bindings looked
     /// up by role in `buffers` and its workgroups by its dispatch shape; the stages that colour
-    /// fragments from fragment shader `fragment` where one is given.
+    /// fragments from `self.shading[shading]`.
     #[allow(clippy::too_many_arguments)]
     fn encode_stages(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         pipeline: Pipeline,
-        fragment: Option<usize>,
+        shading: Option<usize>,
         scope: Scope,
         frame: &FrameParams,
         triangle_groups: (u32, u32),
         buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
     ) -> Result<(), Error> {
-        for (k, info) in STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline)) {
-            let stage = match fragment {
-                Some(f) if info.stage.colours_fragments() => self.fragments[f].pipelines[k].as_ref().expect("a fragment shader has every row that colours fragments"),
-                _ => &self.pipelines[k],
-            };
-            let bound: Vec<wgpu::Buffer> = info
-                .bindings
-                .iter()
-                .map(|b| buffers(b.buffer).ok_or_else(|| Error::Gpu(format!("stage {} binds {:?}, which its scope has not", info.name, b.buffer))))
-                .collect::<Result<_, _>>()?;
-            let entries: Vec<wgpu::BindGroupEntry> =
-                bound.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
-            let bind = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(info.name), layout: &stage.layout, entries: &entries });
-            let (x, y) = match info.dispatch {
-                Dispatch::PerTriangle | Dispatch::PerTrianglePart => triangle_groups,
-                Dispatch::Single => (1, 1),
-                Dispatch::PerTile => (frame.tiles_x, frame.tiles_y),
-            };
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(info.name), timestamp_writes: None });
-            pass.set_pipeline(&stage.pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(x, y, 1);
+        let rows: Vec<(usize, &StageInfo)> = STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline)).collect();
+        let record = |encoder: &mut wgpu::CommandEncoder, queries: Option<&wgpu::QuerySet>| -> Result<(), Error> {
+            for (n, &(k, info)) in rows.iter().enumerate() {
+                let stage = match (info.stage.colours_fragments(), shading) {
+                    (true, Some(f)) => self.shading[f].pipelines[k].as_ref(),
+                    (true, None) => None,
+                    (false, _) => self.pipelines[k].as_ref(),
+                }
+                .ok_or_else(|| Error::Gpu(format!("stage {} has no pipeline for this frame", info.name)))?;
+                let bound: Vec<wgpu::Buffer> = info
+                    .bindings
+                    .iter()
+                    .map(|b| buffers(b.buffer).ok_or_else(|| Error::Gpu(format!("stage {} binds {:?}, which its scope has not", info.name, b.buffer))))
+                    .collect::<Result<_, _>>()?;
+                let entries: Vec<wgpu::BindGroupEntry> =
+                    bound.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
+                let bind = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(info.name), layout: &stage.layout, entries: &entries });
+                let (x, y) = match info.dispatch {
+                    Dispatch::PerTriangle | Dispatch::PerTrianglePart => triangle_groups,
+                    Dispatch::Single => (1, 1),
+                    Dispatch::PerTile => (frame.tiles_x, frame.tiles_y),
+                };
+                let timestamp_writes = queries.map(|query_set| wgpu::ComputePassTimestampWrites {
+                    query_set,
+                    beginning_of_pass_write_index: Some(2 * n as u32),
+                    end_of_pass_write_index: Some(2 * n as u32 + 1),
+                });
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(info.name), timestamp_writes });
+                pass.set_pipeline(&stage.pipeline);
+                pass.set_bind_group(0, &bind, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+                self.recorder.dispatch();
+            }
+            Ok(())
+        };
+        if self.recorder.timing() && !rows.is_empty() {
+            let mut recorded = Ok(());
+            let stages = rows.iter().map(|(_, info)| info.stage).collect();
+            self.recorder.time_passes(&self.gpu.device, encoder, stages, |encoder, queries| recorded = record(encoder, Some(queries)));
+            recorded
+        } else {
+            record(encoder, None)
         }
-        Ok(())
     }
 
     /// Upload the prepared triangles (all of them, or the setup slots `part` lists, which then
@@ -483,10 +602,14 @@ impl GpuContext {
         let n = part.map_or(prepared.triangles.len(), <[u32]>::len) as u64;
         let renumber = prepared.pipeline().renders();
         let inputs_part: Option<Vec<TriangleInput>> = part.map(|slots| {
-            slots.par_iter().enumerate().map(|(k, &s)| {
-                let t = prepared.triangles[s as usize];
-                TriangleInput { index: if renumber { k as u32 } else { t.index }, ..t }
-            }).collect()
+            slots
+                .par_iter()
+                .enumerate()
+                .map(|(k, &s)| {
+                    let t = prepared.triangles[s as usize];
+                    TriangleInput { index: if renumber { k as u32 } else { t.index }, ..t }
+                })
+                .collect()
         });
         let shading_part: Option<Vec<TriangleShading>> =
             part.zip(prepared.render.as_ref()).map(|(slots, r)| slots.par_iter().map(|&s| r.triangles[s as usize]).collect());
@@ -494,7 +617,7 @@ impl GpuContext {
         let groups = Self::dispatch_triangles(&mut frame, n as u32);
         let device = &self.gpu.device;
         let frame_buf = self.buffers.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
-        self.gpu.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
+        self.recorder.upload(&self.gpu.queue, &frame_buf, bytemuck::bytes_of(&frame));
         // Bindings must hold at least one element. The inputs are dropped once set up.
         let slots = n.max(1);
         let storage = |label, bytes| {
@@ -507,11 +630,11 @@ impl GpuContext {
             })
         };
         let inputs = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
-        self.gpu.queue.write_buffer(&inputs, 0, bytemuck::cast_slice(inputs_part.as_deref().unwrap_or(&prepared.triangles)));
+        self.recorder.upload(&self.gpu.queue, &inputs, bytemuck::cast_slice(inputs_part.as_deref().unwrap_or(&prepared.triangles)));
         let setups = storage("triangle setups", slots * std::mem::size_of::<TriangleSetup>() as u64);
         let shading = prepared.render.as_ref().map(|s| {
             let buf = storage("triangle shading", slots * std::mem::size_of::<TriangleShading>() as u64);
-            self.gpu.queue.write_buffer(&buf, 0, bytemuck::cast_slice(shading_part.as_deref().unwrap_or(&s.triangles)));
+            self.recorder.upload(&self.gpu.queue, &buf, bytemuck::cast_slice(shading_part.as_deref().unwrap_or(&s.triangles)));
             buf
         });
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -522,6 +645,7 @@ impl GpuContext {
             _ => None,
         };
         self.encode_stages(&mut encoder, prepared.pipeline(), None, Scope::Scene, &frame, groups, &buffers)?;
+        self.recorder.submit();
         self.gpu.queue.submit([encoder.finish()]);
         Ok(Resident { setups, shading })
     }
@@ -550,7 +674,7 @@ impl GpuContext {
         let device = &self.gpu.device;
         let b = &mut self.buffers;
         let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
-        self.gpu.queue.write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
+        self.recorder.upload(&self.gpu.queue, &frame_buf, bytemuck::bytes_of(&frame));
         let counts = b.counts.get(device, tiles * 4);
         let cursors = b.cursors.get(device, tiles * 4);
         let offsets = b.offsets.get(device, (tiles + 1) * 4);
@@ -608,6 +732,9 @@ impl GpuContext {
         encoder.copy_buffer_to_buffer(&faces, 0, &readback, shaded_at + shaded_bytes, shaded_bytes);
         encoder.copy_buffer_to_buffer(&tile_stats, 0, &readback, shaded_at + 2 * shaded_bytes, tile_bytes);
         let total = shaded_at + 2 * shaded_bytes + tile_bytes;
+        self.recorder.window();
+        self.recorder.submit();
+        self.recorder.wait(total);
         self.gpu
             .submit_and_read(encoder, &readback, total, |bytes| {
                 let words: &[u32] = bytemuck::cast_slice(bytes);
@@ -655,7 +782,7 @@ impl GpuContext {
 /// A scene's buffers on the device, as one window's dispatches bind them.
 struct SceneBuffers<'a> {
     pipeline: Pipeline,
-    /// The frame's fragment shader (an index into `GpuContext::fragments`).
+    /// The frame's shading pipelines (an index into `GpuContext::shading`).
     fragment: Option<usize>,
     setups: &'a wgpu::Buffer,
     /// The render pipeline's: per-triangle attributes, and the frame's shade parameters.
@@ -672,10 +799,7 @@ fn copy_rows(src: &[u32], frame: &FrameParams, width: u32, x0: u32, y0: u32, dst
     let w = frame.win_w as usize;
     let x = (frame.win_x0 - x0) as usize;
     let first_row = (frame.win_y0 - y0) as usize;
-    dst.par_chunks_mut(width as usize)
-        .skip(first_row)
-        .zip(src.par_chunks(w))
-        .for_each(|(row, window_row)| row[x..x + w].copy_from_slice(window_row));
+    dst.par_chunks_mut(width as usize).skip(first_row).zip(src.par_chunks(w)).for_each(|(row, window_row)| row[x..x + w].copy_from_slice(window_row));
 }
 
 /// Copy a window's tile statistics (two words a tile) into the raster's, whose tiles the
@@ -695,8 +819,37 @@ fn copy_tile_rows(src: &[u32], frame: &FrameParams, window: &tileraster_core::Wi
 /// buffers, as the table says) over one passthrough module (`module`: the kernels, or a
 /// fragment shader's), so the driver receives rust-gpu's SPIR-V with its `NoContraction`
 /// decorations and float controls intact.
-fn stage_pipelines(device: &wgpu::Device, label: &str, module: &[u8], rows: impl Fn(&StageInfo) -> bool) -> Vec<Option<StagePipeline>> {
-    let words = wgpu::util::make_spirv_raw(module);
+///
+/// With a `variant`, the module's shading entry points are specialised for it first
+/// (`crate::specialise`): the driver then compiles only the branches that variant takes.
+fn stage_pipelines(
+    device: &wgpu::Device,
+    label: &str,
+    module: &[u8],
+    variant: Option<ShadeVariant>,
+    rows: impl Fn(&StageInfo) -> bool + Copy,
+) -> Vec<Option<StagePipeline>> {
+    let module = passthrough_module(device, label, module, variant, rows);
+    STAGES.iter().map(|info| rows(info).then(|| stage_pipeline(device, &module, info))).collect()
+}
+
+/// `module` as the driver gets it, with the entry points of the rows `rows` picks (specialised
+/// for `variant` where given, see [`stage_pipelines`]).
+fn passthrough_module(
+    device: &wgpu::Device,
+    label: &str,
+    module: &[u8],
+    variant: Option<ShadeVariant>,
+    rows: impl Fn(&StageInfo) -> bool,
+) -> wgpu::ShaderModule {
+    let mut words = wgpu::util::make_spirv_raw(module);
+    if let Some(variant) = variant {
+        // A module without the constant (or not SPIR-V) is left as it is: the device's own
+        // validation reports what is wrong with it.
+        if let Ok((specialised, _)) = crate::specialise::specialise(&words, ShadeVariant::SPEC_ID, variant.0) {
+            words = specialised.into();
+        }
+    }
     let entry_points: Vec<wgpu::PassthroughShaderEntryPoint> = STAGES
         .iter()
         .filter(|s| rows(s))
@@ -706,16 +859,16 @@ fn stage_pipelines(device: &wgpu::Device, label: &str, module: &[u8], rows: impl
     // `tests/spirv.rs` checks that every entry point binds exactly what its row of the stage
     // table (and so the layout below) says, with the table's workgroup size; a fragment
     // shader's entry points are the same source (`shading_entry_points!`), validated when its
-    // crate was built, and `fragment_pipelines` checks its bindings against the table again.
-    let module = unsafe {
+    // crate was built, and `fragment_index` checks its bindings against the table again.
+    // Specialising changes the values of the variant's constants and nothing else.
+    unsafe {
         device.create_shader_module_passthrough(wgpu::ShaderModuleDescriptorPassthrough {
             label: Some(label),
             entry_points: entry_points.into(),
             spirv: Some(words),
             ..Default::default()
         })
-    };
-    STAGES.iter().map(|info| rows(info).then(|| stage_pipeline(device, &module, info))).collect()
+    }
 }
 
 fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &StageInfo) -> StagePipeline {
@@ -735,11 +888,8 @@ fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &Sta
         })
         .collect();
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(info.name), entries: &entries });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(info.name),
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
+    let pipeline_layout =
+        device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(info.name), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(info.name),
         layout: Some(&pipeline_layout),

@@ -12,11 +12,16 @@ pub struct Gpu {
 }
 
 impl Gpu {
-    /// Open the Vulkan adapter `choose` picks, with `features` and the adapter's own limits (not
-    /// wgpu's conservative defaults: large rasters need them). Returns the adapter too, for what
+    /// Open the Vulkan adapter `choose` picks, with `features`, those of `optional` it has, and
+    /// the adapter's own limits (not wgpu's conservative defaults: large rasters need them). Returns the adapter too, for what
     /// wgpu reads only from it. Uncaptured errors are printed with `label`, never panicked on:
     /// callers collect errors with [`Gpu::error_scope`].
-    pub fn open(label: &str, features: wgpu::Features, choose: impl FnOnce(Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>) -> Result<(Gpu, wgpu::Adapter), String> {
+    pub fn open(
+        label: &str,
+        features: wgpu::Features,
+        optional: wgpu::Features,
+        choose: impl FnOnce(Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>,
+    ) -> Result<(Gpu, wgpu::Adapter), String> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::VULKAN;
         let instance = wgpu::Instance::new(desc);
@@ -24,7 +29,7 @@ impl Gpu {
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some(label),
-            required_features: features,
+            required_features: features | (adapter.features() & optional),
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -69,9 +74,7 @@ impl Gpu {
             let _ = tx.send(r);
         });
         self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("waiting for the GPU failed: {e}"))?;
-        rx.recv()
-            .map_err(|_| "the readback was dropped".to_string())?
-            .map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
+        rx.recv().map_err(|_| "the readback was dropped".to_string())?.map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
         {
             let view = slice.get_mapped_range().map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
             read(&view);
@@ -125,7 +128,8 @@ impl Grown {
         if self.buffer.as_ref().is_none_or(|b| b.size() < bytes) {
             // Drop the old one first so both never hold memory at once.
             self.buffer = None;
-            self.buffer = Some(device.create_buffer(&wgpu::BufferDescriptor { label: Some(self.label), size: bytes, usage: self.usage, mapped_at_creation: false }));
+            self.buffer =
+                Some(device.create_buffer(&wgpu::BufferDescriptor { label: Some(self.label), size: bytes, usage: self.usage, mapped_at_creation: false }));
         }
         self.buffer.clone().expect("just created")
     }

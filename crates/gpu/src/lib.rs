@@ -8,9 +8,13 @@
 mod context;
 pub mod device;
 mod float_controls;
+mod profile;
+mod specialise;
+pub mod survey;
 
-pub use context::{adapter, rasterise, rasterise_planned, set_binding_limit, set_window_limit, stage_buffers, Adapter, Resident};
-pub use float_controls::{f32_probe, FloatControls};
+pub use context::{Adapter, Resident, adapter, rasterise, rasterise_planned, rasterise_profiled, set_binding_limit, set_window_limit, stage_buffers};
+pub use float_controls::{FloatControls, f32_probe};
+pub use profile::CallProfile;
 
 /// The kernels as compiled by rust-gpu, every float arithmetic result marked `NoContraction`
 /// (see `build.rs`).

@@ -49,7 +49,13 @@ pub(crate) fn mesh_pipeline(
 
 /// A render pass clearing `colour` to `clear` and, where given, `depth` to 1 (the depth is not
 /// kept): how the peers draw a frame.
-pub(crate) fn begin_pass<'e>(encoder: &'e mut wgpu::CommandEncoder, label: &str, colour: &wgpu::TextureView, clear: wgpu::Color, depth: Option<&wgpu::TextureView>) -> wgpu::RenderPass<'e> {
+pub(crate) fn begin_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    colour: &wgpu::TextureView,
+    clear: wgpu::Color,
+    depth: Option<&wgpu::TextureView>,
+) -> wgpu::RenderPass<'e> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -95,11 +101,21 @@ fn padded_row(width: u32) -> u64 {
 
 /// Copy `target` (4-byte texels, `width × height`) into `readback` after what `encoder`
 /// recorded, submit, and return its texels row by row, the rows' padding dropped.
-pub(crate) fn read_target<T: bytemuck::Pod>(gpu: &Gpu, mut encoder: wgpu::CommandEncoder, target: &wgpu::Texture, readback: &wgpu::Buffer, width: u32, height: u32) -> Result<Vec<T>, String> {
+pub(crate) fn read_target<T: bytemuck::Pod>(
+    gpu: &Gpu,
+    mut encoder: wgpu::CommandEncoder,
+    target: &wgpu::Texture,
+    readback: &wgpu::Buffer,
+    width: u32,
+    height: u32,
+) -> Result<Vec<T>, String> {
     let padded = padded_row(width);
     encoder.copy_texture_to_buffer(
         wgpu::TexelCopyTextureInfo { texture: target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-        wgpu::TexelCopyBufferInfo { buffer: readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded as u32), rows_per_image: Some(height) } },
+        wgpu::TexelCopyBufferInfo {
+            buffer: readback,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded as u32), rows_per_image: Some(height) },
+        },
         wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
     );
     let mut out = Vec::with_capacity(width as usize * height as usize);
@@ -119,5 +135,5 @@ pub(crate) fn open(label: &str) -> Result<Gpu, String> {
         let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
         adapters.into_iter().find(|a| a.get_info().name == name).ok_or_else(|| format!("tileraster's adapter {name:?} is not among {seen:?}"))
     };
-    Gpu::open(label, wgpu::Features::empty(), choose).map(|(gpu, _)| gpu)
+    Gpu::open(label, wgpu::Features::empty(), wgpu::Features::empty(), choose).map(|(gpu, _)| gpu)
 }

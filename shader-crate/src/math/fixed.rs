@@ -12,18 +12,12 @@ pub fn ceil_shr(v: i64, s: u32) -> i64 {
     -((-v) >> s)
 }
 
-/// Index of the highest set bit of `v` (`v != 0`), without relying on a device `clz`.
+/// Index of the highest set bit of `v` (`v != 0`), from 32-bit bit searches (`FindUMsb` in
+/// SPIR-V: exact on every device, and one instruction where a loop would be six branches).
+#[inline]
 pub fn msb(v: u64) -> u32 {
-    // Binary search: halve the window while its upper half holds a set bit.
-    let (mut x, mut n, mut step) = (v, 0, 32);
-    while step > 0 {
-        if x >> step != 0 {
-            x >>= step;
-            n += step;
-        }
-        step >>= 1;
-    }
-    n
+    let (hi, lo) = ((v >> 32) as u32, v as u32);
+    if hi != 0 { 63 - hi.leading_zeros() } else { 31 - lo.leading_zeros() }
 }
 
 /// `round(m / 2^s)` to nearest, ties to even, for any `s` (large shifts round to 0).
@@ -67,6 +61,43 @@ pub fn fixed_to_f32_bits(n: i64, frac_bits: i32) -> u32 {
 #[inline]
 pub fn converts_natively(frac_bits: i32) -> bool {
     (-127..=126).contains(&frac_bits)
+}
+
+/// `n` rounded to the nearest `f32`, ties to even: the conversion of the paths that compute in
+/// `f32` anyway (barycentric weights, depth, shading). The exact height mode, which promises no
+/// float operation, converts with [`fixed_to_f32_bits`] instead.
+///
+/// Natively this is Rust's own conversion, correctly rounded; the SPIR-V build takes
+/// [`i64_to_f32_portable`], a few 32-bit operations where the bit-by-bit conversion is a loop
+/// of 64-bit ones.
+#[inline]
+pub fn i64_to_f32(n: i64) -> f32 {
+    #[cfg(not(target_arch = "spirv"))]
+    return n as f32;
+    #[cfg(target_arch = "spirv")]
+    i64_to_f32_portable(n)
+}
+
+/// [`i64_to_f32`] with no branch (a SIMD lane computes every branch, taken or not):
+///
+/// 1. The magnitude `m` is cut to at most 48 significant bits, `m' = ⌊m / 2^s⌋` with the cut
+///    bits' OR kept in its last bit (rounding to odd). Rounding `m'` to 24 bits then gives the
+///    same result as rounding `m` (round-to-odd with two or more spare bits is innocuous before
+///    round-to-nearest).
+/// 2. `m' = hi · 2^24 + lo` with `hi`, `lo < 2^24`: both convert exactly on any device, the
+///    product by `2^24` is exact, and the one addition rounds once, to nearest even (fused
+///    with the product or not: the product is exact either way).
+/// 3. Scaling by `2^s` and the sign are exact.
+#[inline]
+pub fn i64_to_f32_portable(n: i64) -> f32 {
+    let m = n.unsigned_abs();
+    // The highest set bit of the upper half (−1 for none) gives the cut: at most 15 bits.
+    let top = 31 - ((m >> 32) as u32).leading_zeros() as i32;
+    let s = (top + 32 - 47).max(0) as u32;
+    let kept = (m >> s) | (m & ((1u64 << s) - 1) != 0) as u64;
+    let (hi, lo) = ((kept >> 24) as u32, (kept & 0x00ff_ffff) as u32);
+    let magnitude = (hi as f32 * 16_777_216.0 + lo as f32) * f32::from_bits((127 + s) << 23);
+    if n < 0 { -magnitude } else { magnitude }
 }
 
 /// [`fixed_to_f32_bits`] with integer operations only.
@@ -131,6 +162,24 @@ mod tests {
         for (path, got) in [("native", fixed_to_f32_bits(n, f)), ("by hand", fixed_to_f32_bits_by_hand(n, f))] {
             let got = f32::from_bits(got);
             assert_eq!(got.to_bits(), want.to_bits(), "{path}: n={n} f={f}: got {got:e}, want {want:e}");
+        }
+    }
+
+    #[test]
+    fn the_portable_conversion_is_rusts() {
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let check = |n: i64| assert_eq!(i64_to_f32_portable(n).to_bits(), (n as f32).to_bits(), "{n}");
+        for n in [0, 1, -1, (1 << 24) + 1, -(1 << 24) - 1, (1 << 48) - 1, 1 << 48, -(1 << 48), 1 - (1 << 48), i64::MAX, i64::MIN] {
+            check(n);
+        }
+        for _ in 0..1_000_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            // Every magnitude, and halfway cases: a tie sits just below each shift.
+            let n = (s as i64) >> (s % 63);
+            check(n);
+            check(n & !0x7f | 0x80);
         }
     }
 

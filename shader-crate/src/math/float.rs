@@ -1,10 +1,17 @@
-//! Correctly rounded `f32` division and square root in integer arithmetic.
+//! Correctly rounded `f32` division and square root that every device computes alike.
 //!
 //! Vulkan lets `OpFDiv` be off by 2.5 ulp and `sqrt` by 3 ulp, differently on every driver, so
-//! the kernels never use them where bits must match. These functions compute the exact
-//! quotient or root of the significands with integer division and shifts (exact on every
-//! device) and round it to nearest, ties to even, as IEEE 754 does: on the CPU they give
-//! exactly `a / b` and `x.sqrt()`, which the tests check.
+//! the kernels never use them where bits must match. Each function here estimates its result
+//! with a few `f32` multiplications and subtractions (a Newton iteration from a bit-pattern
+//! guess), then settles the last bit with integers: the estimate's significand `Q` is the
+//! correctly rounded one exactly when the true result lies within half a unit of it, which one
+//! 64-bit product of 25- and 24-bit integers decides with no rounding at all. The estimate is
+//! moved a unit at a time until that holds. So the result does not depend on how the device
+//! rounds, fuses or flushes the estimate's arithmetic: any estimate within a few units gives
+//! the same bits, those IEEE 754 round-to-nearest-even gives, as the tests check against the
+//! CPU's own operations. On a GPU this is a handful of 32-bit operations and one 64-bit multiply
+//! per correction step, where a 64-bit integer division or a digit-by-digit root is a long
+//! emulated loop.
 //!
 //! Domain: positive, normal, finite operands, and results in the normal range (what the render
 //! pipeline feeds them: sums of positive weights, squared lengths). Outside it they return
@@ -12,8 +19,8 @@
 //!
 //! Natively the CPU's own division and square root give the same bits faster wherever the
 //! operands and the result are in that domain: IEEE 754 rounds them correctly too (Rust
-//! guarantees it), and a correctly rounded result is unique. The SPIR-V build always computes
-//! by hand; the tests hold the by-hand versions to the CPU's operations.
+//! guarantees it), and a correctly rounded result is unique. The SPIR-V build always takes the
+//! portable path; the tests hold it to the CPU's operations.
 
 /// The significand with its implicit bit (24 bits) and the biased exponent of a positive
 /// normal `f32`.
@@ -53,30 +60,85 @@ pub fn div(a: f32, b: f32) -> f32 {
             return q;
         }
     }
-    div_by_hand(a, b)
+    div_portable(a, b)
 }
 
-/// [`div`] with integer operations only.
+/// Most unit steps a correction takes: the estimates are within three units (the tests
+/// measure every significand), and the steps beyond only cost where a device's arithmetic
+/// makes an estimate worse than that.
+const MAX_STEPS: u32 = 8;
+
+/// The significand of `x` in `[1, 2)` as an `f32` (its exponent bits replaced by the bias).
 #[inline]
-pub fn div_by_hand(a: f32, b: f32) -> f32 {
+fn unit_significand(bits: u32) -> f32 {
+    f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000)
+}
+
+/// A positive `f32` estimate `x` in `[2^-2, 2^2)` as an integer `X` with `x ≈ X · 2^−shift`
+/// (its significand shifted by its exponent: exact where `x` has no bits below `2^−shift`,
+/// truncated otherwise, which the correction that follows tolerates).
+#[inline]
+fn scaled_estimate(x: f32, shift: u32) -> u64 {
+    let bits = x.to_bits();
+    let m = ((bits & 0x007f_ffff) | 0x0080_0000) as u64;
+    // x = m · 2^(e − 150): scale by 2^shift.
+    let k = (bits >> 23) as i32 - 150 + shift as i32;
+    if k >= 0 { m << k as u32 } else { m >> (-k) as u32 }
+}
+
+/// [`div`] on every device alike: an `f32` estimate of the significands' quotient, then its
+/// last bit settled in integers.
+#[inline]
+pub fn div_portable(a: f32, b: f32) -> f32 {
     let (ab, bb) = (a.to_bits(), b.to_bits());
     if !normal(ab) || !normal(bb) {
         return if ab == 0 { 0.0 } else { f32::from_bits(0x7f80_0000) };
     }
     let (ma, ea) = parts(ab);
     let (mb, eb) = parts(bb);
-    // ma / mb lies in (1/2, 2): 40 fraction bits give a quotient of 40 or 41 bits, 16 or 17
-    // more than the 24 kept, and the remainder says whether anything is left beyond them.
-    let num = ma << 40;
-    let q = num / mb;
-    let sticky = num - q * mb != 0;
-    let top: u32 = if q >> 40 != 0 { 40 } else { 39 };
-    let shift = top - 23;
-    let kept = q >> shift;
-    let rest = q & ((1u64 << shift) - 1);
-    let half = 1u64 << (shift - 1);
-    let up = rest > half || (rest == half && (sticky || kept & 1 == 1));
-    assemble(kept + up as u64, ea - eb + 127 + top as i32 - 40)
+    // The quotient of the significands lies in (1/2, 2). Its correctly rounded significand Q
+    // has 24 bits: Q = RN(n / mb) with n = ma·2^23 where ma ≥ mb (quotient in [1, 2)), else
+    // ma·2^24 (quotient in (1/2, 1)).
+    let shift: u32 = if ma >= mb { 23 } else { 24 };
+    let n = ma << shift;
+    let q = settle(quotient_estimate(ab, bb, shift), |q| 2 * q + 1, |t| t * mb, 2 * n);
+    assemble(q, ea - eb + 127 + 23 - shift as i32)
+}
+
+/// The quotient of the significands of `a` and `b` (bits), times `2^shift`, estimated in
+/// `f32`: `1/b'` for `b'` in `[1, 2)` from a bit-pattern guess (within 1/8) and three Newton
+/// steps, times `a'`.
+#[inline]
+fn quotient_estimate(ab: u32, bb: u32, shift: u32) -> u64 {
+    let (fa, fb) = (unit_significand(ab), unit_significand(bb));
+    let mut r = f32::from_bits(0x7ef3_11c3 - fb.to_bits());
+    let mut k = 0;
+    while k < 3 {
+        r = r * (2.0 - fb * r);
+        k += 1;
+    }
+    scaled_estimate(fa * r, shift)
+}
+
+/// The `Q` near the estimate `q` whose half-unit interval holds the exact result: `2·Q + 1`
+/// scaled by `scale` (`t ↦ t · divisor`, or `t ↦ t²`) brackets `target` (twice the dividend,
+/// or four times the radicand) from above, `2·Q − 1` from below. No rounding is involved, and
+/// no result lies exactly on an interval's end (a quotient of two 24-bit significands, or a
+/// root of one, is never halfway between two `f32`s).
+#[inline]
+fn settle(mut q: u64, odd: impl Fn(u64) -> u64, scale: impl Fn(u64) -> u64, target: u64) -> u64 {
+    let mut k = 0;
+    while k < MAX_STEPS {
+        if scale(odd(q)) < target {
+            q += 1;
+        } else if q > 0 && scale(odd(q - 1)) > target {
+            q -= 1;
+        } else {
+            break;
+        }
+        k += 1;
+    }
+    q
 }
 
 /// `1 / x`, correctly rounded, for positive normal `x`.
@@ -93,47 +155,41 @@ pub fn sqrt(x: f32) -> f32 {
     if normal(x.to_bits()) {
         return x.sqrt();
     }
-    sqrt_by_hand(x)
+    sqrt_portable(x)
 }
 
-/// [`sqrt`] with integer operations only.
+/// [`sqrt`] on every device alike: an `f32` estimate of the root of the significand, then
+/// its last bit settled in integers.
 #[inline]
-pub fn sqrt_by_hand(x: f32) -> f32 {
+pub fn sqrt_portable(x: f32) -> f32 {
     let bits = x.to_bits();
     if !normal(bits) {
         return if bits == 0 { 0.0 } else { f32::from_bits(0x7f80_0000) };
     }
-    let (m, e) = parts(bits);
-    // x = m · 2^(e − 150); make the exponent even so that it halves exactly.
-    let (m, p) = if (e - 150) & 1 != 0 { (m << 1, e - 151) } else { (m, e - 150) };
-    // Scale m to [2^48, 2^50) by an even shift: its root then has exactly 25 bits.
-    let s: u32 = if m >> 24 != 0 { 24 } else { 26 };
-    let r = isqrt(m << s);
-    // √x = √(m·2^s) · 2^((p − s)/2). Rounding 25 bits to 24 cannot meet a tie: r odd with no
-    // remainder would make m·2^s odd. So half up is to nearest.
-    let k = (p - s as i32) / 2 + 1;
-    assemble((r + 1) >> 1, k + 150)
+    // x = m · 2^e with m in [1, 4) and e even, so that √x = √m · 2^(e/2).
+    let unbiased = (bits >> 23) as i32 - 127;
+    let odd = unbiased & 1;
+    let e = unbiased - odd;
+    let m = f32::from_bits((bits & 0x007f_ffff) | ((127 + odd as u32) << 23));
+    // m = M · 2^−23 with M an integer below 2^25; the root's significand is
+    // S = RN(√m · 2^23) = RN(√(M · 2^23)), so (2S ± 1)² bracket 4 · M · 2^23 = M · 2^25.
+    let big_m = ((bits & 0x007f_ffff) | 0x0080_0000) as u64;
+    let target = big_m << (25 + odd as u32);
+    let s = settle(root_estimate(m), |s| 2 * s + 1, |t| t * t, target);
+    assemble(s, e / 2 + 127)
 }
 
-/// `⌊√n⌋` for `n < 2^62`, digit by digit (no division, no float).
+/// `√m · 2^23` for `m` in `[1, 4)`, estimated in `f32`: `1/√m` from a bit-pattern guess
+/// (within 4 %) and three Newton steps, times `m`.
 #[inline]
-fn isqrt(n: u64) -> u64 {
-    let mut rem = n;
-    let mut root = 0u64;
-    let mut bit = 1u64 << 60;
-    while bit > n {
-        bit >>= 2;
+fn root_estimate(m: f32) -> u64 {
+    let mut y = f32::from_bits(0x5f37_59df - (m.to_bits() >> 1));
+    let mut k = 0;
+    while k < 3 {
+        y = y * (1.5 - 0.5 * m * y * y);
+        k += 1;
     }
-    while bit != 0 {
-        if rem >= root + bit {
-            rem -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
-        }
-        bit >>= 2;
-    }
-    root
+    scaled_estimate(m * y, 23)
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]
@@ -167,7 +223,7 @@ mod tests {
                 if !want.is_normal() {
                     continue;
                 }
-                assert_eq!(div_by_hand(a, b).to_bits(), want.to_bits(), "{a:e} / {b:e}");
+                assert_eq!(div_portable(a, b).to_bits(), want.to_bits(), "{a:e} / {b:e}");
                 assert_eq!(div(a, b).to_bits(), want.to_bits(), "native: {a:e} / {b:e}");
                 checked += 1;
             }
@@ -178,7 +234,7 @@ mod tests {
     #[test]
     fn square_root_is_the_ieee_root() {
         for x in samples().into_iter().chain([1.0f32, 2.0, 4.0, 0.25, 3.0, f32::MAX, f32::MIN_POSITIVE]) {
-            assert_eq!(sqrt_by_hand(x).to_bits(), x.sqrt().to_bits(), "√{x:e}");
+            assert_eq!(sqrt_portable(x).to_bits(), x.sqrt().to_bits(), "√{x:e}");
             assert_eq!(sqrt(x).to_bits(), x.sqrt().to_bits(), "native: √{x:e}");
         }
     }
@@ -187,11 +243,39 @@ mod tests {
     #[test]
     fn both_paths_agree_outside_the_domain() {
         for (a, b) in [(0.0f32, 3.0f32), (1e-30, 1e30), (1e30, 1e-30), (f32::MIN_POSITIVE, 4.0), (1.0, f32::from_bits(1))] {
-            assert_eq!(div(a, b).to_bits(), div_by_hand(a, b).to_bits(), "{a:e} / {b:e}");
+            assert_eq!(div(a, b).to_bits(), div_portable(a, b).to_bits(), "{a:e} / {b:e}");
         }
         for x in [0.0f32, f32::from_bits(1), f32::INFINITY] {
-            assert_eq!(sqrt(x).to_bits(), sqrt_by_hand(x).to_bits(), "√{x:e}");
+            assert_eq!(sqrt(x).to_bits(), sqrt_portable(x).to_bits(), "√{x:e}");
         }
+    }
+
+    /// Every significand of the divisor against a few dividends, and every radicand in
+    /// `[1, 4)`: the portable paths give the IEEE result, and their estimates are within three
+    /// units of it (the correction's further steps are a margin, not the rule).
+    #[test]
+    fn exhaustive_significands_match_ieee() {
+        let mut worst = 0i64;
+        for fa in [0x3f80_0000u32, 0x3fc0_0000, 0x3f9e_3779, 0x3fff_ffff, 0x3f80_0001] {
+            for fb in 0x3f80_0000u32..0x4000_0000 {
+                let (a, b) = (f32::from_bits(fa), f32::from_bits(fb));
+                let want = a / b;
+                assert_eq!(div_portable(a, b).to_bits(), want.to_bits(), "{a:e} / {b:e}");
+                let shift = if parts(fa).0 >= parts(fb).0 { 23 } else { 24 };
+                let exact = ((want.to_bits() & 0x7f_ffff) | 0x80_0000) as i64;
+                worst = worst.max((quotient_estimate(fa, fb, shift) as i64 - exact).abs());
+            }
+        }
+        assert!(worst <= 3, "a quotient estimate was {worst} units off");
+        let mut worst = 0i64;
+        for bits in 0x3f80_0000u32..0x4080_0000 {
+            let m = f32::from_bits(bits);
+            let want = m.sqrt();
+            assert_eq!(sqrt_portable(m).to_bits(), want.to_bits(), "√{m:e}");
+            let exact = ((want.to_bits() & 0x7f_ffff) | 0x80_0000) as i64;
+            worst = worst.max((root_estimate(m) as i64 - exact).abs());
+        }
+        assert!(worst <= 3, "a root estimate was {worst} units off");
     }
 
     #[test]

@@ -12,7 +12,7 @@
 //! `docs/numeric-contract.md` for its bound).
 
 use crate::abi::{Coverage, DepthFunc, FrameParams, PixelRect, TriangleSetup};
-use crate::programs::height::barycentric_bits;
+use crate::programs::height::{barycentric_bits, barycentric_bits_of};
 use crate::stages::fine::PixelProgram;
 
 /// [`PixelProgram`] of the render pipeline.
@@ -83,6 +83,16 @@ impl DepthProgram {
         (depth as u64) << 32 | tie as u64
     }
 
+    /// The key of a fragment of depth bits `bits` of triangle `index`: `NO_KEY` where it fails
+    /// the depth test.
+    #[inline(always)]
+    fn key_of_depth(&self, bits: u32, index: u32) -> u64 {
+        if !self.passes(f32::from_bits(bits)) {
+            return u64::MAX;
+        }
+        self.key_of(bits, index)
+    }
+
     /// Whether a fragment of depth `d` passes the test against the clear value.
     #[inline]
     pub fn passes(&self, d: f32) -> bool {
@@ -126,7 +136,6 @@ pub enum DepthOrder {
     Ignored,
 }
 
-
 impl PixelProgram for DepthProgram {
     type Setup = TriangleSetup;
     type Staged = TriangleSetup;
@@ -150,11 +159,13 @@ impl PixelProgram for DepthProgram {
     /// fragment is tested against the clear value alone and the last passing one is kept.
     #[inline(always)]
     fn key(&self, s: &TriangleSetup, i: i32, j: i32) -> u64 {
-        let bits = depth_bits(s, i, j);
-        if !self.passes(f32::from_bits(bits)) {
-            return u64::MAX;
-        }
-        self.key_of(bits, s.coverage.index)
+        self.key_of_depth(depth_bits(s, i, j), s.coverage.index)
+    }
+
+    /// The depth from the edge functions the coverage test computed: the same bits.
+    #[inline(always)]
+    fn key_at(&self, s: &TriangleSetup, _i: i32, _j: i32, edges: &[i64; 3]) -> u64 {
+        self.key_of_depth(barycentric_bits_of(s, *edges), s.coverage.index)
     }
 
     /// The depth the pixel keeps: the owner's, or the clear value without depth writes.

@@ -15,14 +15,24 @@
 //! module that divides floats with the device's division, or calls a transcendental function,
 //! whose bits differ between devices.
 
-use crate::abi::{ShadeParams, TextureInfo, TriangleSetup, TriangleShading, ATTR_NORMAL, ATTR_POSITION, ATTR_UV};
+use crate::abi::{ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
 use crate::programs::shade::{base_colour, colour_at, fragment_colour, interpolate, interpolate3, normalise, rgba8, weights};
 
 /// How the shade stage colours a fragment: triangle `(s, t)` at pixel `(i, j)`, of depth
 /// `depth_bits`, as RGBA8 (red in the low byte).
 pub trait FragmentProgram {
     #[allow(clippy::too_many_arguments)]
-    fn colour(&self, params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> u32;
+    fn colour(
+        &self,
+        params: &ShadeParams,
+        s: &TriangleSetup,
+        t: &TriangleShading,
+        textures: &[TextureInfo],
+        texels: &[u32],
+        depth_bits: u32,
+        i: i32,
+        j: i32,
+    ) -> u32;
 }
 
 /// The built-in shadings: the frame's `ShadeParams::shading`.
@@ -31,7 +41,17 @@ pub struct Builtin;
 
 impl FragmentProgram for Builtin {
     #[inline]
-    fn colour(&self, params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> u32 {
+    fn colour(
+        &self,
+        params: &ShadeParams,
+        s: &TriangleSetup,
+        t: &TriangleShading,
+        textures: &[TextureInfo],
+        texels: &[u32],
+        depth_bits: u32,
+        i: i32,
+        j: i32,
+    ) -> u32 {
         fragment_colour(params, s, t, textures, texels, depth_bits, i, j)
     }
 }
@@ -68,7 +88,16 @@ impl Fragment {
     /// Triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`.
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    pub fn at(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> Fragment {
+    pub fn at(
+        params: &ShadeParams,
+        s: &TriangleSetup,
+        t: &TriangleShading,
+        textures: &[TextureInfo],
+        texels: &[u32],
+        depth_bits: u32,
+        i: i32,
+        j: i32,
+    ) -> Fragment {
         let b = weights(s, t, params.interpolation, i, j);
         Fragment {
             pixel: [i, j],
@@ -96,7 +125,17 @@ pub struct Programmed<S>(pub S);
 
 impl<S: FragmentShader> FragmentProgram for Programmed<S> {
     #[inline]
-    fn colour(&self, params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> u32 {
+    fn colour(
+        &self,
+        params: &ShadeParams,
+        s: &TriangleSetup,
+        t: &TriangleShading,
+        textures: &[TextureInfo],
+        texels: &[u32],
+        depth_bits: u32,
+        i: i32,
+        j: i32,
+    ) -> u32 {
         rgba8(self.0.shade(&Fragment::at(params, s, t, textures, texels, depth_bits, i, j), params))
     }
 }
@@ -106,7 +145,9 @@ impl<S: FragmentShader> FragmentProgram for Programmed<S> {
 /// [`FragmentProgram`]), in a module `shading_entry_points`. The kernels make theirs with the
 /// built-in shadings; a user's shader crate makes its own with `fragment_shader!(MyShader)`. Both bind exactly what the stage table's
 /// rows of those stages say, so the GPU backend runs either module with the same bind groups.
-/// Natively it expands to nothing: there the CPU backend calls the program itself.
+/// Both take the frame's [`ShadeVariant`](crate::abi::ShadeVariant) as specialisation constant
+/// 0 (`ShadeVariant::SPEC_ID`); left at its default, they read every choice from the shade
+/// parameters. Natively it expands to nothing: there the CPU backend calls the program itself.
 #[macro_export]
 macro_rules! shading_entry_points {
     ($program:expr) => {
@@ -114,8 +155,8 @@ macro_rules! shading_entry_points {
         pub mod shading_entry_points {
             #[allow(unused_imports)]
             use super::*;
-            use $crate::abi::{FrameParams, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
-            use $crate::entry::{spirv, UVec3};
+            use $crate::abi::{FrameParams, ShadeParams, ShadeVariant, TextureInfo, TriangleSetup, TriangleShading};
+            use $crate::entry::{UVec3, spirv};
             use $crate::stages::fine::FineShared;
 
             // Named as the stage table names them, wherever the macro is invoked.
@@ -139,8 +180,12 @@ macro_rules! shading_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] owners: &[u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] colours: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] faces: &mut [u32],
+                #[spirv(spec_constant(id = 0, default = 0))] variant: u32,
             ) {
-                $crate::entry::shade_pixels(&$program, wg, lid, frame, params, setups, shading, textures, texels, offsets, bins, values, owners, colours, faces);
+                let params = &ShadeVariant(variant).apply(params);
+                $crate::entry::shade_pixels(
+                    &$program, wg, lid, frame, params, setups, shading, textures, texels, offsets, bins, values, owners, colours, faces,
+                );
             }
 
             /// Fine raster of the multisampled render pipeline (`programs::multisample`).
@@ -165,9 +210,12 @@ macro_rules! shading_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] colours: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] faces: &mut [u32],
                 #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
+                #[spirv(spec_constant(id = 0, default = 0))] variant: u32,
             ) {
+                let params = &ShadeVariant(variant).apply(params);
                 $crate::entry::fine_samples_workgroup(
-                    &$program, wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, params, shading, textures, texels, colours, faces, shared,
+                    &$program, wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, params, shading, textures, texels, colours,
+                    faces, shared,
                 );
             }
         }

@@ -2,10 +2,10 @@
 //! as gdal_grid's first hit), the hull's edges are covered, and the value is the owner's
 //! height at the pixel centre in the frame's [`ValueMode`], as `f32` bits.
 
-use crate::abi::{Coverage, FloatCoeffs, FrameParams, PixelRect, Plane, TriangleSetup, ValueMode};
-use crate::math::fixed::fixed_to_f32_bits;
-use crate::stages::fine::PixelProgram;
 use crate::NO_OWNER;
+use crate::abi::{Coverage, FloatCoeffs, FrameParams, PixelRect, Plane, TriangleSetup, ValueMode};
+use crate::math::fixed::{fixed_to_f32_bits, i64_to_f32};
+use crate::stages::fine::PixelProgram;
 
 /// Heights of the frame's triangles: [`PixelProgram`] for the heightfield pipeline.
 #[derive(Copy, Clone)]
@@ -100,7 +100,7 @@ pub fn barycentric_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
 #[inline]
 pub fn barycentric_bits_of(s: &TriangleSetup, edges: [i64; 3]) -> u32 {
     let c = &s.coeffs.c;
-    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(edges[k], 0)) * c[3];
+    let weight = |k: usize| i64_to_f32(edges[k]) * c[3];
     (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
 }
 
@@ -113,4 +113,3 @@ pub fn pixel_value_bits(s: &TriangleSetup, i: i32, j: i32, mode: ValueMode) -> u
         ValueMode::Exact => plane_value_bits(&s.plane, &s.coverage.rect, i, j),
     }
 }
-

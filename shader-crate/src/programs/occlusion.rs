@@ -23,7 +23,7 @@
 //! [`barycentric_bits`]: crate::programs::height::barycentric_bits
 
 use crate::abi::{PixelRect, TriangleSetup};
-use crate::math::fixed::fixed_to_f32_bits;
+use crate::math::fixed::i64_to_f32;
 use crate::programs::depth::DepthProgram;
 use crate::stages::fine::PixelProgram;
 
@@ -51,8 +51,8 @@ pub fn depth_bounds(s: &TriangleSetup, tile: &PixelRect) -> (f32, f32, bool) {
         let edge = &s.coverage.edges[k];
         let (a, b, c_, d) = (edge.at(di0, dj0), edge.at(di1, dj0), edge.at(di0, dj1), edge.at(di1, dj1));
         let (min, max) = (min_i64(min_i64(a, b), min_i64(c_, d)), max_i64(max_i64(a, b), max_i64(c_, d)));
-        lo[k] = f32::from_bits(fixed_to_f32_bits(min, 0)) * c[3];
-        hi[k] = f32::from_bits(fixed_to_f32_bits(max, 0)) * c[3];
+        lo[k] = i64_to_f32(min) * c[3];
+        hi[k] = i64_to_f32(max) * c[3];
         k += 1;
     }
     let low = lo[0] * c[0] + lo[1] * c[1] + lo[2] * c[2];

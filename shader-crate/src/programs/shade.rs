@@ -5,14 +5,17 @@
 //! Every float operation here is an addition, subtraction, multiplication or comparison
 //! (correctly rounded on every Vulkan device, and never contracted: the build marks them
 //! `NoContraction`), or one of `math::float`'s correctly rounded divisions and square roots
-//! computed with integers; conversions from the exact edge functions are done by hand
-//! (`fixed_to_f32_bits`). So the colour is the same on every device.
+//! (settled in integers); the exact edge functions convert to `f32` from exact pieces with one
+//! rounding addition (`math::fixed::i64_to_f32`). So the colour is the same on every device.
 
-use crate::abi::{Interpolation, ShadeMode, ShadeParams, TextureInfo, TriangleSetup, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, MAX_LIGHTS, NO_TEXTURE, SHADING_UNLIT};
-use crate::math::fixed::fixed_to_f32_bits;
-use crate::math::float::{div, recip, sqrt};
+use crate::abi::{
+    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, Interpolation, MAX_LIGHTS, NO_TEXTURE, SHADING_UNLIT, ShadeMode, ShadeParams, TextureInfo,
+    TriangleSetup, TriangleShading,
+};
 use crate::math::edge::Side;
-use crate::programs::depth::{depth_bits, DepthProgram};
+use crate::math::fixed::i64_to_f32;
+use crate::math::float::{div, recip, sqrt};
+use crate::programs::depth::{DepthProgram, depth_bits};
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::texture::{self, lod};
 use crate::stages::fine::side;
@@ -39,7 +42,7 @@ pub fn weights(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i3
     let rect = &s.coverage.rect;
     let (di, dj) = ((i - rect.i0) as i64, (j - rect.j0) as i64);
     let e = &s.coverage.edges;
-    let weight = |k: usize| f32::from_bits(fixed_to_f32_bits(e[k].at(di, dj), 0));
+    let weight = |k: usize| i64_to_f32(e[k].at(di, dj));
     let w = [weight(0), weight(1), weight(2)];
     if interpolation == Interpolation::Screen as u32 {
         let inv_area = s.coeffs.c[3];
@@ -176,19 +179,25 @@ pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> 
         k += 1;
     }
     let sc = &params.specular;
-    [
-        base[0] * diffuse[0] + sc[0] * specular[0],
-        base[1] * diffuse[1] + sc[1] * specular[1],
-        base[2] * diffuse[2] + sc[2] * specular[2],
-        base[3],
-    ]
+    [base[0] * diffuse[0] + sc[0] * specular[0], base[1] * diffuse[1] + sc[1] * specular[1], base[2] * diffuse[2] + sc[2] * specular[2], base[3]]
 }
 
 /// The shaded pixel `(i, j)` owned by setup slot `slot` (`NO_OWNER`: the background), whose
 /// depth is `depth_bits`, coloured by `program`.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn shade_pixel<P: FragmentProgram + ?Sized>(program: &P, params: &ShadeParams, setups: &[TriangleSetup], shading: &[TriangleShading], textures: &[TextureInfo], texels: &[u32], slot: u32, depth_bits: u32, i: i32, j: i32) -> Shaded {
+pub fn shade_pixel<P: FragmentProgram + ?Sized>(
+    program: &P,
+    params: &ShadeParams,
+    setups: &[TriangleSetup],
+    shading: &[TriangleShading],
+    textures: &[TextureInfo],
+    texels: &[u32],
+    slot: u32,
+    depth_bits: u32,
+    i: i32,
+    j: i32,
+) -> Shaded {
     if slot == NO_OWNER {
         return Shaded { colour: params.background, face: NO_OWNER };
     }
@@ -211,9 +220,18 @@ fn uv_at(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: 
 /// they lie inside it.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], b: &[f32; 3], i: i32, j: i32) -> [f32; 4] {
+pub(crate) fn base_colour(
+    params: &ShadeParams,
+    s: &TriangleSetup,
+    t: &TriangleShading,
+    textures: &[TextureInfo],
+    texels: &[u32],
+    b: &[f32; 3],
+    i: i32,
+    j: i32,
+) -> [f32; 4] {
     let colour = colour_at(t, b);
-    if t.texture == NO_TEXTURE {
+    if params.textured == 0 || t.texture == NO_TEXTURE {
         return colour;
     }
     let info = &textures[t.texture as usize];
@@ -228,19 +246,23 @@ pub(crate) fn base_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleS
         0
     };
     let texel = texture::filtered(texels, info, u, v, level);
-    [
-        colour[0] * texture::unit(texel[0]),
-        colour[1] * texture::unit(texel[1]),
-        colour[2] * texture::unit(texel[2]),
-        colour[3] * texture::unit(texel[3]),
-    ]
+    [colour[0] * texture::unit(texel[0]), colour[1] * texture::unit(texel[1]), colour[2] * texture::unit(texel[2]), colour[3] * texture::unit(texel[3])]
 }
 
 /// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`,
 /// in the built-in shading the frame names (`programs::fragment::Builtin`).
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn fragment_colour(params: &ShadeParams, s: &TriangleSetup, t: &TriangleShading, textures: &[TextureInfo], texels: &[u32], depth_bits: u32, i: i32, j: i32) -> u32 {
+pub fn fragment_colour(
+    params: &ShadeParams,
+    s: &TriangleSetup,
+    t: &TriangleShading,
+    textures: &[TextureInfo],
+    texels: &[u32],
+    depth_bits: u32,
+    i: i32,
+    j: i32,
+) -> u32 {
     // The interpolation weights (a correctly rounded division each) only where the mode
     // interpolates attributes.
     let mode = params.mode();

@@ -1,6 +1,8 @@
 //! Fine raster: one workgroup per tile, one invocation per pixel. The tile's bin is walked in
 //! batches: every invocation stages one triangle in workgroup memory (`fine_load`), barrier,
-//! every invocation tests its pixel centre against the whole batch (`fine_test`), barrier.
+//! each span of 8 pixels lists the triangles whose rectangles reach it (`span_lists`: not those
+//! the tile's depth bound hides), barrier, every invocation tests its pixel centre against its
+//! span's (`fine_test`), barrier.
 //! Finally each invocation resolves its pixel (`fine_resolve`).
 //!
 //! The stage is generic over what a pixel computes: a [`PixelProgram`] says what a batch
@@ -34,9 +36,9 @@
 //! deterministic whatever the scheduling of the binning atomics.
 
 use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect};
-use crate::math::edge::{side_of, Side};
+use crate::math::edge::{Side, side_of};
 use crate::memory::Counters;
-use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE};
+use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
 
 /// What a fine-raster pixel computes from the triangles that cover it.
 ///
@@ -66,6 +68,12 @@ pub trait PixelProgram {
     /// The triangle's key at pixel `(i, j)` (called only where the centre is inside it):
     /// `NO_KEY` where the triangle may not own the pixel at all (a failed depth test).
     fn key(&self, staged: &Self::Staged, i: i32, j: i32) -> Self::Key;
+    /// [`Self::key`] given the triangle's three edge functions at the centre, which the
+    /// coverage test has just computed (a program whose key depends on them reuses them).
+    #[inline(always)]
+    fn key_at(&self, staged: &Self::Staged, i: i32, j: i32, _edges: &[i64; 3]) -> Self::Key {
+        self.key(staged, i, j)
+    }
     /// The owner's value at pixel `(i, j)`.
     fn value(&self, setup: &Self::Setup, i: i32, j: i32) -> Self::Value;
     /// The value of a pixel no triangle covers.
@@ -87,20 +95,32 @@ pub trait PixelProgram {
 }
 
 /// Workgroup memory of fine raster: one batch of staged triangles, which of them are hidden,
-/// and the occluder keys of the tile's bin, a partial minimum per loading invocation.
+/// the ones the pixels test, and the occluder keys of the tile's bin, a partial minimum per
+/// loading invocation.
 #[repr(C)]
 #[derive(Copy, Clone)]
 pub struct FineShared<S: Copy, K: Copy> {
     pub batch: [S; BATCH as usize],
     /// 1 where the staged triangle is hidden in the tile.
     pub hidden: [u32; BATCH as usize],
+    /// Per span, the positions in `batch` of the triangles its pixels test, in batch order,
+    /// four bytes to a word (`span_lists`)...
+    pub lists: [u32; (SPANS * BATCH / 4) as usize],
+    /// ... and how many there are.
+    pub listed: [u32; SPANS as usize],
     pub occluders: [K; BATCH as usize],
 }
 
 impl<S: Copy, K: Copy> FineShared<S, K> {
     /// Workgroup memory as it is before the first phase (the CPU's twins start from it).
     pub fn new(staged: S, no_key: K) -> Self {
-        FineShared { batch: [staged; BATCH as usize], hidden: [0; BATCH as usize], occluders: [no_key; BATCH as usize] }
+        FineShared {
+            batch: [staged; BATCH as usize],
+            hidden: [0; BATCH as usize],
+            lists: [0; (SPANS * BATCH / 4) as usize],
+            listed: [0; SPANS as usize],
+            occluders: [no_key; BATCH as usize],
+        }
     }
 }
 
@@ -174,7 +194,16 @@ pub fn rejects_hidden<P: PixelProgram>(frame: &FrameParams) -> bool {
 /// occluder key among the bin's entries `lid`, `lid + BATCH`, … that cover the tile whole.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-pub fn fine_occluders<P: PixelProgram>(program: &P, lid: u32, bin: &[u32], bin_start: u32, bin_len: u32, setups: &[P::Setup], tile: &PixelRect, shared: &mut FineShared<P::Staged, P::Key>) {
+pub fn fine_occluders<P: PixelProgram>(
+    program: &P,
+    lid: u32,
+    bin: &[u32],
+    bin_start: u32,
+    bin_len: u32,
+    setups: &[P::Setup],
+    tile: &PixelRect,
+    shared: &mut FineShared<P::Staged, P::Key>,
+) {
     if lid >= BATCH {
         return;
     }
@@ -245,16 +274,73 @@ pub fn batch_hidden<S: Copy, K: Copy>(batch_len: u32, shared: &FineShared<S, K>)
     n
 }
 
+/// Pixels of a span: a run of one tile row, the unit of the triangle lists (`span_lists`). A
+/// span is at most one SIMD group of invocations wherever a device groups 8 or more consecutive
+/// ones (a CPU implementation of Vulkan runs 8 at a time).
+pub const SPAN: u32 = 8;
+/// Spans of a tile.
+pub const SPANS: u32 = TILE_PIXELS / SPAN;
+
+// A span lies in one tile row, and a batch position fits a byte.
+const _: () = assert!(TILE % SPAN == 0 && BATCH <= 256 && BATCH % 4 == 0);
+
+/// Phase 1b, invocations `lid < SPANS` (after the batch is staged): span `lid`'s list of the
+/// batch's triangles whose rectangle reaches it, in batch order. A triangle owns, covers and
+/// touches nothing outside its rectangle, and a hidden one owns nothing: it is listed only
+/// where the coverage layer counts it (`count_hidden`). The pixels then loop over their span's
+/// triangles alone: a SIMD lane pays for an iteration it skips as for one it takes (a CPU
+/// implementation of Vulkan runs every branch), so the only saving is a shorter loop.
+#[inline]
+pub fn span_lists<P: PixelProgram>(
+    lid: u32,
+    tx: u32,
+    ty: u32,
+    frame: &FrameParams,
+    batch_len: u32,
+    count_hidden: bool,
+    shared: &mut FineShared<P::Staged, P::Key>,
+) {
+    if lid >= SPANS {
+        return;
+    }
+    let (i0, j, _) = tile_pixel(tx, ty, lid * SPAN, frame);
+    let i1 = i0 + SPAN as i32 - 1;
+    let base = lid * BATCH;
+    let mut n = 0;
+    let mut k = 0;
+    while k < batch_len {
+        let r = &P::coverage(&shared.batch[k as usize]).rect;
+        if (count_hidden || shared.hidden[k as usize] == 0) && r.j0 <= j && j <= r.j1 && r.i0 <= i1 && i0 <= r.i1 {
+            let at = base + n;
+            let word = (at / 4) as usize;
+            let shift = 8 * (at % 4);
+            shared.lists[word] = (shared.lists[word] & !(0xff << shift)) | (k << shift);
+            n += 1;
+        }
+        k += 1;
+    }
+    shared.listed[lid as usize] = n;
+}
+
 /// Where pixel centre `(i, j)` lies relative to the triangle.
 #[inline]
 pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
-    if !c.rect.contains(i, j) {
-        return Side::Outside;
-    }
-    let di = (i - c.rect.i0) as i64;
-    let dj = (j - c.rect.j0) as i64;
+    side_and_edges(c, i, j).0
+}
+
+/// Where pixel centre `(i, j)` lies relative to the triangle, and the three edge functions
+/// there where it is in the triangle's rectangle (a SIMD lane computes them either way; outside
+/// the rectangle they are those of its nearest pixel, whose values the setup bounds, and mean
+/// nothing).
+#[inline(always)]
+pub fn side_and_edges(c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
+    let r = &c.rect;
+    let di = (i.clamp(r.i0, r.i1) - r.i0) as i64;
+    let dj = (j.clamp(r.j0, r.j1) - r.j0) as i64;
     let e = &c.edges;
-    side_of(e[0].at(di, dj), e[1].at(di, dj), e[2].at(di, dj), c.excluded_edges)
+    let edges = [e[0].at(di, dj), e[1].at(di, dj), e[2].at(di, dj)];
+    let side = if c.rect.contains(i, j) { side_of(edges[0], edges[1], edges[2], c.excluded_edges) } else { Side::Outside };
+    (side, edges)
 }
 
 /// What a pixel state keeps of one triangle test at pixel `(i, j)`: a count, the smallest key
@@ -263,11 +349,23 @@ pub fn side(c: &Coverage, i: i32, j: i32) -> Side {
 /// the order of the tests.
 #[inline(always)]
 pub fn accumulate<P: PixelProgram>(program: &P, side: Side, staged: &P::Staged, i: i32, j: i32, state: &mut PixelState<P::Key>) {
+    accumulate_with::<P>(side, staged, state, || program.key(staged, i, j))
+}
+
+/// [`accumulate`] given the edge functions at the centre, which the key may reuse.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn accumulate_at<P: PixelProgram>(program: &P, side: Side, edges: &[i64; 3], staged: &P::Staged, i: i32, j: i32, state: &mut PixelState<P::Key>) {
+    accumulate_with::<P>(side, staged, state, || program.key_at(staged, i, j, edges))
+}
+
+#[inline(always)]
+fn accumulate_with<P: PixelProgram>(side: Side, staged: &P::Staged, state: &mut PixelState<P::Key>, key: impl FnOnce() -> P::Key) {
     let c = P::coverage(staged);
     match side {
         Side::Inside => {
             state.count += 1;
-            let key = program.key(staged, i, j);
+            let key = key();
             if key < state.key {
                 state.key = key;
                 state.owner = c.index;
@@ -297,33 +395,39 @@ pub fn counts_hidden(frame: &FrameParams) -> bool {
     frame.outputs.contains(OutputSet::COVERAGE)
 }
 
-/// Phase 2: test pixel `(i, j)` against the `batch_len` staged triangles (with `overlap_free`,
-/// only until it is inside one: no other can contain it). A hidden triangle owns nothing: it
-/// is only counted, and only where `count_hidden`.
+/// Phase 2: test pixel `(i, j)` of invocation `lid` against the staged triangles its span's
+/// list holds (with `overlap_free`, only until it is inside one: no other can contain it). A
+/// hidden triangle owns nothing: it is only counted, and only where `count_hidden`.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn fine_test<P: PixelProgram>(
     program: &P,
+    lid: u32,
     i: i32,
     j: i32,
-    batch_len: u32,
     shared: &FineShared<P::Staged, P::Key>,
     overlap_free: bool,
     count_hidden: bool,
     state: &mut PixelState<P::Key>,
 ) {
-    let mut k = 0;
-    while k < batch_len {
+    let span = lid / SPAN;
+    let base = span * BATCH;
+    let mut n = 0;
+    while n < shared.listed[span as usize] {
         if overlap_free && state.owner != NO_OWNER {
             return;
         }
+        let at = base + n;
+        let k = shared.lists[(at / 4) as usize] >> (8 * (at % 4)) & 0xff;
         let staged = &shared.batch[k as usize];
+        // One coverage test serves both cases (and the key where it needs the edges).
+        let (side, edges) = side_and_edges(P::coverage(staged), i, j);
         if !P::OCCLUSION || shared.hidden[k as usize] == 0 {
-            accumulate(program, side(P::coverage(staged), i, j), staged, i, j, state);
-        } else if count_hidden && side(P::coverage(staged), i, j) == Side::Inside {
+            accumulate_at(program, side, &edges, staged, i, j, state);
+        } else if count_hidden && side == Side::Inside {
             state.count += 1;
         }
-        k += 1;
+        n += 1;
     }
 }
 

@@ -24,20 +24,20 @@ mod lines;
 mod texture;
 
 pub use fragment::{FragmentConstants, FragmentStage};
-pub use instances::{Instance, World};
-pub use lines::{edges, LineRule, Wireframe};
-pub use texture::{Texture, MAX_TEXTURE_DIM};
-pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 use instances::validate_world;
+pub use instances::{Instance, World};
+pub use lines::{LineRule, Wireframe, edges};
+pub use texture::{MAX_TEXTURE_DIM, Texture};
+pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 
 use crate::prepare::{pixel_rect, round_to_i64};
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{
-    DepthFunc, DepthTest, FloatCoeffs, Interpolation, PixelRect, ShadeMode, ShadeParams, TriangleInput, TriangleShading, ATTRIBUTES, ATTR_COLOUR, ATTR_NORMAL,
-    ATTR_POSITION, ATTR_UV, MAX_LIGHTS,
-};
 use tileraster_kernels::EXTENT_LIMIT_BITS;
+use tileraster_kernels::abi::{
+    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, DepthFunc, DepthTest, FloatCoeffs, Interpolation, MAX_LIGHTS, PixelRect, ShadeMode,
+    ShadeParams, TriangleInput, TriangleShading,
+};
 
 /// The colour of a mesh without colours: linear light grey.
 pub(crate) const GREY: [f32; 4] = [0.8, 0.8, 0.8, 1.0];
@@ -413,7 +413,12 @@ struct Placement<'a> {
 }
 
 /// The geometry stages over instances of checked meshes (`validate_world`).
-pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
+pub(crate) fn prepare_instances_in(
+    meshes: &[Mesh],
+    instances: &[Instance],
+    params: &RenderParams,
+    memory: &mut GeometryMemory,
+) -> Result<(Prepared, GeometryCounts), Error> {
     validate_params(params)?;
     let (w, h) = (params.width, params.height);
     let m = &params.view_projection;
@@ -466,12 +471,23 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     for instance in instances {
         let mesh = &meshes[instance.mesh as usize];
         let to_world = instances::instance_to_world(&params.model, instance);
-        let culled = bounds.get(instance.mesh as usize).is_some_and(|b| instances::outside_frustum(b.as_ref().expect("bounds of every placed mesh"), &to_world, m));
+        let culled =
+            bounds.get(instance.mesh as usize).is_some_and(|b| instances::outside_frustum(b.as_ref().expect("bounds of every placed mesh"), &to_world, m));
         if culled {
             counts.instances_culled += 1;
         } else {
             let first_texture = first_textures[instance.mesh as usize];
-            placements.push(Placement { mesh, mesh_index: instance.mesh as usize, to_world, mirrored: instances::mirrors(&instance.transform), first_vertex, first_face, first_texture, first_point, first_line });
+            placements.push(Placement {
+                mesh,
+                mesh_index: instance.mesh as usize,
+                to_world,
+                mirrored: instances::mirrors(&instance.transform),
+                first_vertex,
+                first_face,
+                first_texture,
+                first_point,
+                first_line,
+            });
             first_vertex += mesh.positions.len();
         }
         first_face += mesh.triangles.len() as u32;
@@ -521,11 +537,8 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
         let (mesh, model) = (p.mesh, &p.to_world);
         mesh.positions.par_iter().zip(world.par_iter_mut()).for_each(|(v, out)| *out = instances::transform_point(model, v));
         let world = &*world;
-        let normals = if attributes_used {
-            vertex_normals(base_normals[p.mesh_index].as_ref().expect("normals of every placed mesh"), model)
-        } else {
-            Vec::new()
-        };
+        let normals =
+            if attributes_used { vertex_normals(base_normals[p.mesh_index].as_ref().expect("normals of every placed mesh"), model) } else { Vec::new() };
         vertices.par_iter_mut().enumerate().for_each(|(v, out)| {
             let p = world[v];
             let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
@@ -553,9 +566,16 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     let target = Target { grid: &grid, samples: params.samples };
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
     // lines and the points likewise.
-    let face_chunks = placements.iter().filter(|_| params.faces).flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces)));
-    let line_chunks = placements.iter().filter(|_| params.wireframe.is_some()).flat_map(|p| (0..mesh_edges[p.mesh_index].len()).step_by(CHUNK).map(move |start| (p, start, Work::Lines)));
-    let point_chunks = placements.iter().filter(|_| params.points.is_some()).flat_map(|p| (0..p.mesh.positions.len()).step_by(CHUNK).map(move |start| (p, start, Work::Points)));
+    let face_chunks =
+        placements.iter().filter(|_| params.faces).flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces)));
+    let line_chunks = placements
+        .iter()
+        .filter(|_| params.wireframe.is_some())
+        .flat_map(|p| (0..mesh_edges[p.mesh_index].len()).step_by(CHUNK).map(move |start| (p, start, Work::Lines)));
+    let point_chunks = placements
+        .iter()
+        .filter(|_| params.points.is_some())
+        .flat_map(|p| (0..p.mesh.positions.len()).step_by(CHUNK).map(move |start| (p, start, Work::Points)));
     let chunks: Vec<(&Placement, usize, Work)> = face_chunks.chain(line_chunks).chain(point_chunks).collect();
     // Each point's and line end's depth offset towards the camera, where they are drawn over
     // the faces.
@@ -615,12 +635,14 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
                     let mut values = flat.unwrap_or(corners[a].attributes);
                     values[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
                     values[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
-                    flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
+                    flattened[a] =
+                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
                 }
                 corners = [&flattened[0], &flattened[1], &flattened[2]];
             } else if let Some(values) = flat.filter(|_| !counting) {
                 for a in 0..3 {
-                    flattened[a] = ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
+                    flattened[a] =
+                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
                 }
                 corners = [&flattened[0], &flattened[1], &flattened[2]];
             }
@@ -669,7 +691,8 @@ pub(crate) fn prepare_instances_in(meshes: &[Mesh], instances: &[Instance], para
     });
     let mut counts = counts;
     counts.rasterised = total as u64;
-    let shade = shade_params(params, &lights, eye, depth_range(vertices));
+    let mut shade = shade_params(params, &lights, eye, depth_range(vertices));
+    shade.textured = u32::from(!texture_infos.is_empty());
     // Multisampled tiles take neither path: both speak of pixel centres.
     let skips = Skips { full_tiles: false, overlap_free: false, hidden_triangles: params.skips.hidden_triangles && params.samples == 1, ..params.skips };
     let grid_params = Params {
@@ -815,7 +838,8 @@ fn surface_bias(placements: &[Placement], vertices: &[ClipVertex], size: f32) ->
                 continue;
             }
             let q = v.map(|k| &vertices[k].projected);
-            let px = |k: usize| (q[k].screen.0 as f64 / (1 << RENDER_SNAP_BITS) as f64, q[k].screen.1 as f64 / (1 << RENDER_SNAP_BITS) as f64, q[k].depth as f64);
+            let px =
+                |k: usize| (q[k].screen.0 as f64 / (1 << RENDER_SNAP_BITS) as f64, q[k].screen.1 as f64 / (1 << RENDER_SNAP_BITS) as f64, q[k].depth as f64);
             let (a, b, c) = (px(0), px(1), px(2));
             let area = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
             if area == 0.0 {
@@ -892,7 +916,15 @@ struct FaceTag {
 }
 
 /// Clip, cull, snap one face and push what reaches the rasteriser.
-fn geometry(corners: [&ClipVertex; 3], face: FaceTag, params: &RenderParams, viewport: &Viewport, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+fn geometry(
+    corners: [&ClipVertex; 3],
+    face: FaceTag,
+    params: &RenderParams,
+    viewport: &Viewport,
+    target: &Target<'_>,
+    out: &mut Emit<'_>,
+    counts: &mut GeometryCounts,
+) {
     // Wholly outside one plane of the view frustum: nothing to clip.
     let c = corners.map(|v| v.clip);
     let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
@@ -960,7 +992,14 @@ fn triangles(polygon: &[Projected], face: FaceTag, params: &RenderParams, target
             let attributes = opposite.map(|i| polygon[i].attributes);
             (
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
-                TriangleShading { attributes, inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0], face: face.id, texture: face.texture, flags: 0, _pad: 0 },
+                TriangleShading {
+                    attributes,
+                    inv_w: [inv_w(opposite[0]), inv_w(opposite[1]), inv_w(opposite[2]), 0.0],
+                    face: face.id,
+                    texture: face.texture,
+                    flags: 0,
+                    _pad: 0,
+                },
             )
         });
     }
@@ -1152,7 +1191,9 @@ fn validate_params(params: &RenderParams) -> Result<(), Error> {
         return Err(Error::RasterTooLarge { width: w as u64, height: h as u64, reason: format!("a frame is at most {MAX_RENDER_DIM} pixels wide and high") });
     }
     match params.points {
-        Some(size) if !(MIN_POINT_SIZE..=MAX_POINT_SIZE).contains(&size) => return Err(Error::InvalidPointSize { size }),
+        Some(size) if !(MIN_POINT_SIZE..=MAX_POINT_SIZE).contains(&size) => {
+            return Err(Error::InvalidPointSize { size });
+        }
         None if !params.faces && params.wireframe.is_none() => return Err(Error::NothingToDraw),
         _ => {}
     }
@@ -1219,7 +1260,10 @@ pub fn validate_mesh(mesh: &Mesh) -> Result<(), Error> {
             return Err(Error::AttributeLength { attribute: "face textures", len: faces.len(), vertex_count: mesh.triangles.len() });
         }
         if let Some((face, &t)) = faces.iter().enumerate().find(|&(_, &t)| t != NO_TEXTURE && t as usize >= mesh.textures.len()) {
-            return Err(Error::InvalidTexture { texture: t as usize, reason: format!("face {face} takes it, but the mesh has {} textures", mesh.textures.len()) });
+            return Err(Error::InvalidTexture {
+                texture: t as usize,
+                reason: format!("face {face} takes it, but the mesh has {} textures", mesh.textures.len()),
+            });
         }
     }
     Ok(())

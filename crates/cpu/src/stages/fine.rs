@@ -100,7 +100,15 @@ pub fn fine_depth(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup],
 /// The specialised depth test: a row of 16 lanes at a time with the wide-vector build
 /// (`wide` only where the CPU has it: without it the lanes' 64-bit conversions and
 /// comparisons are emulated, slower than one centre at a time), else centre by centre.
-fn fine_depth_using(wide: bool, program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+fn fine_depth_using(
+    wide: bool,
+    program: &DepthProgram,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    raster: &mut Raster,
+) -> StatCounters {
     for_each_band(frame, raster, |band, stats| {
         if wide {
             // SAFETY: callers pass `wide` only when `wide_vectors` found the features.
@@ -121,18 +129,42 @@ fn fine_depth_using(wide: bool, program: &DepthProgram, frame: &FrameParams, set
 /// lane).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-fn fine_depth_band_wide(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+fn fine_depth_band_wide(
+    program: &DepthProgram,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    band: &mut Band,
+    stats: &StatCounters,
+) {
     fine_depth_band_rows(program, frame, setups, offsets, bins, band, stats)
 }
 
 #[cfg(not(target_arch = "x86_64"))]
-unsafe fn fine_depth_band_wide(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+unsafe fn fine_depth_band_wide(
+    program: &DepthProgram,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    band: &mut Band,
+    stats: &StatCounters,
+) {
     fine_depth_band_rows(program, frame, setups, offsets, bins, band, stats)
 }
 
 /// Every `fine_depth` workgroup of one row of tiles, rows of lanes at a time.
 #[inline(always)]
-fn fine_depth_band_rows(program: &DepthProgram, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &StatCounters) {
+fn fine_depth_band_rows(
+    program: &DepthProgram,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    band: &mut Band,
+    stats: &StatCounters,
+) {
     let mut counts = BandCounters([0; Counter::COUNT]);
     for tx in 0..frame.tiles_x {
         fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, band, &mut counts);
@@ -145,7 +177,16 @@ fn fine_depth_band_rows(program: &DepthProgram, frame: &FrameParams, setups: &[T
 /// inside it counted and its key compared with the pixel's smallest, as `fine::accumulate`
 /// does in any order; then `fine_resolve`'s outputs.
 #[allow(clippy::too_many_arguments)]
-fn fine_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
+fn fine_depth_tile(
+    program: &DepthProgram,
+    tx: u32,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    band: &mut Band,
+    stats: &mut BandCounters,
+) {
     let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
     const N: usize = TILE_PIXELS as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
@@ -217,7 +258,17 @@ fn occluding_key(program: &DepthProgram, frame: &FrameParams, setups: &[Triangle
 /// of 0. The owner's depth is read back from its key where the key holds it.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn resolve_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], band: &mut Band, key: &[u64], owner: &[u32], slot: &[u32], count: &[u32]) {
+fn resolve_depth_tile(
+    program: &DepthProgram,
+    tx: u32,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    band: &mut Band,
+    key: &[u64],
+    owner: &[u32],
+    slot: &[u32],
+    count: &[u32],
+) {
     for r in tile_rows(tx, frame, band) {
         // The row's pixel states, and its part of each layer: straight loops, no bounds checks.
         let p = (r.ly * TILE) as usize;
@@ -247,7 +298,16 @@ fn resolve_depth_tile(program: &DepthProgram, tx: u32, frame: &FrameParams, setu
 /// with their counts, as `fine::accumulate` does in any order.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters) {
+fn fine_depth_tile_rows(
+    program: &DepthProgram,
+    tx: u32,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    band: &mut Band,
+    stats: &mut BandCounters,
+) {
     let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
     // The tile's pixel states, one row of lanes past its end: a row of a triangle starting
     // `shift` pixels into the tile's last row reads and writes (masked) 16 lanes from there.
@@ -295,7 +355,14 @@ fn fine_depth_tile_rows(program: &DepthProgram, tx: u32, frame: &FrameParams, se
 
 /// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
 /// layer holds their bits).
-pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(program: &P, frame: &FrameParams, setups: &[P::Setup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters
+pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(
+    program: &P,
+    frame: &FrameParams,
+    setups: &[P::Setup],
+    offsets: &[u32],
+    bins: &[u32],
+    raster: &mut Raster,
+) -> StatCounters
 where
     P::Setup: Sync,
     P::Staged: Default,
@@ -365,8 +432,16 @@ fn for_each_band(frame: &FrameParams, raster: &mut Raster, rasterise_band: impl 
 /// One fine-raster workgroup exactly as the entry point runs it: the same branches, every
 /// invocation's `fine_load` and `fine_test` batch by batch, then `fine_resolve` per pixel.
 #[allow(clippy::too_many_arguments)]
-fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(program: &P, tx: u32, frame: &FrameParams, setups: &[P::Setup], offsets: &[u32], bins: &[u32], band: &mut Band, stats: &mut BandCounters)
-where
+fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
+    program: &P,
+    tx: u32,
+    frame: &FrameParams,
+    setups: &[P::Setup],
+    offsets: &[u32],
+    bins: &[u32],
+    band: &mut Band,
+    stats: &mut BandCounters,
+) where
     P::Staged: Default,
 {
     let ty = band.ty;
@@ -400,9 +475,12 @@ where
                 fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile, occluding, &mut shared);
             }
             hidden += fine::batch_hidden(batch_len, &shared);
+            for lid in 0..fine::SPANS {
+                fine::span_lists::<P>(lid, tx, ty, frame, batch_len, count_hidden, &mut shared);
+            }
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
-                fine::fine_test(program, i, j, batch_len, &shared, overlap_free, count_hidden, state);
+                fine::fine_test(program, lid as u32, i, j, &shared, overlap_free, count_hidden, state);
             }
             batch_start += BATCH;
         }
@@ -933,10 +1011,10 @@ fn tile_rows(tx: u32, frame: &FrameParams, band: &Band) -> impl Iterator<Item = 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tileraster_kernels::pipeline::StageBuffers;
-    use tileraster_core::{prepare, Grid, Mode, Outputs, Params, Skips};
-    use tileraster_testkit::scenes;
+    use tileraster_core::{Grid, Mode, Outputs, Params, Skips, prepare};
     use tileraster_kernels::abi::Coverage;
+    use tileraster_kernels::pipeline::StageBuffers;
+    use tileraster_testkit::scenes;
 
     /// What the stages before fine raster leave for a scene's whole window.
     struct BeforeFine {
@@ -1012,7 +1090,8 @@ mod tests {
                 for j in 0..frame.win_h {
                     for i in 0..frame.win_w {
                         let (gi, gj) = ((frame.win_x0 + i) as i32, (frame.win_y0 + j) as i32);
-                        let inside: Vec<&TriangleSetup> = plan.listed.iter().map(|&slot| &setups[slot as usize]).filter(|s| fine::side(&s.coverage, gi, gj) == Side::Inside).collect();
+                        let inside: Vec<&TriangleSetup> =
+                            plan.listed.iter().map(|&slot| &setups[slot as usize]).filter(|s| fine::side(&s.coverage, gi, gj) == Side::Inside).collect();
                         let lowest = inside.iter().min_by_key(|s| depth_key(s, gi, gj)).map_or(NO_OWNER, |s| s.coverage.index);
                         let n = (gj as usize - raster.window.y0 as usize) * raster.window.width as usize + (gi as usize - raster.window.x0 as usize);
                         let at = format!("scene {k}, {skips:?}, pixel ({gi}, {gj})");
@@ -1070,7 +1149,7 @@ mod tests {
     /// twin does not.
     #[test]
     fn depth_test_in_lanes_changes_no_bit() {
-        use tileraster_core::render::{prepare_render, Cull, RenderParams, IDENTITY};
+        use tileraster_core::render::{Cull, IDENTITY, RenderParams, prepare_render};
         use tileraster_testkit::meshes;
         if !wide_vectors() {
             use std::io::Write;
@@ -1098,7 +1177,16 @@ mod tests {
                     let mut reference: Option<Raster> = None;
                     for (count_fragments, hidden_triangles) in [(true, false), (true, true), (false, true), (false, false)] {
                         let skips = tileraster_core::Skips { hidden_triangles, ..tileraster_core::Skips::ALL };
-                        let params = RenderParams { cull: Cull::None, depth_func: func, depth_write: write, clear_depth, eye: Some([0.0, 0.0, -1.0]), count_fragments, skips, ..RenderParams::new(203, 157, IDENTITY) };
+                        let params = RenderParams {
+                            cull: Cull::None,
+                            depth_func: func,
+                            depth_write: write,
+                            clear_depth,
+                            eye: Some([0.0, 0.0, -1.0]),
+                            count_fragments,
+                            skips,
+                            ..RenderParams::new(203, 157, IDENTITY)
+                        };
                         let (prepared, _) = prepare_render(&mesh, &params).unwrap();
                         let plan = prepared.plan(prepared.window, false).unwrap();
                         let frame = plan.frame(&prepared, plan.active.unwrap());

@@ -155,7 +155,7 @@ struct Settings {
 }
 
 impl Settings {
-    fn new(py: Python<'_>, backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Settings> {
+    fn new(backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Settings> {
         let backend = match backend {
             "cpu" => Some(Backend::Cpu),
             "gpu" => Some(Backend::Gpu),
@@ -443,7 +443,7 @@ impl Prepared {
     #[new]
     #[pyo3(signature = (scene, grid, *, backend = "auto", mode = "exact", nodata = -9999.0, owner = false))]
     fn new(py: Python<'_>, scene: &Scene, grid: &Grid, backend: &str, mode: &str, nodata: f32, owner: bool) -> PyResult<Prepared> {
-        let settings = Settings::new(py, backend, mode, nodata, owner)?;
+        let settings = Settings::new(backend, mode, nodata, owner)?;
         let (scene, spec) = (scene.scene.clone(), grid.spec);
         let prepared = interruptible(py, move |_| -> PyResult<PreparedScene> {
             let grid = spec.grid_for(&scene).map_err(error)?;
@@ -496,7 +496,7 @@ fn rasterise(
         return Err(error("radius is NaN; give a number (negative: any distance, 0: none)"));
     }
     // The fallback reads the owner layer: it is computed, and dropped if not asked for.
-    let settings = Settings::new(py, backend, mode, nodata, owner || radius != 0.0)?;
+    let settings = Settings::new(backend, mode, nodata, owner || radius != 0.0)?;
     let points = match (points, radius != 0.0) {
         (Some(points), true) => Some(vertices_of(points, "points")?),
         // A mesh's own vertices when no points are given.

@@ -16,8 +16,32 @@ stops a long call with ``KeyboardInterrupt``.
 
 from __future__ import annotations
 
+import os
+import tempfile
+
 from ._native import Grid, Prepared, Raster, Scene, TilerasterError, backends
 from ._native import rasterise as _rasterise
+
+
+def _give_vulkan_a_runtime_dir() -> None:
+    """Mesa's Vulkan drivers print ``error: XDG_RUNTIME_DIR is invalid or not set`` when the
+    process has none (a container, a batch job, ssh without a login session), though nothing
+    fails. As the command line does, give the process a private runtime directory of its own,
+    as a login session would, where it has no valid one: before any Vulkan driver is loaded."""
+    valid = lambda d: os.path.isdir(d) and os.stat(d).st_uid == os.getuid()  # noqa: E731
+    current = os.environ.get("XDG_RUNTIME_DIR")
+    if current and valid(current):
+        return
+    private = os.path.join(tempfile.gettempdir(), f"tileraster-runtime-{os.getuid()}")
+    try:
+        os.makedirs(private, mode=0o700, exist_ok=True)
+    except OSError:
+        return
+    if valid(private):
+        os.environ["XDG_RUNTIME_DIR"] = private
+
+
+_give_vulkan_a_runtime_dir()
 
 __all__ = ["Grid", "Prepared", "Raster", "Scene", "TilerasterError", "backends", "rasterise", "points_to_dem", "tin"]
 

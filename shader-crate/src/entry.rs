@@ -22,6 +22,9 @@ use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 pub use spirv_std::glam::UVec3;
 pub use spirv_std::spirv;
 
+// `#[spirv(spec_constant(..))]` takes literals: keep `fine_raster`'s and these in step.
+const _: () = assert!(HeightProgram::MODE_SPEC_ID == 1 && HeightProgram::GENERIC_MODE == 0);
+
 /// Per-triangle stages are dispatched in 2D when there are more than 65,535 workgroups.
 fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
     gid.y * frame.dispatch_width + gid.x
@@ -108,8 +111,10 @@ pub fn fine_raster(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
     #[spirv(workgroup)] shared: &mut FineShared<Coverage, u32>,
+    #[spirv(spec_constant(id = 1, default = 0))] mode: u32,
 ) {
-    fine_raster_workgroup(&HeightProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
+    let program = HeightProgram::specialised(frame, mode);
+    fine_raster_workgroup(&program, wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
 }
 
 /// Fine raster of the render pipeline: the depth test (`programs::depth`).

@@ -7,7 +7,8 @@ use std::sync::{Mutex, OnceLock};
 use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
-use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, StageBuffers, StageInfo};
+use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
+use tileraster_kernels::programs::height::HeightProgram;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
@@ -167,6 +168,9 @@ struct GpuContext {
     /// `None` for the rows that colour fragments, whose pipelines are specialised per frame
     /// (`shading`).
     pipelines: Vec<Option<StagePipeline>>,
+    /// The heightfield's fine raster, one pipeline per value mode (its code, and the kernels'
+    /// module specialised for it: `HeightProgram::MODE_SPEC_ID`), built on first use.
+    fine_raster_by_mode: Vec<(u32, StagePipeline)>,
     /// The fragment shaders seen so far (their modules checked).
     fragments: Vec<FragmentStage>,
     /// The pipelines of the rows that colour fragments, one set per module (the kernels' or a
@@ -264,6 +268,7 @@ impl GpuContext {
             kernels,
             kernel_module,
             pipelines: STAGES.iter().map(|_| None).collect(),
+            fine_raster_by_mode: Vec::new(),
             fragments: Vec::new(),
             shading: Vec::new(),
             buffers,
@@ -371,7 +376,7 @@ impl GpuContext {
         raster: &mut Raster,
         counters: &mut [u64; Counter::COUNT],
     ) -> Result<(), Error> {
-        self.build_rows(prepared.pipeline())?;
+        self.build_rows(prepared.pipeline(), prepared.params.mode as u32)?;
         let max_pixels = self.max_window_pixels(prepared);
         let whole = self.scene_fits(prepared, prepared.triangles.len() as u64);
         if whole && resident.is_none() {
@@ -483,11 +488,20 @@ impl GpuContext {
     }
 
     /// Build the pipelines of `pipeline`'s rows that do not colour fragments and are not built
-    /// yet.
-    fn build_rows(&mut self, pipeline: Pipeline) -> Result<(), Error> {
+    /// yet; the heightfield's fine raster for value mode `mode` (a `ValueMode` code).
+    fn build_rows(&mut self, pipeline: Pipeline, mode: u32) -> Result<(), Error> {
         let scope = self.gpu.error_scope();
         for (k, info) in STAGES.iter().enumerate() {
-            if info.runs_in(pipeline) && !info.stage.colours_fragments() && self.pipelines[k].is_none() {
+            if !info.runs_in(pipeline) || info.stage.colours_fragments() {
+                continue;
+            }
+            if info.stage == Stage::FineRaster {
+                if !self.fine_raster_by_mode.iter().any(|(m, _)| *m == mode) {
+                    let spec = (HeightProgram::MODE_SPEC_ID, mode + 1);
+                    let module = passthrough_module(&self.gpu.device, "fine raster", self.kernels, Some(spec), |row| row.stage == Stage::FineRaster);
+                    self.fine_raster_by_mode.push((mode, stage_pipeline(&self.gpu.device, &module, info)));
+                }
+            } else if self.pipelines[k].is_none() {
                 self.pipelines[k] = Some(stage_pipeline(&self.gpu.device, &self.kernel_module, info));
             }
         }
@@ -523,7 +537,7 @@ impl GpuContext {
             None => (self.kernels, "built-in shadings".to_string()),
         };
         let scope = self.gpu.error_scope();
-        let pipelines = stage_pipelines(&self.gpu.device, &label, module, Some(variant), |info| info.stage.colours_fragments());
+        let pipelines = stage_pipelines(&self.gpu.device, &label, module, Some((ShadeVariant::SPEC_ID, variant.0)), |info| info.stage.colours_fragments());
         if let Some(e) = scope.finish() {
             return Err(Error::Gpu(format!("the {label} were rejected by the device: {e}")));
         }
@@ -551,6 +565,7 @@ impl GpuContext {
                 let stage = match (info.stage.colours_fragments(), shading) {
                     (true, Some(f)) => self.shading[f].pipelines[k].as_ref(),
                     (true, None) => None,
+                    (false, _) if info.stage == Stage::FineRaster => self.fine_raster_by_mode.iter().find(|(m, _)| *m == frame.mode).map(|(_, p)| p),
                     (false, _) => self.pipelines[k].as_ref(),
                 }
                 .ok_or_else(|| Error::Gpu(format!("stage {} has no pipeline for this frame", info.name)))?;
@@ -820,33 +835,28 @@ fn copy_tile_rows(src: &[u32], frame: &FrameParams, window: &tileraster_core::Wi
 /// fragment shader's), so the driver receives rust-gpu's SPIR-V with its `NoContraction`
 /// decorations and float controls intact.
 ///
-/// With a `variant`, the module's shading entry points are specialised for it first
-/// (`crate::specialise`): the driver then compiles only the branches that variant takes.
+/// With `spec` (a `SpecId` and a value), the module's specialisation constants of that id are
+/// set first (`crate::specialise`): the driver then compiles only the branches that value
+/// takes.
 fn stage_pipelines(
     device: &wgpu::Device,
     label: &str,
     module: &[u8],
-    variant: Option<ShadeVariant>,
+    spec: Option<(u32, u32)>,
     rows: impl Fn(&StageInfo) -> bool + Copy,
 ) -> Vec<Option<StagePipeline>> {
-    let module = passthrough_module(device, label, module, variant, rows);
+    let module = passthrough_module(device, label, module, spec, rows);
     STAGES.iter().map(|info| rows(info).then(|| stage_pipeline(device, &module, info))).collect()
 }
 
 /// `module` as the driver gets it, with the entry points of the rows `rows` picks (specialised
-/// for `variant` where given, see [`stage_pipelines`]).
-fn passthrough_module(
-    device: &wgpu::Device,
-    label: &str,
-    module: &[u8],
-    variant: Option<ShadeVariant>,
-    rows: impl Fn(&StageInfo) -> bool,
-) -> wgpu::ShaderModule {
+/// by `spec` where given, see [`stage_pipelines`]).
+fn passthrough_module(device: &wgpu::Device, label: &str, module: &[u8], spec: Option<(u32, u32)>, rows: impl Fn(&StageInfo) -> bool) -> wgpu::ShaderModule {
     let mut words = wgpu::util::make_spirv_raw(module);
-    if let Some(variant) = variant {
+    if let Some((id, value)) = spec {
         // A module without the constant (or not SPIR-V) is left as it is: the device's own
         // validation reports what is wrong with it.
-        if let Ok((specialised, _)) = crate::specialise::specialise(&words, ShadeVariant::SPEC_ID, variant.0) {
+        if let Ok((specialised, _)) = crate::specialise::specialise(&words, id, value) {
             words = specialised.into();
         }
     }

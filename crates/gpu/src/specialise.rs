@@ -1,7 +1,8 @@
 //! Specialisation constants, set in the module itself.
 //!
 //! The shading entry points take the frame's `ShadeVariant` as specialisation constant
-//! `ShadeVariant::SPEC_ID`. wgpu hands a passthrough module to the driver without
+//! `ShadeVariant::SPEC_ID`, and `fine_raster` the frame's value mode as
+//! `HeightProgram::MODE_SPEC_ID`. wgpu hands a passthrough module to the driver without
 //! specialisation info, so the backend writes the value into the module instead: it becomes the
 //! constant's default, which the driver then uses as it would a specialised value, folding the
 //! branches the frame does not take out of the pipeline.
@@ -68,6 +69,8 @@ mod tests {
             let changed: Vec<usize> = (0..words.len()).filter(|&k| words[k] != patched[k]).collect();
             assert_eq!(changed.len(), set, "only the constants' values change");
             assert!(changed.iter().all(|&k| patched[k] == 0x8000_1234 && words[k] == ShadeVariant::GENERIC.0));
+            let (_, modes) = specialise(&words, tileraster_kernels::programs::height::HeightProgram::MODE_SPEC_ID, 1).unwrap();
+            assert_eq!(modes, 1, "fine_raster takes the value mode");
             assert_eq!(specialise(&words, 7, 1).unwrap().1, 0, "no other SpecId");
         }
         assert!(specialise(&[1, 2, 3], 0, 0).is_err());

@@ -20,6 +20,22 @@ impl HeightProgram {
     pub fn of(frame: &FrameParams) -> HeightProgram {
         HeightProgram { mode: frame.value_mode(), nodata_bits: frame.nodata_bits }
     }
+
+    /// [`Self::of`] with the value mode fixed by `variant` where it is not
+    /// [`Self::GENERIC_MODE`]: `mode as u32 + 1`, the `fine_raster` entry point's
+    /// specialisation constant [`Self::MODE_SPEC_ID`], which the GPU backend sets to the frame's
+    /// mode so that the driver compiles that mode's arithmetic alone (a CPU implementation of
+    /// Vulkan runs every branch).
+    #[inline]
+    pub fn specialised(frame: &FrameParams, variant: u32) -> HeightProgram {
+        let mode = if variant == Self::GENERIC_MODE { frame.value_mode() } else { ValueMode::from_code(variant - 1) };
+        HeightProgram { mode, nodata_bits: frame.nodata_bits }
+    }
+
+    /// The `SpecId` of the `fine_raster` entry point's value mode.
+    pub const MODE_SPEC_ID: u32 = 1;
+    /// Its default: the frame's mode, read at run time.
+    pub const GENERIC_MODE: u32 = 0;
 }
 
 impl PixelProgram for HeightProgram {

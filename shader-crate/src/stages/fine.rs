@@ -108,7 +108,7 @@ pub struct FineShared<S: Copy, K: Copy> {
     pub lists: [u32; (SPANS * BATCH / 4) as usize],
     /// ... and how many there are.
     pub listed: [u32; SPANS as usize],
-    pub occluders: [K; BATCH as usize],
+    pub occluders: [K; OCCLUDER_LANES as usize],
 }
 
 impl<S: Copy, K: Copy> FineShared<S, K> {
@@ -119,7 +119,7 @@ impl<S: Copy, K: Copy> FineShared<S, K> {
             hidden: [0; BATCH as usize],
             lists: [0; (SPANS * BATCH / 4) as usize],
             listed: [0; SPANS as usize],
-            occluders: [no_key; BATCH as usize],
+            occluders: [no_key; OCCLUDER_LANES as usize],
         }
     }
 }
@@ -190,8 +190,13 @@ pub fn rejects_hidden<P: PixelProgram>(frame: &FrameParams) -> bool {
     P::OCCLUSION && frame.flags.contains(FrameFlags::HIDDEN_TRIANGLES)
 }
 
-/// Occlusion, phase 1 (before the batches): invocation `lid < BATCH` keeps the smallest
-/// occluder key among the bin's entries `lid`, `lid + BATCH`, … that cover the tile whole.
+/// Invocations that take the tile's occluders: few, since every invocation then reads their
+/// partial minima (`occluding_key`), and every SIMD group pays for the loop it does not run.
+pub const OCCLUDER_LANES: u32 = 8;
+
+/// Occlusion, phase 1 (before the batches): invocation `lid < OCCLUDER_LANES` keeps the
+/// smallest occluder key among the bin's entries `lid`, `lid + OCCLUDER_LANES`, … that cover the
+/// tile whole.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn fine_occluders<P: PixelProgram>(
@@ -204,7 +209,7 @@ pub fn fine_occluders<P: PixelProgram>(
     tile: &PixelRect,
     shared: &mut FineShared<P::Staged, P::Key>,
 ) {
-    if lid >= BATCH {
+    if lid >= OCCLUDER_LANES {
         return;
     }
     let mut best = P::NO_KEY;
@@ -217,7 +222,7 @@ pub fn fine_occluders<P: PixelProgram>(
                 best = key;
             }
         }
-        k += BATCH;
+        k += OCCLUDER_LANES;
     }
     shared.occluders[lid as usize] = best;
 }
@@ -227,7 +232,7 @@ pub fn fine_occluders<P: PixelProgram>(
 pub fn occluding_key<P: PixelProgram>(shared: &FineShared<P::Staged, P::Key>) -> P::Key {
     let mut best = P::NO_KEY;
     let mut k = 0;
-    while k < BATCH {
+    while k < OCCLUDER_LANES {
         if shared.occluders[k as usize] < best {
             best = shared.occluders[k as usize];
         }
@@ -282,7 +287,7 @@ pub const SPAN: u32 = 8;
 pub const SPANS: u32 = TILE_PIXELS / SPAN;
 
 // A span lies in one tile row, and a batch position fits a byte.
-const _: () = assert!(TILE % SPAN == 0 && BATCH <= 256 && BATCH % 4 == 0);
+const _: () = assert!(TILE.is_multiple_of(SPAN) && BATCH <= 256 && BATCH.is_multiple_of(4));
 
 /// Phase 1b, invocations `lid < SPANS` (after the batch is staged): span `lid`'s list of the
 /// batch's triangles whose rectangle reaches it, in batch order. A triangle owns, covers and

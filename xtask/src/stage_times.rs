@@ -127,6 +127,15 @@ pub fn run(only: Option<&str>, backends: Backends) -> Result<String, String> {
     Ok(s)
 }
 
+/// A new table's header where the columns differ from the table's before.
+fn table_header<'a>(s: &mut String, header: &mut Option<Vec<&'a str>>, names: &[&'a str]) {
+    if header.as_deref() != Some(names) {
+        let _ = writeln!(s, "\n| scene | {} |", names.join(" | "));
+        let _ = writeln!(s, "| --- |{}", " ---: |".repeat(names.len()));
+        *header = Some(names.to_vec());
+    }
+}
+
 fn cpu_table(cases: &[(String, Case)]) -> Result<String, String> {
     const RUNS: usize = 15;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -134,11 +143,7 @@ fn cpu_table(cases: &[(String, Case)]) -> Result<String, String> {
     let mut header = None;
     for (name, case) in cases {
         let names: Vec<&str> = ["prepare", "plan"].into_iter().chain(stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
-        if header.as_ref() != Some(&names) {
-            let _ = writeln!(s, "\n| scene | {} |", names.join(" | "));
-            let _ = writeln!(s, "| --- |{}", " ---: |".repeat(names.len()));
-            header = Some(names.clone());
-        }
+        table_header(&mut s, &mut header, &names);
         one_call(case)?;
         let calls = (0..RUNS).map(|_| one_call(case)).collect::<Result<Vec<_>, _>>()?;
         let medians: Vec<String> = (0..names.len()).map(|k| format!("{:.1}", median(calls.iter().map(|c| c[k]).collect()))).collect();
@@ -158,11 +163,7 @@ fn gpu_table(cases: &[(String, Case)]) -> Result<String, String> {
     for (name, case) in cases {
         let rows: Vec<_> = stages(case.pipeline()).collect();
         let names: Vec<&str> = rows.iter().map(|info| info.name).chain(["device", "call", "dispatches", "submissions", "waits", "MB up", "MB down"]).collect();
-        if header.as_ref() != Some(&names) {
-            let _ = writeln!(s, "\n| scene | {} |", names.join(" | "));
-            let _ = writeln!(s, "| --- |{}", " ---: |".repeat(names.len()));
-            header = Some(names.clone());
-        }
+        table_header(&mut s, &mut header, &names);
         one_gpu_call(case)?;
         let calls = (0..RUNS).map(|_| one_gpu_call(case)).collect::<Result<Vec<_>, _>>()?;
         let Some(_) = calls[0].0.stage_ms else {

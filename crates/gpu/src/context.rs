@@ -443,26 +443,12 @@ impl GpuContext {
             let window_counters = match &part {
                 None => {
                     let r = resident.as_ref().expect("a whole scene is set up before its windows");
-                    let scene = SceneBuffers {
-                        pipeline: prepared.pipeline(),
-                        fragment,
-                        setups: &r.setups,
-                        shading: r.shading.as_ref(),
-                        shade_params: shade_params.as_ref(),
-                        materials: materials.as_ref(),
-                    };
+                    let scene = SceneBuffers::of(prepared, fragment, r, shade_params.as_ref(), materials.as_ref());
                     self.rasterise_window(&frame, entries, &scene, listed_buf.as_ref().expect("listed with the whole scene"), None, raster)?
                 }
                 Some(slots) => {
                     let r = self.upload_and_setup(prepared, Some(slots))?;
-                    let scene = SceneBuffers {
-                        pipeline: prepared.pipeline(),
-                        fragment,
-                        setups: &r.setups,
-                        shading: r.shading.as_ref(),
-                        shade_params: shade_params.as_ref(),
-                        materials: materials.as_ref(),
-                    };
+                    let scene = SceneBuffers::of(prepared, fragment, &r, shade_params.as_ref(), materials.as_ref());
                     // The part's setups are its own slots 0, 1, ...: the binning stages take them all.
                     let local: Vec<u32> = (0..slots.len() as u32).collect();
                     let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
@@ -805,6 +791,19 @@ struct SceneBuffers<'a> {
     shade_params: Option<&'a wgpu::Buffer>,
     /// The render pipeline's textures and texels.
     materials: Option<&'a (wgpu::Buffer, wgpu::Buffer)>,
+}
+
+impl<'a> SceneBuffers<'a> {
+    /// The buffers of `prepared`'s scene, set up in `resident`.
+    fn of(
+        prepared: &Prepared,
+        fragment: Option<usize>,
+        resident: &'a Resident,
+        shade_params: Option<&'a wgpu::Buffer>,
+        materials: Option<&'a (wgpu::Buffer, wgpu::Buffer)>,
+    ) -> Self {
+        SceneBuffers { pipeline: prepared.pipeline(), fragment, setups: &resident.setups, shading: resident.shading.as_ref(), shade_params, materials }
+    }
 }
 
 /// Copy a window's rows into the raster that holds it, rows in parallel: reading a large

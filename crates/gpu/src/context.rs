@@ -159,23 +159,14 @@ struct GpuContext {
     float_controls_declared: bool,
     /// Whether the `f32` modes give the CPU backend's bits here: checked on first use.
     float_modes: Option<Result<(), String>>,
-    /// The kernels' module, as the device gets it (with float controls where declared)...
+    /// The kernels' module, as the device gets it (with float controls where declared).
     kernels: &'static [u8],
-    /// ... and as a shader module of the rows that do not colour fragments.
-    kernel_module: wgpu::ShaderModule,
-    /// One per row of the stage table, in its order, built when a frame first runs the row
-    /// (a driver compiles each: a heightfield never pays for the render pipeline's); always
-    /// `None` for the rows that colour fragments, whose pipelines are specialised per frame
-    /// (`shading`).
-    pipelines: Vec<Option<StagePipeline>>,
-    /// The heightfield's fine raster, one pipeline per value mode (its code, and the kernels'
-    /// module specialised for it: `HeightProgram::MODE_SPEC_ID`), built on first use.
-    fine_raster_by_mode: Vec<(u32, StagePipeline)>,
     /// The fragment shaders seen so far (their modules checked).
     fragments: Vec<FragmentStage>,
-    /// The pipelines of the rows that colour fragments, one set per module (the kernels' or a
-    /// fragment shader's) and frame variant, built on first use.
-    shading: Vec<ShadingPipelines>,
+    /// Every pipeline built so far, with what it was built from: each row of the stage table
+    /// is built when a frame first runs it (a driver compiles each: a heightfield never pays
+    /// for the render pipeline's), once per module and specialisation (`Build`).
+    pipelines: Vec<(Build, StagePipeline)>,
     buffers: Buffers,
     /// The dispatches, transfers and (in profiled calls) stage times of the call in progress.
     recorder: Recorder,
@@ -183,12 +174,16 @@ struct GpuContext {
     timestamps: bool,
 }
 
-/// The stage table's rows that colour fragments, from one module (the kernels', or fragment
-/// shader `fragment`'s) specialised for one frame variant (`None` for the other rows).
-struct ShadingPipelines {
+/// What a stage's pipeline is built from: its row of the stage table, the module (the
+/// kernels', or fragment shader `fragment`'s for the rows that colour fragments), and the
+/// specialisation constant (`SpecId`, value) written into it, so that the driver compiles only
+/// the branches a frame takes: the frame's `ShadeVariant` for the rows that colour fragments,
+/// the heightfield's value mode for `fine_raster` (`HeightProgram::MODE_SPEC_ID`).
+#[derive(Copy, Clone, PartialEq, Eq)]
+struct Build {
+    row: usize,
     fragment: Option<usize>,
-    variant: ShadeVariant,
-    pipelines: Vec<Option<StagePipeline>>,
+    spec: Option<(u32, u32)>,
 }
 
 /// Prefer a real GPU, then an integrated one, then a CPU implementation such as lavapipe.
@@ -231,15 +226,10 @@ impl GpuContext {
                 details: format!("{} binds at most {bound} storage buffers per shader stage; tileraster's stages bind up to {needed}", gpu.info.name),
             });
         }
-        let device = &gpu.device;
         let float_controls = FloatControls::of(&adapter);
         let declared = float_controls.declared(&adapter.get_info());
+        // Its pipelines are built when a frame first runs them (`stage_pipelines_of`).
         let kernels = if declared { crate::KERNELS_FLOAT_CONTROLS_SPV } else { crate::KERNELS_SPV };
-        let scope = gpu.error_scope();
-        let kernel_module = passthrough_module(device, "tileraster kernels", kernels, None, |info| !info.stage.colours_fragments());
-        if let Some(e) = scope.finish() {
-            return Err(Error::Gpu(format!("the kernels were rejected by the device: {e}")));
-        }
         let buffers = Buffers {
             frame: Grown::storage("frame"),
             listed: Grown::storage("listed triangles"),
@@ -266,11 +256,8 @@ impl GpuContext {
             float_controls_declared: declared,
             float_modes: None,
             kernels,
-            kernel_module,
-            pipelines: STAGES.iter().map(|_| None).collect(),
-            fine_raster_by_mode: Vec::new(),
             fragments: Vec::new(),
-            shading: Vec::new(),
+            pipelines: Vec::new(),
             buffers,
             recorder: Recorder::default(),
             timestamps,
@@ -376,16 +363,12 @@ impl GpuContext {
         raster: &mut Raster,
         counters: &mut [u64; Counter::COUNT],
     ) -> Result<(), Error> {
-        self.build_rows(prepared.pipeline(), prepared.params.mode as u32)?;
+        let rows = self.stage_pipelines_of(prepared)?;
         let max_pixels = self.max_window_pixels(prepared);
         let whole = self.scene_fits(prepared, prepared.triangles.len() as u64);
         if whole && resident.is_none() {
-            *resident = Some(self.upload_and_setup(prepared, None)?);
+            *resident = Some(self.upload_and_setup(prepared, &rows, None)?);
         }
-        let fragment = match prepared.render.as_ref() {
-            Some(r) => Some(self.shading_pipelines(r.fragment.as_ref(), &r.params)?),
-            None => None,
-        };
         let shade_params = prepared.render.as_ref().map(|s| {
             let buf = self.buffers.shade_params.get(&self.gpu.device, std::mem::size_of::<ShadeParams>() as u64);
             self.recorder.upload(&self.gpu.queue, &buf, bytemuck::bytes_of(&s.params));
@@ -443,12 +426,12 @@ impl GpuContext {
             let window_counters = match &part {
                 None => {
                     let r = resident.as_ref().expect("a whole scene is set up before its windows");
-                    let scene = SceneBuffers::of(prepared, fragment, r, shade_params.as_ref(), materials.as_ref());
+                    let scene = SceneBuffers::of(prepared, &rows, r, shade_params.as_ref(), materials.as_ref());
                     self.rasterise_window(&frame, entries, &scene, listed_buf.as_ref().expect("listed with the whole scene"), None, raster)?
                 }
                 Some(slots) => {
-                    let r = self.upload_and_setup(prepared, Some(slots))?;
-                    let scene = SceneBuffers::of(prepared, fragment, &r, shade_params.as_ref(), materials.as_ref());
+                    let r = self.upload_and_setup(prepared, &rows, Some(slots))?;
+                    let scene = SceneBuffers::of(prepared, &rows, &r, shade_params.as_ref(), materials.as_ref());
                     // The part's setups are its own slots 0, 1, ...: the binning stages take them all.
                     let local: Vec<u32> = (0..slots.len() as u32).collect();
                     let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
@@ -473,27 +456,39 @@ impl GpuContext {
         (x, y)
     }
 
-    /// Build the pipelines of `pipeline`'s rows that do not colour fragments and are not built
-    /// yet; the heightfield's fine raster for value mode `mode` (a `ValueMode` code).
-    fn build_rows(&mut self, pipeline: Pipeline, mode: u32) -> Result<(), Error> {
+    /// For each row of the stage table, the index in `self.pipelines` of the pipeline that
+    /// runs it for `prepared` (`None` for the rows its pipeline does not run), built on first
+    /// use.
+    fn stage_pipelines_of(&mut self, prepared: &Prepared) -> Result<Vec<Option<usize>>, Error> {
+        let fragment = match prepared.render.as_ref().and_then(|r| r.fragment.as_ref()) {
+            Some(stage) => Some(self.fragment_index(stage)?),
+            None => None,
+        };
+        let shade_variant = prepared.render.as_ref().map(|r| if ShadeVariant::holds(&r.params) { ShadeVariant::of(&r.params) } else { ShadeVariant::GENERIC });
         let scope = self.gpu.error_scope();
-        for (k, info) in STAGES.iter().enumerate() {
-            if !info.runs_in(pipeline) || info.stage.colours_fragments() {
-                continue;
-            }
-            if info.stage == Stage::FineRaster {
-                if !self.fine_raster_by_mode.iter().any(|(m, _)| *m == mode) {
-                    let spec = (HeightProgram::MODE_SPEC_ID, mode + 1);
-                    let module = passthrough_module(&self.gpu.device, "fine raster", self.kernels, Some(spec), |row| row.stage == Stage::FineRaster);
-                    self.fine_raster_by_mode.push((mode, stage_pipeline(&self.gpu.device, &module, info)));
+        let mut rows = vec![None; STAGES.len()];
+        for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
+            let build = match info.stage {
+                _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
+                Stage::FineRaster => Build { row, fragment: None, spec: Some((HeightProgram::MODE_SPEC_ID, prepared.params.mode as u32 + 1)) },
+                _ => Build { row, fragment: None, spec: None },
+            };
+            rows[row] = Some(match self.pipelines.iter().position(|(b, _)| *b == build) {
+                Some(k) => k,
+                None => {
+                    let (module, label) = match build.fragment {
+                        Some(f) => (self.fragments[f].module(self.float_controls_declared), format!("fragment shader {}", self.fragments[f].name())),
+                        None => (self.kernels, format!("tileraster kernels, {}", info.name)),
+                    };
+                    let module = passthrough_module(&self.gpu.device, &label, module, build.spec, |other| other.stage == info.stage);
+                    self.pipelines.push((build, stage_pipeline(&self.gpu.device, &module, info)));
+                    self.pipelines.len() - 1
                 }
-            } else if self.pipelines[k].is_none() {
-                self.pipelines[k] = Some(stage_pipeline(&self.gpu.device, &self.kernel_module, info));
-            }
+            });
         }
         match scope.finish() {
             Some(e) => Err(Error::Gpu(format!("the kernels were rejected by the device: {e}"))),
-            None => Ok(()),
+            None => Ok(rows),
         }
     }
 
@@ -509,52 +504,24 @@ impl GpuContext {
         Ok(self.fragments.len() - 1)
     }
 
-    /// The index in `self.shading` of the pipelines that colour a frame of shade parameters
-    /// `params`, from fragment shader `fragment` (the built-in shadings without one),
-    /// specialised for the frame's variant: built on first use.
-    fn shading_pipelines(&mut self, fragment: Option<&FragmentStage>, params: &ShadeParams) -> Result<usize, Error> {
-        let fragment = fragment.map(|stage| self.fragment_index(stage)).transpose()?;
-        let variant = if ShadeVariant::holds(params) { ShadeVariant::of(params) } else { ShadeVariant::GENERIC };
-        if let Some(k) = self.shading.iter().position(|p| p.fragment == fragment && p.variant == variant) {
-            return Ok(k);
-        }
-        let (module, label) = match fragment {
-            Some(f) => (self.fragments[f].module(self.float_controls_declared), format!("fragment shader {}", self.fragments[f].name())),
-            None => (self.kernels, "built-in shadings".to_string()),
-        };
-        let scope = self.gpu.error_scope();
-        let pipelines = stage_pipelines(&self.gpu.device, &label, module, Some((ShadeVariant::SPEC_ID, variant.0)), |info| info.stage.colours_fragments());
-        if let Some(e) = scope.finish() {
-            return Err(Error::Gpu(format!("the {label} were rejected by the device: {e}")));
-        }
-        self.shading.push(ShadingPipelines { fragment, variant, pipelines });
-        Ok(self.shading.len() - 1)
-    }
-
     /// Record the stages of `scope`, in the stage table's order, each with its bindings looked
-    /// up by role in `buffers` and its workgroups by its dispatch shape; the stages that colour
-    /// fragments from `self.shading[shading]`.
+    /// up by role in `buffers` and its workgroups by its dispatch shape, each run by its pipeline
+    /// in `rows` (`stage_pipelines_of`).
     #[allow(clippy::too_many_arguments)]
     fn encode_stages(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         pipeline: Pipeline,
-        shading: Option<usize>,
+        rows: &[Option<usize>],
         scope: Scope,
         frame: &FrameParams,
         triangle_groups: (u32, u32),
         buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
     ) -> Result<(), Error> {
-        let rows: Vec<(usize, &StageInfo)> = STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline)).collect();
+        let run: Vec<(usize, &StageInfo)> = STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline)).collect();
         let record = |encoder: &mut wgpu::CommandEncoder, queries: Option<&wgpu::QuerySet>| -> Result<(), Error> {
-            for (n, &(k, info)) in rows.iter().enumerate() {
-                let stage = match (info.stage.colours_fragments(), shading) {
-                    (true, Some(f)) => self.shading[f].pipelines[k].as_ref(),
-                    (true, None) => None,
-                    (false, _) if info.stage == Stage::FineRaster => self.fine_raster_by_mode.iter().find(|(m, _)| *m == frame.mode).map(|(_, p)| p),
-                    (false, _) => self.pipelines[k].as_ref(),
-                }
-                .ok_or_else(|| Error::Gpu(format!("stage {} has no pipeline for this frame", info.name)))?;
+            for (n, &(k, info)) in run.iter().enumerate() {
+                let stage = &self.pipelines[rows[k].ok_or_else(|| Error::Gpu(format!("stage {} has no pipeline for this frame", info.name)))?].1;
                 let bound: Vec<wgpu::Buffer> = info
                     .bindings
                     .iter()
@@ -581,9 +548,9 @@ impl GpuContext {
             }
             Ok(())
         };
-        if self.recorder.timing() && !rows.is_empty() {
+        if self.recorder.timing() && !run.is_empty() {
             let mut recorded = Ok(());
-            let stages = rows.iter().map(|(_, info)| info.stage).collect();
+            let stages = run.iter().map(|(_, info)| info.stage).collect();
             self.recorder.time_passes(&self.gpu.device, encoder, stages, |encoder, queries| recorded = record(encoder, Some(queries)));
             recorded
         } else {
@@ -599,7 +566,7 @@ impl GpuContext {
     /// shade stage reads the setups by the owner layer, see `programs::depth`): the order of
     /// the slots is the scene's, so depth ties and blending go the same way, and the owner
     /// layer is mapped back to the scene's slots as it is read.
-    fn upload_and_setup(&mut self, prepared: &Prepared, part: Option<&[u32]>) -> Result<Resident, Error> {
+    fn upload_and_setup(&mut self, prepared: &Prepared, rows: &[Option<usize>], part: Option<&[u32]>) -> Result<Resident, Error> {
         let n = part.map_or(prepared.triangles.len(), <[u32]>::len) as u64;
         let renumber = prepared.pipeline().renders();
         let inputs_part: Option<Vec<TriangleInput>> = part.map(|slots| {
@@ -645,7 +612,7 @@ impl GpuContext {
             Buffer::Setups => Some(setups.clone()),
             _ => None,
         };
-        self.encode_stages(&mut encoder, prepared.pipeline(), None, Scope::Scene, &frame, groups, &buffers)?;
+        self.encode_stages(&mut encoder, prepared.pipeline(), rows, Scope::Scene, &frame, groups, &buffers)?;
         self.recorder.submit();
         self.gpu.queue.submit([encoder.finish()]);
         Ok(Resident { setups, shading })
@@ -723,7 +690,7 @@ impl GpuContext {
                 Buffer::Faces => faces.clone(),
             })
         };
-        self.encode_stages(&mut encoder, scene.pipeline, scene.fragment, Scope::Window, &frame, groups, &buffers)?;
+        self.encode_stages(&mut encoder, scene.pipeline, scene.rows, Scope::Window, &frame, groups, &buffers)?;
         encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
         encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
         encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_bytes);
@@ -783,8 +750,8 @@ impl GpuContext {
 /// A scene's buffers on the device, as one window's dispatches bind them.
 struct SceneBuffers<'a> {
     pipeline: Pipeline,
-    /// The frame's shading pipelines (an index into `GpuContext::shading`).
-    fragment: Option<usize>,
+    /// The pipeline of each row (`GpuContext::stage_pipelines_of`).
+    rows: &'a [Option<usize>],
     setups: &'a wgpu::Buffer,
     /// The render pipeline's: per-triangle attributes, and the frame's shade parameters.
     shading: Option<&'a wgpu::Buffer>,
@@ -797,12 +764,12 @@ impl<'a> SceneBuffers<'a> {
     /// The buffers of `prepared`'s scene, set up in `resident`.
     fn of(
         prepared: &Prepared,
-        fragment: Option<usize>,
+        rows: &'a [Option<usize>],
         resident: &'a Resident,
         shade_params: Option<&'a wgpu::Buffer>,
         materials: Option<&'a (wgpu::Buffer, wgpu::Buffer)>,
     ) -> Self {
-        SceneBuffers { pipeline: prepared.pipeline(), fragment, setups: &resident.setups, shading: resident.shading.as_ref(), shade_params, materials }
+        SceneBuffers { pipeline: prepared.pipeline(), rows, setups: &resident.setups, shading: resident.shading.as_ref(), shade_params, materials }
     }
 }
 
@@ -828,28 +795,11 @@ fn copy_tile_rows(src: &[u32], frame: &FrameParams, window: &tileraster_core::Wi
     }
 }
 
-/// The pipelines of the stage table's rows that `rows` picks (`None` for the others), from
-/// the table: an explicit bind group layout per stage (read-only or read-write storage
-/// buffers, as the table says) over one passthrough module (`module`: the kernels, or a
-/// fragment shader's), so the driver receives rust-gpu's SPIR-V with its `NoContraction`
-/// decorations and float controls intact.
-///
-/// With `spec` (a `SpecId` and a value), the module's specialisation constants of that id are
-/// set first (`crate::specialise`): the driver then compiles only the branches that value
-/// takes.
-fn stage_pipelines(
-    device: &wgpu::Device,
-    label: &str,
-    module: &[u8],
-    spec: Option<(u32, u32)>,
-    rows: impl Fn(&StageInfo) -> bool + Copy,
-) -> Vec<Option<StagePipeline>> {
-    let module = passthrough_module(device, label, module, spec, rows);
-    STAGES.iter().map(|info| rows(info).then(|| stage_pipeline(device, &module, info))).collect()
-}
-
-/// `module` as the driver gets it, with the entry points of the rows `rows` picks (specialised
-/// by `spec` where given, see [`stage_pipelines`]).
+/// `module` as the driver gets it (the kernels, or a fragment shader's), with the entry points
+/// of the rows `rows` picks: a passthrough module, so the driver receives rust-gpu's SPIR-V with
+/// its `NoContraction` decorations and float controls intact. With `spec` (a `SpecId` and a
+/// value), the module's specialisation constants of that id are set first
+/// (`crate::specialise`): the driver then compiles only the branches that value takes.
 fn passthrough_module(device: &wgpu::Device, label: &str, module: &[u8], spec: Option<(u32, u32)>, rows: impl Fn(&StageInfo) -> bool) -> wgpu::ShaderModule {
     let mut words = wgpu::util::make_spirv_raw(module);
     if let Some((id, value)) = spec {
@@ -880,6 +830,8 @@ fn passthrough_module(device: &wgpu::Device, label: &str, module: &[u8], spec: O
     }
 }
 
+/// A stage's pipeline over `module`, with an explicit bind group layout from its row of the
+/// table (each buffer read-only or read-write, as the table says).
 fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &StageInfo) -> StagePipeline {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = info
         .bindings

@@ -212,7 +212,7 @@ def test_bad_input_raises_the_librarys_errors(tmp_path):
 
 
 def test_ctrl_c_stops_a_long_call():
-    # One call of several seconds (2M triangles onto 16384² cells); the signal lands inside it,
+    # One call of a few seconds (2M triangles onto 16384² cells); the signal lands inside it,
     # and KeyboardInterrupt must come well before the call would have ended.
     script = (
         "import numpy as np, time, tileraster\n"
@@ -231,10 +231,12 @@ def test_ctrl_c_stops_a_long_call():
         "print('finished', flush=True)\n"
     )
     whole = float(subprocess.run([sys.executable, "-c", script, "time"], capture_output=True, text=True, check=True).stdout)
-    assert whole > 2.0, f"the call takes {whole:.1f} s: too short to interrupt inside it"
+    # The signal lands a quarter into the call and the interrupt must come within half of it, so
+    # the call need only be long enough for that to be told apart from scheduling noise.
+    assert whole > 1.0, f"the call takes {whole:.1f} s: too short to interrupt inside it"
     child = subprocess.Popen([sys.executable, "-c", script, "go"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert child.stdout.readline().strip() == "started"
-    time.sleep(0.5)
+    time.sleep(whole / 4)
     child.send_signal(signal.SIGINT)
     sent = time.monotonic()
     out, err = child.communicate(timeout=120)

@@ -69,25 +69,29 @@ fn render_skips() -> [(&'static str, Skips); 5] {
     ]
 }
 
-/// The CPU's specialised depth test (rows of pixels per triangle) against its plain twin (each
-/// tile as the GPU runs its workgroup): the same layers and counters.
+/// The CPU's depth-test fast paths (each triangle against its rows of the tile, centre by
+/// centre or in lanes), all together and each alone, against its plain twin (each tile as the
+/// GPU runs its workgroup): the same layers and counters.
 fn assert_plain_twin(name: &str, mesh: &Mesh, params: &RenderParams) {
     let (prepared, _) = prepare_render(mesh, params).unwrap_or_else(|e| panic!("{name}: {e}"));
     let run = |path| tileraster_cpu::rasterise_with(&prepared, path).unwrap_or_else(|e| panic!("{name}, {path:?}: {e}"));
-    let (specialised, plain) = (run(FinePath::Specialised), run(FinePath::Plain));
-    common::assert_same_bits(&format!("{name}: depth, CPU specialised vs plain twin"), &specialised, &plain);
-    for (layer, a, b) in [
-        ("owner", &specialised.owner, &plain.owner),
-        ("coverage", &specialised.coverage, &plain.coverage),
-        ("colour", &specialised.colours, &plain.colours),
-        ("face", &specialised.faces, &plain.faces),
-    ] {
-        assert!(a == b, "{name}: the {layer} layers of the CPU's specialised and plain twins differ");
+    let plain = run(FinePath::Plain);
+    for path in FinePath::DEPTH {
+        let fast = run(path);
+        common::assert_same_bits(&format!("{name}: depth, CPU {path:?} vs plain twin"), &fast, &plain);
+        for (layer, a, b) in [
+            ("owner", &fast.owner, &plain.owner),
+            ("coverage", &fast.coverage, &plain.coverage),
+            ("colour", &fast.colours, &plain.colours),
+            ("face", &fast.faces, &plain.faces),
+        ] {
+            assert!(a == b, "{name}: the {layer} layers of the CPU's {path:?} and plain twins differ");
+        }
+        assert_eq!(fast.stats, plain.stats, "{name}: the statistics of {path:?} and the plain twin differ");
     }
-    assert_eq!(specialised.stats, plain.stats, "{name}: the CPU twins' statistics differ");
 }
 
-/// Both backends, every skip variant, and the CPU's two twins: the same bits everywhere.
+/// Both backends, every skip variant, and the CPU's fast paths and plain twin: the same bits everywhere.
 /// Returns the CPU frame.
 fn assert_render_parity(name: &str, mesh: &Mesh, params: &RenderParams) -> Frame {
     assert_plain_twin(name, mesh, params);

@@ -63,16 +63,19 @@ pub fn assert_parity(name: &str, scene: &Scene, params: &Params) -> Option<(Rast
     first
 }
 
-/// The CPU backend's specialised fine raster (row spans, full and overlap-free tiles, wide
-/// vectors) against its plain twin, which runs each tile as the GPU runs its workgroup: the
-/// same bits and statistics, with every skip variant.
+/// The CPU backend's fine-raster fast paths (row spans, whole and overlap-free tiles, wide
+/// vectors), all together and each alone, against its plain twin, which runs each tile as the
+/// GPU runs its workgroup: the same bits and statistics, with every skip variant.
 pub fn assert_plain_twin(name: &str, scene: &Scene, params: &Params) {
     for (variant, skips) in skip_variants() {
         let prepared = tileraster::prepare(scene, &params.with_skips(skips), None).unwrap_or_else(|e| panic!("{name}, {variant}: {e}"));
         let run = |path| tileraster_cpu::rasterise_with(&prepared, path).unwrap_or_else(|e| panic!("{name}, {variant}, {path:?}: {e}"));
-        let (specialised, plain) = (run(FinePath::Specialised), run(FinePath::Plain));
-        assert_same_bits(&format!("{name}, {variant}, CPU specialised vs plain twin"), &specialised, &plain);
-        assert_eq!(specialised.stats, plain.stats, "{name}, {variant}: the CPU twins' statistics differ");
+        let plain = run(FinePath::Plain);
+        for path in FinePath::HEIGHTFIELD {
+            let fast = run(path);
+            assert_same_bits(&format!("{name}, {variant}, CPU {path:?} vs plain twin"), &fast, &plain);
+            assert_eq!(fast.stats, plain.stats, "{name}, {variant}: the statistics of {path:?} and the plain twin differ");
+        }
     }
 }
 

@@ -1,0 +1,114 @@
+//! Twins of the fine-raster entry points (`fine_raster`, `fine_depth`), two ways:
+//!
+//! - the plain twin ([`FinePath::Plain`], `plain.rs`) runs each tile as the GPU runs its
+//!   workgroup: the entry point's branches and the stage functions, invocation by invocation;
+//! - the fast paths take a tile's phases the CPU's way round where the result cannot tell:
+//!   each triangle against a row of 16 pixels (`rows.rs`; the GPU's pixels test triangles in
+//!   turn, and `fine::accumulate` does not depend on the order), the heightfield's whole and
+//!   overlap-free tiles written row by row (`height.rs`), the depth test centre by centre or
+//!   in lanes (`depth.rs`), and the whole band compiled for AVX-512 where the CPU has it
+//!   (`wide.rs`).
+//!
+//! The default runs every fast path where it applies. Each fast path also has a
+//! [`FinePath`] of its own that runs it alone, every other tile as the plain twin does: the
+//! parity tests run each against the plain twin on every scene, for the same bits and
+//! statistics.
+//!
+//! `band.rs` holds what the paths share: a row of tiles' part of the output layers, and the
+//! statistics counters.
+
+mod band;
+mod depth;
+mod height;
+mod plain;
+mod rows;
+mod wide;
+
+#[cfg(test)]
+mod tests;
+
+pub(crate) use band::StatCounters;
+use tileraster_core::Raster;
+use tileraster_kernels::abi::{FrameFlags, FrameParams, TriangleSetup};
+use tileraster_kernels::programs::depth::DepthProgram;
+use tileraster_kernels::programs::height::HeightProgram;
+
+pub(crate) use plain::fine_raster_plain;
+
+/// Which fine-raster twin runs: every fast path (the default), the plain twin that runs each
+/// tile as the GPU runs its workgroup, or one fast path alone (the rest of the tiles plain).
+/// All give the same bits and statistics; the tests run each on every parity scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FinePath {
+    /// Every fast path where it applies, the AVX-512 build where the CPU has it.
+    #[default]
+    Specialised,
+    /// The entry point's branches and the stage functions, invocation by invocation.
+    Plain,
+    /// Heightfield tiles with an empty bin, or one triangle covering them whole, written row by
+    /// row (`height::fine_resolve_empty_tile`, `height::fine_resolve_full_tile`).
+    WholeTiles,
+    /// Heightfield partial tiles of a frame proven overlap-free: each triangle writes its rows
+    /// of the tile, 16 lanes at a time (`height::fine_raster_tile_overlap_free`).
+    OverlapFreeRows,
+    /// Heightfield partial tiles where triangles may overlap: each triangle against its rows
+    /// of the tile, 16 lanes at a time (`height::fine_raster_tile_overlapping`).
+    OverlappingRows,
+    /// The depth test centre by centre, each triangle against its rows of the tile
+    /// (`depth::fine_depth_tile`; the default's path without AVX-512).
+    DepthCentres,
+    /// The depth test 16 lanes at a time (`depth::fine_depth_tile_rows`; the default's path
+    /// with AVX-512), here built for the CPU's baseline.
+    DepthLanes,
+}
+
+impl FinePath {
+    /// The fast paths of `fine_raster` (the heightfield), all of them first: the tests run
+    /// each against the plain twin.
+    pub const HEIGHTFIELD: [FinePath; 4] = [FinePath::Specialised, FinePath::WholeTiles, FinePath::OverlapFreeRows, FinePath::OverlappingRows];
+    /// The fast paths of `fine_depth` (the render pipeline), all of them first.
+    pub const DEPTH: [FinePath; 3] = [FinePath::Specialised, FinePath::DepthCentres, FinePath::DepthLanes];
+
+    /// Whether the path takes the heightfield's tiles of `kind` its own way (else the plain
+    /// twin takes them).
+    fn takes(self, kind: height::TileKind) -> bool {
+        use height::TileKind::*;
+        match self {
+            FinePath::Specialised => true,
+            FinePath::WholeTiles => matches!(kind, Empty | Full),
+            FinePath::OverlapFreeRows => kind == OverlapFree,
+            FinePath::OverlappingRows => kind == Overlapping,
+            FinePath::Plain | FinePath::DepthCentres | FinePath::DepthLanes => false,
+        }
+    }
+}
+
+/// Twin of the `fine_raster` entry point: one workgroup per tile, the tiles of a row as one
+/// rayon task.
+pub fn fine_raster(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+    match path {
+        FinePath::Plain => fine_raster_plain(&HeightProgram::of(frame), frame, setups, offsets, bins, raster),
+        FinePath::Specialised => height::fine_raster_using(path, wide::wide_vectors(), frame, setups, offsets, bins, raster),
+        _ => height::fine_raster_using(path, false, frame, setups, offsets, bins, raster),
+    }
+}
+
+/// Twin of the `fine_depth` entry point (the render pipeline's depth test): the CPU's way
+/// round (the default), or as the GPU runs its workgroups.
+pub fn fine_depth(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+    let program = DepthProgram::of(frame);
+    // Render frames never take the full-tile path (the depth test needs every fragment's
+    // key); a frame that allowed it goes the GPU's way.
+    if frame.flags.contains(FrameFlags::FULL_TILES) {
+        return fine_raster_plain(&program, frame, setups, offsets, bins, raster);
+    }
+    let way = match path {
+        FinePath::Specialised => depth::Way::fastest(wide::wide_vectors()),
+        FinePath::DepthCentres => depth::Way::Centres,
+        FinePath::DepthLanes => depth::Way::Lanes,
+        FinePath::Plain | FinePath::WholeTiles | FinePath::OverlapFreeRows | FinePath::OverlappingRows => {
+            return fine_raster_plain(&program, frame, setups, offsets, bins, raster);
+        }
+    };
+    depth::fine_depth_using(way, &program, frame, setups, offsets, bins, raster)
+}

@@ -1,0 +1,105 @@
+//! The plain twin: each tile exactly as the GPU runs its workgroup, for any pixel program.
+
+use super::band::{Band, BandCounters, StatCounters, for_each_band};
+use tileraster_core::Raster;
+use tileraster_kernels::abi::{Counter, FrameParams};
+use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
+use tileraster_kernels::{BATCH, TILE_PIXELS};
+
+/// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
+/// layer holds their bits).
+pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(
+    program: &P,
+    frame: &FrameParams,
+    setups: &[P::Setup],
+    offsets: &[u32],
+    bins: &[u32],
+    raster: &mut Raster,
+) -> StatCounters
+where
+    P::Setup: Sync,
+    P::Staged: Default,
+{
+    for_each_band(frame, raster, |band, stats| {
+        let mut counts = BandCounters::default();
+        for tx in 0..frame.tiles_x {
+            fine_raster_tile_plain(program, tx, frame, setups, offsets, bins, band, &mut counts);
+        }
+        counts.add_to(stats);
+    })
+}
+
+/// One fine-raster workgroup exactly as the entry point runs it: the same branches, every
+/// invocation's `fine_load` and `fine_test` batch by batch, then `fine_resolve` per pixel.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
+    program: &P,
+    tx: u32,
+    frame: &FrameParams,
+    setups: &[P::Setup],
+    offsets: &[u32],
+    bins: &[u32],
+    band: &mut Band,
+    stats: &mut BandCounters,
+) where
+    P::Staged: Default,
+{
+    let ty = band.ty;
+    let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+    let pixel = |lid: u32| fine::tile_pixel(tx, ty, lid, frame);
+    let mut states = [PixelState::empty(P::NO_KEY); TILE_PIXELS as usize];
+    let mut hidden = 0;
+    let empty = fine::empty_tile(bin_len, frame);
+    if empty {
+        fine::count_tile(0, Counter::TilesEmpty, stats);
+    } else if fine::full_tile::<P>(bins, bin_start, bin_len, setups, frame, &mut states[0]) {
+        fine::count_tile(0, Counter::TilesFull, stats);
+        states = [states[0]; TILE_PIXELS as usize];
+    } else {
+        fine::count_tile(0, Counter::TilesPartial, stats);
+        let tile = fine::tile_rect(tx, ty, frame);
+        let mut shared = FineShared::new(P::Staged::default(), P::NO_KEY);
+        let mut occluding = P::NO_KEY;
+        if fine::rejects_hidden::<P>(frame) {
+            for lid in 0..TILE_PIXELS {
+                fine::fine_occluders(program, lid, bins, bin_start, bin_len, setups, &tile, &mut shared);
+            }
+            occluding = fine::occluding_key::<P>(&shared);
+        }
+        let overlap_free = fine::overlap_free(frame);
+        let count_hidden = fine::counts_hidden(frame);
+        let mut batch_start = 0;
+        while batch_start < bin_len {
+            let batch_len = fine::batch_len(bin_len, batch_start);
+            for lid in 0..TILE_PIXELS {
+                fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile, occluding, &mut shared);
+            }
+            hidden += fine::batch_hidden(batch_len, &shared);
+            for lid in 0..fine::SPANS {
+                fine::span_lists::<P>(lid, tx, ty, frame, batch_len, count_hidden, &mut shared);
+            }
+            for (lid, state) in states.iter_mut().enumerate() {
+                let (i, j, _) = pixel(lid as u32);
+                fine::fine_test(program, lid as u32, i, j, &shared, overlap_free, count_hidden, state);
+            }
+            batch_start += BATCH;
+        }
+        fine::count_hidden_triangles(0, hidden, stats);
+    }
+    band.record_tile(tx, bin_len, hidden, frame);
+    for (lid, state) in states.iter().enumerate() {
+        let (i, j, inside) = pixel(lid as u32);
+        if !inside {
+            continue;
+        }
+        let out = if empty { fine::background_pixel(program) } else { fine::fine_resolve(program, i, j, state, setups) };
+        let k = band.index(i, j);
+        band.values[k] = f32::from_bits(out.value);
+        if let Some(owner) = band.owner.as_deref_mut() {
+            owner[k] = out.owner;
+        }
+        if let Some(coverage) = band.coverage.as_deref_mut() {
+            coverage[k] = out.count;
+        }
+    }
+}

@@ -1,6 +1,6 @@
-//! A window, rasterised in bands of rows and streamed to its files: prepared once,
-//! each band rasterised and written before the next, so memory holds one band whatever the
-//! grid's size. Every band's cells are the whole grid's there, so the files do not depend
+//! A window, rasterised in bands of rows and streamed to its files: prepared once, each
+//! band written while the next is rasterised, so memory holds two bands whatever the grid's
+//! size. Every band's cells are the whole grid's there, so the files do not depend
 //! on how the window was cut.
 
 use super::{DemError, Fallback, Progress};
@@ -40,19 +40,20 @@ pub fn bytes_per_cell(owner: bool, backend: Backend) -> u64 {
     4 * layers * if backend == Backend::Gpu { 2 } else { 1 }
 }
 
-/// Rows per band: as many whole tile rows as `budget` bytes hold (at least one tile row),
-/// or the whole window when it fits.
+/// Rows per band: the whole window when it fits in `budget` bytes; else as many whole tile
+/// rows as half the budget holds (at least one tile row), since [`write_dem`] writes one band
+/// while it draws the next.
 pub fn band_rows(window: &Window, bytes_per_cell: u64, budget: u64) -> u32 {
     let row = (window.width as u64 * bytes_per_cell).max(1);
     if row * window.height as u64 <= budget {
         return window.height;
     }
-    let rows = (budget / row) / TILE as u64 * TILE as u64;
+    let rows = (budget / 2 / row) / TILE as u64 * TILE as u64;
     rows.max(TILE as u64).min(window.height as u64) as u32
 }
 
 /// Rasterise `window` of `params.grid` on `backend` in bands of `band_rows` rows (see
-/// [`band_rows`]), each written to `outputs` before the next is drawn, with the cells outside
+/// [`band_rows`]), each written to `outputs` while the next is drawn, with the cells outside
 /// every triangle filled by `fallback` when given. An owner file or a fallback turns the
 /// owner layer on (count it in [`bytes_per_cell`]).
 #[allow(clippy::too_many_arguments)]
@@ -74,25 +75,50 @@ pub fn write_dem(
     let mut heights = GeoTiffWriter::create(outputs.heights, grid, window, Sample::Float32 { nodata: params.nodata }, &outputs.tiff)?;
     let mut owner = outputs.owner.map(|path| GeoTiffWriter::create(path, grid, window, Sample::UInt32, &outputs.tiff)).transpose()?;
     let mut preview = outputs.preview.map(|_| Sampled::new(grid, window, params.nodata));
+    // Band `k + 1` is rasterised while band `k` is filled, sampled and written: the writer
+    // takes each band through a rendezvous, so at most two bands are in memory (one being
+    // written, one being drawn), as `bytes_per_cell` counts.
     let mut run = Run { bands: Vec::new(), snap_bits: 0, filled: 0 };
-    progress.rows("rasterising", window.height as u64);
-    for y in (0..window.height).step_by(band_rows as usize) {
-        let band = Window { x0: window.x0, y0: window.y0 + y, width: window.width, height: band_rows.min(window.height - y) };
-        let mut raster = scene.rasterise_window(band)?;
-        if let Some(fallback) = fallback {
-            run.filled += fallback.fill(&mut raster);
-        }
-        heights.write_rows(&raster.values)?;
-        if let (Some(file), Some(layer)) = (&mut owner, raster.owner.as_deref()) {
-            file.write_rows(layer)?;
-        }
-        if let Some(sampled) = &mut preview {
-            sampled.add(&raster);
-        }
-        run.snap_bits = raster.snap_bits;
-        run.bands.push(raster.stats);
-        progress.advance(band.height as u64);
-    }
+    let (drawn, written) = std::thread::scope(|threads| {
+        let (hand, take) = std::sync::mpsc::sync_channel::<Raster>(0);
+        let (run, heights, owner, preview) = (&mut run, &mut heights, &mut owner, &mut preview);
+        let writer = threads.spawn(move || -> Result<(), DemError> {
+            for mut raster in take {
+                if let Some(fallback) = fallback {
+                    run.filled += fallback.fill(&mut raster);
+                }
+                heights.write_rows(&raster.values)?;
+                if let (Some(file), Some(layer)) = (owner.as_mut(), raster.owner.as_deref()) {
+                    file.write_rows(layer)?;
+                }
+                if let Some(sampled) = preview.as_mut() {
+                    sampled.add(&raster);
+                }
+                run.snap_bits = raster.snap_bits;
+                run.bands.push(raster.stats);
+            }
+            Ok(())
+        });
+        let drawn = (|| -> Result<(), DemError> {
+            for y in (0..window.height).step_by(band_rows as usize) {
+                let band = Window { x0: window.x0, y0: window.y0 + y, width: window.width, height: band_rows.min(window.height - y) };
+                let raster = scene.rasterise_window(band)?;
+                if hand.send(raster).is_err() {
+                    // The writer stopped on an error: it is the run's.
+                    return Ok(());
+                }
+                progress.advance(band.height as u64);
+            }
+            Ok(())
+        })();
+        drop(hand);
+        let written = writer.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (drawn, written)
+    });
+    // A band that failed to draw or to write leaves the files unfinished: dropped, they are
+    // removed, and no file is left behind.
+    drawn?;
+    written?;
     progress.stage("writing");
     heights.finish()?;
     if let Some(file) = owner {
@@ -224,8 +250,10 @@ mod tests {
     fn bands_are_whole_tile_rows_within_the_budget() {
         let window = Window { x0: 0, y0: 0, width: 1000, height: 3000 };
         assert_eq!(band_rows(&window, 4, 12_000_000), 3000, "fits whole");
-        assert_eq!(band_rows(&window, 4, 4_000 * 700), 512);
-        assert_eq!(band_rows(&window, 8, 4_000 * 700), 256);
+        // Two bands in memory: one written while the next is drawn.
+        assert_eq!(band_rows(&window, 4, 2 * 4_000 * 700), 512);
+        assert_eq!(band_rows(&window, 4, 4_000 * 700), 256);
+        assert_eq!(band_rows(&window, 8, 2 * 4_000 * 700), 256);
         assert_eq!(band_rows(&window, 4, 1), 256, "at least one tile row");
         let short = Window { x0: 0, y0: 0, width: 100_000, height: 100 };
         assert_eq!(band_rows(&short, 4, 1), 100, "never more than the window");

@@ -2,6 +2,8 @@
 //! that is kept between processes and agrees with the adapter the GPU backend opens. (Own test
 //! binary: the cache directory is set for the whole process.)
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::Command;
 use tileraster::{Backend, GPU_MIN_PIXELS, choose_backend};
@@ -87,5 +89,40 @@ fn the_command_line_says_what_auto_chose_and_prints_no_error() {
             assert!(json["reason"].as_str().unwrap().contains("surveyed before"), "{choice}");
         }
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The driver's pipeline cache is kept on disk for the next process (where the adapter has
+/// one, as every Vulkan adapter wgpu opens does), and a frame drawn through a cache read back
+/// is the same bits.
+#[test]
+fn the_pipeline_cache_is_kept_for_the_next_process() {
+    if !common::gpu_or_skip("the_pipeline_cache_is_kept_for_the_next_process") {
+        return;
+    }
+    let dir = cache_dir().join("pipelines");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("triangle.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let kept = || -> Vec<PathBuf> {
+        let entries: Vec<PathBuf> = std::fs::read_dir(dir.join("cache")).map(|d| d.flatten().map(|e| e.path()).collect()).unwrap_or_default();
+        entries.into_iter().filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("wgpu_pipeline_cache"))).collect()
+    };
+    let mut frames = Vec::new();
+    for run in ["first", "second"] {
+        let png = dir.join(format!("{run}.png"));
+        let out = Command::new(env!("CARGO_BIN_EXE_tileraster"))
+            .args(["render", obj.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "64", "48", "--backend", "gpu"])
+            .env("TILERASTER_CACHE_DIR", dir.join("cache"))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{run}: {}", String::from_utf8_lossy(&out.stderr));
+        let files = kept();
+        assert_eq!(files.len(), 1, "{run} run: one pipeline cache file kept, found {files:?}");
+        assert!(std::fs::metadata(&files[0]).unwrap().len() > 0, "{run} run: the cache file is empty");
+        frames.push(std::fs::read(&png).unwrap());
+    }
+    assert!(frames[0] == frames[1], "the frame drawn through the kept cache differs");
     std::fs::remove_dir_all(&dir).ok();
 }

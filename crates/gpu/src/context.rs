@@ -1,5 +1,6 @@
 use crate::device::{Gpu, Grown};
 use crate::float_controls::{self, FloatControls};
+use crate::pipeline_cache::DiskPipelineCache;
 use crate::profile::{CallProfile, Recorder};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -167,6 +168,8 @@ struct GpuContext {
     /// is built when a frame first runs it (a driver compiles each: a heightfield never pays
     /// for the render pipeline's), once per module and specialisation (`Build`).
     pipelines: Vec<(Build, StagePipeline)>,
+    /// The driver's pipeline cache, kept on disk, where the device has one.
+    pipeline_cache: Option<DiskPipelineCache>,
     buffers: Buffers,
     /// The dispatches, transfers and (in profiled calls) stage times of the call in progress.
     recorder: Recorder,
@@ -215,8 +218,9 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>
 impl GpuContext {
     fn new() -> Result<Self, Error> {
         // Timestamps where the adapter has them: profiled calls time each stage's passes.
-        let (gpu, adapter) = Gpu::open("tileraster", crate::survey::needed_features(), wgpu::Features::TIMESTAMP_QUERY, choose_adapter)
-            .map_err(|details| Error::NoAdapter { details })?;
+        let (gpu, adapter) =
+            Gpu::open("tileraster", crate::survey::needed_features(), wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::PIPELINE_CACHE, choose_adapter)
+                .map_err(|details| Error::NoAdapter { details })?;
         // Every stage binds its storage buffers at once: an adapter that binds fewer per stage
         // cannot run the table (Vulkan guarantees only 4; desktop GPUs and lavapipe bind far more).
         let needed = STAGES.iter().map(|s| s.bindings.len() as u32).max().unwrap_or(0);
@@ -250,6 +254,7 @@ impl GpuContext {
             readback: Grown::readback("readback"),
         };
         let timestamps = gpu.device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let pipeline_cache = DiskPipelineCache::open(&gpu.device, &gpu.info);
         Ok(GpuContext {
             gpu,
             float_controls,
@@ -258,6 +263,7 @@ impl GpuContext {
             kernels,
             fragments: Vec::new(),
             pipelines: Vec::new(),
+            pipeline_cache,
             buffers,
             recorder: Recorder::default(),
             timestamps,
@@ -467,6 +473,8 @@ impl GpuContext {
         let shade_variant = prepared.render.as_ref().map(|r| if ShadeVariant::holds(&r.params) { ShadeVariant::of(&r.params) } else { ShadeVariant::GENERIC });
         let scope = self.gpu.error_scope();
         let mut rows = vec![None; STAGES.len()];
+        let built = self.pipelines.len();
+        let cache = self.pipeline_cache.as_ref().map(|c| &c.cache);
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
@@ -481,14 +489,21 @@ impl GpuContext {
                         None => (self.kernels, format!("tileraster kernels, {}", info.name)),
                     };
                     let module = passthrough_module(&self.gpu.device, &label, module, build.spec, |other| other.stage == info.stage);
-                    self.pipelines.push((build, stage_pipeline(&self.gpu.device, &module, info)));
+                    self.pipelines.push((build, stage_pipeline(&self.gpu.device, &module, info, cache)));
                     self.pipelines.len() - 1
                 }
             });
         }
         match scope.finish() {
             Some(e) => Err(Error::Gpu(format!("the kernels were rejected by the device: {e}"))),
-            None => Ok(rows),
+            None => {
+                if self.pipelines.len() > built
+                    && let Some(cache) = self.pipeline_cache.as_mut()
+                {
+                    cache.save();
+                }
+                Ok(rows)
+            }
         }
     }
 
@@ -830,9 +845,9 @@ fn passthrough_module(device: &wgpu::Device, label: &str, module: &[u8], spec: O
     }
 }
 
-/// A stage's pipeline over `module`, with an explicit bind group layout from its row of the
-/// table (each buffer read-only or read-write, as the table says).
-fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &StageInfo) -> StagePipeline {
+/// A stage's pipeline over `module` (through the driver's `cache` where there is one), with an
+/// explicit bind group layout from its row of the table (each buffer read-only or read-write, as the table says).
+fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &StageInfo, cache: Option<&wgpu::PipelineCache>) -> StagePipeline {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = info
         .bindings
         .iter()
@@ -857,7 +872,7 @@ fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &Sta
         module,
         entry_point: Some(info.entry_point),
         compilation_options: Default::default(),
-        cache: None,
+        cache,
     });
     StagePipeline { pipeline, layout }
 }

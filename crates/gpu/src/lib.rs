@@ -8,6 +8,7 @@
 mod context;
 pub mod device;
 mod float_controls;
+mod pipeline_cache;
 mod profile;
 mod specialise;
 pub mod survey;

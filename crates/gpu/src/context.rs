@@ -498,7 +498,7 @@ impl GpuContext {
             Some(e) => Err(Error::Gpu(format!("the kernels were rejected by the device: {e}"))),
             None => {
                 if self.pipelines.len() > built
-                    && let Some(cache) = self.pipeline_cache.as_mut()
+                    && let Some(cache) = &self.pipeline_cache
                 {
                     cache.save();
                 }

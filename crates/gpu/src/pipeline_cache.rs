@@ -19,8 +19,6 @@ use std::path::PathBuf;
 pub(crate) struct DiskPipelineCache {
     pub(crate) cache: wgpu::PipelineCache,
     file: PathBuf,
-    /// Bytes of the data last read or written: unchanged data is not written again.
-    saved: usize,
 }
 
 impl DiskPipelineCache {
@@ -38,23 +36,17 @@ impl DiskPipelineCache {
         let cache = unsafe {
             device.create_pipeline_cache(&wgpu::PipelineCacheDescriptor { label: Some("tileraster pipelines"), data: data.as_deref(), fallback: true })
         };
-        Some(DiskPipelineCache { cache, file, saved: data.map_or(0, |d| d.len()) })
+        Some(DiskPipelineCache { cache, file })
     }
 
-    /// Write the cache's data to its file where it changed (after new pipelines were built).
-    pub(crate) fn save(&mut self) {
+    /// Write the cache's data to its file (the caller does so after it built new pipelines).
+    pub(crate) fn save(&self) {
         let Some(data) = self.cache.get_data() else { return };
-        if data.len() == self.saved {
-            return;
-        }
         let Some(dir) = self.file.parent() else { return };
         let partial = self.file.with_extension(format!("partial-{}", std::process::id()));
         let written = std::fs::create_dir_all(dir).and_then(|_| std::fs::write(&partial, &data)).and_then(|_| std::fs::rename(&partial, &self.file));
-        match written {
-            Ok(()) => self.saved = data.len(),
-            Err(_) => {
-                let _ = std::fs::remove_file(&partial);
-            }
+        if written.is_err() {
+            let _ = std::fs::remove_file(&partial);
         }
     }
 }

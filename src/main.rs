@@ -340,7 +340,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     let layers = tileraster::Outputs { owner: owner.is_some(), coverage: false, tiles: false };
     let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(layers);
     let (budget, set_by) = memory.map_or_else(dem::default_memory_budget, |mib| (mib << 20, "--memory"));
-    let band_rows = dem::band_rows(&window, dem::bytes_per_cell(owner.is_some() || fallback.is_some(), backend), budget);
+    let band_rows = dem::streamed_band_rows(&window, dem::bytes_per_cell(owner.is_some() || fallback.is_some(), backend), budget);
     if band_rows < window.height {
         if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
             tiff.tiled = true;

@@ -32,7 +32,7 @@ fn a_window_streamed_in_bands_is_the_single_call_bit_for_bit() {
     let window = Window { x0: 20, y0: 30, width: 700, height: 700 };
     let params = Params::new(grid).with_nodata(-9999.0);
     // Bands of one GeoTIFF tile row each: three of them.
-    let rows = dem::band_rows(&window, dem::bytes_per_cell(true, Backend::Cpu), 700 * 8 * 300);
+    let rows = dem::streamed_band_rows(&window, dem::bytes_per_cell(true, Backend::Cpu), 700 * 8 * 300);
     assert_eq!(rows, 256);
     let (heights, owner) = (dir.join("dem.tif"), dir.join("owner.tif"));
     let files = Destinations { heights: &heights, owner: Some(&owner), preview: None, tiff: Default::default() };

@@ -7,8 +7,9 @@
 //! - [`Linear`] and [`Fallback`]: gdal_grid's `linear:radius=R`, the nearest point's z in
 //!   cells outside every triangle.
 //! - [`write_dem`] rasterises a window in bands of rows that fit a memory budget
-//!   ([`band_rows`], [`default_memory_budget`]) and streams them to GeoTIFFs: memory holds one
-//!   band whatever the grid's size, and every band's cells are the whole grid's there.
+//!   ([`streamed_band_rows`], [`default_memory_budget`]) and streams them to GeoTIFFs: memory
+//!   holds two bands (one drawn, one written) whatever the grid's size, and every band's cells
+//!   are the whole grid's there.
 //!
 //! ```no_run
 //! use tileraster::dem::{self, Destinations, GridSpec, GridSize};
@@ -18,7 +19,7 @@
 //! let input = dem::read_scene(Path::new("points.laz"), &Default::default(), &())?;
 //! let window = tileraster::Window::whole(&grid);
 //! let (budget, _) = dem::default_memory_budget();
-//! let rows = dem::band_rows(&window, dem::bytes_per_cell(false, Backend::Cpu), budget);
+//! let rows = dem::streamed_band_rows(&window, dem::bytes_per_cell(false, Backend::Cpu), budget);
 //! let files = Destinations { heights: Path::new("dem.tif"), owner: None, preview: None, tiff: Default::default() };
 //! dem::write_dem(&input.scene, &Params::new(grid), window, Backend::Cpu, rows, &files, None, &())?;
 //! # Ok::<(), tileraster::dem::DemError>(())
@@ -32,7 +33,7 @@ mod stream;
 pub use grid::{GridSize, GridSpec, part_window};
 pub use input::{Input, InputKind, PointsRead, ReadOptions, drop_long_triangles, read_scene};
 pub use linear::{Fallback, Linear};
-pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, write_dem};
+pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, streamed_band_rows, write_dem};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
 
 use std::path::PathBuf;

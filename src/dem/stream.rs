@@ -41,19 +41,27 @@ pub fn bytes_per_cell(owner: bool, backend: Backend) -> u64 {
 }
 
 /// Rows per band: the whole window when it fits in `budget` bytes; else as many whole tile
-/// rows as half the budget holds (at least one tile row), since [`write_dem`] writes one band
-/// while it draws the next.
+/// rows as the budget holds (at least one tile row).
 pub fn band_rows(window: &Window, bytes_per_cell: u64, budget: u64) -> u32 {
     let row = (window.width as u64 * bytes_per_cell).max(1);
     if row * window.height as u64 <= budget {
         return window.height;
     }
-    let rows = (budget / 2 / row) / TILE as u64 * TILE as u64;
+    let rows = (budget / row) / TILE as u64 * TILE as u64;
     rows.max(TILE as u64).min(window.height as u64) as u32
 }
 
+/// Rows per band for [`write_dem`], which writes one band while it draws the next: the whole
+/// window when it fits in `budget` bytes, else bands of half the budget each.
+pub fn streamed_band_rows(window: &Window, bytes_per_cell: u64, budget: u64) -> u32 {
+    match band_rows(window, bytes_per_cell, budget) {
+        whole if whole == window.height => whole,
+        _ => band_rows(window, bytes_per_cell, budget / 2),
+    }
+}
+
 /// Rasterise `window` of `params.grid` on `backend` in bands of `band_rows` rows (see
-/// [`band_rows`]), each written to `outputs` while the next is drawn, with the cells outside
+/// [`streamed_band_rows`]), each written to `outputs` while the next is drawn, with the cells outside
 /// every triangle filled by `fallback` when given. An owner file or a fallback turns the
 /// owner layer on (count it in [`bytes_per_cell`]).
 #[allow(clippy::too_many_arguments)]
@@ -250,11 +258,14 @@ mod tests {
     fn bands_are_whole_tile_rows_within_the_budget() {
         let window = Window { x0: 0, y0: 0, width: 1000, height: 3000 };
         assert_eq!(band_rows(&window, 4, 12_000_000), 3000, "fits whole");
-        // Two bands in memory: one written while the next is drawn.
-        assert_eq!(band_rows(&window, 4, 2 * 4_000 * 700), 512);
-        assert_eq!(band_rows(&window, 4, 4_000 * 700), 256);
-        assert_eq!(band_rows(&window, 8, 2 * 4_000 * 700), 256);
+        assert_eq!(band_rows(&window, 4, 4_000 * 700), 512);
+        assert_eq!(band_rows(&window, 8, 4_000 * 700), 256);
         assert_eq!(band_rows(&window, 4, 1), 256, "at least one tile row");
+        // Streamed: two bands in memory, one written while the next is drawn.
+        assert_eq!(streamed_band_rows(&window, 4, 12_000_000), 3000, "fits whole");
+        assert_eq!(streamed_band_rows(&window, 4, 11_999_999), 1280);
+        assert_eq!(streamed_band_rows(&window, 4, 2 * 4_000 * 700), 512);
+        assert_eq!(streamed_band_rows(&window, 4, 4_000 * 700), 256);
         let short = Window { x0: 0, y0: 0, width: 100_000, height: 100 };
         assert_eq!(band_rows(&short, 4, 1), 100, "never more than the window");
     }

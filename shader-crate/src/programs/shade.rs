@@ -88,19 +88,23 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
     if len <= 1.0e-30 {
         return [0.0; 3];
     }
-    [scale_div(v[0], len), scale_div(v[1], len), scale_div(v[2], len)]
+    let mut unit = [0.0f32; 3];
+    let mut k = 0;
+    while k < 3 {
+        unit[k] = scale_div(v[k], len);
+        k += 1;
+    }
+    unit
 }
 
-/// `x / d` for `d > 0` and any finite `x`, by the sign of `x`.
+/// `x / d` for `d > 0` and any finite `x`, by the sign of `x` (one division).
 #[inline]
 fn scale_div(x: f32, d: f32) -> f32 {
-    if x > 0.0 {
-        div(x, d)
-    } else if x < 0.0 {
-        -div(-x, d)
-    } else {
-        0.0
+    if !(x > 0.0 || x < 0.0) {
+        return 0.0;
     }
+    let q = div(if x > 0.0 { x } else { -x }, d);
+    if x > 0.0 { q } else { -q }
 }
 
 /// `x^n` for an integer `n`, by repeated squaring (multiplications only).
@@ -237,10 +241,16 @@ pub(crate) fn base_colour(
     let info = &textures[t.texture as usize];
     let (u, v) = (interpolate(t, b, ATTR_UV), interpolate(t, b, ATTR_UV + 1));
     let level = if info.filter() == crate::abi::Filter::Trilinear && info.levels > 1 {
+        // The quad's top-left pixel, the one right of it and the one below, in one loop (one
+        // copy of the weights' division).
         let (qx, qy) = (i & !1, j & !1);
-        let at = uv_at(s, t, params.interpolation, qx, qy);
-        let right = uv_at(s, t, params.interpolation, qx + 1, qy);
-        let below = uv_at(s, t, params.interpolation, qx, qy + 1);
+        let mut corners = [[0.0f32; 2]; 3];
+        let mut k = 0;
+        while k < 3 {
+            corners[k] = uv_at(s, t, params.interpolation, qx + (k == 1) as i32, qy + (k == 2) as i32);
+            k += 1;
+        }
+        let [at, right, below] = corners;
         lod(info.width, info.height, [right[0] - at[0], right[1] - at[1], below[0] - at[0], below[1] - at[1]])
     } else {
         0
@@ -263,35 +273,32 @@ pub fn fragment_colour(
     i: i32,
     j: i32,
 ) -> u32 {
-    // The interpolation weights (a correctly rounded division each) only where the mode
-    // interpolates attributes.
+    // Each piece once, whatever the mode: a driver reads every branch of the generic stage
+    // before the frame's specialisation folds them away, so a piece inlined in several arms
+    // costs it several times. The interpolation weights (a correctly rounded division each)
+    // only where the mode interpolates attributes.
     let mode = params.mode();
-    if t.flags & SHADING_UNLIT != 0 && !matches!(mode, ShadeMode::Depth | ShadeMode::Ids) {
-        let b = weights(s, t, params.interpolation, i, j);
-        return rgba8(colour_at(t, &b));
-    }
     match mode {
-        ShadeMode::Colour => {
-            let b = weights(s, t, params.interpolation, i, j);
-            rgba8(base_colour(params, s, t, textures, texels, &b, i, j))
-        }
-        ShadeMode::Phong => {
-            let b = weights(s, t, params.interpolation, i, j);
-            let base = base_colour(params, s, t, textures, texels, &b, i, j);
-            let n = normalise(interpolate3(t, &b, ATTR_NORMAL));
-            rgba8(phong(params, base, n, interpolate3(t, &b, ATTR_POSITION)))
-        }
         ShadeMode::Depth => {
             let g = 1.0 - (f32::from_bits(depth_bits) - params.depth_view[0]) * params.depth_view[1];
-            rgba8([g, g, g, 1.0])
+            return rgba8([g, g, g, 1.0]);
         }
-        ShadeMode::Normals => {
-            let b = weights(s, t, params.interpolation, i, j);
-            let n = normalise(interpolate3(t, &b, ATTR_NORMAL));
-            rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0])
-        }
-        ShadeMode::Ids => id_colour(t.face),
+        ShadeMode::Ids => return id_colour(t.face),
+        ShadeMode::Colour | ShadeMode::Phong | ShadeMode::Normals => {}
     }
+    let b = weights(s, t, params.interpolation, i, j);
+    if t.flags & SHADING_UNLIT != 0 {
+        return rgba8(colour_at(t, &b));
+    }
+    let n = if mode == ShadeMode::Colour { [0.0; 3] } else { normalise(interpolate3(t, &b, ATTR_NORMAL)) };
+    if mode == ShadeMode::Normals {
+        return rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0]);
+    }
+    let base = base_colour(params, s, t, textures, texels, &b, i, j);
+    if mode == ShadeMode::Colour {
+        return rgba8(base);
+    }
+    rgba8(phong(params, base, n, interpolate3(t, &b, ATTR_POSITION)))
 }
 
 /// Source-over of RGBA8 `src` onto RGBA8 `dst` in 8-bit integers, rounded to nearest:

@@ -116,25 +116,45 @@ pub fn nearest(texels: &[u32], info: &TextureInfo, level: u32, u: f32, v: f32) -
 }
 
 /// The four texels around `(u, v)` at `level`, weighted by the 8-bit fractions of the
-/// coordinate past their centres, rounded to 16 bits.
+/// coordinate past their centres, rounded to 16 bits. (Loops over the axes and the texels, so
+/// that the stage holds one copy of the addressing.)
 #[inline]
 pub fn bilinear(texels: &[u32], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
     let (w, h) = level_size(info, level);
     let half = 1 << (SUBTEXEL_BITS - 1);
-    let (su, sv) = (subtexel(u, w) - half, subtexel(v, h) - half);
     let one = 1u32 << SUBTEXEL_BITS;
-    let (fx, fy) = ((su & (one as i64 - 1)) as u32, (sv & (one as i64 - 1)) as u32);
-    let (i0, j0) = (su >> SUBTEXEL_BITS, sv >> SUBTEXEL_BITS);
-    let (x0, x1) = (address(i0, w, info.address_u()), address(i0 + 1, w, info.address_u()));
-    let (y0, y1) = (address(j0, h, info.address_v()), address(j0 + 1, h, info.address_v()));
-    let t = [fetch(texels, info, level, x0, y0), fetch(texels, info, level, x1, y0), fetch(texels, info, level, x0, y1), fetch(texels, info, level, x1, y1)];
+    // Per axis: the fraction past the first texel's centre, and the two texels' indices.
+    let (mut frac, mut first, mut second) = ([0u32; 2], [0u32; 2], [0u32; 2]);
+    let mut axis = 0;
+    while axis < 2 {
+        let (c, n, mode) = if axis == 0 { (u, w, info.address_u()) } else { (v, h, info.address_v()) };
+        let sc = subtexel(c, n) - half;
+        frac[axis] = (sc & (one as i64 - 1)) as u32;
+        let i0 = sc >> SUBTEXEL_BITS;
+        first[axis] = address(i0, n, mode);
+        second[axis] = address(i0 + 1, n, mode);
+        axis += 1;
+    }
+    let (fx, fy) = (frac[0], frac[1]);
     let wt = [(one - fx) * (one - fy), fx * (one - fy), (one - fx) * fy, fx * fy];
+    let mut sums = [0u32; 4];
+    let mut k = 0;
+    while k < 4 {
+        let x = if k & 1 == 0 { first[0] } else { second[0] };
+        let y = if k & 2 == 0 { first[1] } else { second[1] };
+        let texel = fetch(texels, info, level, x, y);
+        let mut c = 0;
+        while c < 4 {
+            // At most 2^16 · 65535 < 2^32 in all.
+            sums[c] += wt[k] * texel[c];
+            c += 1;
+        }
+        k += 1;
+    }
     let mut out = [0u32; 4];
     let mut c = 0;
     while c < 4 {
-        // At most 2^16 · 65535 < 2^32.
-        let sum = wt[0] * t[0][c] + wt[1] * t[1][c] + wt[2] * t[2][c] + wt[3] * t[3][c];
-        out[c] = (sum + (1 << (2 * SUBTEXEL_BITS - 1))) >> (2 * SUBTEXEL_BITS);
+        out[c] = (sums[c] + (1 << (2 * SUBTEXEL_BITS - 1))) >> (2 * SUBTEXEL_BITS);
         c += 1;
     }
     out
@@ -168,8 +188,15 @@ fn log2_fixed9(x: u64) -> i32 {
 #[inline]
 pub fn lod(width: u32, height: u32, d: [f32; 4]) -> i32 {
     const LIMIT: i64 = 1 << 30;
-    let fixed = |x: f32, n: u32| fixed_floor(x * n as f32, 16, LIMIT);
-    let (sx, tx, sy, ty) = (fixed(d[0], width), fixed(d[1], height), fixed(d[2], width), fixed(d[3], height));
+    // In one loop: one copy of the conversion.
+    let mut f = [0i64; 4];
+    let mut k = 0;
+    while k < 4 {
+        let n = if k % 2 == 0 { width } else { height };
+        f[k] = fixed_floor(d[k] * n as f32, 16, LIMIT);
+        k += 1;
+    }
+    let [sx, tx, sy, ty] = f;
     let lx = (sx * sx + tx * tx) as u64;
     let ly = (sy * sy + ty * ty) as u64;
     let l = if lx > ly { lx } else { ly };
@@ -185,30 +212,43 @@ pub fn lod(width: u32, height: u32, d: [f32; 4]) -> i32 {
 /// 16-bit linear channels.
 #[inline]
 pub fn filtered(texels: &[u32], info: &TextureInfo, u: f32, v: f32, lod: i32) -> [u32; 4] {
-    match info.filter() {
-        Filter::Nearest => nearest(texels, info, 0, u, v),
-        Filter::Bilinear => bilinear(texels, info, 0, u, v),
+    // The level to read, and the weight of the one above it (trilinear between two levels).
+    let (level, upper) = match info.filter() {
+        Filter::Nearest => return nearest(texels, info, 0, u, v),
+        Filter::Bilinear => (0, 0),
         Filter::Trilinear => {
-            if lod <= 0 || info.levels <= 1 {
-                return bilinear(texels, info, 0, u, v);
+            let top = info.levels as i32 - 1;
+            if lod <= 0 || top <= 0 {
+                (0, 0)
+            } else if lod >> SUBTEXEL_BITS >= top {
+                (top as u32, 0)
+            } else {
+                ((lod >> SUBTEXEL_BITS) as u32, (lod & ((1 << SUBTEXEL_BITS) - 1)) as u32)
             }
-            let top = (info.levels - 1) as i32;
-            let level = lod >> SUBTEXEL_BITS;
-            if level >= top {
-                return bilinear(texels, info, top as u32, u, v);
-            }
-            let f = (lod & ((1 << SUBTEXEL_BITS) - 1)) as u32;
-            let (a, b) = (bilinear(texels, info, level as u32, u, v), bilinear(texels, info, level as u32 + 1, u, v));
-            let one = 1u32 << SUBTEXEL_BITS;
-            let mut out = [0u32; 4];
-            let mut c = 0;
-            while c < 4 {
-                out[c] = (a[c] * (one - f) + b[c] * f + (one >> 1)) >> SUBTEXEL_BITS;
-                c += 1;
-            }
-            out
         }
+    };
+    // One level, or the two weighted, in one loop (one copy of the bilinear filter): a single
+    // level weighs 2^8 and is rounded back exactly.
+    let one = 1u32 << SUBTEXEL_BITS;
+    let mut sums = [0u32; 4];
+    let mut k = 0;
+    while k < 1 + (upper != 0) as u32 {
+        let texel = bilinear(texels, info, level + k, u, v);
+        let weight = if k == 0 { one - upper } else { upper };
+        let mut c = 0;
+        while c < 4 {
+            sums[c] += texel[c] * weight;
+            c += 1;
+        }
+        k += 1;
     }
+    let mut out = [0u32; 4];
+    let mut c = 0;
+    while c < 4 {
+        out[c] = (sums[c] + (one >> 1)) >> SUBTEXEL_BITS;
+        c += 1;
+    }
+    out
 }
 
 /// A 16-bit channel in `[0, 1]`: `c / 65535`, as one correctly rounded product.

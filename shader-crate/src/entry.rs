@@ -7,17 +7,17 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::BATCH;
 use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use crate::programs::depth::DepthProgram;
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::height::HeightProgram;
 use crate::programs::multisample::{self, MAX_SAMPLES, SampleState};
-use crate::programs::shade::{blend_pixel, shade_pixel};
+use crate::programs::shade::shaded_pixel;
 use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
+use crate::{BATCH, NO_OWNER};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 pub use spirv_std::glam::UVec3;
 pub use spirv_std::spirv;
@@ -166,12 +166,10 @@ pub fn shade_pixels<F: FragmentProgram>(
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
     if inside {
         let k = fine::window_index(i, j, frame);
-        let out = if params.blend != 0 {
-            let (bin_start, bin_len) = fine::bin_range(offsets, wg.y * frame.tiles_x + wg.x);
-            blend_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
-        } else {
-            shade_pixel(program, params, setups, shading, textures, texels, owners[k], values[k], i, j)
-        };
+        // Blended: the tile's bin; else the owner fine raster left.
+        let ((bin_start, bin_len), (owner, depth)) =
+            if params.blend != 0 { (fine::bin_range(offsets, wg.y * frame.tiles_x + wg.x), (NO_OWNER, 0)) } else { ((0, 0), (owners[k], values[k])) };
+        let out = shaded_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, owner, depth, i, j);
         colours[k] = out.colour;
         faces[k] = out.face;
     }

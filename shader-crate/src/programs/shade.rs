@@ -202,11 +202,7 @@ pub fn shade_pixel<P: FragmentProgram + ?Sized>(
     i: i32,
     j: i32,
 ) -> Shaded {
-    if slot == NO_OWNER {
-        return Shaded { colour: params.background, face: NO_OWNER };
-    }
-    let t = &shading[slot as usize];
-    Shaded { colour: program.colour(params, &setups[slot as usize], t, textures, texels, depth_bits, i, j), face: t.face }
+    pixel_fragments(program, params, false, 0, setups, shading, textures, texels, &[], 0, 0, slot, depth_bits, i, j)
 }
 
 /// The texture coordinates of triangle `(s, t)` at pixel `(i, j)`.
@@ -334,6 +330,55 @@ pub fn blend_pixel<P: FragmentProgram + ?Sized>(
     i: i32,
     j: i32,
 ) -> Shaded {
+    pixel_fragments(program, params, true, clear_bits, setups, shading, textures, texels, bin, bin_start, bin_len, NO_OWNER, 0, i, j)
+}
+
+/// Pixel `(i, j)` as the shade stage leaves it: blended where `params.blend` says
+/// ([`blend_pixel`]), else its owner `slot` of depth `depth_bits` shaded ([`shade_pixel`]).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn shaded_pixel<P: FragmentProgram + ?Sized>(
+    program: &P,
+    params: &ShadeParams,
+    clear_bits: u32,
+    setups: &[TriangleSetup],
+    shading: &[TriangleShading],
+    textures: &[TextureInfo],
+    texels: &[u32],
+    bin: &[u32],
+    bin_start: u32,
+    bin_len: u32,
+    slot: u32,
+    depth_bits: u32,
+    i: i32,
+    j: i32,
+) -> Shaded {
+    pixel_fragments(program, params, params.blend != 0, clear_bits, setups, shading, textures, texels, bin, bin_start, bin_len, slot, depth_bits, i, j)
+}
+
+/// The fragments of pixel `(i, j)` coloured by `program`: with `blend`, [`blend_pixel`]'s;
+/// else the one of owner `slot`, of depth `owner_depth`. One loop for both, so that a stage
+/// that does either holds one copy of `program` (a driver reads every inlined copy before the
+/// frame's specialisation removes one).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn pixel_fragments<P: FragmentProgram + ?Sized>(
+    program: &P,
+    params: &ShadeParams,
+    blend: bool,
+    clear_bits: u32,
+    setups: &[TriangleSetup],
+    shading: &[TriangleShading],
+    textures: &[TextureInfo],
+    texels: &[u32],
+    bin: &[u32],
+    bin_start: u32,
+    bin_len: u32,
+    slot: u32,
+    owner_depth: u32,
+    i: i32,
+    j: i32,
+) -> Shaded {
     let test = DepthProgram { func: params.depth_test.func(), write: true, clear: f32::from_bits(clear_bits) };
     let write = params.depth_test.write();
     let mut out = Shaded { colour: params.background, face: NO_OWNER };
@@ -342,29 +387,36 @@ pub fn blend_pixel<P: FragmentProgram + ?Sized>(
     let (mut after, mut started) = (0u32, false);
     loop {
         let mut next = NO_OWNER;
-        let mut k = 0;
-        while k < bin_len {
-            let slot = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
-            if (!started || slot > after) && slot < next && side(&setups[slot as usize].coverage, i, j) == Side::Inside {
+        if !blend {
+            if !started {
                 next = slot;
             }
-            k += 1;
+        } else {
+            let mut k = 0;
+            while k < bin_len {
+                let slot = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
+                if (!started || slot > after) && slot < next && side(&setups[slot as usize].coverage, i, j) == Side::Inside {
+                    next = slot;
+                }
+                k += 1;
+            }
         }
         if next == NO_OWNER {
             return out;
         }
-        let s = &setups[next as usize];
-        let d = depth_bits(s, i, j);
-        let against = DepthProgram { clear: running, ..test };
-        if against.passes(f32::from_bits(d)) {
-            let t = &shading[next as usize];
-            out = Shaded { colour: source_over(program.colour(params, s, t, textures, texels, d, i, j), out.colour), face: t.face };
-            if write {
-                running = f32::from_bits(d);
-            }
-        }
         after = next;
         started = true;
+        let s = &setups[next as usize];
+        let d = if blend { depth_bits(s, i, j) } else { owner_depth };
+        if blend && !(DepthProgram { clear: running, ..test }).passes(f32::from_bits(d)) {
+            continue;
+        }
+        let t = &shading[next as usize];
+        let colour = program.colour(params, s, t, textures, texels, d, i, j);
+        out = Shaded { colour: if blend { source_over(colour, out.colour) } else { colour }, face: t.face };
+        if blend && write {
+            running = f32::from_bits(d);
+        }
     }
 }
 

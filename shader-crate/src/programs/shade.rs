@@ -100,11 +100,14 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
 /// `x / d` for `d > 0` and any finite `x`, by the sign of `x` (one division).
 #[inline]
 fn scale_div(x: f32, d: f32) -> f32 {
-    if !(x > 0.0 || x < 0.0) {
-        return 0.0;
-    }
     let q = div(if x > 0.0 { x } else { -x }, d);
-    if x > 0.0 { q } else { -q }
+    if x > 0.0 {
+        q
+    } else if x < 0.0 {
+        -q
+    } else {
+        0.0
+    }
 }
 
 /// `x^n` for an integer `n`, by repeated squaring (multiplications only).

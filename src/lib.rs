@@ -136,7 +136,9 @@ impl PreparedScene {
     }
 }
 
-pub use tileraster_gpu::{Adapter, set_binding_limit as set_gpu_binding_limit, set_window_limit as set_gpu_window_limit};
+pub use tileraster_gpu::{
+    Adapter, FineWalk, set_binding_limit as set_gpu_binding_limit, set_fine_walk as set_gpu_fine_walk, set_window_limit as set_gpu_window_limit,
+};
 
 /// The Vulkan adapter [`Backend::Gpu`] uses, or why there is none.
 pub fn gpu_adapter() -> Result<Adapter, Error> {

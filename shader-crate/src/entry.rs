@@ -113,8 +113,23 @@ pub fn fine_raster(
     #[spirv(workgroup)] shared: &mut FineShared<Coverage, u32>,
     #[spirv(spec_constant(id = 1, default = 0))] mode: u32,
 ) {
-    let program = HeightProgram::specialised(frame, mode);
-    fine_raster_workgroup(&program, wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
+    let program = HeightProgram::specialised(frame, mode & !HeightProgram::WALK);
+    fine_raster_workgroup(
+        &program,
+        mode & HeightProgram::WALK != 0,
+        wg,
+        lid,
+        frame,
+        setups,
+        offsets,
+        bins,
+        values,
+        owners,
+        coverage,
+        stats,
+        tile_stats,
+        shared,
+    );
 }
 
 /// Fine raster of the render pipeline: the depth test (`programs::depth`).
@@ -135,7 +150,7 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
 ) {
-    fine_raster_workgroup(&DepthProgram::of(frame), wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
+    fine_raster_workgroup(&DepthProgram::of(frame), false, wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
 }
 
 // The stages that colour fragments, with the built-in shadings (`programs::fragment`); a
@@ -240,9 +255,12 @@ pub fn fine_samples_workgroup<F: FragmentProgram>(
 
 /// One fine-raster workgroup, for any pixel program: the body of every fine-raster entry point.
 /// It writes the values layer, and the owner and coverage layers where the frame asks for them.
+/// With `walk` (and no hidden triangles to reject), each pixel walks the bin on its own
+/// (`fine::fine_walk`) instead of the staged batches.
 #[allow(clippy::too_many_arguments)]
 fn fine_raster_workgroup<P: PixelProgram>(
     program: &P,
+    walk: bool,
     wg: UVec3,
     lid: u32,
     frame: &FrameParams,
@@ -279,19 +297,23 @@ fn fine_raster_workgroup<P: PixelProgram>(
             }
             let overlap_free = fine::overlap_free(frame);
             let count_hidden = fine::counts_hidden(frame);
-            let mut batch_start = 0;
-            while batch_start < bin_len {
-                let batch_len = fine::batch_len(bin_len, batch_start);
-                fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, occluding, shared);
-                barrier();
-                if lid == 0 {
-                    hidden += fine::batch_hidden(batch_len, shared);
+            if walk && !fine::rejects_hidden::<P>(frame) {
+                fine::fine_walk(program, bins, bin_start, bin_len, setups, i, j, overlap_free, &mut state);
+            } else {
+                let mut batch_start = 0;
+                while batch_start < bin_len {
+                    let batch_len = fine::batch_len(bin_len, batch_start);
+                    fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, occluding, shared);
+                    barrier();
+                    if lid == 0 {
+                        hidden += fine::batch_hidden(batch_len, shared);
+                    }
+                    fine::span_lists::<P>(lid, wg.x, wg.y, frame, batch_len, count_hidden, shared);
+                    barrier();
+                    fine::fine_test(program, lid, i, j, shared, overlap_free, count_hidden, &mut state);
+                    barrier();
+                    batch_start += BATCH;
                 }
-                fine::span_lists::<P>(lid, wg.x, wg.y, frame, batch_len, count_hidden, shared);
-                barrier();
-                fine::fine_test(program, lid, i, j, shared, overlap_free, count_hidden, &mut state);
-                barrier();
-                batch_start += BATCH;
             }
             fine::count_hidden_triangles(lid, hidden, stats);
         }

@@ -3,7 +3,7 @@ use crate::float_controls::{self, FloatControls};
 use crate::pipeline_cache::DiskPipelineCache;
 use crate::profile::{CallProfile, Recorder};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
@@ -31,6 +31,26 @@ static BINDING_LIMIT: AtomicU64 = AtomicU64::new(u64::MAX);
 /// windows and the scene parts that large scenes need on devices with small bindings.
 pub fn set_binding_limit(bytes: u64) {
     BINDING_LIMIT.store(bytes.max((TILE * TILE * 4) as u64), Ordering::Relaxed);
+}
+
+/// Which way `fine_raster`'s pixels meet their tile's bin (`HeightProgram::WALK`). Both give
+/// the same bits and counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FineWalk {
+    /// Walk where it pays ([`walks_bins`]): short bins on a CPU implementation of Vulkan.
+    Auto,
+    /// Every pixel walks its bin, on every device.
+    Always,
+    /// Staged batches, on every device.
+    Never,
+}
+
+static FINE_WALK: AtomicU8 = AtomicU8::new(FineWalk::Auto as u8);
+
+/// Choose how `fine_raster` meets its bins from now on (the tests run both ways on every
+/// device; a benchmark compares them).
+pub fn set_fine_walk(walk: FineWalk) {
+    FINE_WALK.store(walk as u8, Ordering::Relaxed);
 }
 
 static CONTEXT: OnceLock<Result<Mutex<GpuContext>, Error>> = OnceLock::new();
@@ -187,6 +207,20 @@ struct Build {
     row: usize,
     fragment: Option<usize>,
     spec: Option<(u32, u32)>,
+}
+
+/// The longest mean bin (`Prepared::mean_bin_len`) whose heightfield tiles walk their bins.
+const WALK_MAX_MEAN_BIN: f64 = 32.0;
+
+/// Whether `fine_raster`'s pixels walk their tile's bin each on their own
+/// (`HeightProgram::WALK`) rather than staging it in batches: on a CPU implementation of
+/// Vulkan, where each barrier switches every invocation out and back in, for bins short
+/// enough that the batches' staging and span lists save less than the barriers cost. Measured
+/// on lavapipe (`docs/results.md`): the TIN (mean bin 9.6) 2.4× faster walking, the
+/// micro-triangles (mean bins 81 to 256) 1.5–2.6× slower. A GPU keeps the batches, the way
+/// measured on hardware.
+fn walks_bins(device: wgpu::DeviceType, mean_bin_len: f64) -> bool {
+    device == wgpu::DeviceType::Cpu && mean_bin_len <= WALK_MAX_MEAN_BIN
 }
 
 /// Prefer a real GPU, then an integrated one, then a CPU implementation such as lavapipe.
@@ -478,7 +512,15 @@ impl GpuContext {
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
-                Stage::FineRaster => Build { row, fragment: None, spec: Some((HeightProgram::MODE_SPEC_ID, prepared.params.mode as u32 + 1)) },
+                Stage::FineRaster => {
+                    let walks = match FINE_WALK.load(Ordering::Relaxed) {
+                        w if w == FineWalk::Always as u8 => true,
+                        w if w == FineWalk::Never as u8 => false,
+                        _ => walks_bins(self.gpu.info.device_type, prepared.mean_bin_len()),
+                    };
+                    let walk = if walks { HeightProgram::WALK } else { 0 };
+                    Build { row, fragment: None, spec: Some((HeightProgram::MODE_SPEC_ID, (prepared.params.mode as u32 + 1) | walk)) }
+                }
                 _ => Build { row, fragment: None, spec: None },
             };
             rows[row] = Some(match self.pipelines.iter().position(|(b, _)| *b == build) {
@@ -927,4 +969,18 @@ fn windows(area: &Window, max_pixels: u64) -> Vec<Window> {
         y += h;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_cpu_device_walks_and_only_short_bins() {
+        assert!(walks_bins(wgpu::DeviceType::Cpu, 9.5));
+        assert!(walks_bins(wgpu::DeviceType::Cpu, WALK_MAX_MEAN_BIN));
+        assert!(!walks_bins(wgpu::DeviceType::Cpu, 81.0));
+        assert!(!walks_bins(wgpu::DeviceType::DiscreteGpu, 1.0));
+        assert!(!walks_bins(wgpu::DeviceType::IntegratedGpu, 1.0));
+    }
 }

@@ -36,6 +36,9 @@ impl HeightProgram {
     pub const MODE_SPEC_ID: u32 = 1;
     /// Its default: the frame's mode, read at run time.
     pub const GENERIC_MODE: u32 = 0;
+    /// A bit of the same constant: the tile's pixels walk its bin each on their own
+    /// (`fine::fine_walk`), with no batches staged and no barrier in the pipeline.
+    pub const WALK: u32 = 1 << 8;
 }
 
 impl PixelProgram for HeightProgram {

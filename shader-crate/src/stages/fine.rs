@@ -3,7 +3,9 @@
 //! each span of 8 pixels lists the triangles whose rectangles reach it (`span_lists`: not those
 //! the tile's depth bound hides), barrier, every invocation tests its pixel centre against its
 //! span's (`fine_test`), barrier.
-//! Finally each invocation resolves its pixel (`fine_resolve`).
+//! Finally each invocation resolves its pixel (`fine_resolve`). Or, where the host asks for it
+//! (short bins on a CPU implementation of Vulkan, where barriers are dear), each invocation
+//! walks the bin on its own (`fine_walk`).
 //!
 //! The stage is generic over what a pixel computes: a [`PixelProgram`] says what a batch
 //! stages of a triangle, which of the triangles covering a centre owns it (the smallest
@@ -433,6 +435,40 @@ pub fn fine_test<P: PixelProgram>(
             state.count += 1;
         }
         n += 1;
+    }
+}
+
+/// The walk, instead of the batches: pixel `(i, j)` tests every triangle of the tile's bin
+/// whose rectangle holds it, reading the setups in place (with `overlap_free`, only until it
+/// is inside one). No workgroup memory and no barrier: on a CPU implementation of Vulkan a
+/// barrier switches every invocation of the workgroup out and back in, which costs a short
+/// bin more than the staging saves. Hidden triangles are not rejected: only for a frame that
+/// rejects none (`rejects_hidden`), where the two ways give the same bits and counts.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn fine_walk<P: PixelProgram>(
+    program: &P,
+    bin: &[u32],
+    bin_start: u32,
+    bin_len: u32,
+    setups: &[P::Setup],
+    i: i32,
+    j: i32,
+    overlap_free: bool,
+    state: &mut PixelState<P::Key>,
+) {
+    let mut k = 0;
+    while k < bin_len {
+        if overlap_free && state.owner != NO_OWNER {
+            return;
+        }
+        let staged = P::staged(&setups[(bin[(bin_start + k) as usize] & !FULL_TILE_BIT) as usize]);
+        let c = P::coverage(staged);
+        if c.rect.contains(i, j) {
+            let (side, edges) = side_and_edges(c, i, j);
+            accumulate_at(program, side, &edges, staged, i, j, state);
+        }
+        k += 1;
     }
 }
 

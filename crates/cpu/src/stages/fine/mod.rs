@@ -45,6 +45,9 @@ pub enum FinePath {
     Specialised,
     /// The entry point's branches and the stage functions, invocation by invocation.
     Plain,
+    /// [`FinePath::Plain`] with the heightfield's pixels walking their bins (`fine::fine_walk`:
+    /// the GPU backend's way for short bins on a CPU implementation of Vulkan).
+    Walk,
     /// Heightfield tiles with an empty bin, or one triangle covering them whole, written row by
     /// row (`height::fine_resolve_empty_tile`, `height::fine_resolve_full_tile`).
     WholeTiles,
@@ -65,7 +68,7 @@ pub enum FinePath {
 impl FinePath {
     /// The fast paths of `fine_raster` (the heightfield), all of them first: the tests run
     /// each against the plain twin.
-    pub const HEIGHTFIELD: [FinePath; 4] = [FinePath::Specialised, FinePath::WholeTiles, FinePath::OverlapFreeRows, FinePath::OverlappingRows];
+    pub const HEIGHTFIELD: [FinePath; 5] = [FinePath::Specialised, FinePath::Walk, FinePath::WholeTiles, FinePath::OverlapFreeRows, FinePath::OverlappingRows];
     /// The fast paths of `fine_depth` (the render pipeline), all of them first.
     pub const DEPTH: [FinePath; 3] = [FinePath::Specialised, FinePath::DepthCentres, FinePath::DepthLanes];
 
@@ -78,7 +81,7 @@ impl FinePath {
             FinePath::WholeTiles => matches!(kind, Empty | Full),
             FinePath::OverlapFreeRows => kind == OverlapFree,
             FinePath::OverlappingRows => kind == Overlapping,
-            FinePath::Plain | FinePath::DepthCentres | FinePath::DepthLanes => false,
+            FinePath::Plain | FinePath::Walk | FinePath::DepthCentres | FinePath::DepthLanes => false,
         }
     }
 }
@@ -87,7 +90,8 @@ impl FinePath {
 /// rayon task.
 pub fn fine_raster(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
     match path {
-        FinePath::Plain => fine_raster_plain(&HeightProgram::of(frame), frame, setups, offsets, bins, raster),
+        FinePath::Plain => fine_raster_plain(&HeightProgram::of(frame), false, frame, setups, offsets, bins, raster),
+        FinePath::Walk => fine_raster_plain(&HeightProgram::of(frame), true, frame, setups, offsets, bins, raster),
         FinePath::Specialised => height::fine_raster_using(path, wide::wide_vectors(), frame, setups, offsets, bins, raster),
         _ => height::fine_raster_using(path, false, frame, setups, offsets, bins, raster),
     }
@@ -100,14 +104,14 @@ pub fn fine_depth(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup],
     // Render frames never take the full-tile path (the depth test needs every fragment's
     // key); a frame that allowed it goes the GPU's way.
     if frame.flags.contains(FrameFlags::FULL_TILES) {
-        return fine_raster_plain(&program, frame, setups, offsets, bins, raster);
+        return fine_raster_plain(&program, false, frame, setups, offsets, bins, raster);
     }
     let way = match path {
         FinePath::Specialised => depth::Way::fastest(wide::wide_vectors()),
         FinePath::DepthCentres => depth::Way::Centres,
         FinePath::DepthLanes => depth::Way::Lanes,
-        FinePath::Plain | FinePath::WholeTiles | FinePath::OverlapFreeRows | FinePath::OverlappingRows => {
-            return fine_raster_plain(&program, frame, setups, offsets, bins, raster);
+        FinePath::Plain | FinePath::Walk | FinePath::WholeTiles | FinePath::OverlapFreeRows | FinePath::OverlappingRows => {
+            return fine_raster_plain(&program, false, frame, setups, offsets, bins, raster);
         }
     };
     depth::fine_depth_using(way, &program, frame, setups, offsets, bins, raster)

@@ -7,9 +7,11 @@ use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelStat
 use tileraster_kernels::{BATCH, TILE_PIXELS};
 
 /// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
-/// layer holds their bits).
+/// layer holds their bits); with `walk`, the entry point's walk (`fine::fine_walk`) where it
+/// takes it.
 pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(
     program: &P,
+    walk: bool,
     frame: &FrameParams,
     setups: &[P::Setup],
     offsets: &[u32],
@@ -23,7 +25,7 @@ where
     for_each_band(frame, raster, |band, stats| {
         let mut counts = BandCounters::default();
         for tx in 0..frame.tiles_x {
-            fine_raster_tile_plain(program, tx, frame, setups, offsets, bins, band, &mut counts);
+            fine_raster_tile_plain(program, walk, tx, frame, setups, offsets, bins, band, &mut counts);
         }
         counts.add_to(stats);
     })
@@ -34,6 +36,7 @@ where
 #[allow(clippy::too_many_arguments)]
 pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
     program: &P,
+    walk: bool,
     tx: u32,
     frame: &FrameParams,
     setups: &[P::Setup],
@@ -68,8 +71,13 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
         }
         let overlap_free = fine::overlap_free(frame);
         let count_hidden = fine::counts_hidden(frame);
+        let walks = walk && !fine::rejects_hidden::<P>(frame);
+        for (lid, state) in states.iter_mut().enumerate().filter(|_| walks) {
+            let (i, j, _) = pixel(lid as u32);
+            fine::fine_walk(program, bins, bin_start, bin_len, setups, i, j, overlap_free, state);
+        }
         let mut batch_start = 0;
-        while batch_start < bin_len {
+        while batch_start < bin_len && !walks {
             let batch_len = fine::batch_len(bin_len, batch_start);
             for lid in 0..TILE_PIXELS {
                 fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile, occluding, &mut shared);

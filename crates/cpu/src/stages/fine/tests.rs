@@ -84,7 +84,7 @@ fn a_depth_keyed_program_resolves_the_lowest_surface() {
             let params = Params::new(grid).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
             let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
             let mut raster = plan.allocate_raster(&prepared).unwrap();
-            fine_raster_plain(&LowestSurface, &frame, &setups, &offsets, &bins, &mut raster);
+            fine_raster_plain(&LowestSurface, false, &frame, &setups, &offsets, &bins, &mut raster);
             let (owners, counts) = (raster.owner.as_ref().unwrap(), raster.coverage.as_ref().unwrap());
             for j in 0..frame.win_h {
                 for i in 0..frame.win_w {
@@ -197,7 +197,7 @@ fn depth_test_in_lanes_changes_no_bit() {
                         let mut raster = plan.allocate_raster(&prepared).unwrap();
                         let counters = match way {
                             Some(way) => fine_depth_using(way, &program, &frame, &setups, &offsets, &bins, &mut raster),
-                            None => fine_raster_plain(&program, &frame, &setups, &offsets, &bins, &mut raster),
+                            None => fine_raster_plain(&program, false, &frame, &setups, &offsets, &bins, &mut raster),
                         };
                         (raster, counters.map(|c| c.into_inner()))
                     };

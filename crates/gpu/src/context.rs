@@ -216,8 +216,8 @@ const WALK_MAX_MEAN_BIN: f64 = 32.0;
 /// (`HeightProgram::WALK`) rather than staging it in batches: on a CPU implementation of
 /// Vulkan, where each barrier switches every invocation out and back in, for bins short
 /// enough that the batches' staging and span lists save less than the barriers cost. Measured
-/// on lavapipe (`docs/results.md`): the TIN (mean bin 9.6) 2.4× faster walking, the
-/// micro-triangles (mean bins 81 to 256) 1.5–2.6× slower. A GPU keeps the batches, the way
+/// on lavapipe (`docs/results.md`): the TIN (mean bin 9.6) 2.7–2.9× faster walking, the
+/// micro-triangles (mean bins 81 to 256) 1.5–2.7× slower. A GPU keeps the batches, the way
 /// measured on hardware.
 fn walks_bins(device: wgpu::DeviceType, mean_bin_len: f64) -> bool {
     device == wgpu::DeviceType::Cpu && mean_bin_len <= WALK_MAX_MEAN_BIN

@@ -29,6 +29,8 @@ fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
         let camera = Camera::framing(mesh, w as f64 / h as f64, 45.0);
         let mut params = RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?);
         params.eye = Some(camera.eye);
+        // The peer's outputs: colour (or ids) and depth, no per-pixel fragment counts.
+        params.count_fragments = false;
         Ok(params)
     };
     // 2·n² triangles: n = 224 gives 100,352, n = 708 gives 1,002,528.
@@ -42,7 +44,7 @@ fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
     // passes the depth test in the hardware pipeline): overdraw 8.
     let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
     let mesh = meshes::fill_layers(8);
-    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, IDENTITY) };
+    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), count_fragments: false, ..RenderParams::new(w, h, IDENTITY) };
     out.push(Scene { name: format!("fill rate: 8 full-frame layers (16 triangles), back to front, {w}×{h}"), mesh, params });
     Ok(out)
 }
@@ -84,7 +86,7 @@ pub fn run(quick: bool) -> Result<String, String> {
     let _ = writeln!(
         s,
         "Medians of {runs} whole calls after a warm-up. tileraster draws triangle ids (`--shading ids`, the same fragment work as the \
-         peer) and, in its own columns, Phong shading; \"prepared\" is `PreparedMesh::render_into`, which keeps the frames' memory and \
+         peer; no per-pixel fragment counts, which the peer does not make either) and, in its own columns, Phong shading; \"prepared\" is `PreparedMesh::render_into`, which keeps the frames' memory and \
          output layers between calls as the peer keeps its render target and buffers; the render pipeline is wgpu's on {adapter} with a Depth32Float buffer and the `Less` \
          test, writing R32Uint triangle ids. Both read their outputs back to the host. \"ids agree\" is the share of pixels where \
          tileraster's CPU frame and the render pipeline name the same triangle.\n"

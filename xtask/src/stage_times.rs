@@ -63,7 +63,10 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
         ));
     }
     let fill = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), shading: Shading::Ids, ..RenderParams::new(1920, 1080, IDENTITY) };
-    cases.push(("render: fill rate, 8 full-frame layers, 1920×1080, ids".into(), Case::Render(meshes::fill_layers(8), Box::new(fill))));
+    cases.push(("render: fill rate, 8 full-frame layers, 1920×1080, ids".into(), Case::Render(meshes::fill_layers(8), Box::new(fill.clone()))));
+    // What the render pipeline computes: no fragment counts, so the hidden layers get no tests.
+    let uncounted = RenderParams { count_fragments: false, ..fill };
+    cases.push(("render: fill rate, 8 layers, ids, fragments not counted".into(), Case::Render(meshes::fill_layers(8), Box::new(uncounted))));
     Ok(cases)
 }
 

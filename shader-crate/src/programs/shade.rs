@@ -205,7 +205,8 @@ pub fn shade_pixel<P: FragmentProgram + ?Sized>(
     i: i32,
     j: i32,
 ) -> Shaded {
-    pixel_fragments(program, params, false, 0, setups, shading, textures, texels, &[], 0, 0, slot, depth_bits, i, j)
+    let unblended = ShadeParams { blend: 0, ..*params };
+    shaded_pixel(program, &unblended, 0, setups, shading, textures, texels, &[], 0, 0, slot, depth_bits, i, j)
 }
 
 /// The texture coordinates of triangle `(s, t)` at pixel `(i, j)`.
@@ -311,33 +312,13 @@ pub fn source_over(src: u32, dst: u32) -> u32 {
     channel(0) | channel(8) << 8 | channel(16) << 16 | alpha << 24
 }
 
-/// The blended pixel `(i, j)`: every fragment of the tile's bin (`bin`, setup slots) whose
-/// triangle covers the centre, in submission order (ascending slot), tested against the
-/// running depth as the frame's depth test says (written back when it writes depth) and
-/// blended source-over onto the background, each coloured by `program`; the face is the last
-/// fragment that passed.
-/// Each step finds the next slot by a walk over the bin: `(fragments + 1) × bin` iterations.
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub fn blend_pixel<P: FragmentProgram + ?Sized>(
-    program: &P,
-    params: &ShadeParams,
-    clear_bits: u32,
-    setups: &[TriangleSetup],
-    shading: &[TriangleShading],
-    textures: &[TextureInfo],
-    texels: &[u32],
-    bin: &[u32],
-    bin_start: u32,
-    bin_len: u32,
-    i: i32,
-    j: i32,
-) -> Shaded {
-    pixel_fragments(program, params, true, clear_bits, setups, shading, textures, texels, bin, bin_start, bin_len, NO_OWNER, 0, i, j)
-}
-
-/// Pixel `(i, j)` as the shade stage leaves it: blended where `params.blend` says
-/// ([`blend_pixel`]), else its owner `slot` of depth `depth_bits` shaded ([`shade_pixel`]).
+/// Pixel `(i, j)` as the shade stage leaves it. Blended where `params.blend` says: every
+/// fragment of the tile's bin (`bin`, setup slots) whose triangle covers the centre, in
+/// submission order (ascending slot), tested against the running depth as the frame's depth
+/// test says (written back when it writes depth) and blended source-over onto the background,
+/// each coloured by `program`; the face is the last fragment that passed (each step finds the
+/// next slot by a walk over the bin: `(fragments + 1) × bin` iterations). Else its owner
+/// `slot`, of depth `owner_depth_bits`, shaded ([`shade_pixel`]).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn shaded_pixel<P: FragmentProgram + ?Sized>(
@@ -352,36 +333,13 @@ pub fn shaded_pixel<P: FragmentProgram + ?Sized>(
     bin_start: u32,
     bin_len: u32,
     slot: u32,
-    depth_bits: u32,
+    owner_depth_bits: u32,
     i: i32,
     j: i32,
 ) -> Shaded {
-    pixel_fragments(program, params, params.blend != 0, clear_bits, setups, shading, textures, texels, bin, bin_start, bin_len, slot, depth_bits, i, j)
-}
-
-/// The fragments of pixel `(i, j)` coloured by `program`: with `blend`, [`blend_pixel`]'s;
-/// else the one of owner `slot`, of depth `owner_depth`. One loop for both, so that a stage
-/// that does either holds one copy of `program` (a driver reads every inlined copy before the
-/// frame's specialisation removes one).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn pixel_fragments<P: FragmentProgram + ?Sized>(
-    program: &P,
-    params: &ShadeParams,
-    blend: bool,
-    clear_bits: u32,
-    setups: &[TriangleSetup],
-    shading: &[TriangleShading],
-    textures: &[TextureInfo],
-    texels: &[u32],
-    bin: &[u32],
-    bin_start: u32,
-    bin_len: u32,
-    slot: u32,
-    owner_depth: u32,
-    i: i32,
-    j: i32,
-) -> Shaded {
+    // One loop for both, so that the stage holds one copy of `program` (a driver reads every
+    // inlined copy before the frame's specialisation removes one).
+    let blend = params.blend != 0;
     let test = DepthProgram { func: params.depth_test.func(), write: true, clear: f32::from_bits(clear_bits) };
     let write = params.depth_test.write();
     let mut out = Shaded { colour: params.background, face: NO_OWNER };
@@ -397,9 +355,9 @@ fn pixel_fragments<P: FragmentProgram + ?Sized>(
         } else {
             let mut k = 0;
             while k < bin_len {
-                let slot = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
-                if (!started || slot > after) && slot < next && side(&setups[slot as usize].coverage, i, j) == Side::Inside {
-                    next = slot;
+                let candidate = bin[(bin_start + k) as usize] & !FULL_TILE_BIT;
+                if (!started || candidate > after) && candidate < next && side(&setups[candidate as usize].coverage, i, j) == Side::Inside {
+                    next = candidate;
                 }
                 k += 1;
             }
@@ -410,7 +368,7 @@ fn pixel_fragments<P: FragmentProgram + ?Sized>(
         after = next;
         started = true;
         let s = &setups[next as usize];
-        let d = if blend { depth_bits(s, i, j) } else { owner_depth };
+        let d = if blend { depth_bits(s, i, j) } else { owner_depth_bits };
         if blend && !(DepthProgram { clear: running, ..test }).passes(f32::from_bits(d)) {
             continue;
         }

@@ -1,5 +1,5 @@
 //! Twin of the `shade` entry point: every pixel of the frame, rows in parallel, through the
-//! kernel's `shade_pixel` (or `blend_pixel`, over the pixel's tile's bin), with the frame's
+//! kernel's `shaded_pixel` (blended over the pixel's tile's bin where the frame blends), with the frame's
 //! fragment program: the built-in shadings, or the user's shader called natively.
 //!
 //! The built-in id view reads nothing of a pixel but its owner (`fragment_colour`'s `Ids` arm): there a
@@ -8,11 +8,11 @@
 
 use rayon::prelude::*;
 use tileraster_core::{Raster, RenderInputs};
-use tileraster_kernels::TILE;
 use tileraster_kernels::abi::{FrameParams, ShadeMode, TriangleSetup};
 use tileraster_kernels::programs::fragment::{Builtin, FragmentProgram};
-use tileraster_kernels::programs::shade::{blend_pixel, shade_pixel};
+use tileraster_kernels::programs::shade::{shade_pixel, shaded_pixel};
 use tileraster_kernels::stages::fine;
+use tileraster_kernels::{NO_OWNER, TILE};
 
 pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
     // The program is chosen once per frame: the built-in shadings are called directly.
@@ -65,13 +65,14 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(
             for x in columns.clone() {
                 let k = row * stride + x;
                 let i = (x0 as usize + x) as i32;
-                let out = if params.blend != 0 {
+                // As the entry point: blended, the tile's bin; else the owner fine raster left.
+                let ((bin_start, bin_len), (owner, depth)) = if params.blend != 0 {
                     let tile = (j as u32 - frame.win_y0) / TILE * frame.tiles_x + (i as u32 - frame.win_x0) / TILE;
-                    let (bin_start, bin_len) = fine::bin_range(offsets, tile);
-                    blend_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, i, j)
+                    (fine::bin_range(offsets, tile), (NO_OWNER, 0))
                 } else {
-                    shade_pixel(program, params, setups, shading, textures, texels, owners[k], depths[k].to_bits(), i, j)
+                    ((0, 0), (owners[k], depths[k].to_bits()))
                 };
+                let out = shaded_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, owner, depth, i, j);
                 colour_row[x] = out.colour;
                 face_row[x] = out.face;
             }

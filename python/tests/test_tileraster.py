@@ -215,7 +215,10 @@ def test_ctrl_c_stops_a_long_call():
     # One call of a few seconds (2M triangles onto 16384² cells); the signal lands inside it,
     # and KeyboardInterrupt must come well before the call would have ended.
     script = (
-        "import numpy as np, time, tileraster\n"
+        "import numpy as np, signal, time, tileraster\n"
+        # Ctrl-C as an interactive Python has it, even where this test runs with SIGINT
+        # ignored (a shell's background job: Python then installs no handler of its own).
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "n = 1000\n"
         "xs, ys = np.meshgrid(np.linspace(0, 1000, n), np.linspace(0, 1000, n))\n"
         "v = np.column_stack([xs.ravel(), ys.ravel(), np.random.default_rng(1).uniform(0, 10, n * n)])\n"

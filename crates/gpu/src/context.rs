@@ -219,8 +219,9 @@ const WALK_MAX_MEAN_BIN: f64 = 32.0;
 /// on lavapipe (`docs/results.md`): the TIN (mean bin 9.6) 2.7–2.9× faster walking, the
 /// micro-triangles (mean bins 81 to 256) 1.5–2.7× slower. A GPU keeps the batches, the way
 /// measured on hardware.
-fn walks_bins(device: wgpu::DeviceType, mean_bin_len: f64) -> bool {
-    device == wgpu::DeviceType::Cpu && mean_bin_len <= WALK_MAX_MEAN_BIN
+/// (`mean_bin_len` is only counted on a CPU device: a pass over the triangles.)
+fn walks_bins(device: wgpu::DeviceType, mean_bin_len: impl FnOnce() -> f64) -> bool {
+    device == wgpu::DeviceType::Cpu && mean_bin_len() <= WALK_MAX_MEAN_BIN
 }
 
 /// Prefer a real GPU, then an integrated one, then a CPU implementation such as lavapipe.
@@ -516,7 +517,7 @@ impl GpuContext {
                     let walks = match FINE_WALK.load(Ordering::Relaxed) {
                         w if w == FineWalk::Always as u8 => true,
                         w if w == FineWalk::Never as u8 => false,
-                        _ => walks_bins(self.gpu.info.device_type, prepared.mean_bin_len()),
+                        _ => walks_bins(self.gpu.info.device_type, || prepared.mean_bin_len()),
                     };
                     let walk = if walks { HeightProgram::WALK } else { 0 };
                     Build { row, fragment: None, spec: Some((HeightProgram::MODE_SPEC_ID, (prepared.params.mode as u32 + 1) | walk)) }
@@ -977,10 +978,11 @@ mod tests {
 
     #[test]
     fn only_a_cpu_device_walks_and_only_short_bins() {
-        assert!(walks_bins(wgpu::DeviceType::Cpu, 9.5));
-        assert!(walks_bins(wgpu::DeviceType::Cpu, WALK_MAX_MEAN_BIN));
-        assert!(!walks_bins(wgpu::DeviceType::Cpu, 81.0));
-        assert!(!walks_bins(wgpu::DeviceType::DiscreteGpu, 1.0));
-        assert!(!walks_bins(wgpu::DeviceType::IntegratedGpu, 1.0));
+        assert!(walks_bins(wgpu::DeviceType::Cpu, || 9.5));
+        assert!(walks_bins(wgpu::DeviceType::Cpu, || WALK_MAX_MEAN_BIN));
+        assert!(!walks_bins(wgpu::DeviceType::Cpu, || 81.0));
+        let never = || -> f64 { panic!("counted on a GPU") };
+        assert!(!walks_bins(wgpu::DeviceType::DiscreteGpu, never));
+        assert!(!walks_bins(wgpu::DeviceType::IntegratedGpu, || 1.0));
     }
 }

@@ -37,7 +37,7 @@ pub fn set_binding_limit(bytes: u64) {
 /// the same bits and counts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FineWalk {
-    /// Walk where it pays ([`walks_bins`]): short bins on a CPU implementation of Vulkan.
+    /// Walk where it pays: short bins on a CPU implementation of Vulkan (`walks_bins`).
     Auto,
     /// Every pixel walks its bin, on every device.
     Always,

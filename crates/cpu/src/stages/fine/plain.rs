@@ -71,26 +71,29 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
         }
         let overlap_free = fine::overlap_free(frame);
         let count_hidden = fine::counts_hidden(frame);
-        let walks = walk && !fine::rejects_hidden::<P>(frame);
-        for (lid, state) in states.iter_mut().enumerate().filter(|_| walks) {
-            let (i, j, _) = pixel(lid as u32);
-            fine::fine_walk(program, bins, bin_start, bin_len, setups, i, j, overlap_free, state);
-        }
-        let mut batch_start = 0;
-        while batch_start < bin_len && !walks {
-            let batch_len = fine::batch_len(bin_len, batch_start);
-            for lid in 0..TILE_PIXELS {
-                fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile, occluding, &mut shared);
-            }
-            hidden += fine::batch_hidden(batch_len, &shared);
-            for lid in 0..fine::SPANS {
-                fine::span_lists::<P>(lid, tx, ty, frame, batch_len, count_hidden, &mut shared);
-            }
+        // The entry point's two ways through the bin, as it takes them.
+        if walk && !fine::rejects_hidden::<P>(frame) {
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
-                fine::fine_test(program, lid as u32, i, j, &shared, overlap_free, count_hidden, state);
+                fine::fine_walk(program, bins, bin_start, bin_len, setups, i, j, overlap_free, state);
             }
-            batch_start += BATCH;
+        } else {
+            let mut batch_start = 0;
+            while batch_start < bin_len {
+                let batch_len = fine::batch_len(bin_len, batch_start);
+                for lid in 0..TILE_PIXELS {
+                    fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile, occluding, &mut shared);
+                }
+                hidden += fine::batch_hidden(batch_len, &shared);
+                for lid in 0..fine::SPANS {
+                    fine::span_lists::<P>(lid, tx, ty, frame, batch_len, count_hidden, &mut shared);
+                }
+                for (lid, state) in states.iter_mut().enumerate() {
+                    let (i, j, _) = pixel(lid as u32);
+                    fine::fine_test(program, lid as u32, i, j, &shared, overlap_free, count_hidden, state);
+                }
+                batch_start += BATCH;
+            }
         }
         fine::count_hidden_triangles(0, hidden, stats);
     }

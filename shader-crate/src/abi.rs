@@ -3,6 +3,7 @@
 //! typed codes inside them (`#[repr(u32)]` enums and flag sets). Host and kernels name every
 //! mode, flag, output and counter through these types; no bare numbers cross the boundary.
 
+use crate::memory::{Lanes, Words8, i64_of};
 #[cfg(not(target_arch = "spirv"))]
 use bytemuck::{Pod, Zeroable};
 
@@ -228,13 +229,69 @@ pub struct Coverage {
     pub edges: [EdgeEq; 3],
     pub rect: PixelRect,
     pub index: u32,
-    /// Position of the triangle in the setup buffer, to fetch its plane once it wins.
-    pub slot: u32,
     /// Bit `k` set: edge `k` is not top-left, so by the fill rule it does not own the pixel
     /// centres exactly on it.
     pub excluded_edges: u32,
+    /// Position of the triangle in the setup buffer, to fetch its plane once it wins. Last
+    /// of what a walk reads (`SetupPart`), which knows it from the bin entry.
+    pub slot: u32,
     pub _pad: u32,
 }
+
+/// What a program stages of a triangle, read from the setup buffer as words by the lanes of
+/// a group together (`memory::Lanes`): the walk's reads (`stages::fine::fine_walk`).
+pub trait SetupPart: Sized {
+    /// The part of setup slot `slot`, from `setup_words` (the setup buffer as `u32`s).
+    fn read_setup(lanes: &Lanes, setup_words: &[u32], slot: u32) -> Self;
+}
+
+/// `u32`s per `TriangleSetup`.
+pub const SETUP_WORDS: u32 = (core::mem::size_of::<TriangleSetup>() / 4) as u32;
+
+/// A record's words 0..24 (three reads of eight): the edges (`e0`, `step_i`, `step_j`, each
+/// low word first), the rectangle, the index and the excluded edges.
+#[inline(always)]
+fn coverage_of(a: &Words8, b: &Words8, c: &Words8, slot: u32) -> Coverage {
+    let edges = [
+        EdgeEq { e0: i64_of(a.get(0), a.get(1)), step_i: i64_of(a.get(2), a.get(3)), step_j: i64_of(a.get(4), a.get(5)) },
+        EdgeEq { e0: i64_of(a.get(6), a.get(7)), step_i: i64_of(b.get(0), b.get(1)), step_j: i64_of(b.get(2), b.get(3)) },
+        EdgeEq { e0: i64_of(b.get(4), b.get(5)), step_i: i64_of(b.get(6), b.get(7)), step_j: i64_of(c.get(0), c.get(1)) },
+    ];
+    let rect = PixelRect { i0: c.get(2) as i32, j0: c.get(3) as i32, i1: c.get(4) as i32, j1: c.get(5) as i32 };
+    Coverage { edges, rect, index: c.get(6), excluded_edges: c.get(7), slot, _pad: 0 }
+}
+
+impl SetupPart for Coverage {
+    #[inline(always)]
+    fn read_setup(lanes: &Lanes, setup_words: &[u32], slot: u32) -> Coverage {
+        let at = slot * SETUP_WORDS;
+        coverage_of(&lanes.read8(setup_words, at), &lanes.read8(setup_words, at + 8), &lanes.read8(setup_words, at + 16), slot)
+    }
+}
+
+impl SetupPart for TriangleSetup {
+    /// Words 24 and 25 are the coverage's slot and padding; then the plane (26..34) and the
+    /// `f32` coefficients (34..38).
+    #[inline(always)]
+    fn read_setup(lanes: &Lanes, setup_words: &[u32], slot: u32) -> TriangleSetup {
+        let at = slot * SETUP_WORDS;
+        let (a, b, c) = (lanes.read8(setup_words, at), lanes.read8(setup_words, at + 8), lanes.read8(setup_words, at + 16));
+        let (d, e) = (lanes.read8(setup_words, at + 24), lanes.read8(setup_words, at + 32));
+        let plane =
+            Plane { z: i64_of(d.get(2), d.get(3)), gi: i64_of(d.get(4), d.get(5)), gj: i64_of(d.get(6), d.get(7)), frac_bits: e.get(0) as i32, _pad: 0 };
+        let coeffs = FloatCoeffs { c: [f32::from_bits(e.get(2)), f32::from_bits(e.get(3)), f32::from_bits(e.get(4)), f32::from_bits(e.get(5))] };
+        TriangleSetup { coverage: coverage_of(&a, &b, &c, slot), plane, coeffs }
+    }
+}
+
+// The word offsets `coverage_of` and `TriangleSetup::read_setup` read.
+#[cfg(not(target_arch = "spirv"))]
+const _: () = {
+    use core::mem::offset_of;
+    assert!(offset_of!(Coverage, rect) == 18 * 4 && offset_of!(Coverage, index) == 22 * 4 && offset_of!(Coverage, excluded_edges) == 23 * 4);
+    assert!(offset_of!(Coverage, slot) == 24 * 4 && offset_of!(TriangleSetup, plane) == 26 * 4 && offset_of!(TriangleSetup, coeffs) == 34 * 4);
+    assert!(offset_of!(Plane, frac_bits) == 24 && SETUP_WORDS == 38);
+};
 
 /// Output of the setup stage, one per prepared triangle.
 #[repr(C)]

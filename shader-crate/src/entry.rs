@@ -7,7 +7,8 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::abi::{Counter, Coverage, FrameParams, OutputSet, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
+use crate::abi::{Counter, Coverage, FrameParams, OutputSet, SetupPart, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
+use crate::memory::Lanes;
 use crate::programs::depth::DepthProgram;
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::height::HeightProgram;
@@ -110,6 +111,8 @@ pub fn fine_raster(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u32],
+    #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<Coverage, u32>,
     #[spirv(spec_constant(id = 1, default = 0))] mode: u32,
 ) {
@@ -117,10 +120,12 @@ pub fn fine_raster(
     fine_raster_workgroup(
         &program,
         mode & HeightProgram::WALK != 0,
+        &Lanes::new(subgroup_lane),
         wg,
         lid,
         frame,
         setups,
+        setup_words,
         offsets,
         bins,
         values,
@@ -148,9 +153,29 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u32],
+    #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
 ) {
-    fine_raster_workgroup(&DepthProgram::of(frame), false, wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, shared);
+    let lanes = Lanes::new(subgroup_lane);
+    fine_raster_workgroup(
+        &DepthProgram::of(frame),
+        false,
+        &lanes,
+        wg,
+        lid,
+        frame,
+        setups,
+        setup_words,
+        offsets,
+        bins,
+        values,
+        owners,
+        coverage,
+        stats,
+        tile_stats,
+        shared,
+    );
 }
 
 // The stages that colour fragments, with the built-in shadings (`programs::fragment`); a
@@ -261,10 +286,12 @@ pub fn fine_samples_workgroup<F: FragmentProgram>(
 fn fine_raster_workgroup<P: PixelProgram>(
     program: &P,
     walk: bool,
+    lanes: &Lanes,
     wg: UVec3,
     lid: u32,
     frame: &FrameParams,
     setups: &[P::Setup],
+    setup_words: &[u32],
     offsets: &[u32],
     bins: &[u32],
     values: &mut [P::Value],
@@ -273,7 +300,9 @@ fn fine_raster_workgroup<P: PixelProgram>(
     stats: &mut [u32],
     tile_stats: &mut [u32],
     shared: &mut FineShared<P::Staged, P::Key>,
-) {
+) where
+    P::Staged: SetupPart,
+{
     let tile = wg.y * frame.tiles_x + wg.x;
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
@@ -298,7 +327,7 @@ fn fine_raster_workgroup<P: PixelProgram>(
             let overlap_free = fine::overlap_free(frame);
             let count_hidden = fine::counts_hidden(frame);
             if walk && !fine::rejects_hidden::<P>(frame) {
-                fine::fine_walk(program, bins, bin_start, bin_len, setups, i, j, overlap_free, &mut state);
+                fine::fine_walk(program, lanes, bins, bin_start, bin_len, setup_words, i, j, overlap_free, &mut state);
             } else {
                 let mut batch_start = 0;
                 while batch_start < bin_len {

@@ -27,3 +27,123 @@ impl Slots for [u32] {
         self[index] = value;
     }
 }
+
+/// Lanes of a SIMD group that read together what they all need: a triangle record or a run of
+/// bin entries, the same words in every lane. Each of eight lanes loads one word and the
+/// others take it from that lane (subgroup shuffles), so eight words cost one load. A CPU
+/// implementation of Vulkan (lavapipe) loads storage memory one lane at a time, each load
+/// behind a branch on its lane's mask, so there a word read per lane costs several times the
+/// arithmetic around it; on a GPU a shuffle is as cheap as an add.
+///
+/// On the GPU, every lane of the group must reach each read (the loop around it uniform), and
+/// the device's subgroups must hold whole groups of [`LANE_GROUP`] lanes (subgroup size a
+/// multiple of 8: the host checks it). The host's twin reads the words itself: the same words,
+/// so the same bits.
+#[derive(Copy, Clone)]
+pub struct Lanes {
+    /// Subgroup index of the group's first lane.
+    #[cfg(target_arch = "spirv")]
+    first: u32,
+    /// This lane's position in its group.
+    #[cfg(target_arch = "spirv")]
+    lane: u32,
+}
+
+/// Lanes that read a record together.
+pub const LANE_GROUP: u32 = 8;
+
+/// Eight consecutive words of a buffer, read by a group of lanes ([`Lanes::read8`]).
+#[derive(Copy, Clone)]
+pub struct Words8 {
+    /// The word this lane loaded, which the others shuffle out...
+    #[cfg(target_arch = "spirv")]
+    mine: u32,
+    /// ... from the group that starts at this subgroup index.
+    #[cfg(target_arch = "spirv")]
+    first: u32,
+    #[cfg(not(target_arch = "spirv"))]
+    words: [u32; LANE_GROUP as usize],
+}
+
+impl Lanes {
+    /// The lanes of the group that holds subgroup lane `subgroup_lane` (the
+    /// `SubgroupLocalInvocationId` builtin).
+    #[cfg(target_arch = "spirv")]
+    #[inline]
+    pub fn new(subgroup_lane: u32) -> Lanes {
+        Lanes { first: subgroup_lane & !(LANE_GROUP - 1), lane: subgroup_lane & (LANE_GROUP - 1) }
+    }
+
+    /// The host's twin: one invocation reads every word itself.
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline]
+    pub fn new() -> Lanes {
+        Lanes {}
+    }
+
+    /// Words `at..at + 8` of `words`. Words past the end of the buffer read as some word of it
+    /// (the last on the GPU, 0 on the host): no record or run uses them.
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn read8(&self, words: &[u32], at: u32) -> Words8 {
+        let last = words.len() as u32 - 1;
+        let k = at + self.lane;
+        Words8 { mine: words[(if k < last { k } else { last }) as usize], first: self.first }
+    }
+
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline(always)]
+    pub fn read8(&self, words: &[u32], at: u32) -> Words8 {
+        Words8 { words: core::array::from_fn(|k| words.get(at as usize + k).copied().unwrap_or(0)) }
+    }
+}
+
+#[cfg(not(target_arch = "spirv"))]
+impl Default for Lanes {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Lanes {
+    /// Whether `p` holds in every lane of the subgroup (so a loop around reads may stop for all
+    /// of them at once); on the host, in the one invocation.
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn all(&self, p: bool) -> bool {
+        spirv_std::arch::subgroup_all(p)
+    }
+
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline(always)]
+    pub fn all(&self, p: bool) -> bool {
+        p
+    }
+}
+
+impl Words8 {
+    /// Word `k < 8`. On the GPU every lane of the group must ask at once (`k` the same in all).
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn get(&self, k: u32) -> u32 {
+        spirv_std::arch::subgroup_shuffle(self.mine, self.first + k)
+    }
+
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline(always)]
+    pub fn get(&self, k: u32) -> u32 {
+        self.words[k as usize]
+    }
+}
+
+/// A record the lanes of a group read together from a buffer of words: the words of its
+/// `#[repr(C)]` layout, from word `at`.
+pub trait Record: Sized {
+    fn read(lanes: &Lanes, words: &[u32], at: u32) -> Self;
+}
+
+/// The `i64` whose low and high words are `lo` and `hi`.
+#[inline(always)]
+pub fn i64_of(lo: u32, hi: u32) -> i64 {
+    ((hi as u64) << 32 | lo as u64) as i64
+}

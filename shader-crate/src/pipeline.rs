@@ -73,6 +73,9 @@ pub enum Buffer {
     Inputs,
     /// `TriangleSetup` per prepared triangle (set up once per scene, kept).
     Setups,
+    /// The same buffer as `Setups`, as `u32`s: for records the lanes of a group read together
+    /// (`memory::Lanes`).
+    SetupWords,
     /// Setup slots of the window's triangles, `u32` each.
     Listed,
     /// Entries per tile.
@@ -194,6 +197,7 @@ const FINE_BINDINGS: &[Binding] = &[
     write(Buffer::Coverage),
     write(Buffer::Stats),
     write(Buffer::TileStats),
+    read(Buffer::SetupWords),
 ];
 
 /// The stages in the order they run.

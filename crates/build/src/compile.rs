@@ -49,7 +49,11 @@ impl Shader {
 
     /// The crate's module, marked and checked.
     fn compile(&self, crate_path: &Path) -> Result<Module, BuildError> {
-        let mut builder = SpirvBuilder::new(crate_path, "spirv-unknown-vulkan1.2").capability(Capability::Int64);
+        let mut builder = SpirvBuilder::new(crate_path, "spirv-unknown-vulkan1.2")
+            .capability(Capability::Int64)
+            .capability(Capability::GroupNonUniform)
+            .capability(Capability::GroupNonUniformVote)
+            .capability(Capability::GroupNonUniformShuffle);
         builder.build_script.defaults = true;
         let compile_error = |reason: String| BuildError::Compile { crate_path: crate_path.to_path_buf(), reason };
         let result = builder.build().map_err(|e| compile_error(e.to_string()))?;

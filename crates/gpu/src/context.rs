@@ -8,6 +8,7 @@ use std::sync::{Mutex, OnceLock};
 use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
+use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
 use tileraster_kernels::programs::height::HeightProgram;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
@@ -39,7 +40,8 @@ pub fn set_binding_limit(bytes: u64) {
 pub enum FineWalk {
     /// Walk where it pays: short bins on a CPU implementation of Vulkan (`walks_bins`).
     Auto,
-    /// Every pixel walks its bin, on every device.
+    /// Every pixel walks its bin, on every device whose subgroups hold groups of eight lanes
+    /// (the walk's reads, `memory::Lanes`; the others keep the batches).
     Always,
     /// Staged batches, on every device.
     Never,
@@ -224,6 +226,12 @@ fn walks_bins(device: wgpu::DeviceType, mean_bin_len: impl FnOnce() -> f64) -> b
     device == wgpu::DeviceType::Cpu && mean_bin_len() <= WALK_MAX_MEAN_BIN
 }
 
+/// Whether the device's subgroups hold whole groups of `LANE_GROUP` lanes, which the walk
+/// reads its records with (`memory::Lanes`; every subgroup size is a power of two).
+fn lane_groups(info: &wgpu::AdapterInfo) -> bool {
+    info.subgroup_min_size >= LANE_GROUP
+}
+
 /// Prefer a real GPU, then an integrated one, then a CPU implementation such as lavapipe.
 /// `TILERASTER_ADAPTER=<substring>` picks an adapter by name instead.
 fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String> {
@@ -245,8 +253,10 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>
     usable.sort_by_key(rank);
     usable.into_iter().next().ok_or_else(|| match (&wanted, seen.is_empty()) {
         (_, true) => "no Vulkan adapter was found".into(),
-        (Some(name), false) => format!("no adapter named like {name:?} with 64-bit integers in shaders and SPIR-V passthrough among {seen:?}"),
-        (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers in shaders and SPIR-V passthrough"),
+        (Some(name), false) => {
+            format!("no adapter named like {name:?} with 64-bit integers and subgroup operations in shaders and SPIR-V passthrough among {seen:?}")
+        }
+        (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers and subgroup operations in shaders and SPIR-V passthrough"),
     })
 }
 
@@ -515,6 +525,7 @@ impl GpuContext {
                 _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
                 Stage::FineRaster => {
                     let walks = match FINE_WALK.load(Ordering::Relaxed) {
+                        _ if !lane_groups(&self.gpu.info) => false,
                         w if w == FineWalk::Always as u8 => true,
                         w if w == FineWalk::Never as u8 => false,
                         _ => walks_bins(self.gpu.info.device_type, || prepared.mean_bin_len()),
@@ -667,7 +678,7 @@ impl GpuContext {
         let buffers = |buffer| match buffer {
             Buffer::Frame => Some(frame_buf.clone()),
             Buffer::Inputs => Some(inputs.clone()),
-            Buffer::Setups => Some(setups.clone()),
+            Buffer::Setups | Buffer::SetupWords => Some(setups.clone()),
             _ => None,
         };
         self.encode_stages(&mut encoder, prepared.pipeline(), rows, Scope::Scene, &frame, groups, &buffers)?;
@@ -729,7 +740,7 @@ impl GpuContext {
             Some(match buffer {
                 Buffer::Frame => frame_buf.clone(),
                 Buffer::Inputs => return None,
-                Buffer::Setups => scene.setups.clone(),
+                Buffer::Setups | Buffer::SetupWords => scene.setups.clone(),
                 Buffer::Listed => listed.clone(),
                 Buffer::Counts => counts.clone(),
                 Buffer::Offsets => offsets.clone(),

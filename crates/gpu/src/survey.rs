@@ -98,7 +98,8 @@ impl Survey {
 
 /// The features the kernels need of an adapter.
 pub(crate) fn needed_features() -> wgpu::Features {
-    wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS
+    // Subgroups: the kernels' module declares shuffles (`memory::Lanes`).
+    wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS | wgpu::Features::SUBGROUP
 }
 
 /// This machine's Vulkan adapters: from the cache when its key matches, else enumerated (no

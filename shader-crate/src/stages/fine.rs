@@ -37,9 +37,9 @@
 //! on the order of the bin; the coverage count is a plain count. Both are therefore
 //! deterministic whatever the scheduling of the binning atomics.
 
-use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect};
+use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart};
 use crate::math::edge::{Side, side_of};
-use crate::memory::Counters;
+use crate::memory::{Counters, LANE_GROUP, Lanes};
 use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
 
 /// What a fine-raster pixel computes from the triangles that cover it.
@@ -439,36 +439,49 @@ pub fn fine_test<P: PixelProgram>(
 }
 
 /// The walk, instead of the batches: pixel `(i, j)` tests every triangle of the tile's bin
-/// whose rectangle holds it, reading the setups in place (with `overlap_free`, only until it
-/// is inside one). No workgroup memory and no barrier: on a CPU implementation of Vulkan a
-/// barrier switches every invocation of the workgroup out and back in, which costs a short
-/// bin more than the staging saves. Hidden triangles are not rejected: only for a frame that
-/// rejects none (`rejects_hidden`), where the two ways give the same bits and counts.
+/// whose rectangle holds it (with `overlap_free`, only until it is inside one). No workgroup
+/// memory and no barrier: on a CPU implementation of Vulkan a barrier switches every
+/// invocation of the workgroup out and back in, which costs a short bin more than the staging
+/// saves. The lanes of a group read the bin entries and each triangle's record together
+/// (`Lanes`: a word loaded per lane, passed round), so every lane runs every iteration; a
+/// pixel that may stop (`overlap_free`, an owner found) only stops testing. Hidden triangles
+/// are not rejected: only for a frame that rejects none (`rejects_hidden`), where the two
+/// ways give the same bits and counts.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn fine_walk<P: PixelProgram>(
     program: &P,
+    lanes: &Lanes,
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
-    setups: &[P::Setup],
+    setup_words: &[u32],
     i: i32,
     j: i32,
     overlap_free: bool,
     state: &mut PixelState<P::Key>,
-) {
+) where
+    P::Staged: SetupPart,
+{
     let mut k = 0;
     while k < bin_len {
-        if overlap_free && state.owner != NO_OWNER {
-            return;
+        let entries = lanes.read8(bin, bin_start + k);
+        let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
+        let mut m = 0;
+        while m < run {
+            let done = overlap_free && state.owner != NO_OWNER;
+            if lanes.all(done) {
+                return;
+            }
+            let staged = P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT);
+            let c = P::coverage(&staged);
+            if !done && c.rect.contains(i, j) {
+                let (side, edges) = side_and_edges(c, i, j);
+                accumulate_at(program, side, &edges, &staged, i, j, state);
+            }
+            m += 1;
         }
-        let staged = P::staged(&setups[(bin[(bin_start + k) as usize] & !FULL_TILE_BIT) as usize]);
-        let c = P::coverage(staged);
-        if c.rect.contains(i, j) {
-            let (side, edges) = side_and_edges(c, i, j);
-            accumulate_at(program, side, &edges, staged, i, j, state);
-        }
-        k += 1;
+        k += LANE_GROUP;
     }
 }
 

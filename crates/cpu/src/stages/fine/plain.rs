@@ -2,7 +2,8 @@
 
 use super::band::{Band, BandCounters, StatCounters, for_each_band};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, FrameParams};
+use tileraster_kernels::abi::{Counter, FrameParams, SetupPart};
+use tileraster_kernels::memory::Lanes;
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, TILE_PIXELS};
 
@@ -19,8 +20,8 @@ pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(
     raster: &mut Raster,
 ) -> StatCounters
 where
-    P::Setup: Sync,
-    P::Staged: Default,
+    P::Setup: Sync + bytemuck::Pod,
+    P::Staged: Default + SetupPart,
 {
     for_each_band(frame, raster, |band, stats| {
         let mut counts = BandCounters::default();
@@ -45,7 +46,8 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
     band: &mut Band,
     stats: &mut BandCounters,
 ) where
-    P::Staged: Default,
+    P::Setup: bytemuck::Pod,
+    P::Staged: Default + SetupPart,
 {
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
@@ -75,7 +77,7 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
         if walk && !fine::rejects_hidden::<P>(frame) {
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
-                fine::fine_walk(program, bins, bin_start, bin_len, setups, i, j, overlap_free, state);
+                fine::fine_walk(program, &Lanes::new(), bins, bin_start, bin_len, bytemuck::cast_slice(setups), i, j, overlap_free, state);
             }
         } else {
             let mut batch_start = 0;

@@ -275,3 +275,20 @@ fn wide_vectors_change_no_bit() {
         }
     }
 }
+
+/// The walk reads setups as words (`SetupPart`): every field of every record, as the typed
+/// buffer holds it (the coverage's slot from the bin entry), on a real scene's setups.
+#[test]
+fn setup_records_read_as_words_are_the_typed_records() {
+    use tileraster_kernels::abi::SetupPart;
+    use tileraster_kernels::memory::Lanes;
+    let scene = scenes::delaunay_terrain(0.0, 0.0, 100.0, 100.0, 40, 40, 7);
+    let before = before_fine(&scene, &Params::new(Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129)));
+    assert!(before.setups.len() > 1000);
+    let words: &[u32] = bytemuck::cast_slice(&before.setups);
+    for (slot, setup) in before.setups.iter().enumerate() {
+        let whole = TriangleSetup::read_setup(&Lanes::new(), words, slot as u32);
+        assert_eq!(bytemuck::bytes_of(&whole), bytemuck::bytes_of(setup), "setup slot {slot}");
+        assert_eq!(Coverage::read_setup(&Lanes::new(), words, slot as u32), setup.coverage, "coverage of slot {slot}");
+    }
+}

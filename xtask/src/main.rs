@@ -23,10 +23,11 @@
 //!   `--fragment`: only its programmable fragment stage section.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
-//! - `cargo xtask stage-times [--cpu | --gpu] [NAME_PART]`: a call's time pass by pass on
-//!   each backend (the CPU's host times, the GPU's device times from timestamp queries, with
-//!   its dispatches, waits and bytes moved) on the micro-triangles, the slivers, the 4096² TIN
-//!   and the render pipeline's meshes, printed as markdown.
+//! - `cargo xtask stage-times [--walk always|never|auto] [--cpu | --gpu] [NAME_PART]`: a
+//!   call's time pass by pass on each backend (the CPU's host times, the GPU's device times
+//!   from timestamp queries, with its dispatches, waits and bytes moved) on the
+//!   micro-triangles, the slivers, the 4096² TIN and the render pipeline's meshes, printed as
+//!   markdown. `--walk` sets how the GPU's heightfield tiles meet their bins (`FineWalk`).
 
 mod bench_report;
 mod delaunay_report;
@@ -48,7 +49,7 @@ const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
+        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--walk always|never|auto] [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
     );
     ExitCode::from(2)
 }
@@ -151,6 +152,20 @@ fn main() -> ExitCode {
         },
         ["fingerprint"] => print_markdown("fingerprint", fingerprint::run()),
         ["stage-times", rest @ ..] => {
+            // `--walk always | never`: how the GPU's heightfield tiles meet their bins
+            // (`FineWalk`), to compare the two ways on an adapter.
+            let rest = match rest {
+                ["--walk", way, rest @ ..] => {
+                    tileraster::set_gpu_fine_walk(match *way {
+                        "always" => tileraster::FineWalk::Always,
+                        "never" => tileraster::FineWalk::Never,
+                        "auto" => tileraster::FineWalk::Auto,
+                        _ => return usage(),
+                    });
+                    rest
+                }
+                rest => rest,
+            };
             let (backends, only) = match rest {
                 ["--cpu", only @ ..] => (stage_times::Backends::Cpu, only),
                 ["--gpu", only @ ..] => (stage_times::Backends::Gpu, only),

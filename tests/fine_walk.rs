@@ -1,13 +1,15 @@
-//! The GPU backend's two ways of meeting a tile's bin in `fine_raster`, each forced on every
-//! device: staged batches, and every pixel walking the bin (the way a CPU implementation of
-//! Vulkan takes for short bins). Both give the CPU backend's bits and statistics. One test in
-//! a binary of its own: the way is process-wide.
+//! The GPU backend's two ways of meeting a tile's bin in `fine_raster` and `fine_depth`, each
+//! forced on every device: staged batches, and every pixel walking the bin (the way a CPU
+//! implementation of Vulkan takes for the heightfield's short bins). Both give the CPU
+//! backend's bits and statistics, the hidden triangles' count included. One test in a binary
+//! of its own: the way is process-wide.
 
 mod common;
 
-use common::assert_parity;
-use tileraster::{FineWalk, Grid, Mode, Outputs, Params, set_gpu_fine_walk};
-use tileraster_testkit::scenes;
+use common::{assert_frame_parity, assert_parity};
+use tileraster::render::{Camera, Cull, DepthFunc, RenderParams};
+use tileraster::{FineWalk, Grid, Mode, Outputs, Params, Skips, set_gpu_fine_walk};
+use tileraster_testkit::{meshes, scenes};
 
 #[test]
 fn both_ways_through_the_bins_give_the_cpu_bits() {
@@ -20,12 +22,43 @@ fn both_ways_through_the_bins_give_the_cpu_bits() {
         ("fan of 90", scenes::fan(&grid, 150, 110, 90, 30.0, 2), grid),
         ("micro-triangles, long bins", micro, micro_grid),
     ];
+    let back_to_front = meshes::fill_layers(8);
+    let mut front_to_back = back_to_front.clone();
+    front_to_back.triangles.reverse();
+    let meshes = [("8 layers back to front", back_to_front), ("8 layers front to back", front_to_back), ("terrain mesh", meshes::terrain(60, 2.0, 0.4))];
     for walk in [FineWalk::Always, FineWalk::Never] {
         set_gpu_fine_walk(walk);
         for (name, scene, grid) in &cases {
             for mode in Mode::ALL {
                 let params = Params::new(*grid).with_mode(mode).with_nodata(-9999.0).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
                 assert_parity(&format!("{name}, {}, {walk:?}", mode.name()), scene, &params);
+            }
+        }
+        for (name, mesh) in &meshes {
+            for depth_func in [DepthFunc::Less, DepthFunc::GreaterEqual] {
+                for (count_fragments, hidden_triangles) in [(true, true), (false, true), (true, false)] {
+                    let clear_depth = if depth_func == DepthFunc::GreaterEqual { 0.0 } else { 1.0 };
+                    let mvp = if name.starts_with("terrain") {
+                        Camera { eye: [1.0, -1.5, 2.0], target: [1.0, 1.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.1, far: 10.0 }
+                            .view_projection(181, 133)
+                            .unwrap()
+                    } else {
+                        tileraster::render::IDENTITY
+                    };
+                    let params = RenderParams {
+                        cull: Cull::None,
+                        depth_func,
+                        clear_depth,
+                        count_fragments,
+                        count_tiles: true,
+                        skips: Skips { hidden_triangles, ..Skips::ALL },
+                        eye: Some([0.0, 0.0, -1.0]),
+                        ..RenderParams::new(181, 133, mvp)
+                    };
+                    let what = format!("{name}, {}, fragments {count_fragments}, hidden rejected {hidden_triangles}, {walk:?}", depth_func.name());
+                    let frame = assert_frame_parity(&what, mesh, &params);
+                    assert!(!hidden_triangles || !name.starts_with("8 layers") || frame.stats.raster.triangles_hidden > 0, "{what}: nothing hidden");
+                }
             }
         }
     }

@@ -24,7 +24,7 @@ pub use spirv_std::glam::UVec3;
 pub use spirv_std::spirv;
 
 // `#[spirv(spec_constant(..))]` takes literals: keep `fine_raster`'s and these in step.
-const _: () = assert!(HeightProgram::MODE_SPEC_ID == 1 && HeightProgram::GENERIC_MODE == 0);
+const _: () = assert!(HeightProgram::MODE_SPEC_ID == 1 && HeightProgram::GENERIC_MODE == 0 && fine::WALK_SPEC_ID == 1);
 
 /// Per-triangle stages are dispatched in 2D when there are more than 65,535 workgroups.
 fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
@@ -156,11 +156,12 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u32],
     #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
+    #[spirv(spec_constant(id = 1, default = 0))] way: u32,
 ) {
     let lanes = Lanes::new(subgroup_lane);
     fine_raster_workgroup(
         &DepthProgram::of(frame),
-        false,
+        way & fine::WALK != 0,
         &lanes,
         wg,
         lid,
@@ -280,8 +281,8 @@ pub fn fine_samples_workgroup<F: FragmentProgram>(
 
 /// One fine-raster workgroup, for any pixel program: the body of every fine-raster entry point.
 /// It writes the values layer, and the owner and coverage layers where the frame asks for them.
-/// With `walk` (and no hidden triangles to reject), each pixel walks the bin on its own
-/// (`fine::fine_walk`) instead of the staged batches.
+/// With `walk`, each pixel walks the bin on its own (`fine::fine_walk`) instead of the staged
+/// batches.
 #[allow(clippy::too_many_arguments)]
 fn fine_raster_workgroup<P: PixelProgram>(
     program: &P,
@@ -318,17 +319,35 @@ fn fine_raster_workgroup<P: PixelProgram>(
         } else {
             fine::count_tile(lid, Counter::TilesPartial, stats);
             let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
-            let mut occluding = P::NO_KEY;
-            if fine::rejects_hidden::<P>(frame) {
-                fine::fine_occluders(program, lid, bins, bin_start, bin_len, setups, &tile_rect, shared);
-                barrier();
-                occluding = fine::occluding_key::<P>(shared);
-            }
             let overlap_free = fine::overlap_free(frame);
             let count_hidden = fine::counts_hidden(frame);
-            if walk && !fine::rejects_hidden::<P>(frame) {
-                fine::fine_walk(program, lanes, bins, bin_start, bin_len, setup_words, i, j, overlap_free, &mut state);
+            let rejects_hidden = fine::rejects_hidden::<P>(frame);
+            if walk {
+                let walk_hidden = fine::fine_walk(
+                    program,
+                    lanes,
+                    bins,
+                    bin_start,
+                    bin_len,
+                    setup_words,
+                    &tile_rect,
+                    rejects_hidden,
+                    count_hidden,
+                    i,
+                    j,
+                    overlap_free,
+                    &mut state,
+                );
+                if lid == 0 {
+                    hidden = walk_hidden;
+                }
             } else {
+                let mut occluding = P::NO_KEY;
+                if rejects_hidden {
+                    fine::fine_occluders(program, lid, bins, bin_start, bin_len, setups, &tile_rect, shared);
+                    barrier();
+                    occluding = fine::occluding_key::<P>(shared);
+                }
                 let mut batch_start = 0;
                 while batch_start < bin_len {
                     let batch_len = fine::batch_len(bin_len, batch_start);

@@ -20,8 +20,8 @@
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins (cursors: its atomics)
-//!  height:  setups, offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
-//!  render:  setups, offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
+//!  height:  setups (and as words), offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
+//!  render:  setups (and as words), offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
 //!           shade params, setups, shading, textures, texels, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
 //!  multisampled render:
 //!           setups, offsets, bins, shade params, shading, textures, texels ─▶ fine_samples ─▶ values, owners, coverage, stats, tile stats, colours, faces

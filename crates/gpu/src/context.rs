@@ -10,7 +10,7 @@ use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
-use tileraster_kernels::programs::height::HeightProgram;
+use tileraster_kernels::stages::fine;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
@@ -34,11 +34,12 @@ pub fn set_binding_limit(bytes: u64) {
     BINDING_LIMIT.store(bytes.max((TILE * TILE * 4) as u64), Ordering::Relaxed);
 }
 
-/// Which way `fine_raster`'s pixels meet their tile's bin (`HeightProgram::WALK`). Both give
+/// Which way the fine-raster stages' pixels meet their tile's bin (`fine::WALK`). Both give
 /// the same bits and counts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FineWalk {
-    /// Walk where it pays: short bins on a CPU implementation of Vulkan (`walks_bins`).
+    /// Walk where it pays: the heightfield's short bins on a CPU implementation of Vulkan
+    /// (`walks_bins`).
     Auto,
     /// Every pixel walks its bin, on every device whose subgroups hold groups of eight lanes
     /// (the walk's reads, `memory::Lanes`; the others keep the batches).
@@ -203,7 +204,8 @@ struct GpuContext {
 /// kernels', or fragment shader `fragment`'s for the rows that colour fragments), and the
 /// specialisation constant (`SpecId`, value) written into it, so that the driver compiles only
 /// the branches a frame takes: the frame's `ShadeVariant` for the rows that colour fragments,
-/// the heightfield's value mode for `fine_raster` (`HeightProgram::MODE_SPEC_ID`).
+/// the way through the bins for the fine-raster rows (`fine::WALK_SPEC_ID`), with the
+/// heightfield's value mode for `fine_raster`.
 #[derive(Copy, Clone, PartialEq, Eq)]
 struct Build {
     row: usize,
@@ -212,15 +214,18 @@ struct Build {
 }
 
 /// The longest mean bin (`Prepared::mean_bin_len`) whose heightfield tiles walk their bins.
-const WALK_MAX_MEAN_BIN: f64 = 32.0;
+const WALK_MAX_MEAN_BIN: f64 = 128.0;
 
 /// Whether `fine_raster`'s pixels walk their tile's bin each on their own
 /// (`HeightProgram::WALK`) rather than staging it in batches: on a CPU implementation of
 /// Vulkan, where each barrier switches every invocation out and back in, for bins short
-/// enough that the batches' staging and span lists save less than the barriers cost. Measured
-/// on lavapipe (`docs/results.md`): the TIN (mean bin 9.6) 2.7–2.9× faster walking, the
-/// micro-triangles (mean bins 81 to 256) 1.5–2.7× slower. A GPU keeps the batches, the way
-/// measured on hardware.
+/// enough that the batches' span lists save less than the barriers cost. Measured on lavapipe
+/// (`docs/results.md`, walk against batches): the TIN (mean bin 9.6) 703 against 3387 ms,
+/// micro-triangles of 4 px (mean bin 81) 94 against 121 ms, of 1 px (222) 250 against 206 ms,
+/// of 0.25 px (256) 300 against 199 ms. (The slivers, mean bin 451, walk faster, 85 against
+/// 559 ms: their rectangles overstate their bins; the mean bin cannot tell.) A GPU keeps the
+/// batches, the way measured on hardware; the render pipeline's `fine_depth` too (its walk
+/// reads every triangle of the bin where the span lists read a few).
 /// (`mean_bin_len` is only counted on a CPU device: a pass over the triangles.)
 fn walks_bins(device: wgpu::DeviceType, mean_bin_len: impl FnOnce() -> f64) -> bool {
     device == wgpu::DeviceType::Cpu && mean_bin_len() <= WALK_MAX_MEAN_BIN
@@ -523,15 +528,17 @@ impl GpuContext {
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
-                Stage::FineRaster => {
+                Stage::FineRaster | Stage::FineDepth => {
                     let walks = match FINE_WALK.load(Ordering::Relaxed) {
                         _ if !lane_groups(&self.gpu.info) => false,
                         w if w == FineWalk::Always as u8 => true,
                         w if w == FineWalk::Never as u8 => false,
-                        _ => walks_bins(self.gpu.info.device_type, || prepared.mean_bin_len()),
+                        _ => info.stage == Stage::FineRaster && walks_bins(self.gpu.info.device_type, || prepared.mean_bin_len()),
                     };
-                    let walk = if walks { HeightProgram::WALK } else { 0 };
-                    Build { row, fragment: None, spec: Some((HeightProgram::MODE_SPEC_ID, (prepared.params.mode as u32 + 1) | walk)) }
+                    let walk = if walks { fine::WALK } else { 0 };
+                    // `fine_raster`'s value mode shares the constant.
+                    let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { 0 };
+                    Build { row, fragment: None, spec: Some((fine::WALK_SPEC_ID, mode | walk)) }
                 }
                 _ => Build { row, fragment: None, spec: None },
             };
@@ -991,7 +998,7 @@ mod tests {
     fn only_a_cpu_device_walks_and_only_short_bins() {
         assert!(walks_bins(wgpu::DeviceType::Cpu, || 9.5));
         assert!(walks_bins(wgpu::DeviceType::Cpu, || WALK_MAX_MEAN_BIN));
-        assert!(!walks_bins(wgpu::DeviceType::Cpu, || 81.0));
+        assert!(!walks_bins(wgpu::DeviceType::Cpu, || 222.0));
         let never = || -> f64 { panic!("counted on a GPU") };
         assert!(!walks_bins(wgpu::DeviceType::DiscreteGpu, never));
         assert!(!walks_bins(wgpu::DeviceType::IntegratedGpu, || 1.0));

@@ -38,7 +38,7 @@ impl HeightProgram {
     pub const GENERIC_MODE: u32 = 0;
     /// A bit of the same constant: the tile's pixels walk its bin each on their own
     /// (`fine::fine_walk`), with no batches staged and no barrier in the pipeline.
-    pub const WALK: u32 = 1 << 8;
+    pub const WALK: u32 = crate::stages::fine::WALK;
 }
 
 impl PixelProgram for HeightProgram {

@@ -438,15 +438,22 @@ pub fn fine_test<P: PixelProgram>(
     }
 }
 
+/// The `SpecId` of the fine-raster entry points' way through their bins...
+pub const WALK_SPEC_ID: u32 = 1;
+/// ... and its bit that makes them walk (`fine_walk`), so that the driver never sees the
+/// batches' barriers. (`fine_raster`'s constant also holds its value mode, below this bit.)
+pub const WALK: u32 = 1 << 8;
+
 /// The walk, instead of the batches: pixel `(i, j)` tests every triangle of the tile's bin
 /// whose rectangle holds it (with `overlap_free`, only until it is inside one). No workgroup
 /// memory and no barrier: on a CPU implementation of Vulkan a barrier switches every
-/// invocation of the workgroup out and back in, which costs a short bin more than the staging
-/// saves. The lanes of a group read the bin entries and each triangle's record together
-/// (`Lanes`: a word loaded per lane, passed round), so every lane runs every iteration; a
-/// pixel that may stop (`overlap_free`, an owner found) only stops testing. Hidden triangles
-/// are not rejected: only for a frame that rejects none (`rejects_hidden`), where the two
-/// ways give the same bits and counts.
+/// invocation of the workgroup out and back in. The lanes of a group read the bin entries and
+/// each triangle's record together (`Lanes`: a word loaded per lane, passed round), so every
+/// lane runs every iteration; a pixel that may stop (`overlap_free`, an owner found) only
+/// stops testing, and the group stops once all its pixels have. Where the frame rejects hidden
+/// triangles (`rejects_hidden`), a first pass takes the tile's bound from the bin
+/// (`walk_occluders`) and the walk treats the triangles it hides as the batches do. Returns
+/// how many of the bin's triangles were hidden (the same in every lane).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn fine_walk<P: PixelProgram>(
@@ -456,13 +463,19 @@ pub fn fine_walk<P: PixelProgram>(
     bin_start: u32,
     bin_len: u32,
     setup_words: &[u32],
+    tile: &PixelRect,
+    rejects_hidden: bool,
+    count_hidden: bool,
     i: i32,
     j: i32,
     overlap_free: bool,
     state: &mut PixelState<P::Key>,
-) where
+) -> u32
+where
     P::Staged: SetupPart,
 {
+    let occluding = if rejects_hidden { walk_occluders(program, lanes, bin, bin_start, bin_len, setup_words, tile) } else { P::NO_KEY };
+    let mut hidden = 0;
     let mut k = 0;
     while k < bin_len {
         let entries = lanes.read8(bin, bin_start + k);
@@ -470,19 +483,57 @@ pub fn fine_walk<P: PixelProgram>(
         let mut m = 0;
         while m < run {
             let done = overlap_free && state.owner != NO_OWNER;
-            if lanes.all(done) {
-                return;
+            // (Counting the hidden triangles needs the whole bin.)
+            if !rejects_hidden && lanes.all(done) {
+                return hidden;
             }
             let staged = P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT);
+            let is_hidden = rejects_hidden && program.hidden(&staged, tile, occluding);
+            hidden += is_hidden as u32;
             let c = P::coverage(&staged);
             if !done && c.rect.contains(i, j) {
                 let (side, edges) = side_and_edges(c, i, j);
-                accumulate_at(program, side, &edges, &staged, i, j, state);
+                if !is_hidden {
+                    accumulate_at(program, side, &edges, &staged, i, j, state);
+                } else if count_hidden && side == Side::Inside {
+                    state.count += 1;
+                }
             }
             m += 1;
         }
         k += LANE_GROUP;
     }
+    hidden
+}
+
+/// The walk's first pass where it rejects hidden triangles: the tile's bound, the smallest
+/// occluder key among the bin's entries that cover the tile whole (as `fine_occluders` and
+/// `occluding_key` take it for the batches).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn walk_occluders<P: PixelProgram>(program: &P, lanes: &Lanes, bin: &[u32], bin_start: u32, bin_len: u32, setup_words: &[u32], tile: &PixelRect) -> P::Key
+where
+    P::Staged: SetupPart,
+{
+    let mut best = P::NO_KEY;
+    let mut k = 0;
+    while k < bin_len {
+        let entries = lanes.read8(bin, bin_start + k);
+        let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
+        let mut m = 0;
+        while m < run {
+            let entry = entries.get(m);
+            if entry & FULL_TILE_BIT != 0 {
+                let key = program.occluder_key(&P::Staged::read_setup(lanes, setup_words, entry & !FULL_TILE_BIT), tile);
+                if key < best {
+                    best = key;
+                }
+            }
+            m += 1;
+        }
+        k += LANE_GROUP;
+    }
+    best
 }
 
 /// Whether the tile takes the empty path: nothing in its bin, so every pixel is background.

@@ -64,22 +64,28 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
         fine::count_tile(0, Counter::TilesPartial, stats);
         let tile = fine::tile_rect(tx, ty, frame);
         let mut shared = FineShared::new(P::Staged::default(), P::NO_KEY);
-        let mut occluding = P::NO_KEY;
-        if fine::rejects_hidden::<P>(frame) {
-            for lid in 0..TILE_PIXELS {
-                fine::fine_occluders(program, lid, bins, bin_start, bin_len, setups, &tile, &mut shared);
-            }
-            occluding = fine::occluding_key::<P>(&shared);
-        }
         let overlap_free = fine::overlap_free(frame);
         let count_hidden = fine::counts_hidden(frame);
+        let rejects_hidden = fine::rejects_hidden::<P>(frame);
         // The entry point's two ways through the bin, as it takes them.
-        if walk && !fine::rejects_hidden::<P>(frame) {
+        if walk {
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
-                fine::fine_walk(program, &Lanes::new(), bins, bin_start, bin_len, bytemuck::cast_slice(setups), i, j, overlap_free, state);
+                let words = bytemuck::cast_slice(setups);
+                let walk_hidden =
+                    fine::fine_walk(program, &Lanes::new(), bins, bin_start, bin_len, words, &tile, rejects_hidden, count_hidden, i, j, overlap_free, state);
+                if lid == 0 {
+                    hidden = walk_hidden;
+                }
             }
         } else {
+            let mut occluding = P::NO_KEY;
+            if rejects_hidden {
+                for lid in 0..TILE_PIXELS {
+                    fine::fine_occluders(program, lid, bins, bin_start, bin_len, setups, &tile, &mut shared);
+                }
+                occluding = fine::occluding_key::<P>(&shared);
+            }
             let mut batch_start = 0;
             while batch_start < bin_len {
                 let batch_len = fine::batch_len(bin_len, batch_start);

@@ -323,9 +323,12 @@ fn fine_raster_workgroup<P: PixelProgram>(
             let count_hidden = fine::counts_hidden(frame);
             let rejects_hidden = fine::rejects_hidden::<P>(frame);
             if walk {
+                // The group of invocation 0 counts the hidden triangles; it writes the statistics.
+                let leads = lanes.group_any(lid == 0);
                 let walk_hidden = fine::fine_walk(
                     program,
                     lanes,
+                    leads,
                     bins,
                     bin_start,
                     bin_len,

@@ -58,9 +58,12 @@ pub struct Words8 {
     /// The word this lane loaded, which the others shuffle out...
     #[cfg(target_arch = "spirv")]
     mine: u32,
-    /// ... from the group that starts at this subgroup index.
+    /// ... from the group that starts at this subgroup index...
     #[cfg(target_arch = "spirv")]
     first: u32,
+    /// ... where this lane is this word.
+    #[cfg(target_arch = "spirv")]
+    lane: u32,
     #[cfg(not(target_arch = "spirv"))]
     words: [u32; LANE_GROUP as usize],
 }
@@ -88,7 +91,7 @@ impl Lanes {
     pub fn read8(&self, words: &[u32], at: u32) -> Words8 {
         let last = words.len() as u32 - 1;
         let k = at + self.lane;
-        Words8 { mine: words[(if k < last { k } else { last }) as usize], first: self.first }
+        Words8 { mine: words[(if k < last { k } else { last }) as usize], first: self.first, lane: self.lane }
     }
 
     #[cfg(not(target_arch = "spirv"))]
@@ -133,6 +136,80 @@ impl Words8 {
     #[inline(always)]
     pub fn get(&self, k: u32) -> u32 {
         self.words[k as usize]
+    }
+
+    /// Bit `k` for each word `k < run` that `keep` keeps: on the GPU, each lane tests its own
+    /// word and the group's votes make one mask (the same in all its lanes).
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn select(&self, run: u32, keep: impl Fn(u32) -> bool) -> u32 {
+        let votes = spirv_std::arch::subgroup_ballot(self.lane < run && keep(self.mine));
+        let word = match self.first / 32 {
+            0 => votes.x,
+            1 => votes.y,
+            2 => votes.z,
+            _ => votes.w,
+        };
+        (word >> (self.first % 32)) & 0xff
+    }
+
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline(always)]
+    pub fn select(&self, run: u32, keep: impl Fn(u32) -> bool) -> u32 {
+        (0..run).filter(|&k| keep(self.words[k as usize])).fold(0, |mask, k| mask | 1 << k)
+    }
+}
+
+impl Lanes {
+    /// Whether `p` holds in any lane of the group; on the host, in the one invocation.
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn group_any(&self, p: bool) -> bool {
+        let votes = spirv_std::arch::subgroup_ballot(p);
+        let first = self.first;
+        let word = match first / 32 {
+            0 => votes.x,
+            1 => votes.y,
+            2 => votes.z,
+            _ => votes.w,
+        };
+        (word >> (first % 32)) & 0xff != 0
+    }
+
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline(always)]
+    pub fn group_any(&self, p: bool) -> bool {
+        p
+    }
+
+    /// The smallest of `v` over the group's lanes; on the host, `v`.
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn group_min(&self, v: i32) -> i32 {
+        let a = v.min(spirv_std::arch::subgroup_shuffle_xor(v, 1));
+        let b = a.min(spirv_std::arch::subgroup_shuffle_xor(a, 2));
+        b.min(spirv_std::arch::subgroup_shuffle_xor(b, 4))
+    }
+
+    /// The largest of `v` over the group's lanes; on the host, `v`.
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn group_max(&self, v: i32) -> i32 {
+        let a = v.max(spirv_std::arch::subgroup_shuffle_xor(v, 1));
+        let b = a.max(spirv_std::arch::subgroup_shuffle_xor(a, 2));
+        b.max(spirv_std::arch::subgroup_shuffle_xor(b, 4))
+    }
+
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline(always)]
+    pub fn group_min(&self, v: i32) -> i32 {
+        v
+    }
+
+    #[cfg(not(target_arch = "spirv"))]
+    #[inline(always)]
+    pub fn group_max(&self, v: i32) -> i32 {
+        v
     }
 }
 

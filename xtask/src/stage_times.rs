@@ -62,6 +62,10 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
             Case::Render(mesh.clone(), Box::new(RenderParams { shading, ..base.clone() })),
         ));
     }
+    cases.push((
+        "render: terrain mesh, ids, fragments not counted".into(),
+        Case::Render(mesh.clone(), Box::new(RenderParams { shading: Shading::Ids, count_fragments: false, ..base.clone() })),
+    ));
     let fill = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), shading: Shading::Ids, ..RenderParams::new(1920, 1080, IDENTITY) };
     cases.push(("render: fill rate, 8 full-frame layers, 1920×1080, ids".into(), Case::Render(meshes::fill_layers(8), Box::new(fill.clone()))));
     // What the render pipeline computes: no fragment counts, so the hidden layers get no tests.

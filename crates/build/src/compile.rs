@@ -53,6 +53,7 @@ impl Shader {
             .capability(Capability::Int64)
             .capability(Capability::GroupNonUniform)
             .capability(Capability::GroupNonUniformVote)
+            .capability(Capability::GroupNonUniformBallot)
             .capability(Capability::GroupNonUniformShuffle);
         builder.build_script.defaults = true;
         let compile_error = |reason: String| BuildError::Compile { crate_path: crate_path.to_path_buf(), reason };

@@ -448,17 +448,21 @@ pub const WALK: u32 = 1 << 8;
 /// whose rectangle holds it (with `overlap_free`, only until it is inside one). No workgroup
 /// memory and no barrier: on a CPU implementation of Vulkan a barrier switches every
 /// invocation of the workgroup out and back in. The lanes of a group read the bin entries and
-/// each triangle's record together (`Lanes`: a word loaded per lane, passed round), so every
-/// lane runs every iteration; a pixel that may stop (`overlap_free`, an owner found) only
-/// stops testing, and the group stops once all its pixels have. Where the frame rejects hidden
-/// triangles (`rejects_hidden`), a first pass takes the tile's bound from the bin
-/// (`walk_occluders`) and the walk treats the triangles it hides as the batches do. Returns
-/// how many of the bin's triangles were hidden (the same in every lane).
+/// each triangle's record together (`Lanes`: a word loaded per lane, passed round), so they
+/// agree on which triangles they read: those whose rectangles reach any of their pixels (each
+/// lane tests one entry's, and they vote). A pixel that may stop (`overlap_free`, an owner
+/// found) only stops testing, and the group stops once all its pixels have.
+///
+/// Where the frame rejects hidden triangles (`rejects_hidden`), a first pass takes the tile's
+/// bound from the bin (`walk_occluders`), and the walk treats the triangles it hides as the
+/// batches do. The group that `leads` then counts them over the whole bin and returns the
+/// count (the others return 0).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn fine_walk<P: PixelProgram>(
     program: &P,
     lanes: &Lanes,
+    leads: bool,
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
@@ -474,7 +478,62 @@ pub fn fine_walk<P: PixelProgram>(
 where
     P::Staged: SetupPart,
 {
-    let occluding = if rejects_hidden { walk_occluders(program, lanes, bin, bin_start, bin_len, setup_words, tile) } else { P::NO_KEY };
+    let mut occluding = P::NO_KEY;
+    let mut hidden = 0;
+    if rejects_hidden {
+        occluding = walk_occluders(program, lanes, bin, bin_start, bin_len, setup_words, tile);
+        if leads {
+            hidden = walk_hidden(program, lanes, bin, bin_start, bin_len, setup_words, tile, occluding);
+        }
+    }
+    // The group's pixels. (The host's twin, one pixel at a time, reads only the triangles that
+    // reach its own: neither skips a triangle that holds a pixel.)
+    let group = PixelRect { i0: lanes.group_min(i), j0: lanes.group_min(j), i1: lanes.group_max(i), j1: lanes.group_max(j) };
+    let mut k = 0;
+    while k < bin_len {
+        let entries = lanes.read8(bin, bin_start + k);
+        let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
+        let mut left = entries.select(run, |entry| PixelRect::of_setup(setup_words, entry & !FULL_TILE_BIT).overlaps(&group));
+        while left != 0 {
+            let m = left.trailing_zeros();
+            left &= left - 1;
+            let done = overlap_free && state.owner != NO_OWNER;
+            if lanes.all(done) {
+                return hidden;
+            }
+            let staged = P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT);
+            let c = P::coverage(&staged);
+            if !done && c.rect.contains(i, j) {
+                let (side, edges) = side_and_edges(c, i, j);
+                if !(rejects_hidden && program.hidden(&staged, tile, occluding)) {
+                    accumulate_at(program, side, &edges, &staged, i, j, state);
+                } else if count_hidden && side == Side::Inside {
+                    state.count += 1;
+                }
+            }
+        }
+        k += LANE_GROUP;
+    }
+    hidden
+}
+
+/// How many of the bin's triangles the tile's bound `occluding` hides (the statistics' count,
+/// as the batches take it).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn walk_hidden<P: PixelProgram>(
+    program: &P,
+    lanes: &Lanes,
+    bin: &[u32],
+    bin_start: u32,
+    bin_len: u32,
+    setup_words: &[u32],
+    tile: &PixelRect,
+    occluding: P::Key,
+) -> u32
+where
+    P::Staged: SetupPart,
+{
     let mut hidden = 0;
     let mut k = 0;
     while k < bin_len {
@@ -482,23 +541,7 @@ where
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
         let mut m = 0;
         while m < run {
-            let done = overlap_free && state.owner != NO_OWNER;
-            // (Counting the hidden triangles needs the whole bin.)
-            if !rejects_hidden && lanes.all(done) {
-                return hidden;
-            }
-            let staged = P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT);
-            let is_hidden = rejects_hidden && program.hidden(&staged, tile, occluding);
-            hidden += is_hidden as u32;
-            let c = P::coverage(&staged);
-            if !done && c.rect.contains(i, j) {
-                let (side, edges) = side_and_edges(c, i, j);
-                if !is_hidden {
-                    accumulate_at(program, side, &edges, &staged, i, j, state);
-                } else if count_hidden && side == Side::Inside {
-                    state.count += 1;
-                }
-            }
+            hidden += program.hidden(&P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT), tile, occluding) as u32;
             m += 1;
         }
         k += LANE_GROUP;
@@ -508,7 +551,7 @@ where
 
 /// The walk's first pass where it rejects hidden triangles: the tile's bound, the smallest
 /// occluder key among the bin's entries that cover the tile whole (as `fine_occluders` and
-/// `occluding_key` take it for the batches).
+/// `occluding_key` take it for the batches); a group reads only those entries.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn walk_occluders<P: PixelProgram>(program: &P, lanes: &Lanes, bin: &[u32], bin_start: u32, bin_len: u32, setup_words: &[u32], tile: &PixelRect) -> P::Key
@@ -520,16 +563,14 @@ where
     while k < bin_len {
         let entries = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let mut m = 0;
-        while m < run {
-            let entry = entries.get(m);
-            if entry & FULL_TILE_BIT != 0 {
-                let key = program.occluder_key(&P::Staged::read_setup(lanes, setup_words, entry & !FULL_TILE_BIT), tile);
-                if key < best {
-                    best = key;
-                }
+        let mut full = entries.select(run, |entry| entry & FULL_TILE_BIT != 0);
+        while full != 0 {
+            let m = full.trailing_zeros();
+            full &= full - 1;
+            let key = program.occluder_key(&P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT), tile);
+            if key < best {
+                best = key;
             }
-            m += 1;
         }
         k += LANE_GROUP;
     }

@@ -72,8 +72,23 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
                 let words = bytemuck::cast_slice(setups);
-                let walk_hidden =
-                    fine::fine_walk(program, &Lanes::new(), bins, bin_start, bin_len, words, &tile, rejects_hidden, count_hidden, i, j, overlap_free, state);
+                let leads = lid == 0;
+                let walk_hidden = fine::fine_walk(
+                    program,
+                    &Lanes::new(),
+                    leads,
+                    bins,
+                    bin_start,
+                    bin_len,
+                    words,
+                    &tile,
+                    rejects_hidden,
+                    count_hidden,
+                    i,
+                    j,
+                    overlap_free,
+                    state,
+                );
                 if lid == 0 {
                     hidden = walk_hidden;
                 }

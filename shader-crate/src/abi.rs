@@ -170,16 +170,6 @@ impl PixelRect {
     pub fn overlaps(&self, other: &PixelRect) -> bool {
         self.i0 <= other.i1 && other.i0 <= self.i1 && self.j0 <= other.j1 && other.j0 <= self.j1
     }
-
-    /// The rectangle of setup slot `slot`, from the setup buffer as words (one lane's own
-    /// read; a slot past the buffer reads the last).
-    #[inline]
-    pub fn of_setup(setup_words: &[u32], slot: u32) -> PixelRect {
-        let last = setup_words.len() as u32 / SETUP_WORDS - 1;
-        let at = (if slot < last { slot } else { last }) * SETUP_WORDS + 18;
-        let word = |k: u32| setup_words[(at + k) as usize] as i32;
-        PixelRect { i0: word(0), j0: word(1), i1: word(2), j1: word(3) }
-    }
 }
 
 /// A height plane in fixed point, relative to the pixel `(rect.i0, rect.j0)`:

@@ -8,7 +8,7 @@
 //! that order; a test compares the compiled SPIR-V with the table.
 
 use crate::abi::{Counter, Coverage, FrameParams, OutputSet, SetupPart, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
-use crate::memory::Lanes;
+use crate::memory::{LaneValue, Lanes};
 use crate::programs::depth::DepthProgram;
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::height::HeightProgram;
@@ -303,6 +303,7 @@ fn fine_raster_workgroup<P: PixelProgram>(
     shared: &mut FineShared<P::Staged, P::Key>,
 ) where
     P::Staged: SetupPart,
+    P::Key: LaneValue,
 {
     let tile = wg.y * frame.tiles_x + wg.x;
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
@@ -323,15 +324,13 @@ fn fine_raster_workgroup<P: PixelProgram>(
             let count_hidden = fine::counts_hidden(frame);
             let rejects_hidden = fine::rejects_hidden::<P>(frame);
             if walk {
-                // The group of invocation 0 counts the hidden triangles; it writes the statistics.
-                let leads = lanes.group_any(lid == 0);
                 let walk_hidden = fine::fine_walk(
                     program,
                     lanes,
-                    leads,
                     bins,
                     bin_start,
                     bin_len,
+                    setups,
                     setup_words,
                     &tile_rect,
                     rejects_hidden,

@@ -160,28 +160,55 @@ impl Words8 {
     }
 }
 
-impl Lanes {
-    /// Whether `p` holds in any lane of the group; on the host, in the one invocation.
+/// A value the lanes of a group pass round (a key).
+pub trait LaneValue: Copy + PartialOrd {
+    /// This lane's value, swapped with lane `self ^ mask`'s.
+    #[cfg(target_arch = "spirv")]
+    fn shuffle_xor(self, mask: u32) -> Self;
+}
+
+impl LaneValue for u32 {
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
-    pub fn group_any(&self, p: bool) -> bool {
-        let votes = spirv_std::arch::subgroup_ballot(p);
-        let first = self.first;
-        let word = match first / 32 {
-            0 => votes.x,
-            1 => votes.y,
-            2 => votes.z,
-            _ => votes.w,
-        };
-        (word >> (first % 32)) & 0xff != 0
+    fn shuffle_xor(self, mask: u32) -> u32 {
+        spirv_std::arch::subgroup_shuffle_xor(self, mask)
+    }
+}
+
+impl LaneValue for u64 {
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    fn shuffle_xor(self, mask: u32) -> u64 {
+        spirv_std::arch::subgroup_shuffle_xor(self, mask)
+    }
+}
+
+impl Words8 {
+    /// The smallest `f(word k)` over the words `k < run`, `none` if there are none: on the GPU
+    /// each lane computes its own word's and the group takes the minimum.
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    pub fn min_of<K: LaneValue>(&self, run: u32, none: K, f: impl Fn(u32) -> K) -> K {
+        let mut v = if self.lane < run { f(self.mine) } else { none };
+        let mut mask = 1;
+        while mask < LANE_GROUP {
+            let other = v.shuffle_xor(mask);
+            if other < v {
+                v = other;
+            }
+            mask <<= 1;
+        }
+        v
     }
 
     #[cfg(not(target_arch = "spirv"))]
     #[inline(always)]
-    pub fn group_any(&self, p: bool) -> bool {
-        p
+    pub fn min_of<K: LaneValue>(&self, run: u32, none: K, f: impl Fn(u32) -> K) -> K {
+        (0..run).map(|k| f(self.words[k as usize])).fold(none, |a, b| if b < a { b } else { a })
     }
+}
 
+impl Lanes {
     /// The smallest of `v` over the group's lanes; on the host, `v`.
     #[cfg(target_arch = "spirv")]
     #[inline(always)]

@@ -22,7 +22,7 @@ use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::pipeline::Pipeline;
 use tileraster_kernels::stages::fine::side;
 use tileraster_kernels::stages::setup::setup_triangle;
-use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS, TILE};
+use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS};
 
 /// A rectangle of grid pixels: columns `x0..x0+width`, rows `y0..y0+height`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -101,29 +101,6 @@ pub struct RenderInputs {
 }
 
 impl Prepared {
-    /// How many triangles a tile's bin holds on average over the window's tiles, counting each
-    /// triangle in every tile its pixel rectangle reaches (the bins hold at most that many).
-    pub fn mean_bin_len(&self) -> f64 {
-        let w = &self.window;
-        let tile = TILE as i64;
-        let (tiles_x, tiles_y) = (w.width.div_ceil(TILE) as i64, w.height.div_ceil(TILE) as i64);
-        let reached: i64 = self
-            .triangles
-            .iter()
-            .map(|t| {
-                let r = &t.rect;
-                // Tile columns and rows of the rectangle, clamped to the window's.
-                let span = |lo: i32, hi: i32, origin: u32, tiles: i64| {
-                    let first = ((lo as i64 - origin as i64).max(0) / tile).min(tiles);
-                    let last = ((hi as i64 - origin as i64 + tile).max(0) / tile).min(tiles);
-                    (last - first).max(0)
-                };
-                span(r.i0, r.i1, w.x0, tiles_x) * span(r.j0, r.j1, w.y0, tiles_y)
-            })
-            .sum();
-        reached as f64 / (tiles_x * tiles_y).max(1) as f64
-    }
-
     /// The pipeline this preparation runs.
     pub fn pipeline(&self) -> Pipeline {
         match &self.render {
@@ -684,23 +661,6 @@ mod tests {
         let far = at(997, 696) as f64 * 2f64.powi(-plane.frac_bits);
         assert!((far - (zr + gi * 997.0 + gj * 696.0)).abs() < 1e-9);
         assert!(at(997, 696).unsigned_abs() < 1 << 61);
-    }
-
-    /// Each triangle counts in every tile its pixel rectangle reaches within the window.
-    #[test]
-    fn mean_bin_len_counts_the_tiles_rectangles_reach() {
-        let grid = Grid::new(0.0, 64.0, 0.0, 48.0, 64, 48);
-        // Pixel centres 1..=20 across and 1..=4 down (rows counted from the top), and a small one in the last tile.
-        let scene = Scene::new(
-            vec![[1.0, 47.0, 0.0], [21.0, 47.0, 0.0], [1.0, 43.0, 0.0], [60.0, 2.0, 0.0], [62.0, 2.0, 0.0], [60.0, 4.0, 0.0]],
-            vec![[0, 1, 2], [3, 4, 5]],
-        );
-        let p = prepare(&scene, &Params::new(grid), None).unwrap();
-        assert_eq!(p.triangles.len(), 2);
-        assert_eq!(p.mean_bin_len(), 3.0 / 12.0, "two tiles and one of 4 × 3");
-        let window = Window { x0: 16, y0: 0, width: 48, height: 48 };
-        let p = prepare(&scene, &Params::new(grid), Some(window)).unwrap();
-        assert_eq!(p.mean_bin_len(), 2.0 / 9.0, "one tile each in the window's 3 × 3");
     }
 
     #[test]

@@ -38,8 +38,7 @@ pub fn set_binding_limit(bytes: u64) {
 /// the same bits and counts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FineWalk {
-    /// Walk where it pays: the heightfield's short bins on a CPU implementation of Vulkan
-    /// (`walks_bins`).
+    /// Walk where it pays: on a CPU implementation of Vulkan (`walks_bins`).
     Auto,
     /// Every pixel walks its bin, on every device whose subgroups hold groups of eight lanes
     /// (the walk's reads, `memory::Lanes`; the others keep the batches).
@@ -213,22 +212,16 @@ struct Build {
     spec: Option<(u32, u32)>,
 }
 
-/// The longest mean bin (`Prepared::mean_bin_len`) whose heightfield tiles walk their bins.
-const WALK_MAX_MEAN_BIN: f64 = 128.0;
-
-/// Whether `fine_raster`'s pixels walk their tile's bin each on their own
-/// (`HeightProgram::WALK`) rather than staging it in batches: on a CPU implementation of
-/// Vulkan, where each barrier switches every invocation out and back in, for bins short
-/// enough that the batches' span lists save less than the barriers cost. Measured on lavapipe
-/// (`docs/results.md`, walk against batches): the TIN (mean bin 9.6) 703 against 3387 ms,
-/// micro-triangles of 4 px (mean bin 81) 94 against 121 ms, of 1 px (222) 250 against 206 ms,
-/// of 0.25 px (256) 300 against 199 ms. (The slivers, mean bin 451, walk faster, 85 against
-/// 559 ms: their rectangles overstate their bins; the mean bin cannot tell.) A GPU keeps the
-/// batches, the way measured on hardware; the render pipeline's `fine_depth` too (its walk
-/// reads every triangle of the bin where the span lists read a few).
-/// (`mean_bin_len` is only counted on a CPU device: a pass over the triangles.)
-fn walks_bins(device: wgpu::DeviceType, mean_bin_len: impl FnOnce() -> f64) -> bool {
-    device == wgpu::DeviceType::Cpu && mean_bin_len() <= WALK_MAX_MEAN_BIN
+/// Whether the fine-raster stages' pixels walk their tile's bin (`fine::WALK`) rather than
+/// staging it in batches: on a CPU implementation of Vulkan, where each barrier switches every
+/// invocation of the workgroup out and back in, and each load of storage or workgroup memory
+/// is made one lane at a time (the walk reads a record once per eight lanes). Measured on
+/// lavapipe (`docs/results.md`), walk against batches, ms of the stage: the TIN 650 against
+/// 3450, micro-triangles 31–72 against 132–236, slivers 92 against 571, the terrain mesh 250
+/// against 349, the fill-rate frame 271 against 536. A GPU keeps the batches, the way measured
+/// on hardware, until a device measures the walk (`xtask stage-times --walk`).
+fn walks_bins(device: wgpu::DeviceType) -> bool {
+    device == wgpu::DeviceType::Cpu
 }
 
 /// Whether the device's subgroups hold whole groups of `LANE_GROUP` lanes, which the walk
@@ -533,7 +526,7 @@ impl GpuContext {
                         _ if !lane_groups(&self.gpu.info) => false,
                         w if w == FineWalk::Always as u8 => true,
                         w if w == FineWalk::Never as u8 => false,
-                        _ => info.stage == Stage::FineRaster && walks_bins(self.gpu.info.device_type, || prepared.mean_bin_len()),
+                        _ => walks_bins(self.gpu.info.device_type),
                     };
                     let walk = if walks { fine::WALK } else { 0 };
                     // `fine_raster`'s value mode shares the constant.
@@ -995,12 +988,9 @@ mod tests {
     use super::*;
 
     #[test]
-    fn only_a_cpu_device_walks_and_only_short_bins() {
-        assert!(walks_bins(wgpu::DeviceType::Cpu, || 9.5));
-        assert!(walks_bins(wgpu::DeviceType::Cpu, || WALK_MAX_MEAN_BIN));
-        assert!(!walks_bins(wgpu::DeviceType::Cpu, || 222.0));
-        let never = || -> f64 { panic!("counted on a GPU") };
-        assert!(!walks_bins(wgpu::DeviceType::DiscreteGpu, never));
-        assert!(!walks_bins(wgpu::DeviceType::IntegratedGpu, || 1.0));
+    fn only_a_cpu_device_walks() {
+        assert!(walks_bins(wgpu::DeviceType::Cpu));
+        assert!(!walks_bins(wgpu::DeviceType::DiscreteGpu));
+        assert!(!walks_bins(wgpu::DeviceType::IntegratedGpu));
     }
 }

@@ -39,7 +39,7 @@
 
 use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart};
 use crate::math::edge::{Side, side_of};
-use crate::memory::{Counters, LANE_GROUP, Lanes};
+use crate::memory::{Counters, LANE_GROUP, LaneValue, Lanes};
 use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
 
 /// What a fine-raster pixel computes from the triangles that cover it.
@@ -447,25 +447,29 @@ pub const WALK: u32 = 1 << 8;
 /// The walk, instead of the batches: pixel `(i, j)` tests every triangle of the tile's bin
 /// whose rectangle holds it (with `overlap_free`, only until it is inside one). No workgroup
 /// memory and no barrier: on a CPU implementation of Vulkan a barrier switches every
-/// invocation of the workgroup out and back in. The lanes of a group read the bin entries and
-/// each triangle's record together (`Lanes`: a word loaded per lane, passed round), so they
-/// agree on which triangles they read: those whose rectangles reach any of their pixels (each
-/// lane tests one entry's, and they vote). A pixel that may stop (`overlap_free`, an owner
-/// found) only stops testing, and the group stops once all its pixels have.
+/// invocation of the workgroup out and back in.
+///
+/// The bin is taken eight entries at a time by a group of eight lanes. Each lane judges one
+/// entry from its own reads (does its rectangle reach the group's pixels; is it hidden), the
+/// group votes, and then reads together (`Lanes`: a word loaded per lane, passed round) the
+/// records of the triangles it must test, so every lane runs every iteration; a pixel that
+/// may stop (`overlap_free`, an owner found) only stops testing, and the group stops once all
+/// its pixels have. The host's twin, one pixel at a time, judges all eight entries itself
+/// and keeps those that reach its own pixel: neither skips a triangle that holds a pixel.
 ///
 /// Where the frame rejects hidden triangles (`rejects_hidden`), a first pass takes the tile's
-/// bound from the bin (`walk_occluders`), and the walk treats the triangles it hides as the
-/// batches do. The group that `leads` then counts them over the whole bin and returns the
-/// count (the others return 0).
+/// bound from the bin's entries that cover it whole (as `fine_occluders` and `occluding_key`
+/// take it for the batches), and the walk treats the triangles it hides as the batches do.
+/// Returns how many of the bin's triangles it hides (the same in every lane).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn fine_walk<P: PixelProgram>(
     program: &P,
     lanes: &Lanes,
-    leads: bool,
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
+    setups: &[P::Setup],
     setup_words: &[u32],
     tile: &PixelRect,
     rejects_hidden: bool,
@@ -477,37 +481,50 @@ pub fn fine_walk<P: PixelProgram>(
 ) -> u32
 where
     P::Staged: SetupPart,
+    P::Key: LaneValue,
 {
+    let staged = |entry: u32| P::staged(&setups[(entry & !FULL_TILE_BIT) as usize]);
     let mut occluding = P::NO_KEY;
-    let mut hidden = 0;
     if rejects_hidden {
-        occluding = walk_occluders(program, lanes, bin, bin_start, bin_len, setup_words, tile);
-        if leads {
-            hidden = walk_hidden(program, lanes, bin, bin_start, bin_len, setup_words, tile, occluding);
+        let mut k = 0;
+        while k < bin_len {
+            let entries = lanes.read8(bin, bin_start + k);
+            let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
+            let key = entries.min_of(run, P::NO_KEY, |entry| if entry & FULL_TILE_BIT != 0 { program.occluder_key(staged(entry), tile) } else { P::NO_KEY });
+            if key < occluding {
+                occluding = key;
+            }
+            k += LANE_GROUP;
         }
     }
-    // The group's pixels. (The host's twin, one pixel at a time, reads only the triangles that
-    // reach its own: neither skips a triangle that holds a pixel.)
     let group = PixelRect { i0: lanes.group_min(i), j0: lanes.group_min(j), i1: lanes.group_max(i), j1: lanes.group_max(j) };
+    let mut hidden = 0;
     let mut k = 0;
     while k < bin_len {
         let entries = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let mut left = entries.select(run, |entry| PixelRect::of_setup(setup_words, entry & !FULL_TILE_BIT).overlaps(&group));
+        let hides = if rejects_hidden { entries.select(run, |entry| program.hidden(staged(entry), tile, occluding)) } else { 0 };
+        hidden += hides.count_ones();
+        // A hidden triangle is only counted, and only where the coverage layer is asked for.
+        let mut left = entries.select(run, |entry| P::coverage(staged(entry)).rect.overlaps(&group)) & if count_hidden { !0 } else { !hides };
         while left != 0 {
             let m = left.trailing_zeros();
             left &= left - 1;
             let done = overlap_free && state.owner != NO_OWNER;
             if lanes.all(done) {
-                return hidden;
+                // (The hidden count needs every entry.)
+                if !rejects_hidden {
+                    return 0;
+                }
+                continue;
             }
             let staged = P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT);
             let c = P::coverage(&staged);
             if !done && c.rect.contains(i, j) {
                 let (side, edges) = side_and_edges(c, i, j);
-                if !(rejects_hidden && program.hidden(&staged, tile, occluding)) {
+                if hides >> m & 1 == 0 {
                     accumulate_at(program, side, &edges, &staged, i, j, state);
-                } else if count_hidden && side == Side::Inside {
+                } else if side == Side::Inside {
                     state.count += 1;
                 }
             }
@@ -515,66 +532,6 @@ where
         k += LANE_GROUP;
     }
     hidden
-}
-
-/// How many of the bin's triangles the tile's bound `occluding` hides (the statistics' count,
-/// as the batches take it).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn walk_hidden<P: PixelProgram>(
-    program: &P,
-    lanes: &Lanes,
-    bin: &[u32],
-    bin_start: u32,
-    bin_len: u32,
-    setup_words: &[u32],
-    tile: &PixelRect,
-    occluding: P::Key,
-) -> u32
-where
-    P::Staged: SetupPart,
-{
-    let mut hidden = 0;
-    let mut k = 0;
-    while k < bin_len {
-        let entries = lanes.read8(bin, bin_start + k);
-        let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let mut m = 0;
-        while m < run {
-            hidden += program.hidden(&P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT), tile, occluding) as u32;
-            m += 1;
-        }
-        k += LANE_GROUP;
-    }
-    hidden
-}
-
-/// The walk's first pass where it rejects hidden triangles: the tile's bound, the smallest
-/// occluder key among the bin's entries that cover the tile whole (as `fine_occluders` and
-/// `occluding_key` take it for the batches); a group reads only those entries.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn walk_occluders<P: PixelProgram>(program: &P, lanes: &Lanes, bin: &[u32], bin_start: u32, bin_len: u32, setup_words: &[u32], tile: &PixelRect) -> P::Key
-where
-    P::Staged: SetupPart,
-{
-    let mut best = P::NO_KEY;
-    let mut k = 0;
-    while k < bin_len {
-        let entries = lanes.read8(bin, bin_start + k);
-        let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let mut full = entries.select(run, |entry| entry & FULL_TILE_BIT != 0);
-        while full != 0 {
-            let m = full.trailing_zeros();
-            full &= full - 1;
-            let key = program.occluder_key(&P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT), tile);
-            if key < best {
-                best = key;
-            }
-        }
-        k += LANE_GROUP;
-    }
-    best
 }
 
 /// Whether the tile takes the empty path: nothing in its bin, so every pixel is background.

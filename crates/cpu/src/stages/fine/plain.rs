@@ -3,7 +3,7 @@
 use super::band::{Band, BandCounters, StatCounters, for_each_band};
 use tileraster_core::Raster;
 use tileraster_kernels::abi::{Counter, FrameParams, SetupPart};
-use tileraster_kernels::memory::Lanes;
+use tileraster_kernels::memory::{LaneValue, Lanes};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, TILE_PIXELS};
 
@@ -22,6 +22,7 @@ pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(
 where
     P::Setup: Sync + bytemuck::Pod,
     P::Staged: Default + SetupPart,
+    P::Key: LaneValue,
 {
     for_each_band(frame, raster, |band, stats| {
         let mut counts = BandCounters::default();
@@ -48,6 +49,7 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
 ) where
     P::Setup: bytemuck::Pod,
     P::Staged: Default + SetupPart,
+    P::Key: LaneValue,
 {
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
@@ -72,14 +74,13 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
             for (lid, state) in states.iter_mut().enumerate() {
                 let (i, j, _) = pixel(lid as u32);
                 let words = bytemuck::cast_slice(setups);
-                let leads = lid == 0;
                 let walk_hidden = fine::fine_walk(
                     program,
                     &Lanes::new(),
-                    leads,
                     bins,
                     bin_start,
                     bin_len,
+                    setups,
                     words,
                     &tile,
                     rejects_hidden,

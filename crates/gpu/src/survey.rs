@@ -7,7 +7,7 @@
 //! learnt is kept in a small text file under the user's cache directory, keyed by everything
 //! that decides what the Vulkan loader would find: the driver manifests it reads (path, size,
 //! modification time), the environment variables that redirect it, the GPU device nodes, and
-//! this crate's version. A new driver, an uninstalled one or a GPU passed into a container
+//! this crate's version and the features its kernels need. A new driver, an uninstalled one or a GPU passed into a container
 //! changes the key, and the next survey enumerates again.
 //!
 //! Where no driver manifest exists at all, there is no adapter, and Vulkan is not loaded.
@@ -155,7 +155,8 @@ struct Fingerprint {
 const LOADER_VARIABLES: [&str; 5] = ["VK_DRIVER_FILES", "VK_ICD_FILENAMES", "VK_ADD_DRIVER_FILES", "VK_LOADER_DRIVERS_SELECT", "VK_LOADER_DRIVERS_DISABLE"];
 
 fn fingerprint() -> Fingerprint {
-    let mut text = format!("tileraster-gpu {}\n", env!("CARGO_PKG_VERSION"));
+    // What the kernels need decides which adapters are usable.
+    let mut text = format!("tileraster-gpu {}\nneeds {:?}\n", env!("CARGO_PKG_VERSION"), needed_features());
     let mut has_drivers = false;
     for name in LOADER_VARIABLES {
         let Some(value) = std::env::var_os(name) else {

@@ -150,7 +150,8 @@ impl Words8 {
             2 => votes.z,
             _ => votes.w,
         };
-        (word >> (self.first % 32)) & 0xff
+        // Only the run's lanes may vote (whatever a driver makes of the others).
+        (word >> (self.first % 32)) & ((1 << run) - 1)
     }
 
     #[cfg(not(target_arch = "spirv"))]

@@ -158,11 +158,10 @@ pub fn fine_depth(
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
     #[spirv(spec_constant(id = 1, default = 0))] way: u32,
 ) {
-    let lanes = Lanes::new(subgroup_lane);
     fine_raster_workgroup(
         &DepthProgram::of(frame),
         way & fine::WALK != 0,
-        &lanes,
+        &Lanes::new(subgroup_lane),
         wg,
         lid,
         frame,

@@ -219,32 +219,17 @@ impl Lanes {
         b.min(spirv_std::arch::subgroup_shuffle_xor(b, 4))
     }
 
-    /// The largest of `v` over the group's lanes; on the host, `v`.
-    #[cfg(target_arch = "spirv")]
-    #[inline(always)]
-    pub fn group_max(&self, v: i32) -> i32 {
-        let a = v.max(spirv_std::arch::subgroup_shuffle_xor(v, 1));
-        let b = a.max(spirv_std::arch::subgroup_shuffle_xor(a, 2));
-        b.max(spirv_std::arch::subgroup_shuffle_xor(b, 4))
-    }
-
     #[cfg(not(target_arch = "spirv"))]
     #[inline(always)]
     pub fn group_min(&self, v: i32) -> i32 {
         v
     }
 
-    #[cfg(not(target_arch = "spirv"))]
+    /// The largest of `v` over the group's lanes (pixel coordinates: `-v` does not overflow).
     #[inline(always)]
     pub fn group_max(&self, v: i32) -> i32 {
-        v
+        -self.group_min(-v)
     }
-}
-
-/// A record the lanes of a group read together from a buffer of words: the words of its
-/// `#[repr(C)]` layout, from word `at`.
-pub trait Record: Sized {
-    fn read(lanes: &Lanes, words: &[u32], at: u32) -> Self;
 }
 
 /// The `i64` whose low and high words are `lo` and `hi`.

@@ -3,7 +3,7 @@
 //! typed codes inside them (`#[repr(u32)]` enums and flag sets). Host and kernels name every
 //! mode, flag, output and counter through these types; no bare numbers cross the boundary.
 
-use crate::memory::{Lanes, Words8, i64_of};
+use crate::memory::{Lanes, Words8, halves};
 #[cfg(not(target_arch = "spirv"))]
 use bytemuck::{Pod, Zeroable};
 
@@ -244,59 +244,76 @@ pub struct Coverage {
     pub _pad: u32,
 }
 
-/// What a program stages of a triangle, read from the setup buffer as words by the lanes of
-/// a group together (`memory::Lanes`): the walk's reads (`stages::fine::fine_walk`).
+/// What a program stages of a triangle, read from the setup buffer as 64-bit words by the
+/// lanes of a group together (`memory::Lanes`): the walk's reads (`stages::fine::fine_walk`).
 pub trait SetupPart: Sized {
-    /// The part of setup slot `slot`, from `setup_words` (the setup buffer as `u32`s).
-    fn read_setup(lanes: &Lanes, setup_words: &[u32], slot: u32) -> Self;
+    /// The part of setup slot `slot`, from `setup_words` (the setup buffer as `u64`s).
+    fn read_setup(lanes: &Lanes, setup_words: &[u64], slot: u32) -> Self;
 }
 
-/// `u32`s per `TriangleSetup`.
-pub const SETUP_WORDS: u32 = (core::mem::size_of::<TriangleSetup>() / 4) as u32;
+/// `u64`s per `TriangleSetup`.
+pub const SETUP_WORDS: u32 = (core::mem::size_of::<TriangleSetup>() / 8) as u32;
 
-/// A record's words 0..24 (three reads of eight): the edges (`e0`, `step_i`, `step_j`, each
-/// low word first), the rectangle, the index and the excluded edges.
+/// The word of a setup record that holds its rectangle's `(i0, j0)`; `(i1, j1)` follows.
+const RECT_WORD: u32 = 9;
+
+/// A record's words 0..12 (two reads of eight): the edges (`e0`, `step_i`, `step_j`), the
+/// rectangle, the index and the excluded edges.
 #[inline(always)]
-fn coverage_of(a: &Words8, b: &Words8, c: &Words8, slot: u32) -> Coverage {
-    let edges = [
-        EdgeEq { e0: i64_of(a.get(0), a.get(1)), step_i: i64_of(a.get(2), a.get(3)), step_j: i64_of(a.get(4), a.get(5)) },
-        EdgeEq { e0: i64_of(a.get(6), a.get(7)), step_i: i64_of(b.get(0), b.get(1)), step_j: i64_of(b.get(2), b.get(3)) },
-        EdgeEq { e0: i64_of(b.get(4), b.get(5)), step_i: i64_of(b.get(6), b.get(7)), step_j: i64_of(c.get(0), c.get(1)) },
-    ];
-    let rect = PixelRect { i0: c.get(2) as i32, j0: c.get(3) as i32, i1: c.get(4) as i32, j1: c.get(5) as i32 };
-    Coverage { edges, rect, index: c.get(6), excluded_edges: c.get(7), slot, _pad: 0 }
+fn coverage_of(a: &Words8<u64>, b: &Words8<u64>, slot: u32) -> Coverage {
+    let edge = |e0: u64, step_i: u64, step_j: u64| EdgeEq { e0: e0 as i64, step_i: step_i as i64, step_j: step_j as i64 };
+    let edges = [edge(a.get(0), a.get(1), a.get(2)), edge(a.get(3), a.get(4), a.get(5)), edge(a.get(6), a.get(7), b.get(0))];
+    let rect = rect_of(b.get(1), b.get(2));
+    let (index, excluded_edges) = halves(b.get(3));
+    Coverage { edges, rect, index, excluded_edges, slot, _pad: 0 }
+}
+
+/// A rectangle from its two words.
+#[inline(always)]
+fn rect_of(first: u64, last: u64) -> PixelRect {
+    let ((i0, j0), (i1, j1)) = (halves(first), halves(last));
+    PixelRect { i0: i0 as i32, j0: j0 as i32, i1: i1 as i32, j1: j1 as i32 }
+}
+
+/// The rectangle of setup slot `slot`, read by this lane alone (two loads, where the typed
+/// record would take four).
+#[inline(always)]
+pub fn setup_rect(setup_words: &[u64], slot: u32) -> PixelRect {
+    let at = (slot * SETUP_WORDS + RECT_WORD) as usize;
+    rect_of(setup_words[at], setup_words[at + 1])
 }
 
 impl SetupPart for Coverage {
     #[inline(always)]
-    fn read_setup(lanes: &Lanes, setup_words: &[u32], slot: u32) -> Coverage {
+    fn read_setup(lanes: &Lanes, setup_words: &[u64], slot: u32) -> Coverage {
         let at = slot * SETUP_WORDS;
-        coverage_of(&lanes.read8(setup_words, at), &lanes.read8(setup_words, at + 8), &lanes.read8(setup_words, at + 16), slot)
+        coverage_of(&lanes.read8(setup_words, at), &lanes.read8(setup_words, at + 8), slot)
     }
 }
 
 impl SetupPart for TriangleSetup {
-    /// Words 24 and 25 are the coverage's slot and padding; then the plane (26..34) and the
-    /// `f32` coefficients (34..38).
+    /// Word 12 is the coverage's slot and padding; then the plane (13..17) and the `f32`
+    /// coefficients (17..19).
     #[inline(always)]
-    fn read_setup(lanes: &Lanes, setup_words: &[u32], slot: u32) -> TriangleSetup {
+    fn read_setup(lanes: &Lanes, setup_words: &[u64], slot: u32) -> TriangleSetup {
         let at = slot * SETUP_WORDS;
         let (a, b, c) = (lanes.read8(setup_words, at), lanes.read8(setup_words, at + 8), lanes.read8(setup_words, at + 16));
-        let (d, e) = (lanes.read8(setup_words, at + 24), lanes.read8(setup_words, at + 32));
-        let plane =
-            Plane { z: i64_of(d.get(2), d.get(3)), gi: i64_of(d.get(4), d.get(5)), gj: i64_of(d.get(6), d.get(7)), frac_bits: e.get(0) as i32, _pad: 0 };
-        let coeffs = FloatCoeffs { c: [f32::from_bits(e.get(2)), f32::from_bits(e.get(3)), f32::from_bits(e.get(4)), f32::from_bits(e.get(5))] };
-        TriangleSetup { coverage: coverage_of(&a, &b, &c, slot), plane, coeffs }
+        let plane = Plane { z: b.get(5) as i64, gi: b.get(6) as i64, gj: b.get(7) as i64, frac_bits: c.get(0) as u32 as i32, _pad: 0 };
+        let (c01, c23) = (halves(c.get(1)), halves(c.get(2)));
+        let coeffs = FloatCoeffs { c: [f32::from_bits(c01.0), f32::from_bits(c01.1), f32::from_bits(c23.0), f32::from_bits(c23.1)] };
+        TriangleSetup { coverage: coverage_of(&a, &b, slot), plane, coeffs }
     }
 }
 
-// The word offsets `coverage_of` and `TriangleSetup::read_setup` read.
+// The word offsets `coverage_of`, `setup_rect` and `TriangleSetup::read_setup` read.
 #[cfg(not(target_arch = "spirv"))]
 const _: () = {
     use core::mem::offset_of;
-    assert!(offset_of!(Coverage, rect) == 18 * 4 && offset_of!(Coverage, index) == 22 * 4 && offset_of!(Coverage, excluded_edges) == 23 * 4);
-    assert!(offset_of!(Coverage, slot) == 24 * 4 && offset_of!(TriangleSetup, plane) == 26 * 4 && offset_of!(TriangleSetup, coeffs) == 34 * 4);
-    assert!(offset_of!(Plane, frac_bits) == 24 && SETUP_WORDS == 38);
+    assert!(
+        offset_of!(Coverage, rect) == RECT_WORD as usize * 8 && offset_of!(Coverage, index) == 11 * 8 && offset_of!(Coverage, excluded_edges) == 11 * 8 + 4
+    );
+    assert!(offset_of!(Coverage, slot) == 12 * 8 && offset_of!(TriangleSetup, plane) == 13 * 8 && offset_of!(TriangleSetup, coeffs) == 17 * 8);
+    assert!(offset_of!(Plane, frac_bits) == 24 && SETUP_WORDS == 19 && core::mem::align_of::<TriangleSetup>() == 8);
 };
 
 /// Output of the setup stage, one per prepared triangle.

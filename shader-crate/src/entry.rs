@@ -35,7 +35,7 @@ fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
 #[spirv(compute(threads(64)))]
 pub fn setup(
     #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] inputs: &[TriangleInput],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] setups: &mut [TriangleSetup],
 ) {
@@ -49,7 +49,7 @@ pub fn setup(
 #[spirv(compute(threads(64)))]
 pub fn bin_count(
     #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] listed: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] counts: &mut [u32],
@@ -65,7 +65,7 @@ pub fn bin_count(
 #[spirv(compute(threads(256)))]
 pub fn bin_scan(
     #[spirv(local_invocation_index)] lid: u32,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] counts: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &mut [u32],
     #[spirv(workgroup)] shared: &mut ScanShared,
@@ -82,7 +82,7 @@ pub fn bin_scan(
 #[spirv(compute(threads(64)))]
 pub fn bin_fill(
     #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] listed: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] offsets: &[u32],
@@ -102,7 +102,7 @@ pub fn bin_fill(
 pub fn fine_raster(
     #[spirv(workgroup_id)] wg: UVec3,
     #[spirv(local_invocation_index)] lid: u32,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bins: &[u32],
@@ -111,7 +111,7 @@ pub fn fine_raster(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u64],
     #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<Coverage, u32>,
     #[spirv(spec_constant(id = 1, default = 0))] mode: u32,
@@ -144,7 +144,7 @@ pub fn fine_raster(
 pub fn fine_depth(
     #[spirv(workgroup_id)] wg: UVec3,
     #[spirv(local_invocation_index)] lid: u32,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bins: &[u32],
@@ -153,7 +153,7 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] coverage: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u64],
     #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
     #[spirv(spec_constant(id = 1, default = 0))] way: u32,
@@ -291,7 +291,7 @@ fn fine_raster_workgroup<P: PixelProgram>(
     lid: u32,
     frame: &FrameParams,
     setups: &[P::Setup],
-    setup_words: &[u32],
+    setup_words: &[u64],
     offsets: &[u32],
     bins: &[u32],
     values: &mut [P::Value],

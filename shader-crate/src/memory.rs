@@ -52,12 +52,13 @@ pub struct Lanes {
 /// Lanes that read a record together.
 pub const LANE_GROUP: u32 = 8;
 
-/// Eight consecutive words of a buffer, read by a group of lanes ([`Lanes::read8`]).
+/// Eight consecutive words of a buffer (`u32`s or `u64`s), read by a group of lanes
+/// ([`Lanes::read8`]).
 #[derive(Copy, Clone)]
-pub struct Words8 {
+pub struct Words8<W: LaneValue> {
     /// The word this lane loaded, which the others shuffle out...
     #[cfg(target_arch = "spirv")]
-    mine: u32,
+    mine: W,
     /// ... from the group that starts at this subgroup index...
     #[cfg(target_arch = "spirv")]
     first: u32,
@@ -65,7 +66,7 @@ pub struct Words8 {
     #[cfg(target_arch = "spirv")]
     lane: u32,
     #[cfg(not(target_arch = "spirv"))]
-    words: [u32; LANE_GROUP as usize],
+    words: [W; LANE_GROUP as usize],
 }
 
 impl Lanes {
@@ -85,10 +86,12 @@ impl Lanes {
     }
 
     /// Words `at..at + 8` of `words`. Words past the end of the buffer read as some word of it
-    /// (the last on the GPU, 0 on the host): no record or run uses them.
+    /// (the last on the GPU, 0 on the host): no record or run uses them. A CPU implementation
+    /// of Vulkan pays the same for a 64-bit load as for a 32-bit one, so records are read as
+    /// `u64`s: sixteen 32-bit words a load.
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
-    pub fn read8(&self, words: &[u32], at: u32) -> Words8 {
+    pub fn read8<W: LaneValue>(&self, words: &[W], at: u32) -> Words8<W> {
         let last = words.len() as u32 - 1;
         let k = at + self.lane;
         Words8 { mine: words[(if k < last { k } else { last }) as usize], first: self.first, lane: self.lane }
@@ -96,8 +99,8 @@ impl Lanes {
 
     #[cfg(not(target_arch = "spirv"))]
     #[inline(always)]
-    pub fn read8(&self, words: &[u32], at: u32) -> Words8 {
-        Words8 { words: core::array::from_fn(|k| words.get(at as usize + k).copied().unwrap_or(0)) }
+    pub fn read8<W: LaneValue>(&self, words: &[W], at: u32) -> Words8<W> {
+        Words8 { words: core::array::from_fn(|k| words.get(at as usize + k).copied().unwrap_or(W::ZERO)) }
     }
 }
 
@@ -124,17 +127,17 @@ impl Lanes {
     }
 }
 
-impl Words8 {
+impl<W: LaneValue> Words8<W> {
     /// Word `k < 8`. On the GPU every lane of the group must ask at once (`k` the same in all).
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
-    pub fn get(&self, k: u32) -> u32 {
-        spirv_std::arch::subgroup_shuffle(self.mine, self.first + k)
+    pub fn get(&self, k: u32) -> W {
+        self.mine.shuffle(self.first + k)
     }
 
     #[cfg(not(target_arch = "spirv"))]
     #[inline(always)]
-    pub fn get(&self, k: u32) -> u32 {
+    pub fn get(&self, k: u32) -> W {
         self.words[k as usize]
     }
 
@@ -142,7 +145,7 @@ impl Words8 {
     /// word and the group's votes make one mask (the same in all its lanes).
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
-    pub fn select(&self, run: u32, keep: impl Fn(u32) -> bool) -> u32 {
+    pub fn select(&self, run: u32, keep: impl Fn(W) -> bool) -> u32 {
         let votes = spirv_std::arch::subgroup_ballot(self.lane < run && keep(self.mine));
         let word = match self.first / 32 {
             0 => votes.x,
@@ -156,19 +159,32 @@ impl Words8 {
 
     #[cfg(not(target_arch = "spirv"))]
     #[inline(always)]
-    pub fn select(&self, run: u32, keep: impl Fn(u32) -> bool) -> u32 {
+    pub fn select(&self, run: u32, keep: impl Fn(W) -> bool) -> u32 {
         (0..run).filter(|&k| keep(self.words[k as usize])).fold(0, |mask, k| mask | 1 << k)
     }
 }
 
-/// A value the lanes of a group pass round (a key).
+/// A value the lanes of a group pass round: a word of a buffer, or a key.
 pub trait LaneValue: Copy + PartialOrd {
+    /// What the host reads past the end of a buffer.
+    #[cfg(not(target_arch = "spirv"))]
+    const ZERO: Self;
+    /// Subgroup lane `lane`'s value.
+    #[cfg(target_arch = "spirv")]
+    fn shuffle(self, lane: u32) -> Self;
     /// This lane's value, swapped with lane `self ^ mask`'s.
     #[cfg(target_arch = "spirv")]
     fn shuffle_xor(self, mask: u32) -> Self;
 }
 
 impl LaneValue for u32 {
+    #[cfg(not(target_arch = "spirv"))]
+    const ZERO: u32 = 0;
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    fn shuffle(self, lane: u32) -> u32 {
+        spirv_std::arch::subgroup_shuffle(self, lane)
+    }
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
     fn shuffle_xor(self, mask: u32) -> u32 {
@@ -177,6 +193,13 @@ impl LaneValue for u32 {
 }
 
 impl LaneValue for u64 {
+    #[cfg(not(target_arch = "spirv"))]
+    const ZERO: u64 = 0;
+    #[cfg(target_arch = "spirv")]
+    #[inline(always)]
+    fn shuffle(self, lane: u32) -> u64 {
+        spirv_std::arch::subgroup_shuffle(self, lane)
+    }
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
     fn shuffle_xor(self, mask: u32) -> u64 {
@@ -184,12 +207,12 @@ impl LaneValue for u64 {
     }
 }
 
-impl Words8 {
+impl<W: LaneValue> Words8<W> {
     /// The smallest `f(word k)` over the words `k < run`, `none` if there are none: on the GPU
     /// each lane computes its own word's and the group takes the minimum.
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
-    pub fn min_of<K: LaneValue>(&self, run: u32, none: K, f: impl Fn(u32) -> K) -> K {
+    pub fn min_of<K: LaneValue>(&self, run: u32, none: K, f: impl Fn(W) -> K) -> K {
         let mut v = if self.lane < run { f(self.mine) } else { none };
         let mut mask = 1;
         while mask < LANE_GROUP {
@@ -204,7 +227,7 @@ impl Words8 {
 
     #[cfg(not(target_arch = "spirv"))]
     #[inline(always)]
-    pub fn min_of<K: LaneValue>(&self, run: u32, none: K, f: impl Fn(u32) -> K) -> K {
+    pub fn min_of<K: LaneValue>(&self, run: u32, none: K, f: impl Fn(W) -> K) -> K {
         (0..run).map(|k| f(self.words[k as usize])).fold(none, |a, b| if b < a { b } else { a })
     }
 }
@@ -232,8 +255,8 @@ impl Lanes {
     }
 }
 
-/// The `i64` whose low and high words are `lo` and `hi`.
+/// The low and high halves of a 64-bit word.
 #[inline(always)]
-pub fn i64_of(lo: u32, hi: u32) -> i64 {
-    ((hi as u64) << 32 | lo as u64) as i64
+pub fn halves(word: u64) -> (u32, u32) {
+    (word as u32, (word >> 32) as u32)
 }

@@ -73,7 +73,7 @@ pub enum Buffer {
     Inputs,
     /// `TriangleSetup` per prepared triangle (set up once per scene, kept).
     Setups,
-    /// The same buffer as `Setups`, as `u32`s: for records the lanes of a group read together
+    /// The same buffer as `Setups`, as `u64`s: for records the lanes of a group read together
     /// (`memory::Lanes`).
     SetupWords,
     /// Setup slots of the window's triangles, `u32` each.
@@ -111,11 +111,17 @@ pub enum Buffer {
     Texels,
 }
 
-/// Whether a stage only reads a buffer or also writes it.
+/// How a stage binds a buffer.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Access {
+    /// A storage buffer the stage only reads.
     Read,
+    /// A storage buffer the stage reads and writes.
     ReadWrite,
+    /// A uniform buffer: small, read-only, the same for every invocation. A CPU implementation
+    /// of Vulkan (lavapipe) loads a uniform at a constant offset once per SIMD group, where it
+    /// loads a storage word once per lane, each load behind a branch on its lane's mask.
+    Uniform,
 }
 
 /// One binding of a stage: binding number = position in [`StageInfo::bindings`].
@@ -186,9 +192,13 @@ const fn write(buffer: Buffer) -> Binding {
     Binding { buffer, access: Access::ReadWrite }
 }
 
+const fn uniform(buffer: Buffer) -> Binding {
+    Binding { buffer, access: Access::Uniform }
+}
+
 /// What a fine-raster stage binds, whatever its pixel program.
 const FINE_BINDINGS: &[Binding] = &[
-    read(Buffer::Frame),
+    uniform(Buffer::Frame),
     read(Buffer::Setups),
     read(Buffer::Offsets),
     read(Buffer::Bins),
@@ -209,7 +219,7 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Scene,
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTriangle,
-        bindings: &[read(Buffer::Frame), read(Buffer::Inputs), write(Buffer::Setups)],
+        bindings: &[uniform(Buffer::Frame), read(Buffer::Inputs), write(Buffer::Setups)],
         pipelines: ALL_PIPELINES,
     },
     StageInfo {
@@ -219,7 +229,7 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Window,
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTrianglePart,
-        bindings: &[read(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), write(Buffer::Counts)],
+        bindings: &[uniform(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), write(Buffer::Counts)],
         pipelines: ALL_PIPELINES,
     },
     StageInfo {
@@ -229,7 +239,7 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Window,
         workgroup: [SCAN_GROUP, 1, 1],
         dispatch: Dispatch::Single,
-        bindings: &[read(Buffer::Frame), read(Buffer::Counts), write(Buffer::Offsets)],
+        bindings: &[uniform(Buffer::Frame), read(Buffer::Counts), write(Buffer::Offsets)],
         pipelines: ALL_PIPELINES,
     },
     StageInfo {
@@ -239,7 +249,7 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Window,
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTrianglePart,
-        bindings: &[read(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), read(Buffer::Offsets), write(Buffer::Cursors), write(Buffer::Bins)],
+        bindings: &[uniform(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), read(Buffer::Offsets), write(Buffer::Cursors), write(Buffer::Bins)],
         pipelines: ALL_PIPELINES,
     },
     StageInfo {
@@ -270,7 +280,7 @@ pub const STAGES: [StageInfo; 8] = [
         workgroup: [TILE, TILE, 1],
         dispatch: Dispatch::PerTile,
         bindings: &[
-            read(Buffer::Frame),
+            uniform(Buffer::Frame),
             read(Buffer::ShadeParams),
             read(Buffer::Setups),
             read(Buffer::Shading),
@@ -293,7 +303,7 @@ pub const STAGES: [StageInfo; 8] = [
         workgroup: [TILE, TILE, 1],
         dispatch: Dispatch::PerTile,
         bindings: &[
-            read(Buffer::Frame),
+            uniform(Buffer::Frame),
             read(Buffer::Setups),
             read(Buffer::Offsets),
             read(Buffer::Bins),

@@ -154,11 +154,15 @@ pub fn portable(m: &Module) -> Vec<String> {
 /// picks: missing or extra entry points, bindings (number → read-only) and workgroup sizes.
 pub fn entry_points(m: &Module, rows: impl Fn(&StageInfo) -> bool) -> Vec<String> {
     let decorated = decorations(m);
-    let storage_buffers: HashSet<u32> = m
+    // Buffer variables: storage or uniform (which the table calls `Access::Uniform`).
+    let buffers: HashMap<u32, StorageClass> = m
         .types_global_values
         .iter()
-        .filter(|i| i.class.opcode == Op::Variable && i.operands.first() == Some(&Operand::StorageClass(StorageClass::StorageBuffer)))
-        .filter_map(|i| i.result_id)
+        .filter(|i| i.class.opcode == Op::Variable)
+        .filter_map(|i| match i.operands.first() {
+            Some(Operand::StorageClass(class @ (StorageClass::StorageBuffer | StorageClass::Uniform))) => Some((i.result_id?, *class)),
+            _ => None,
+        })
         .collect();
     let entries: HashMap<String, &Instruction> = m
         .entry_points
@@ -181,24 +185,28 @@ pub fn entry_points(m: &Module, rows: impl Fn(&StageInfo) -> bool) -> Vec<String
             continue;
         };
         let Some(function) = entry.operands.get(1).and_then(Operand::id_ref_any) else { continue };
-        // Binding number → read-only, for every storage buffer the entry point's interface lists.
+        // Binding number → access, for every buffer the entry point's interface lists.
         let mut bound = BTreeMap::new();
-        for var in entry.operands[3..].iter().filter_map(Operand::id_ref_any).filter(|v| storage_buffers.contains(v)) {
+        for (var, class) in entry.operands[3..].iter().filter_map(Operand::id_ref_any).filter_map(|v| Some((v, *buffers.get(&v)?))) {
             let ds = decorated.get(&var).map(Vec::as_slice).unwrap_or_default();
             let find = |d: Decoration| ds.iter().find(|(k, _)| *k == d).and_then(|(_, ops)| literal(ops));
             if find(Decoration::DescriptorSet) != Some(0) {
                 problems.push(format!("  {}: buffer %{var} outside descriptor set 0", info.name));
             }
-            let read_only = ds.iter().any(|(k, _)| *k == Decoration::NonWritable);
+            let access = match class {
+                StorageClass::Uniform => Access::Uniform,
+                _ if ds.iter().any(|(k, _)| *k == Decoration::NonWritable) => Access::Read,
+                _ => Access::ReadWrite,
+            };
             match find(Decoration::Binding) {
-                Some(binding) if bound.insert(binding, read_only).is_some() => problems.push(format!("  {}: binding {binding} twice", info.name)),
+                Some(binding) if bound.insert(binding, access).is_some() => problems.push(format!("  {}: binding {binding} twice", info.name)),
                 Some(_) => {}
                 None => problems.push(format!("  {}: buffer %{var} has no binding", info.name)),
             }
         }
-        let table: BTreeMap<u32, bool> = info.bindings.iter().enumerate().map(|(k, b)| (k as u32, b.access == Access::Read)).collect();
+        let table: BTreeMap<u32, Access> = info.bindings.iter().enumerate().map(|(k, b)| (k as u32, b.access)).collect();
         if bound != table {
-            problems.push(format!("  {}: bindings (number → read-only) {bound:?}, the stage table's {table:?}", info.name));
+            problems.push(format!("  {}: bindings (number → access) {bound:?}, the stage table's {table:?}", info.name));
         }
         let size = m
             .execution_modes

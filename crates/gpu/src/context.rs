@@ -266,7 +266,7 @@ impl GpuContext {
                 .map_err(|details| Error::NoAdapter { details })?;
         // Every stage binds its storage buffers at once: an adapter that binds fewer per stage
         // cannot run the table (Vulkan guarantees only 4; desktop GPUs and lavapipe bind far more).
-        let needed = STAGES.iter().map(|s| s.bindings.len() as u32).max().unwrap_or(0);
+        let needed = STAGES.iter().map(|s| s.bindings.iter().filter(|b| b.access != Access::Uniform).count() as u32).max().unwrap_or(0);
         let bound = gpu.limits.max_storage_buffers_per_shader_stage;
         if bound < needed {
             return Err(Error::NoAdapter {
@@ -278,7 +278,7 @@ impl GpuContext {
         // Its pipelines are built when a frame first runs them (`stage_pipelines_of`).
         let kernels = if declared { crate::KERNELS_FLOAT_CONTROLS_SPV } else { crate::KERNELS_SPV };
         let buffers = Buffers {
-            frame: Grown::storage("frame"),
+            frame: Grown::uniform("frame"),
             listed: Grown::storage("listed triangles"),
             counts: Grown::storage("bin counts"),
             offsets: Grown::storage("bin offsets"),
@@ -900,7 +900,7 @@ fn passthrough_module(device: &wgpu::Device, label: &str, module: &[u8], spec: O
 }
 
 /// A stage's pipeline over `module` (through the driver's `cache` where there is one), with an
-/// explicit bind group layout from its row of the table (each buffer read-only or read-write, as the table says).
+/// explicit bind group layout from its row of the table (each buffer uniform, read-only or read-write, as the table says).
 fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &StageInfo, cache: Option<&wgpu::PipelineCache>) -> StagePipeline {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = info
         .bindings
@@ -910,7 +910,10 @@ fn stage_pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, info: &Sta
             binding: k as u32,
             visibility: wgpu::ShaderStages::COMPUTE,
             ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: b.access == Access::Read },
+                ty: match b.access {
+                    Access::Uniform => wgpu::BufferBindingType::Uniform,
+                    access => wgpu::BufferBindingType::Storage { read_only: access == Access::Read },
+                },
                 has_dynamic_offset: false,
                 min_binding_size: None,
             },

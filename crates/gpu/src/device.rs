@@ -117,6 +117,11 @@ impl Grown {
         Self::new(label, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC)
     }
 
+    /// A uniform buffer that the host fills.
+    pub fn uniform(label: &'static str) -> Self {
+        Self::new(label, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST)
+    }
+
     /// A buffer the host maps to read results back.
     pub fn readback(label: &'static str) -> Self {
         Self::new(label, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST)

@@ -168,7 +168,7 @@ macro_rules! shading_entry_points {
             pub fn shade(
                 #[spirv(workgroup_id)] wg: UVec3,
                 #[spirv(local_invocation_index)] lid: u32,
-                #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+                #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] params: &ShadeParams,
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] setups: &[TriangleSetup],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] shading: &[TriangleShading],
@@ -194,7 +194,7 @@ macro_rules! shading_entry_points {
             pub fn fine_samples(
                 #[spirv(workgroup_id)] wg: UVec3,
                 #[spirv(local_invocation_index)] lid: u32,
-                #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+                #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bins: &[u32],

@@ -37,7 +37,7 @@
 //! on the order of the bin; the coverage count is a plain count. Both are therefore
 //! deterministic whatever the scheduling of the binning atomics.
 
-use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart};
+use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart, setup_rect};
 use crate::math::edge::{Side, side_of};
 use crate::memory::{Counters, LANE_GROUP, LaneValue, Lanes};
 use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
@@ -470,7 +470,7 @@ pub fn fine_walk<P: PixelProgram>(
     bin_start: u32,
     bin_len: u32,
     setups: &[P::Setup],
-    setup_words: &[u32],
+    setup_words: &[u64],
     tile: &PixelRect,
     rejects_hidden: bool,
     count_hidden: bool,
@@ -506,7 +506,7 @@ where
         let hides = if rejects_hidden { entries.select(run, |entry| program.hidden(staged(entry), tile, occluding)) } else { 0 };
         hidden += hides.count_ones();
         // A hidden triangle is only counted, and only where the coverage layer is asked for.
-        let mut left = entries.select(run, |entry| P::coverage(staged(entry)).rect.overlaps(&group)) & if count_hidden { !0 } else { !hides };
+        let mut left = entries.select(run, |entry| setup_rect(setup_words, entry & !FULL_TILE_BIT).overlaps(&group)) & if count_hidden { !0 } else { !hides };
         while left != 0 {
             let m = left.trailing_zeros();
             left &= left - 1;

@@ -285,7 +285,7 @@ fn setup_records_read_as_words_are_the_typed_records() {
     let scene = scenes::delaunay_terrain(0.0, 0.0, 100.0, 100.0, 40, 40, 7);
     let before = before_fine(&scene, &Params::new(Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129)));
     assert!(before.setups.len() > 1000);
-    let words: &[u32] = bytemuck::cast_slice(&before.setups);
+    let words: &[u64] = bytemuck::cast_slice(&before.setups);
     for (slot, setup) in before.setups.iter().enumerate() {
         let whole = TriangleSetup::read_setup(&Lanes::new(), words, slot as u32);
         assert_eq!(bytemuck::bytes_of(&whole), bytemuck::bytes_of(setup), "setup slot {slot}");

@@ -14,7 +14,7 @@ use crate::programs::fragment::FragmentProgram;
 use crate::programs::height::HeightProgram;
 use crate::programs::multisample::{self, MAX_SAMPLES, SampleState};
 use crate::programs::shade::shaded_pixel;
-use crate::stages::bin::{bin_count as count_tiles, bin_fill as fill_tiles};
+use crate::stages::bin::{self, bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
@@ -24,7 +24,7 @@ pub use spirv_std::glam::UVec3;
 pub use spirv_std::spirv;
 
 // `#[spirv(spec_constant(..))]` takes literals: keep `fine_raster`'s and these in step.
-const _: () = assert!(HeightProgram::MODE_SPEC_ID == 1 && HeightProgram::GENERIC_MODE == 0 && fine::WALK_SPEC_ID == 1);
+const _: () = assert!(HeightProgram::MODE_SPEC_ID == 1 && HeightProgram::GENERIC_MODE == 0 && fine::WALK_SPEC_ID == 1 && bin::KEYS_SPEC_ID == 1);
 
 /// Per-triangle stages are dispatched in 2D when there are more than 65,535 workgroups.
 fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
@@ -88,11 +88,14 @@ pub fn bin_fill(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] offsets: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] cursors: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] bins: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] bin_keys: &mut [u64],
+    #[spirv(spec_constant(id = 1, default = 0))] keys: u32,
 ) {
     let id = triangle_slot(gid, frame);
     let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
-        fill_tiles(&setups[listed[t as usize] as usize], frame, part, offsets, cursors, bins);
+        let setup = &setups[listed[t as usize] as usize];
+        fill_tiles(keys != 0, setup, frame, part, offsets, cursors, bins, bin_keys);
     }
 }
 
@@ -128,6 +131,8 @@ pub fn fine_raster(
         setup_words,
         offsets,
         bins,
+        // The heightfield rejects no hidden triangle: its walk reads no key.
+        bins,
         values,
         owners,
         coverage,
@@ -154,6 +159,7 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u64],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bin_keys: &[u64],
     #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
     #[spirv(spec_constant(id = 1, default = 0))] way: u32,
@@ -169,6 +175,7 @@ pub fn fine_depth(
         setup_words,
         offsets,
         bins,
+        bin_keys,
         values,
         owners,
         coverage,
@@ -283,7 +290,7 @@ pub fn fine_samples_workgroup<F: FragmentProgram>(
 /// With `walk`, each pixel walks the bin on its own (`fine::fine_walk`) instead of the staged
 /// batches.
 #[allow(clippy::too_many_arguments)]
-fn fine_raster_workgroup<P: PixelProgram>(
+fn fine_raster_workgroup<P: PixelProgram<Setup = TriangleSetup>>(
     program: &P,
     walk: bool,
     lanes: &Lanes,
@@ -294,6 +301,7 @@ fn fine_raster_workgroup<P: PixelProgram>(
     setup_words: &[u64],
     offsets: &[u32],
     bins: &[u32],
+    bin_keys: &[P::Key],
     values: &mut [P::Value],
     owners: &mut [u32],
     coverage: &mut [u32],
@@ -329,9 +337,9 @@ fn fine_raster_workgroup<P: PixelProgram>(
                     bins,
                     bin_start,
                     bin_len,
-                    setups,
+                    bin_keys,
+                    offsets[frame.tile_count() as usize],
                     setup_words,
-                    &tile_rect,
                     rejects_hidden,
                     count_hidden,
                     i,

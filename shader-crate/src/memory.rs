@@ -7,9 +7,9 @@ pub trait Counters {
     fn fetch_add(&mut self, index: usize, value: u32) -> u32;
 }
 
-/// A `u32` buffer written at distinct indices by many invocations.
-pub trait Slots {
-    fn store(&mut self, index: usize, value: u32);
+/// A buffer written at distinct indices by many invocations.
+pub trait Slots<T = u32> {
+    fn store(&mut self, index: usize, value: T);
 }
 
 #[cfg(target_arch = "spirv")]
@@ -22,8 +22,8 @@ impl Counters for [u32] {
     }
 }
 
-impl Slots for [u32] {
-    fn store(&mut self, index: usize, value: u32) {
+impl<T: Copy> Slots<T> for [T] {
+    fn store(&mut self, index: usize, value: T) {
         self[index] = value;
     }
 }
@@ -88,7 +88,7 @@ impl Lanes {
     /// Words `at..at + 8` of `words`. Words past the end of the buffer read as some word of it
     /// (the last on the GPU, 0 on the host): no record or run uses them. A CPU implementation
     /// of Vulkan pays the same for a 64-bit load as for a 32-bit one, so records are read as
-    /// `u64`s: sixteen 32-bit words a load.
+    /// `u64`s: a group reads sixteen 32-bit words with one load per lane.
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
     pub fn read8<W: LaneValue>(&self, words: &[W], at: u32) -> Words8<W> {
@@ -192,18 +192,22 @@ impl LaneValue for u32 {
     }
 }
 
+/// A `u64` goes round as its two halves: a subgroup operation on 64-bit integers needs
+/// Vulkan's `shaderSubgroupExtendedTypes`, which wgpu does not enable.
 impl LaneValue for u64 {
     #[cfg(not(target_arch = "spirv"))]
     const ZERO: u64 = 0;
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
     fn shuffle(self, lane: u32) -> u64 {
-        spirv_std::arch::subgroup_shuffle(self, lane)
+        let (lo, hi) = halves(self);
+        (hi.shuffle(lane) as u64) << 32 | lo.shuffle(lane) as u64
     }
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
     fn shuffle_xor(self, mask: u32) -> u64 {
-        spirv_std::arch::subgroup_shuffle_xor(self, mask)
+        let (lo, hi) = halves(self);
+        (hi.shuffle_xor(mask) as u64) << 32 | lo.shuffle_xor(mask) as u64
     }
 }
 

@@ -19,9 +19,9 @@
 //! ```text
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
-//!           setups, listed, offsets ─▶ bin_fill ─▶ bins (cursors: its atomics)
-//!  height:  setups (and as words), offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
-//!  render:  setups (and as words), offsets, bins ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
+//!           setups, listed, offsets ─▶ bin_fill ─▶ bins, bin keys (cursors: its atomics)
+//!  height:  setups (and as words), offsets, bins, bin keys ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
+//!  render:  setups (and as words), offsets, bins, bin keys ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
 //!           shade params, setups, shading, textures, texels, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
 //!  multisampled render:
 //!           setups, offsets, bins, shade params, shading, textures, texels ─▶ fine_samples ─▶ values, owners, coverage, stats, tile stats, colours, faces
@@ -86,6 +86,11 @@ pub enum Buffer {
     Cursors,
     /// The bins: setup slots, `FULL_TILE_BIT` on entries that cover their tile whole.
     Bins,
+    /// Two keys per bin entry of the window, where the fine stage walks its bins and rejects
+    /// hidden triangles (`bin_fill` writes them then, `stages::bin::entry_keys`): the entry's
+    /// occluder key over its tile at the entry's index, its lowest key at the window's number of
+    /// entries (`Offsets`' last) past it.
+    BinKeys,
     /// Value bits per window pixel.
     Values,
     /// Owner triangle per window pixel (written when asked for).
@@ -196,8 +201,8 @@ const fn uniform(buffer: Buffer) -> Binding {
     Binding { buffer, access: Access::Uniform }
 }
 
-/// What a fine-raster stage binds, whatever its pixel program.
-const FINE_BINDINGS: &[Binding] = &[
+/// What the heightfield's fine raster binds.
+const FINE_BINDINGS: [Binding; 10] = [
     uniform(Buffer::Frame),
     read(Buffer::Setups),
     read(Buffer::Offsets),
@@ -209,6 +214,22 @@ const FINE_BINDINGS: &[Binding] = &[
     write(Buffer::TileStats),
     read(Buffer::SetupWords),
 ];
+
+/// What the render pipeline's fine raster binds: the heightfield's bindings, and the bin
+/// entries' keys its walk reads where it rejects hidden triangles.
+const DEPTH_BINDINGS: [Binding; 11] = appended(FINE_BINDINGS, read(Buffer::BinKeys));
+
+/// `bindings` and then `last`.
+const fn appended<const N: usize, const M: usize>(bindings: [Binding; N], last: Binding) -> [Binding; M] {
+    assert!(M == N + 1);
+    let mut out = [last; M];
+    let mut k = 0;
+    while k < N {
+        out[k] = bindings[k];
+        k += 1;
+    }
+    out
+}
 
 /// The stages in the order they run.
 pub const STAGES: [StageInfo; 8] = [
@@ -249,7 +270,15 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Window,
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerTrianglePart,
-        bindings: &[uniform(Buffer::Frame), read(Buffer::Setups), read(Buffer::Listed), read(Buffer::Offsets), write(Buffer::Cursors), write(Buffer::Bins)],
+        bindings: &[
+            uniform(Buffer::Frame),
+            read(Buffer::Setups),
+            read(Buffer::Listed),
+            read(Buffer::Offsets),
+            write(Buffer::Cursors),
+            write(Buffer::Bins),
+            write(Buffer::BinKeys),
+        ],
         pipelines: ALL_PIPELINES,
     },
     StageInfo {
@@ -259,7 +288,7 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Window,
         workgroup: [TILE, TILE, 1],
         dispatch: Dispatch::PerTile,
-        bindings: FINE_BINDINGS,
+        bindings: &FINE_BINDINGS,
         pipelines: &[Pipeline::Height],
     },
     StageInfo {
@@ -269,7 +298,7 @@ pub const STAGES: [StageInfo; 8] = [
         scope: Scope::Window,
         workgroup: [TILE, TILE, 1],
         dispatch: Dispatch::PerTile,
-        bindings: FINE_BINDINGS,
+        bindings: &DEPTH_BINDINGS,
         pipelines: &[Pipeline::Render],
     },
     StageInfo {

@@ -1,6 +1,6 @@
 //! What a module must be before the GPU backend may run it, read from the SPIR-V itself: its
-//! entry points bind exactly what their rows of the stage table say (binding numbers,
-//! read-only or not, workgroup size), and it holds no arithmetic whose bits differ between
+//! entry points bind exactly what their rows of the stage table say (binding numbers, each
+//! buffer uniform, read-only or read-write, workgroup size), and it holds no arithmetic whose bits differ between
 //! devices. Each check returns its problems, one line each; none means the module passes.
 
 use rspirv::dr::{Instruction, Module, Operand, load_words};
@@ -151,7 +151,7 @@ pub fn portable(m: &Module) -> Vec<String> {
 }
 
 /// Differences between the module's entry points and the stage table's rows that `rows`
-/// picks: missing or extra entry points, bindings (number → read-only) and workgroup sizes.
+/// picks: missing or extra entry points, bindings (number → access) and workgroup sizes.
 pub fn entry_points(m: &Module, rows: impl Fn(&StageInfo) -> bool) -> Vec<String> {
     let decorated = decorations(m);
     // Buffer variables: storage or uniform (which the table calls `Access::Uniform`).

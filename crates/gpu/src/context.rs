@@ -10,7 +10,7 @@ use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
-use tileraster_kernels::stages::fine;
+use tileraster_kernels::stages::{bin, fine};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
@@ -163,6 +163,7 @@ struct Buffers {
     offsets: Grown,
     cursors: Grown,
     bins: Grown,
+    bin_keys: Grown,
     values: Grown,
     owners: Grown,
     coverage: Grown,
@@ -284,6 +285,7 @@ impl GpuContext {
             offsets: Grown::storage("bin offsets"),
             cursors: Grown::storage("bin cursors"),
             bins: Grown::storage("bins"),
+            bin_keys: Grown::storage("bin keys"),
             values: Grown::storage("values"),
             owners: Grown::storage("owners"),
             coverage: Grown::storage("coverage"),
@@ -468,7 +470,8 @@ impl GpuContext {
             let listed = part.as_deref().unwrap_or(&plan.listed);
             let frame = plan.frame_listing(prepared, window, listed);
             let entries = Plan::bin_capacity_listing(prepared, &frame, listed);
-            if entries * 4 > self.max_binding() || entries > u32::MAX as u64 {
+            let entry_bytes = if self.writes_bin_keys(&rows) { 2 * 8 } else { 4 };
+            if entries * entry_bytes > self.max_binding() || entries > u32::MAX as u64 {
                 split(&mut pending, window, || format!("{entries} triangle–tile pairs, more than the GPU binds"))?;
                 continue;
             }
@@ -518,16 +521,18 @@ impl GpuContext {
         let mut rows = vec![None; STAGES.len()];
         let built = self.pipelines.len();
         let cache = self.pipeline_cache.as_ref().map(|c| &c.cache);
+        let walks = match FINE_WALK.load(Ordering::Relaxed) {
+            _ if !lane_groups(&self.gpu.info) => false,
+            w if w == FineWalk::Always as u8 => true,
+            w if w == FineWalk::Never as u8 => false,
+            _ => walks_bins(self.gpu.info.device_type),
+        };
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
+                // Binning writes its entries' keys for `fine_depth`'s walk (`stages::bin::entry_keys`).
+                Stage::BinFill => Build { row, fragment: None, spec: Some((bin::KEYS_SPEC_ID, (walks && prepared.pipeline() == Pipeline::Render) as u32)) },
                 Stage::FineRaster | Stage::FineDepth => {
-                    let walks = match FINE_WALK.load(Ordering::Relaxed) {
-                        _ if !lane_groups(&self.gpu.info) => false,
-                        w if w == FineWalk::Always as u8 => true,
-                        w if w == FineWalk::Never as u8 => false,
-                        _ => walks_bins(self.gpu.info.device_type),
-                    };
                     let walk = if walks { fine::WALK } else { 0 };
                     // `fine_raster`'s value mode shares the constant.
                     let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { 0 };
@@ -687,6 +692,12 @@ impl GpuContext {
         Ok(Resident { setups, shading })
     }
 
+    /// Whether the binning pipeline among `rows` writes its entries' keys (`bin::KEYS_SPEC_ID`).
+    fn writes_bin_keys(&self, rows: &[Option<usize>]) -> bool {
+        let bin_fill = STAGES.iter().position(|s| s.stage == Stage::BinFill);
+        bin_fill.and_then(|row| rows[row]).is_some_and(|k| self.pipelines[k].0.spec == Some((bin::KEYS_SPEC_ID, 1)))
+    }
+
     /// One window's dispatches and readback; returns its statistics counters.
     fn rasterise_window(
         &mut self,
@@ -708,6 +719,7 @@ impl GpuContext {
         let groups = Self::dispatch_triangles(&mut frame, items);
         let tiles = frame.tile_count() as u64;
         let pixels = frame.win_w as u64 * frame.win_h as u64;
+        let keys = self.writes_bin_keys(scene.rows);
         let device = &self.gpu.device;
         let b = &mut self.buffers;
         let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
@@ -716,6 +728,7 @@ impl GpuContext {
         let cursors = b.cursors.get(device, tiles * 4);
         let offsets = b.offsets.get(device, (tiles + 1) * 4);
         let bins = b.bins.get(device, entries * 4);
+        let bin_keys = b.bin_keys.get(device, if keys { 2 * entries * 8 } else { 0 });
         let values = b.values.get(device, pixels * 4);
         let owner_bytes = if frame.outputs.contains(OutputSet::OWNER) { pixels * 4 } else { 0 };
         let coverage_bytes = if frame.outputs.contains(OutputSet::COVERAGE) { pixels * 4 } else { 0 };
@@ -746,6 +759,7 @@ impl GpuContext {
                 Buffer::Offsets => offsets.clone(),
                 Buffer::Cursors => cursors.clone(),
                 Buffer::Bins => bins.clone(),
+                Buffer::BinKeys => bin_keys.clone(),
                 Buffer::Values => values.clone(),
                 Buffer::Owners => owners.clone(),
                 Buffer::Coverage => coverage.clone(),

@@ -1,12 +1,12 @@
 //! The compiled kernels against what the host assumes of them, read from the SPIR-V itself:
-//! every entry point binds exactly what its row of the stage table says (binding numbers,
-//! read-only or not, workgroup size), and every float arithmetic result carries
+//! every entry point binds exactly what its row of the stage table says (binding numbers, each
+//! buffer uniform, read-only or read-write, workgroup size), and every float arithmetic result carries
 //! `NoContraction`, in both embedded modules; the float-controls module declares 32-bit
 //! round-to-nearest-even and subnormal preservation on every entry point, and is otherwise the
 //! same module. Needs no adapter.
 
 use rspirv::dr::{Instruction, Module, Operand};
-use rspirv::spirv::{Capability, Decoration, ExecutionMode, Op};
+use rspirv::spirv::{Capability, Decoration, ExecutionMode, Op, StorageClass};
 use std::collections::HashSet;
 use tileraster_kernels::pipeline::STAGES;
 
@@ -41,7 +41,8 @@ fn every_entry_point_binds_what_the_stage_table_says() {
 }
 
 /// The check above finds what it looks for: a module with an entry point's binding moved,
-/// one with a workgroup size changed, and one missing an entry point all fail it.
+/// one with a workgroup size changed, one with the frame's uniform buffer declared a storage
+/// buffer, and one missing an entry point all fail it.
 #[test]
 fn the_stage_table_check_finds_a_broken_module() {
     let mut moved = module();
@@ -52,6 +53,14 @@ fn the_stage_table_check_finds_a_broken_module() {
     let size = resized.execution_modes.iter_mut().find(|e| e.operands[1] == Operand::ExecutionMode(ExecutionMode::LocalSize)).expect("a local size");
     size.operands[2] = Operand::LiteralBit32(7);
     assert!(!check::entry_points(&resized, |_| true).is_empty(), "a workgroup size");
+    let mut storage = module();
+    let frame = storage
+        .types_global_values
+        .iter_mut()
+        .find(|i| i.class.opcode == Op::Variable && i.operands.first() == Some(&Operand::StorageClass(StorageClass::Uniform)))
+        .expect("a uniform buffer");
+    frame.operands[0] = Operand::StorageClass(StorageClass::StorageBuffer);
+    assert!(!check::entry_points(&storage, |_| true).is_empty(), "a uniform buffer bound as a storage buffer");
     let mut missing = module();
     missing.entry_points.pop();
     assert!(!check::entry_points(&missing, |_| true).is_empty(), "an entry point missing");

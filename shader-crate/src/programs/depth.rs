@@ -185,7 +185,7 @@ impl PixelProgram for DepthProgram {
     }
 
     #[inline(always)]
-    fn hidden(&self, s: &TriangleSetup, tile: &PixelRect, occluding: u64) -> bool {
-        self.hidden_by(s, tile, occluding)
+    fn lowest_key(&self, s: &TriangleSetup, tile: &PixelRect) -> u64 {
+        self.lowest_key_of(s, tile)
     }
 }

@@ -93,14 +93,12 @@ impl DepthProgram {
         if valid && self.passes(low) && self.passes(high) { self.key_bounds(s, low, high).1 } else { Self::NO_KEY }
     }
 
-    /// Whether triangle `s` owns no pixel of `tile` because its keys there all lie above the
-    /// tile's bound `occluding` (`NO_KEY`: no bound).
+    /// The smallest key triangle `s` can have over `tile`, where the depth bounds hold, else 0
+    /// (no bound lies below it): the triangle owns no pixel of the tile exactly where this lies
+    /// above the tile's bound (`NO_KEY`, no bound, lies above nothing).
     #[inline]
-    pub fn hidden_by(&self, s: &TriangleSetup, tile: &PixelRect, occluding: u64) -> bool {
-        if occluding == Self::NO_KEY {
-            return false;
-        }
+    pub fn lowest_key_of(&self, s: &TriangleSetup, tile: &PixelRect) -> u64 {
         let (low, high, valid) = depth_bounds(s, tile);
-        valid && self.key_bounds(s, low, high).0 > occluding
+        if valid { self.key_bounds(s, low, high).0 } else { 0 }
     }
 }

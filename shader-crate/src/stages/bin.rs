@@ -7,9 +7,15 @@
 //! functions at the corners of the tile (`tile_cover`): tiles it cannot reach are left out of
 //! its bins, and tiles it covers entirely are marked with `FULL_TILE_BIT`. Both passes run the
 //! same classification, so the counts and the entries agree.
+//!
+//! Where the fine stage walks its bins and rejects hidden triangles, `bin_fill` also writes two
+//! keys per entry (`entry_keys`): what each pixel group of the walk would otherwise work out
+//! from the triangle's record, lane by lane, is worked out once per triangle and tile.
 
 use crate::abi::{Coverage, FrameParams, PixelRect, TriangleSetup};
 use crate::memory::{Counters, Slots};
+use crate::programs::depth::DepthProgram;
+use crate::stages::fine::{PixelProgram, tile_rect};
 use crate::{FULL_TILE_BIT, TILE};
 
 /// Tiles `tx0..=tx1` × `ty0..=ty1` of the window (empty when `tx0 > tx1` or `ty0 > ty1`).
@@ -118,9 +124,10 @@ fn max_i64(a: i64, b: i64) -> i64 {
     if a > b { a } else { b }
 }
 
-/// Calls `visit(tile, cover)` for every window tile the triangle's rectangle touches and can
-/// cover a centre of, in band `part` of its tile rows (`frame.bin_part_rows` rows a band).
-fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, part: u32, mut visit: impl FnMut(usize, TileCover)) {
+/// Calls `visit(tile, tx, ty, cover)` for every window tile `(tx, ty)` the triangle's rectangle
+/// touches and can cover a centre of, in band `part` of its tile rows (`frame.bin_part_rows`
+/// rows a band).
+fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, part: u32, mut visit: impl FnMut(usize, u32, u32, TileCover)) {
     let span = tile_span(&setup.coverage.rect, frame);
     let first = span.ty0 + part * frame.bin_part_rows;
     if span.empty || first > span.ty1 {
@@ -134,7 +141,7 @@ fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, part: u32, mut visi
         while tx <= span.tx1 {
             let cover = tile_cover(&setup.coverage, tx, ty, frame);
             if cover != TileCover::Outside {
-                visit((ty * frame.tiles_x + tx) as usize, cover);
+                visit((ty * frame.tiles_x + tx) as usize, tx, ty, cover);
             }
             tx += 1;
         }
@@ -144,24 +151,54 @@ fn for_each_tile(setup: &TriangleSetup, frame: &FrameParams, part: u32, mut visi
 
 /// Count pass: one increment per tile the triangle can cover a centre of, in band `part`.
 pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParams, part: u32, counts: &mut C) {
-    for_each_tile(setup, frame, part, |tile, _| {
+    for_each_tile(setup, frame, part, |tile, _, _, _| {
         counts.fetch_add(tile, 1);
     });
 }
 
+/// The `SpecId` of `bin_fill`'s constant: non-zero where it writes the entries' keys (under the
+/// frame's depth test), because the render pipeline's fine stage walks and rejects hidden
+/// triangles.
+pub const KEYS_SPEC_ID: u32 = 1;
+
 /// Fill pass: claim a slot in each of those tiles' bins and write the triangle's setup slot,
-/// with `FULL_TILE_BIT` where it covers the whole tile.
-pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized>(
+/// with `FULL_TILE_BIT` where it covers the whole tile; with `write_keys`, the entry's keys
+/// under the frame's depth test too (`entry_keys`): the occluder key at the entry's index of
+/// `keys`, the lowest key at the window's number of entries past it.
+#[allow(clippy::too_many_arguments)]
+pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized, K: Slots<u64> + ?Sized>(
+    write_keys: bool,
     setup: &TriangleSetup,
     frame: &FrameParams,
     part: u32,
     offsets: &[u32],
     cursors: &mut C,
     bins: &mut S,
+    keys: &mut K,
 ) {
-    for_each_tile(setup, frame, part, |tile, cover| {
+    let entries = offsets[frame.tile_count() as usize];
+    // (`move`: a closure that borrows a `bool` is a pointer to one, which SPIR-V's logical
+    // addressing does not allow; and the program is made inside it, for the same reason.)
+    for_each_tile(setup, frame, part, move |tile, tx, ty, cover| {
         let k = cursors.fetch_add(tile, 1);
-        let full = if cover == TileCover::Full { FULL_TILE_BIT } else { 0 };
-        bins.store((offsets[tile] + k) as usize, setup.coverage.slot | full);
+        let entry = offsets[tile] + k;
+        let word = setup.coverage.slot | if cover == TileCover::Full { FULL_TILE_BIT } else { 0 };
+        bins.store(entry as usize, word);
+        if write_keys {
+            let (occluder, lowest) = entry_keys(&DepthProgram::of(frame), setup, word, &tile_rect(tx, ty, frame));
+            keys.store(entry as usize, occluder);
+            keys.store((entries + entry) as usize, lowest);
+        }
     });
+}
+
+/// The keys of bin entry `word` (the setup `setup`'s slot, `FULL_TILE_BIT` where it covers
+/// `tile` whole): its occluder key over the tile where it covers it whole (else `NO_KEY`), and
+/// its lowest key there. The batches work out the same from the staged triangle
+/// (`fine_occluders`, `fine_load`), so both ways reject the same triangles.
+#[inline]
+pub fn entry_keys<P: PixelProgram>(program: &P, setup: &P::Setup, word: u32, tile: &PixelRect) -> (P::Key, P::Key) {
+    let staged = P::staged(setup);
+    let occluder = if word & FULL_TILE_BIT != 0 { program.occluder_key(staged, tile) } else { P::NO_KEY };
+    (occluder, program.lowest_key(staged, tile))
 }

@@ -37,7 +37,7 @@
 //! on the order of the bin; the coverage count is a plain count. Both are therefore
 //! deterministic whatever the scheduling of the binning atomics.
 
-use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart, setup_rect};
+use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart, TriangleSetup, setup_rect};
 use crate::math::edge::{Side, side_of};
 use crate::memory::{Counters, LANE_GROUP, LaneValue, Lanes};
 use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
@@ -82,17 +82,23 @@ pub trait PixelProgram {
     fn background(&self) -> Self::Value;
 
     /// Whether the program can bound its keys over a tile ([`Self::occluder_key`],
-    /// [`Self::hidden`]), so that a tile rejects the triangles that cannot own any of its pixels.
+    /// [`Self::lowest_key`]), so that a tile rejects the triangles that cannot own any of its
+    /// pixels.
     const OCCLUSION: bool = false;
     /// For a triangle that covers `tile` whole: a key no pixel of the tile ends above, where
     /// the triangle gives every pixel of the tile a key; `NO_KEY` otherwise.
     fn occluder_key(&self, _staged: &Self::Staged, _tile: &PixelRect) -> Self::Key {
         Self::NO_KEY
     }
+    /// A key no key of the triangle over `tile` lies below (or one no bound lies below).
+    fn lowest_key(&self, _staged: &Self::Staged, _tile: &PixelRect) -> Self::Key {
+        Self::NO_KEY
+    }
     /// Whether the triangle's keys over `tile` all lie above `occluding` (the smallest
     /// `occluder_key` of the tile's bin), so that it owns none of its pixels.
-    fn hidden(&self, _staged: &Self::Staged, _tile: &PixelRect, _occluding: Self::Key) -> bool {
-        false
+    #[inline(always)]
+    fn hidden(&self, staged: &Self::Staged, tile: &PixelRect, occluding: Self::Key) -> bool {
+        Self::OCCLUSION && self.lowest_key(staged, tile) > occluding
     }
 }
 
@@ -450,28 +456,32 @@ pub const WALK: u32 = 1 << 8;
 /// invocation of the workgroup out and back in.
 ///
 /// The bin is taken eight entries at a time by a group of eight lanes. Each lane judges one
-/// entry from its own reads (does its rectangle reach the group's pixels; is it hidden), the
-/// group votes, and then reads together (`Lanes`: a word loaded per lane, passed round) the
-/// records of the triangles it must test, so every lane runs every iteration; a pixel that
-/// may stop (`overlap_free`, an owner found) only stops testing, and the group stops once all
-/// its pixels have. The host's twin, one pixel at a time, judges all eight entries itself
-/// and keeps those that reach its own pixel: neither skips a triangle that holds a pixel.
+/// entry (does its rectangle reach the group's pixels: two loads of the setup buffer as
+/// words), the group votes, and then reads together (`Lanes`: a word loaded per lane, passed
+/// round) the records of the triangles it must test, so every lane runs every iteration; a
+/// pixel that may stop (`overlap_free`, an owner found) only stops testing, and the group
+/// stops once all its pixels have. The host's twin, one pixel at a time, judges all eight
+/// entries itself and keeps those that reach its own pixel: neither skips a triangle that
+/// holds a pixel. The records are read as words (`setup_words`), so the walk is for programs
+/// whose setup is a [`TriangleSetup`].
 ///
-/// Where the frame rejects hidden triangles (`rejects_hidden`), a first pass takes the tile's
-/// bound from the bin's entries that cover it whole (as `fine_occluders` and `occluding_key`
-/// take it for the batches), and the walk treats the triangles it hides as the batches do.
-/// Returns how many of the bin's triangles it hides (the same in every lane).
+/// Where the frame rejects hidden triangles (`rejects_hidden`), binning wrote each entry's
+/// keys (`bin_keys`, `stages::bin::entry_keys`; `entries` is the window's number of bin
+/// entries): a first pass takes the tile's bound, the smallest occluder key of the bin (as
+/// `fine_occluders` and `occluding_key` take it for the batches), and a triangle whose lowest
+/// key lies above it is hidden, as the batches judge it. Returns how many of the bin's
+/// triangles it hides (the same in every lane).
 #[allow(clippy::too_many_arguments)]
 #[inline]
-pub fn fine_walk<P: PixelProgram>(
+pub fn fine_walk<P: PixelProgram<Setup = TriangleSetup>>(
     program: &P,
     lanes: &Lanes,
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
-    setups: &[P::Setup],
+    bin_keys: &[P::Key],
+    entries: u32,
     setup_words: &[u64],
-    tile: &PixelRect,
     rejects_hidden: bool,
     count_hidden: bool,
     i: i32,
@@ -483,14 +493,12 @@ where
     P::Staged: SetupPart,
     P::Key: LaneValue,
 {
-    let staged = |entry: u32| P::staged(&setups[(entry & !FULL_TILE_BIT) as usize]);
     let mut occluding = P::NO_KEY;
     if rejects_hidden {
         let mut k = 0;
         while k < bin_len {
-            let entries = lanes.read8(bin, bin_start + k);
             let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-            let key = entries.min_of(run, P::NO_KEY, |entry| if entry & FULL_TILE_BIT != 0 { program.occluder_key(staged(entry), tile) } else { P::NO_KEY });
+            let key = lanes.read8(bin_keys, bin_start + k).min_of(run, P::NO_KEY, |key| key);
             if key < occluding {
                 occluding = key;
             }
@@ -501,12 +509,12 @@ where
     let mut hidden = 0;
     let mut k = 0;
     while k < bin_len {
-        let entries = lanes.read8(bin, bin_start + k);
+        let slots = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let hides = if rejects_hidden { entries.select(run, |entry| program.hidden(staged(entry), tile, occluding)) } else { 0 };
+        let hides = if rejects_hidden { lanes.read8(bin_keys, entries + bin_start + k).select(run, |lowest| lowest > occluding) } else { 0 };
         hidden += hides.count_ones();
         // A hidden triangle is only counted, and only where the coverage layer is asked for.
-        let mut left = entries.select(run, |entry| setup_rect(setup_words, entry & !FULL_TILE_BIT).overlaps(&group)) & if count_hidden { !0 } else { !hides };
+        let mut left = slots.select(run, |entry| setup_rect(setup_words, entry & !FULL_TILE_BIT).overlaps(&group)) & if count_hidden { !0 } else { !hides };
         while left != 0 {
             let m = left.trailing_zeros();
             left &= left - 1;
@@ -518,7 +526,7 @@ where
                 }
                 continue;
             }
-            let staged = P::Staged::read_setup(lanes, setup_words, entries.get(m) & !FULL_TILE_BIT);
+            let staged = P::Staged::read_setup(lanes, setup_words, slots.get(m) & !FULL_TILE_BIT);
             let c = P::coverage(&staged);
             if !done && c.rect.contains(i, j) {
                 let (side, edges) = side_and_edges(c, i, j);

@@ -97,7 +97,7 @@ fn fine_raster_tile(
         TileKind::Overlapping
     };
     if !path.takes(kind) {
-        return fine_raster_tile_plain(&HeightProgram::of(frame), false, tx, frame, setups, offsets, bins, band, stats);
+        return fine_raster_tile_plain(&HeightProgram::of(frame), false, tx, frame, setups, offsets, bins, &[], band, stats);
     }
     band.record_tile(tx, bin_len, 0, frame);
     let bin = &bins[bin_start as usize..][..bin_len as usize];

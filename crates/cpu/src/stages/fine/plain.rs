@@ -2,15 +2,16 @@
 
 use super::band::{Band, BandCounters, StatCounters, for_each_band};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, FrameParams, SetupPart};
+use tileraster_kernels::abi::{Counter, FrameParams, SetupPart, TriangleSetup};
 use tileraster_kernels::memory::{LaneValue, Lanes};
+use tileraster_kernels::stages::bin::entry_keys;
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
-use tileraster_kernels::{BATCH, TILE_PIXELS};
+use tileraster_kernels::{BATCH, FULL_TILE_BIT, TILE_PIXELS};
 
 /// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
 /// layer holds their bits); with `walk`, the entry point's walk (`fine::fine_walk`) where it
 /// takes it.
-pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(
+pub(crate) fn fine_raster_plain<P: PixelProgram<Setup = TriangleSetup, Value = u32> + Sync>(
     program: &P,
     walk: bool,
     frame: &FrameParams,
@@ -21,22 +22,43 @@ pub(crate) fn fine_raster_plain<P: PixelProgram<Value = u32> + Sync>(
 ) -> StatCounters
 where
     P::Setup: Sync + bytemuck::Pod,
+    P::Key: Sync,
     P::Staged: Default + SetupPart,
     P::Key: LaneValue,
 {
+    // What the GPU's binning writes for a walk that rejects hidden triangles.
+    let keys = if walk && fine::rejects_hidden::<P>(frame) { window_keys(program, frame, setups, offsets, bins) } else { Vec::new() };
     for_each_band(frame, raster, |band, stats| {
         let mut counts = BandCounters::default();
         for tx in 0..frame.tiles_x {
-            fine_raster_tile_plain(program, walk, tx, frame, setups, offsets, bins, band, &mut counts);
+            fine_raster_tile_plain(program, walk, tx, frame, setups, offsets, bins, &keys, band, &mut counts);
         }
         counts.add_to(stats);
     })
 }
 
+/// The keys `bin_fill` writes for every entry of the window's bins where the walk rejects
+/// hidden triangles (`stages::bin::entry_keys`): the occluder keys, then the lowest keys.
+fn window_keys<P: PixelProgram<Setup = TriangleSetup>>(program: &P, frame: &FrameParams, setups: &[P::Setup], offsets: &[u32], bins: &[u32]) -> Vec<P::Key> {
+    let entries = offsets[frame.tile_count() as usize] as usize;
+    let mut keys = vec![P::NO_KEY; 2 * entries];
+    for ty in 0..frame.tiles_y {
+        for tx in 0..frame.tiles_x {
+            let (start, len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+            let tile = fine::tile_rect(tx, ty, frame);
+            for e in start as usize..(start + len) as usize {
+                let setup = &setups[(bins[e] & !FULL_TILE_BIT) as usize];
+                (keys[e], keys[entries + e]) = entry_keys(program, setup, bins[e], &tile);
+            }
+        }
+    }
+    keys
+}
+
 /// One fine-raster workgroup exactly as the entry point runs it: the same branches, every
 /// invocation's `fine_load` and `fine_test` batch by batch, then `fine_resolve` per pixel.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
+pub(super) fn fine_raster_tile_plain<P: PixelProgram<Setup = TriangleSetup, Value = u32>>(
     program: &P,
     walk: bool,
     tx: u32,
@@ -44,6 +66,7 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
     setups: &[P::Setup],
     offsets: &[u32],
     bins: &[u32],
+    bin_keys: &[P::Key],
     band: &mut Band,
     stats: &mut BandCounters,
 ) where
@@ -80,9 +103,9 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Value = u32>>(
                     bins,
                     bin_start,
                     bin_len,
-                    setups,
+                    bin_keys,
+                    offsets[frame.tile_count() as usize],
                     words,
-                    &tile,
                     rejects_hidden,
                     count_hidden,
                     i,

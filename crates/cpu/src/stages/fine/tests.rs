@@ -203,6 +203,11 @@ fn depth_test_in_lanes_changes_no_bit() {
                     };
                     let what = format!("{func:?}, write {write}, fragments counted {count_fragments}, hidden triangles rejected {hidden_triangles}");
                     let (plain, plain_counts) = run(None);
+                    // The walk, with the keys binning writes for it (`bin::entry_keys`).
+                    let mut walked = plan.allocate_raster(&prepared).unwrap();
+                    let walked_counts = fine_raster_plain(&program, true, &frame, &setups, &offsets, &bins, &mut walked).map(|c| c.into_inner());
+                    assert_eq!(walked.compare_bits(&plain, 4), (0, vec![]), "{what}: the walk against the batches");
+                    assert_eq!(walked_counts, plain_counts, "{what}: the walk's statistics");
                     let mut lanes = None;
                     for &way in &ways {
                         let (raster, counts) = run(Some(way));
@@ -280,7 +285,7 @@ fn wide_vectors_change_no_bit() {
 /// buffer holds it (the coverage's slot from the bin entry), on a real scene's setups.
 #[test]
 fn setup_records_read_as_words_are_the_typed_records() {
-    use tileraster_kernels::abi::SetupPart;
+    use tileraster_kernels::abi::{SetupPart, setup_rect};
     use tileraster_kernels::memory::Lanes;
     let scene = scenes::delaunay_terrain(0.0, 0.0, 100.0, 100.0, 40, 40, 7);
     let before = before_fine(&scene, &Params::new(Grid::new(0.0, 100.0, 0.0, 100.0, 137, 129)));
@@ -290,5 +295,6 @@ fn setup_records_read_as_words_are_the_typed_records() {
         let whole = TriangleSetup::read_setup(&Lanes::new(), words, slot as u32);
         assert_eq!(bytemuck::bytes_of(&whole), bytemuck::bytes_of(setup), "setup slot {slot}");
         assert_eq!(Coverage::read_setup(&Lanes::new(), words, slot as u32), setup.coverage, "coverage of slot {slot}");
+        assert_eq!(setup_rect(words, slot as u32), setup.coverage.rect, "rectangle of slot {slot}");
     }
 }

@@ -95,10 +95,11 @@ pub trait PixelProgram {
         Self::NO_KEY
     }
     /// Whether the triangle's keys over `tile` all lie above `occluding` (the smallest
-    /// `occluder_key` of the tile's bin), so that it owns none of its pixels.
+    /// `occluder_key` of the tile's bin), so that it owns none of its pixels. Without a bound
+    /// (`NO_KEY`) nothing is hidden, and the lowest key is not worked out.
     #[inline(always)]
     fn hidden(&self, staged: &Self::Staged, tile: &PixelRect, occluding: Self::Key) -> bool {
-        Self::OCCLUSION && self.lowest_key(staged, tile) > occluding
+        Self::OCCLUSION && occluding != Self::NO_KEY && self.lowest_key(staged, tile) > occluding
     }
 }
 

@@ -20,7 +20,7 @@
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins, bin keys (cursors: its atomics)
-//!  height:  setups (and as words), offsets, bins, bin keys ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
+//!  height:  setups (and as words), offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
 //!  render:  setups (and as words), offsets, bins, bin keys ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
 //!           shade params, setups, shading, textures, texels, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
 //!  multisampled render:
@@ -86,7 +86,7 @@ pub enum Buffer {
     Cursors,
     /// The bins: setup slots, `FULL_TILE_BIT` on entries that cover their tile whole.
     Bins,
-    /// Two keys per bin entry of the window, where the fine stage walks its bins and rejects
+    /// Two keys per bin entry of the window, where `fine_depth` walks its bins and rejects
     /// hidden triangles (`bin_fill` writes them then, `stages::bin::entry_keys`): the entry's
     /// occluder key over its tile at the entry's index, its lowest key at the window's number of
     /// entries (`Offsets`' last) past it.

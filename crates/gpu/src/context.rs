@@ -138,7 +138,9 @@ pub fn stage_buffers(prepared: &Prepared) -> Result<Option<StageBuffers>, Error>
     };
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     let frame = plan.frame(prepared, active);
-    if windows(&active, ctx.max_window_pixels(prepared)).len() != 1 || plan.bin_capacity(prepared, &frame) * 4 > ctx.max_binding() {
+    let rows = ctx.stage_pipelines_of(prepared)?;
+    if windows(&active, ctx.max_window_pixels(prepared)).len() != 1 || plan.bin_capacity(prepared, &frame) * ctx.bytes_per_bin_entry(&rows) > ctx.max_binding()
+    {
         return Err(Error::Gpu(format!("the {}×{} window is rasterised in parts: read its stage buffers window by window", active.width, active.height)));
     }
     let mut resident = None;
@@ -470,8 +472,7 @@ impl GpuContext {
             let listed = part.as_deref().unwrap_or(&plan.listed);
             let frame = plan.frame_listing(prepared, window, listed);
             let entries = Plan::bin_capacity_listing(prepared, &frame, listed);
-            let entry_bytes = if self.writes_bin_keys(&rows) { 2 * 8 } else { 4 };
-            if entries * entry_bytes > self.max_binding() || entries > u32::MAX as u64 {
+            if entries * self.bytes_per_bin_entry(&rows) > self.max_binding() || entries > u32::MAX as u64 {
                 split(&mut pending, window, || format!("{entries} triangle–tile pairs, more than the GPU binds"))?;
                 continue;
             }
@@ -530,8 +531,12 @@ impl GpuContext {
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
-                // Binning writes its entries' keys for `fine_depth`'s walk (`stages::bin::entry_keys`).
-                Stage::BinFill => Build { row, fragment: None, spec: Some((bin::KEYS_SPEC_ID, (walks && prepared.pipeline() == Pipeline::Render) as u32)) },
+                // Binning writes its entries' keys where `fine_depth`'s walk rejects hidden
+                // triangles (`stages::bin::entry_keys`).
+                Stage::BinFill => {
+                    let keys = walks && prepared.pipeline() == Pipeline::Render && prepared.params.skips.hidden_triangles;
+                    Build { row, fragment: None, spec: Some((bin::KEYS_SPEC_ID, keys as u32)) }
+                }
                 Stage::FineRaster | Stage::FineDepth => {
                     let walk = if walks { fine::WALK } else { 0 };
                     // `fine_raster`'s value mode shares the constant.
@@ -696,6 +701,11 @@ impl GpuContext {
     fn writes_bin_keys(&self, rows: &[Option<usize>]) -> bool {
         let bin_fill = STAGES.iter().position(|s| s.stage == Stage::BinFill);
         bin_fill.and_then(|row| rows[row]).is_some_and(|k| self.pipelines[k].0.spec == Some((bin::KEYS_SPEC_ID, 1)))
+    }
+
+    /// The largest binding a bin entry takes room in: its slot (4 bytes), or its two keys.
+    fn bytes_per_bin_entry(&self, rows: &[Option<usize>]) -> u64 {
+        if self.writes_bin_keys(rows) { 2 * 8 } else { 4 }
     }
 
     /// One window's dispatches and readback; returns its statistics counters.

@@ -1,8 +1,10 @@
 //! Specialisation constants, set in the module itself.
 //!
 //! The shading entry points take the frame's `ShadeVariant` as specialisation constant
-//! `ShadeVariant::SPEC_ID`, and `fine_raster` the frame's value mode as
-//! `HeightProgram::MODE_SPEC_ID`. wgpu hands a passthrough module to the driver without
+//! `ShadeVariant::SPEC_ID`; `fine_raster` the frame's value mode and its way through the bins
+//! as `HeightProgram::MODE_SPEC_ID`, which is also `fine_depth`'s way (`fine::WALK_SPEC_ID`)
+//! and whether `bin_fill` writes its keys (`bin::KEYS_SPEC_ID`): each pipeline is built from its
+//! own copy of the module. wgpu hands a passthrough module to the driver without
 //! specialisation info, so the backend writes the value into the module instead: it becomes the
 //! constant's default, which the driver then uses as it would a specialised value, folding the
 //! branches the frame does not take out of the pipeline.
@@ -70,7 +72,7 @@ mod tests {
             assert_eq!(changed.len(), set, "only the constants' values change");
             assert!(changed.iter().all(|&k| patched[k] == 0x8000_1234 && words[k] == ShadeVariant::GENERIC.0));
             let (_, modes) = specialise(&words, tileraster_kernels::programs::height::HeightProgram::MODE_SPEC_ID, 1).unwrap();
-            assert_eq!(modes, 1, "fine_raster takes the value mode");
+            assert_eq!(modes, 1, "fine_raster's value mode (one constant, which fine_depth and bin_fill share)");
             assert_eq!(specialise(&words, 7, 1).unwrap().1, 0, "no other SpecId");
         }
         assert!(specialise(&[1, 2, 3], 0, 0).is_err());

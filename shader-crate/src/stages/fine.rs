@@ -90,7 +90,9 @@ pub trait PixelProgram {
     fn occluder_key(&self, _staged: &Self::Staged, _tile: &PixelRect) -> Self::Key {
         Self::NO_KEY
     }
-    /// A key no key of the triangle over `tile` lies below (or one no bound lies below).
+    /// A key no key of the triangle over `tile` lies below (or one no bound lies below). A
+    /// program with [`Self::OCCLUSION`] must give it: the default, `NO_KEY`, is for programs
+    /// without, where nothing is hidden.
     fn lowest_key(&self, _staged: &Self::Staged, _tile: &PixelRect) -> Self::Key {
         Self::NO_KEY
     }
@@ -512,7 +514,8 @@ where
     while k < bin_len {
         let slots = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let hides = if rejects_hidden { lanes.read8(bin_keys, entries + bin_start + k).select(run, |lowest| lowest > occluding) } else { 0 };
+        let hides =
+            if rejects_hidden { lanes.read8(bin_keys, entries + bin_start + k).select(run, |lowest| occluding != P::NO_KEY && lowest > occluding) } else { 0 };
         hidden += hides.count_ones();
         // A hidden triangle is only counted, and only where the coverage layer is asked for.
         let mut left = slots.select(run, |entry| setup_rect(setup_words, entry & !FULL_TILE_BIT).overlaps(&group)) & if count_hidden { !0 } else { !hides };

@@ -15,8 +15,8 @@ pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32]) 
     counts.into_iter().map(AtomicU32::into_inner).collect()
 }
 
-/// The entry point without its keys (`bin::KEYS_SPEC_ID` 0): the CPU backend's fine stages
-/// do not walk their bins (the plain twin's walk works the keys out itself, `plain::window_keys`).
+/// The entry point without its keys (`bin::KEYS_SPEC_ID` 0): the CPU backend's depth stages do
+/// not walk their bins (the plain twin's walk works the keys out itself, `plain::window_keys`).
 pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32], offsets: &[u32]) -> Vec<u32> {
     let cursors = atomic_zeroed(frame.tile_count() as usize);
     let bins = atomic_zeroed(offsets[frame.tile_count() as usize] as usize);

@@ -514,8 +514,9 @@ where
     while k < bin_len {
         let slots = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
+        // Without a bound (`NO_KEY`) nothing is hidden, as `PixelProgram::hidden` has it.
         let hides =
-            if rejects_hidden { lanes.read8(bin_keys, entries + bin_start + k).select(run, |lowest| occluding != P::NO_KEY && lowest > occluding) } else { 0 };
+            if rejects_hidden && occluding != P::NO_KEY { lanes.read8(bin_keys, entries + bin_start + k).select(run, |lowest| lowest > occluding) } else { 0 };
         hidden += hides.count_ones();
         // A hidden triangle is only counted, and only where the coverage layer is asked for.
         let mut left = slots.select(run, |entry| setup_rect(setup_words, entry & !FULL_TILE_BIT).overlaps(&group)) & if count_hidden { !0 } else { !hides };

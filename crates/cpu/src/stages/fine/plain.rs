@@ -22,9 +22,8 @@ pub(crate) fn fine_raster_plain<P: PixelProgram<Setup = TriangleSetup, Value = u
 ) -> StatCounters
 where
     P::Setup: Sync + bytemuck::Pod,
-    P::Key: Sync,
     P::Staged: Default + SetupPart,
-    P::Key: LaneValue,
+    P::Key: LaneValue + Sync,
 {
     // What the GPU's binning writes for a walk that rejects hidden triangles.
     let keys = if walk && fine::rejects_hidden::<P>(frame) { window_keys(program, frame, setups, offsets, bins) } else { Vec::new() };

@@ -642,6 +642,59 @@ pub struct TriangleShading {
     pub _pad: u32,
 }
 
+/// 16-byte words per [`TriangleShading`].
+pub const SHADING_VEC4S: u32 = (core::mem::size_of::<TriangleShading>() / 16) as u32;
+const _: () = assert!(core::mem::size_of::<TriangleShading>() == 16 * SHADING_VEC4S as usize && SHADING_VEC4S == 11);
+
+/// Where the shade stages read a triangle's [`TriangleShading`]: the typed records on the host;
+/// on the GPU the same buffer as 16-byte words, so that a record is eleven loads. (A CPU
+/// implementation of Vulkan loads storage memory a lane at a time, in a loop per load
+/// instruction whatever its width: field by field, a record would be 44 such loops.)
+pub trait ShadingRecords {
+    fn record(&self, slot: u32) -> TriangleShading;
+}
+
+impl ShadingRecords for [TriangleShading] {
+    #[inline(always)]
+    fn record(&self, slot: u32) -> TriangleShading {
+        self[slot as usize]
+    }
+}
+
+#[cfg(target_arch = "spirv")]
+impl ShadingRecords for [spirv_std::glam::UVec4] {
+    #[inline(always)]
+    fn record(&self, slot: u32) -> TriangleShading {
+        let at = (slot * SHADING_VEC4S) as usize;
+        TriangleShading {
+            attributes: [
+                vertex_attributes(self[at], self[at + 1], self[at + 2]),
+                vertex_attributes(self[at + 3], self[at + 4], self[at + 5]),
+                vertex_attributes(self[at + 6], self[at + 7], self[at + 8]),
+            ],
+            inv_w: floats4(self[at + 9]),
+            face: self[at + 10].x,
+            texture: self[at + 10].y,
+            flags: self[at + 10].z,
+            _pad: self[at + 10].w,
+        }
+    }
+}
+
+#[cfg(target_arch = "spirv")]
+#[inline(always)]
+fn floats4(v: spirv_std::glam::UVec4) -> [f32; 4] {
+    [f32::from_bits(v.x), f32::from_bits(v.y), f32::from_bits(v.z), f32::from_bits(v.w)]
+}
+
+/// A vertex's twelve attributes from its three words.
+#[cfg(target_arch = "spirv")]
+#[inline(always)]
+fn vertex_attributes(a: spirv_std::glam::UVec4, b: spirv_std::glam::UVec4, c: spirv_std::glam::UVec4) -> [f32; ATTRIBUTES] {
+    let (a, b, c) = (floats4(a), floats4(b), floats4(c));
+    [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], c[0], c[1], c[2], c[3]]
+}
+
 /// `TriangleShading::flags`: the fragment's colour is its interpolated colour attribute,
 /// neither lit nor textured, in every mode that shows colours (lines: a wireframe keeps its
 /// colour under any shading).
@@ -718,8 +771,8 @@ pub struct TextureInfo {
     pub levels: u32,
     /// [`Filter`] in bits 0–1, the [`Address`] of `u` in bits 2–3 and of `v` in bits 4–5.
     pub flags: u32,
-    /// The word at which each level starts in the texel buffer; level `k` is
-    /// `max(1, width >> k)` × `max(1, height >> k)` texels, row by row.
+    /// The texel (a `u64`, red in its low 16 bits) at which each level starts in the texel
+    /// buffer; level `k` is `max(1, width >> k)` × `max(1, height >> k)` texels, row by row.
     pub offsets: [u32; MAX_MIP_LEVELS],
 }
 

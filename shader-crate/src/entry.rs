@@ -7,7 +7,9 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::abi::{Counter, Coverage, FrameParams, OutputSet, SetupPart, ShadeParams, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
+use crate::abi::{
+    Counter, Coverage, FrameParams, OutputSet, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput, TriangleSetup, TriangleShading,
+};
 use crate::memory::{LaneValue, Lanes};
 use crate::programs::depth::DepthProgram;
 use crate::programs::fragment::FragmentProgram;
@@ -20,7 +22,7 @@ use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
 use crate::{BATCH, NO_OWNER};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
-pub use spirv_std::glam::UVec3;
+pub use spirv_std::glam::{UVec3, UVec4};
 pub use spirv_std::spirv;
 
 // `#[spirv(spec_constant(..))]` takes literals: keep `fine_raster`'s and these in step.
@@ -193,16 +195,16 @@ crate::shading_entry_points!(crate::programs::fragment::Builtin);
 /// The body of every `shade` entry point: one invocation per window pixel, from the owner fine
 /// raster left there, coloured by `program`.
 #[allow(clippy::too_many_arguments)]
-pub fn shade_pixels<F: FragmentProgram>(
+pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     program: &F,
     wg: UVec3,
     lid: u32,
     frame: &FrameParams,
     params: &ShadeParams,
     setups: &[TriangleSetup],
-    shading: &[TriangleShading],
+    shading: &R,
     textures: &[TextureInfo],
-    texels: &[u32],
+    texels: &[u64],
     offsets: &[u32],
     bins: &[u32],
     values: &[u32],
@@ -242,7 +244,7 @@ pub fn fine_samples_workgroup<F: FragmentProgram>(
     params: &ShadeParams,
     shading: &[TriangleShading],
     textures: &[TextureInfo],
-    texels: &[u32],
+    texels: &[u64],
     colours: &mut [u32],
     faces: &mut [u32],
     shared: &mut FineShared<TriangleSetup, u64>,

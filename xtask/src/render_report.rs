@@ -345,23 +345,12 @@ fn differing_share(ours: &[u32], theirs: &[u32]) -> f64 {
 /// and sampler (`TexturedPipeline`): a ground plane whose texture repeats towards the horizon,
 /// at each filter, timed side by side, with the share of pixels that differ.
 fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
-    use tileraster::render::{Address, Filter, Texture};
+    use tileraster::render::{Address, Filter};
     let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
     let size = 1024u32;
-    let rgba: Vec<u8> = (0..size * size)
-        .flat_map(|k| {
-            let (x, y) = (k % size, k / size);
-            let checker = if (x / 16 + y / 16) % 2 == 0 { 230 } else { 40 };
-            [(x * 255 / (size - 1)) as u8, (y * 255 / (size - 1)) as u8, checker, 255]
-        })
-        .collect();
-    let n = 64u32;
-    // A ground plane of 2·n² triangles, its coordinates repeating 16 times across.
-    let mut mesh = meshes::terrain(n, 100.0, 0.0);
-    mesh.uvs = Some(mesh.positions.iter().map(|p| [(p[0] / 100.0 * 16.0) as f32, (p[1] / 100.0 * 16.0) as f32]).collect());
-    mesh.colours = Some(vec![[1.0; 4]; mesh.positions.len()]);
-    mesh.textures = vec![Texture::srgb(size, size, rgba)];
-    let camera = Camera { eye: [50.0, -8.0, 6.0], target: [50.0, 40.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 60.0, near: 0.5, far: 200.0 };
+    let mesh = meshes::textured_plane(64, size);
+    let [eye, target, up] = meshes::TEXTURED_PLANE_EYE;
+    let camera = Camera { eye, target, up, fov_deg: 60.0, near: 0.5, far: 200.0 };
     let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
     let mut peer = tileraster_peers::TexturedPipeline::new()?;
     let mut s = String::new();

@@ -37,6 +37,7 @@ impl Case {
     fn pipeline(&self) -> Pipeline {
         match self {
             Case::Height(..) => Pipeline::Height,
+            Case::Render(_, params) if params.samples > 1 => Pipeline::RenderMultisampled,
             Case::Render(..) => Pipeline::Render,
         }
     }
@@ -71,6 +72,46 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     // What the render pipeline computes: no fragment counts, so the hidden layers get no tests.
     let uncounted = RenderParams { count_fragments: false, ..fill };
     cases.push(("render: fill rate, 8 layers, ids, fragments not counted".into(), Case::Render(meshes::fill_layers(8), Box::new(uncounted))));
+    cases.extend(report_cases(&mesh, &base)?);
+    Ok(cases)
+}
+
+/// The render report's other scenes, one mode each: textures, lines, points, the fragment
+/// stage and multisampling.
+fn report_cases(terrain: &Mesh, base: &RenderParams) -> Result<Vec<(String, Case)>, String> {
+    use tileraster::render::{Address, Filter, LineRule, Wireframe, edges};
+    let mut cases = Vec::new();
+    let plane = meshes::textured_plane(64, 1024);
+    let [eye, target, up] = meshes::TEXTURED_PLANE_EYE;
+    let camera = Camera { eye, target, up, fov_deg: 60.0, near: 0.5, far: 200.0 };
+    let textured = RenderParams {
+        shading: Shading::Unlit,
+        cull: Cull::None,
+        eye: Some(eye),
+        count_fragments: false,
+        texture_filter: Some(Filter::Trilinear),
+        texture_address: Some(Address::Repeat),
+        ..RenderParams::new(1920, 1080, camera.view_projection(1920, 1080).map_err(|e| e.to_string())?)
+    };
+    cases.push((format!("render: textured plane, {} triangles, trilinear", plane.triangles.len()), Case::Render(plane, Box::new(textured))));
+    let lines = RenderParams {
+        shading: Shading::Ids,
+        faces: false,
+        wireframe: Some(Wireframe { rule: LineRule::Rectangle, colour: None }),
+        count_fragments: false,
+        ..base.clone()
+    };
+    let name = format!("render: wireframe, {} edges, rectangle rule", edges(&terrain.triangles).len());
+    cases.push((name, Case::Render(terrain.clone(), Box::new(lines))));
+    let points = RenderParams { shading: Shading::Ids, faces: false, points: Some(1.0), count_fragments: false, ..base.clone() };
+    cases.push((format!("render: points 1 px, {} vertices", terrain.positions.len()), Case::Render(terrain.clone(), Box::new(points))));
+    let marble_mesh = procedural::scene();
+    let marble = procedural::params(&marble_mesh, 1920, 1080).map_err(|e| e.to_string())?;
+    cases.push((format!("render: marble fragment shader, {} triangles", marble_mesh.triangles.len()), Case::Render(marble_mesh, Box::new(marble))));
+    for shading in [Shading::Ids, Shading::Phong] {
+        let msaa = RenderParams { shading, samples: 4, ..base.clone() };
+        cases.push((format!("render: terrain mesh, 4 samples, {}", shading.name()), Case::Render(terrain.clone(), Box::new(msaa))));
+    }
     Ok(cases)
 }
 

@@ -95,7 +95,7 @@ pub struct RenderInputs {
     pub depth_test: DepthTest,
     /// The frame's textures and their texels (`programs::texture`).
     pub textures: Vec<TextureInfo>,
-    pub texels: Vec<u32>,
+    pub texels: Vec<u64>,
     /// The frame's fragment shader; `None`: the built-in shadings.
     pub fragment: Option<crate::render::FragmentStage>,
 }

@@ -430,7 +430,7 @@ impl GpuContext {
         // The frame's textures, once for all its windows (bindings hold at least one element).
         let materials = match prepared.render.as_ref() {
             Some(s) => {
-                let texel_bytes = (s.texels.len() as u64 * 4).max(4);
+                let texel_bytes = (s.texels.len() as u64 * 8).max(8);
                 if texel_bytes > self.max_binding() {
                     return Err(Error::TexturesTooLarge { bytes: texel_bytes, limit: self.max_binding() });
                 }

@@ -99,3 +99,26 @@ pub fn fill_layers(layers: u32) -> Mesh {
     }
     mesh
 }
+
+/// The textures benchmark's ground plane: `2·n²` triangles over `0..100` in x and y, white,
+/// its texture coordinates repeating 16 times across, with one `size²` sRGB texture (a
+/// gradient in red and green over a checker of 16-texel squares in blue). Seen from
+/// [`TEXTURED_PLANE_EYE`] towards the horizon it is magnified near and minified far.
+pub fn textured_plane(n: u32, size: u32) -> Mesh {
+    use tileraster_core::render::Texture;
+    let rgba: Vec<u8> = (0..size * size)
+        .flat_map(|k| {
+            let (x, y) = (k % size, k / size);
+            let checker = if (x / 16 + y / 16) % 2 == 0 { 230 } else { 40 };
+            [(x * 255 / (size - 1)) as u8, (y * 255 / (size - 1)) as u8, checker, 255]
+        })
+        .collect();
+    let mut mesh = terrain(n, 100.0, 0.0);
+    mesh.uvs = Some(mesh.positions.iter().map(|p| [(p[0] / 100.0 * 16.0) as f32, (p[1] / 100.0 * 16.0) as f32]).collect());
+    mesh.colours = Some(vec![[1.0; 4]; mesh.positions.len()]);
+    mesh.textures = vec![Texture::srgb(size, size, rgba)];
+    mesh
+}
+
+/// Where [`textured_plane`] is seen from: eye, target, up.
+pub const TEXTURED_PLANE_EYE: [[f64; 3]; 3] = [[50.0, -8.0, 6.0], [50.0, 40.0, 0.0], [0.0, 0.0, 1.0]];

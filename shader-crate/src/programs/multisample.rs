@@ -140,7 +140,7 @@ pub fn resolve_samples<F: FragmentProgram + ?Sized>(
     setups: &[TriangleSetup],
     shading: &[TriangleShading],
     textures: &[TextureInfo],
-    texels: &[u32],
+    texels: &[u64],
     states: &[SampleState; MAX_SAMPLES],
     samples: u32,
     i: i32,

@@ -9,8 +9,8 @@
 //! rounding addition (`math::fixed::i64_to_f32`). So the colour is the same on every device.
 
 use crate::abi::{
-    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, Interpolation, MAX_LIGHTS, NO_TEXTURE, SHADING_UNLIT, ShadeMode, ShadeParams, TextureInfo,
-    TriangleSetup, TriangleShading,
+    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, Interpolation, MAX_LIGHTS, NO_TEXTURE, SHADING_UNLIT, ShadeMode, ShadeParams, ShadingRecords,
+    TextureInfo, TriangleSetup, TriangleShading,
 };
 use crate::math::edge::Side;
 use crate::math::fixed::i64_to_f32;
@@ -193,13 +193,13 @@ pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> 
 /// depth is `depth_bits`, coloured by `program`.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn shade_pixel<P: FragmentProgram + ?Sized>(
+pub fn shade_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
     program: &P,
     params: &ShadeParams,
     setups: &[TriangleSetup],
-    shading: &[TriangleShading],
+    shading: &R,
     textures: &[TextureInfo],
-    texels: &[u32],
+    texels: &[u64],
     slot: u32,
     depth_bits: u32,
     i: i32,
@@ -229,7 +229,7 @@ pub(crate) fn base_colour(
     s: &TriangleSetup,
     t: &TriangleShading,
     textures: &[TextureInfo],
-    texels: &[u32],
+    texels: &[u64],
     b: &[f32; 3],
     i: i32,
     j: i32,
@@ -268,7 +268,7 @@ pub fn fragment_colour(
     s: &TriangleSetup,
     t: &TriangleShading,
     textures: &[TextureInfo],
-    texels: &[u32],
+    texels: &[u64],
     depth_bits: u32,
     i: i32,
     j: i32,
@@ -321,14 +321,14 @@ pub fn source_over(src: u32, dst: u32) -> u32 {
 /// `slot`, of depth `owner_depth_bits`, shaded ([`shade_pixel`]).
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn shaded_pixel<P: FragmentProgram + ?Sized>(
+pub fn shaded_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
     program: &P,
     params: &ShadeParams,
     clear_bits: u32,
     setups: &[TriangleSetup],
-    shading: &[TriangleShading],
+    shading: &R,
     textures: &[TextureInfo],
-    texels: &[u32],
+    texels: &[u64],
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
@@ -372,7 +372,7 @@ pub fn shaded_pixel<P: FragmentProgram + ?Sized>(
         if blend && !(DepthProgram { clear: running, ..test }).passes(f32::from_bits(d)) {
             continue;
         }
-        let t = &shading[next as usize];
+        let t = &shading.record(next);
         let colour = program.colour(params, s, t, textures, texels, d, i, j);
         out = Shaded { colour: if blend { source_over(colour, out.colour) } else { colour }, face: t.face };
         if blend && write {

@@ -89,13 +89,13 @@ pub fn level_size(info: &TextureInfo, level: u32) -> (u32, u32) {
     (if w == 0 { 1 } else { w }, if h == 0 { 1 } else { h })
 }
 
-/// The 16-bit channels of texel `(x, y)` of `level`.
+/// The 16-bit channels of texel `(x, y)` of `level` (a texel is a `u64`, red in its low bits:
+/// one load).
 #[inline]
-fn fetch(texels: &[u32], info: &TextureInfo, level: u32, x: u32, y: u32) -> [u32; 4] {
+fn fetch(texels: &[u64], info: &TextureInfo, level: u32, x: u32, y: u32) -> [u32; 4] {
     let (w, _) = level_size(info, level);
-    let at = (info.offsets[level as usize] + 2 * (y * w + x)) as usize;
-    let (rg, ba) = (texels[at], texels[at + 1]);
-    [rg & 0xffff, rg >> 16, ba & 0xffff, ba >> 16]
+    let texel = texels[(info.offsets[level as usize] + y * w + x) as usize];
+    [texel as u32 & 0xffff, (texel >> 16) as u32 & 0xffff, (texel >> 32) as u32 & 0xffff, (texel >> 48) as u32]
 }
 
 /// Coordinate `u` (texture space, `[0, 1)` across) in a level `n` texels across, in fixed
@@ -108,7 +108,7 @@ fn subtexel(u: f32, n: u32) -> i64 {
 
 /// The texel coordinate `(u, v)` falls in, at `level`.
 #[inline]
-pub fn nearest(texels: &[u32], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
+pub fn nearest(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
     let (w, h) = level_size(info, level);
     let x = address(subtexel(u, w) >> SUBTEXEL_BITS, w, info.address_u());
     let y = address(subtexel(v, h) >> SUBTEXEL_BITS, h, info.address_v());
@@ -119,7 +119,7 @@ pub fn nearest(texels: &[u32], info: &TextureInfo, level: u32, u: f32, v: f32) -
 /// coordinate past their centres, rounded to 16 bits. (Loops over the axes and the texels, so
 /// that the stage holds one copy of the addressing.)
 #[inline]
-pub fn bilinear(texels: &[u32], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
+pub fn bilinear(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
     let (w, h) = level_size(info, level);
     let half = 1 << (SUBTEXEL_BITS - 1);
     let one = 1u32 << SUBTEXEL_BITS;
@@ -211,7 +211,7 @@ pub fn lod(width: u32, height: u32, d: [f32; 4]) -> i32 {
 /// The filtered texel of texture `info` at `(u, v)` with level of detail `lod` (from [`lod`]):
 /// 16-bit linear channels.
 #[inline]
-pub fn filtered(texels: &[u32], info: &TextureInfo, u: f32, v: f32, lod: i32) -> [u32; 4] {
+pub fn filtered(texels: &[u64], info: &TextureInfo, u: f32, v: f32, lod: i32) -> [u32; 4] {
     // The level to read, and the weight of the one above it (trilinear between two levels).
     let (level, upper) = match info.filter() {
         Filter::Nearest => return nearest(texels, info, 0, u, v),

@@ -62,10 +62,10 @@ fn srgb_table() -> [u16; 256] {
 }
 
 /// The textures as the kernels take them: their descriptions and their texels.
-pub(super) fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Option<Address>) -> Result<(Vec<TextureInfo>, Vec<u32>), Error> {
+pub(super) fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Option<Address>) -> Result<(Vec<TextureInfo>, Vec<u64>), Error> {
     let table = srgb_table();
     let mut infos = Vec::with_capacity(textures.len());
-    let mut texels: Vec<u32> = Vec::new();
+    let mut texels: Vec<u64> = Vec::new();
     for (index, texture) in textures.iter().enumerate() {
         texture.check(index)?;
         let filter = filter.unwrap_or(texture.filter);
@@ -81,13 +81,12 @@ pub(super) fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Op
             .collect();
         let (mut lw, mut lh) = (w, h);
         for k in 0..levels as usize {
-            let offset = u32::try_from(texels.len()).ok().filter(|o| o.checked_add(2 * lw * lh).is_some());
+            let offset = u32::try_from(texels.len()).ok().filter(|o| o.checked_add(lw * lh).is_some());
             let Some(offset) = offset else {
-                return Err(Error::TextureTooLarge { texture: index, width: w, height: h, reason: "the frame's texels pass 2^32 words".into() });
+                return Err(Error::TextureTooLarge { texture: index, width: w, height: h, reason: "the frame's texels pass 2^32".into() });
             };
             info.offsets[k] = offset;
-            let words: Vec<[u32; 2]> = level.par_iter().map(|t| [t[0] as u32 | (t[1] as u32) << 16, t[2] as u32 | (t[3] as u32) << 16]).collect();
-            texels.extend_from_slice(words.as_flattened());
+            texels.par_extend(level.par_iter().map(|t| t.iter().rev().fold(0u64, |word, &c| word << 16 | c as u64)));
             if k + 1 < levels as usize {
                 (level, lw, lh) = halve(&level, lw, lh);
             }

@@ -1,13 +1,13 @@
-//! The GPU backend's two ways of meeting a tile's bin in `fine_raster` and `fine_depth`, each
-//! forced on every device: staged batches, and every pixel walking the bin (the way a CPU
-//! implementation of Vulkan takes for the heightfield's short bins). Both give the CPU
+//! The GPU backend's two ways of meeting a tile's bin in `fine_raster`, `fine_depth` and
+//! `fine_samples`, each forced on every device: staged batches, and every pixel walking the
+//! bin (the way a CPU implementation of Vulkan takes). Both give the CPU
 //! backend's bits and statistics, the hidden triangles' count included. One test in a binary
 //! of its own: the way is process-wide.
 
 mod common;
 
 use common::{assert_frame_parity, assert_parity};
-use tileraster::render::{Camera, Cull, DepthFunc, RenderParams};
+use tileraster::render::{Camera, Cull, DepthFunc, RenderParams, Shading};
 use tileraster::{FineWalk, Grid, Mode, Outputs, Params, Skips, set_gpu_fine_walk};
 use tileraster_testkit::{meshes, scenes};
 
@@ -58,6 +58,14 @@ fn both_ways_through_the_bins_give_the_cpu_bits() {
                     let what = format!("{name}, {}, fragments {count_fragments}, hidden rejected {hidden_triangles}, {walk:?}", depth_func.name());
                     let frame = assert_frame_parity(&what, mesh, &params);
                     assert!(!hidden_triangles || !name.starts_with("8 layers") || frame.stats.raster.triangles_hidden > 0, "{what}: nothing hidden");
+                    // The multisampled stage walks or stages its bins as the others do.
+                    if !hidden_triangles {
+                        for samples in [4, 8] {
+                            let params = RenderParams { samples, shading: Shading::Phong, ..params.clone() };
+                            let frame = assert_frame_parity(&format!("{what}, {samples} samples"), mesh, &params);
+                            assert!(frame.stats.pixels_covered > 1000, "{what}, {samples} samples: {} pixels covered", frame.stats.pixels_covered);
+                        }
+                    }
                 }
             }
         }

@@ -646,27 +646,45 @@ pub struct TriangleShading {
 pub const SHADING_VEC4S: u32 = (core::mem::size_of::<TriangleShading>() / 16) as u32;
 const _: () = assert!(core::mem::size_of::<TriangleShading>() == 16 * SHADING_VEC4S as usize && SHADING_VEC4S == 11);
 
-/// Where the shade stages read a triangle's [`TriangleShading`]: the typed records on the host;
-/// on the GPU the same buffer as 16-byte words, so that a record is eleven loads. (A CPU
-/// implementation of Vulkan loads storage memory a lane at a time, in a loop per load
+/// Where the shade stages read a triangle's [`TriangleShading`]: the typed records on the host
+/// (borrowed); on the GPU the same buffer as 16-byte words, so that a record is eleven loads.
+/// (A CPU implementation of Vulkan loads storage memory a lane at a time, in a loop per load
 /// instruction whatever its width: field by field, a record would be 44 such loops.)
 pub trait ShadingRecords {
-    fn record(&self, slot: u32) -> TriangleShading;
+    type Record<'a>: core::ops::Deref<Target = TriangleShading>
+    where
+        Self: 'a;
+    fn record(&self, slot: u32) -> Self::Record<'_>;
 }
 
 impl ShadingRecords for [TriangleShading] {
+    type Record<'a> = &'a TriangleShading;
     #[inline(always)]
-    fn record(&self, slot: u32) -> TriangleShading {
-        self[slot as usize]
+    fn record(&self, slot: u32) -> &TriangleShading {
+        &self[slot as usize]
+    }
+}
+
+/// A record put together from words.
+#[cfg(target_arch = "spirv")]
+pub struct Assembled<T>(T);
+
+#[cfg(target_arch = "spirv")]
+impl<T> core::ops::Deref for Assembled<T> {
+    type Target = T;
+    #[inline(always)]
+    fn deref(&self) -> &T {
+        &self.0
     }
 }
 
 #[cfg(target_arch = "spirv")]
 impl ShadingRecords for [spirv_std::glam::UVec4] {
+    type Record<'a> = Assembled<TriangleShading>;
     #[inline(always)]
-    fn record(&self, slot: u32) -> TriangleShading {
+    fn record(&self, slot: u32) -> Assembled<TriangleShading> {
         let at = (slot * SHADING_VEC4S) as usize;
-        TriangleShading {
+        Assembled(TriangleShading {
             attributes: [
                 vertex_attributes(self[at], self[at + 1], self[at + 2]),
                 vertex_attributes(self[at + 3], self[at + 4], self[at + 5]),
@@ -677,7 +695,7 @@ impl ShadingRecords for [spirv_std::glam::UVec4] {
             texture: self[at + 10].y,
             flags: self[at + 10].z,
             _pad: self[at + 10].w,
-        }
+        })
     }
 }
 

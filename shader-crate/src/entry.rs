@@ -7,9 +7,7 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::abi::{
-    Counter, Coverage, FrameParams, OutputSet, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput, TriangleSetup, TriangleShading,
-};
+use crate::abi::{Counter, Coverage, FrameParams, OutputSet, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput, TriangleSetup};
 use crate::memory::{LaneValue, Lanes};
 use crate::programs::depth::DepthProgram;
 use crate::programs::fragment::FragmentProgram;
@@ -226,10 +224,14 @@ pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
 
 /// The body of every `fine_samples` entry point: every sample's coverage and depth, then each
 /// pixel coloured by `fragment` and resolved, in one workgroup per tile. Its tiles take neither
-/// the full-tile path nor the depth bounds (both speak of pixel centres).
+/// the full-tile path nor the depth bounds (both speak of pixel centres). With `walk`, each
+/// pixel walks the bin (`multisample::walk_samples`) instead of the staged batches.
 #[allow(clippy::too_many_arguments)]
-pub fn fine_samples_workgroup<F: FragmentProgram>(
+pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     fragment: &F,
+    walk: bool,
+    lanes: &Lanes,
+    setup_words: &[u64],
     wg: UVec3,
     lid: u32,
     frame: &FrameParams,
@@ -242,7 +244,7 @@ pub fn fine_samples_workgroup<F: FragmentProgram>(
     stats: &mut [u32],
     tile_stats: &mut [u32],
     params: &ShadeParams,
-    shading: &[TriangleShading],
+    shading: &R,
     textures: &[TextureInfo],
     texels: &[u64],
     colours: &mut [u32],
@@ -260,15 +262,19 @@ pub fn fine_samples_workgroup<F: FragmentProgram>(
         fine::count_tile(lid, Counter::TilesEmpty, stats);
     } else {
         fine::count_tile(lid, Counter::TilesPartial, stats);
-        let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
-        let mut batch_start = 0;
-        while batch_start < bin_len {
-            let batch_len = fine::batch_len(bin_len, batch_start);
-            fine::fine_load(&program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, u64::MAX, shared);
-            barrier();
-            multisample::test_samples(&program, i, j, batch_len, shared, params.samples, &mut states, &mut count);
-            barrier();
-            batch_start += BATCH;
+        if walk {
+            multisample::walk_samples(&program, lanes, bins, bin_start, bin_len, setup_words, i, j, params.samples, &mut states, &mut count);
+        } else {
+            let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
+            let mut batch_start = 0;
+            while batch_start < bin_len {
+                let batch_len = fine::batch_len(bin_len, batch_start);
+                fine::fine_load(&program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, u64::MAX, shared);
+                barrier();
+                multisample::test_samples(&program, i, j, batch_len, shared, params.samples, &mut states, &mut count);
+                barrier();
+                batch_start += BATCH;
+            }
         }
     }
     fine::write_tile_stats(lid, tile, bin_len, 0, frame, tile_stats);

@@ -347,6 +347,7 @@ pub const STAGES: [StageInfo; 8] = [
             read(Buffer::Texels),
             write(Buffer::Colours),
             write(Buffer::Faces),
+            read(Buffer::SetupWords),
         ],
         pipelines: &[Pipeline::RenderMultisampled],
     },

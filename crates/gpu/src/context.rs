@@ -212,7 +212,8 @@ struct GpuContext {
 struct Build {
     row: usize,
     fragment: Option<usize>,
-    spec: Option<(u32, u32)>,
+    /// Specialisation constants set in its module: `(SpecId, value)`.
+    spec: [Option<(u32, u32)>; 2],
 }
 
 /// Whether the fine-raster stages' pixels walk their tile's bin (`fine::WALK`) rather than
@@ -530,20 +531,24 @@ impl GpuContext {
         };
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
-                _ if info.stage.colours_fragments() => Build { row, fragment, spec: shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)) },
+                _ if info.stage.colours_fragments() => {
+                    // The multisampled stage walks its bins where the others do.
+                    let walk = (info.stage == Stage::FineSamples).then_some((fine::WALK_SPEC_ID, if walks { fine::WALK } else { 0 }));
+                    Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), walk] }
+                }
                 // Binning writes its entries' keys where `fine_depth`'s walk rejects hidden
                 // triangles (`stages::bin::entry_keys`).
                 Stage::BinFill => {
                     let keys = walks && prepared.pipeline() == Pipeline::Render && prepared.params.skips.hidden_triangles;
-                    Build { row, fragment: None, spec: Some((bin::KEYS_SPEC_ID, keys as u32)) }
+                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, keys as u32)), None] }
                 }
                 Stage::FineRaster | Stage::FineDepth => {
                     let walk = if walks { fine::WALK } else { 0 };
                     // `fine_raster`'s value mode shares the constant.
                     let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { 0 };
-                    Build { row, fragment: None, spec: Some((fine::WALK_SPEC_ID, mode | walk)) }
+                    Build { row, fragment: None, spec: [Some((fine::WALK_SPEC_ID, mode | walk)), None] }
                 }
-                _ => Build { row, fragment: None, spec: None },
+                _ => Build { row, fragment: None, spec: [None; 2] },
             };
             rows[row] = Some(match self.pipelines.iter().position(|(b, _)| *b == build) {
                 Some(k) => k,
@@ -552,7 +557,7 @@ impl GpuContext {
                         Some(f) => (self.fragments[f].module(self.float_controls_declared), format!("fragment shader {}", self.fragments[f].name())),
                         None => (self.kernels, format!("tileraster kernels, {}", info.name)),
                     };
-                    let module = passthrough_module(&self.gpu.device, &label, module, build.spec, |other| other.stage == info.stage);
+                    let module = passthrough_module(&self.gpu.device, &label, module, &build.spec, |other| other.stage == info.stage);
                     self.pipelines.push((build, stage_pipeline(&self.gpu.device, &module, info, cache)));
                     self.pipelines.len() - 1
                 }
@@ -700,7 +705,7 @@ impl GpuContext {
     /// Whether the binning pipeline among `rows` writes its entries' keys (`bin::KEYS_SPEC_ID`).
     fn writes_bin_keys(&self, rows: &[Option<usize>]) -> bool {
         let bin_fill = STAGES.iter().position(|s| s.stage == Stage::BinFill);
-        bin_fill.and_then(|row| rows[row]).is_some_and(|k| self.pipelines[k].0.spec == Some((bin::KEYS_SPEC_ID, 1)))
+        bin_fill.and_then(|row| rows[row]).is_some_and(|k| self.pipelines[k].0.spec[0] == Some((bin::KEYS_SPEC_ID, 1)))
     }
 
     /// The largest binding a bin entry takes room in: its slot (4 bytes), or its two keys.
@@ -893,9 +898,9 @@ fn copy_tile_rows(src: &[u32], frame: &FrameParams, window: &tileraster_core::Wi
 /// its `NoContraction` decorations and float controls intact. With `spec` (a `SpecId` and a
 /// value), the module's specialisation constants of that id are set first
 /// (`crate::specialise`): the driver then compiles only the branches that value takes.
-fn passthrough_module(device: &wgpu::Device, label: &str, module: &[u8], spec: Option<(u32, u32)>, rows: impl Fn(&StageInfo) -> bool) -> wgpu::ShaderModule {
+fn passthrough_module(device: &wgpu::Device, label: &str, module: &[u8], spec: &[Option<(u32, u32)>], rows: impl Fn(&StageInfo) -> bool) -> wgpu::ShaderModule {
     let mut words = wgpu::util::make_spirv_raw(module);
-    if let Some((id, value)) = spec {
+    for &(id, value) in spec.iter().flatten() {
         // A module without the constant (or not SPIR-V) is left as it is: the device's own
         // validation reports what is wrong with it.
         if let Ok((specialised, _)) = crate::specialise::specialise(&words, id, value) {

@@ -155,7 +155,7 @@ macro_rules! shading_entry_points {
         pub mod shading_entry_points {
             #[allow(unused_imports)]
             use super::*;
-            use $crate::abi::{FrameParams, ShadeParams, ShadeVariant, TextureInfo, TriangleSetup, TriangleShading};
+            use $crate::abi::{FrameParams, ShadeParams, ShadeVariant, TextureInfo, TriangleSetup};
             use $crate::entry::{UVec3, spirv};
             use $crate::stages::fine::FineShared;
 
@@ -204,18 +204,41 @@ macro_rules! shading_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] stats: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] params: &ShadeParams,
-                #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] shading: &[TriangleShading],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] shading: &[$crate::entry::UVec4],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] textures: &[TextureInfo],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] texels: &[u64],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] colours: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] faces: &mut [u32],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] setup_words: &[u64],
+                #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
                 #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
                 #[spirv(spec_constant(id = 0, default = 0))] variant: u32,
+                #[spirv(spec_constant(id = 1, default = 0))] way: u32,
             ) {
                 let params = &ShadeVariant(variant).apply(params);
                 $crate::entry::fine_samples_workgroup(
-                    &$program, wg, lid, frame, setups, offsets, bins, values, owners, coverage, stats, tile_stats, params, shading, textures, texels, colours,
-                    faces, shared,
+                    &$program,
+                    way & $crate::stages::fine::WALK != 0,
+                    &$crate::memory::Lanes::new(subgroup_lane),
+                    setup_words,
+                    wg,
+                    lid,
+                    frame,
+                    setups,
+                    offsets,
+                    bins,
+                    values,
+                    owners,
+                    coverage,
+                    stats,
+                    tile_stats,
+                    params,
+                    shading,
+                    textures,
+                    texels,
+                    colours,
+                    faces,
+                    shared,
                 );
             }
         }

@@ -59,10 +59,12 @@ pub fn fixed_floor(x: f32, frac_bits: u32, limit: i64) -> i64 {
     if negative { -clamped } else { clamped }
 }
 
-/// Texel index `i` of a level `n` texels across, as `mode` addresses it.
+/// Texel index `i` of a level `n` texels across, as `mode` addresses it. (`i32`: coordinates
+/// are clamped to ±2^30 texels, and a GPU divides 32-bit integers in hardware where a 64-bit
+/// remainder is a long routine.)
 #[inline]
-pub fn address(i: i64, n: u32, mode: Address) -> u32 {
-    let n = n as i64;
+pub fn address(i: i32, n: u32, mode: Address) -> u32 {
+    let n = n as i32;
     match mode {
         Address::Repeat => i.rem_euclid(n) as u32,
         Address::ClampToEdge => {
@@ -110,8 +112,8 @@ fn subtexel(u: f32, n: u32) -> i64 {
 #[inline]
 pub fn nearest(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
     let (w, h) = level_size(info, level);
-    let x = address(subtexel(u, w) >> SUBTEXEL_BITS, w, info.address_u());
-    let y = address(subtexel(v, h) >> SUBTEXEL_BITS, h, info.address_v());
+    let x = address((subtexel(u, w) >> SUBTEXEL_BITS) as i32, w, info.address_u());
+    let y = address((subtexel(v, h) >> SUBTEXEL_BITS) as i32, h, info.address_v());
     fetch(texels, info, level, x, y)
 }
 
@@ -130,7 +132,8 @@ pub fn bilinear(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) 
         let (c, n, mode) = if axis == 0 { (u, w, info.address_u()) } else { (v, h, info.address_v()) };
         let sc = subtexel(c, n) - half;
         frac[axis] = (sc & (one as i64 - 1)) as u32;
-        let i0 = sc >> SUBTEXEL_BITS;
+        // Within ±(2^30 + 1): an `i32`, and so is the next.
+        let i0 = (sc >> SUBTEXEL_BITS) as i32;
         first[axis] = address(i0, n, mode);
         second[axis] = address(i0 + 1, n, mode);
         axis += 1;
@@ -305,13 +308,13 @@ mod tests {
     #[test]
     fn address_modes_follow_their_definitions() {
         for n in [1u32, 2, 5, 16] {
-            for i in -40i64..40 {
-                let n64 = n as i64;
-                assert_eq!(address(i, n, Address::Repeat) as i64, ((i % n64) + n64) % n64);
-                assert_eq!(address(i, n, Address::ClampToEdge) as i64, i.clamp(0, n64 - 1));
+            for i in (-40i32..40).chain([-(1 << 30) - 1, -(1 << 30), (1 << 30) + 2, 1_234_567_891]) {
+                let (n64, i) = (n as i64, i as i64);
+                assert_eq!(address(i as i32, n, Address::Repeat) as i64, ((i % n64) + n64) % n64);
+                assert_eq!(address(i as i32, n, Address::ClampToEdge) as i64, i.clamp(0, n64 - 1));
                 // Mirrored: 0 1 .. n−1 n−1 .. 0 0 1 ..
                 let period = i.rem_euclid(2 * n64);
-                assert_eq!(address(i, n, Address::MirroredRepeat) as i64, period.min(2 * n64 - 1 - period), "i {i}, n {n}");
+                assert_eq!(address(i as i32, n, Address::MirroredRepeat) as i64, period.min(2 * n64 - 1 - period), "i {i}, n {n}");
             }
         }
     }

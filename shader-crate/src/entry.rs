@@ -95,7 +95,7 @@ pub fn bin_fill(
     let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
         let setup = &setups[listed[t as usize] as usize];
-        fill_tiles(keys != 0, setup, frame, part, offsets, cursors, bins, bin_keys);
+        fill_tiles(keys & 1 != 0, keys, setup, frame, part, offsets, cursors, bins, bin_keys);
     }
 }
 
@@ -165,7 +165,7 @@ pub fn fine_depth(
     #[spirv(spec_constant(id = 1, default = 0))] way: u32,
 ) {
     fine_raster_workgroup(
-        &DepthProgram::of(frame),
+        &DepthProgram::specialised(frame, way),
         way & fine::WALK != 0,
         &Lanes::new(subgroup_lane),
         wg,
@@ -229,6 +229,7 @@ pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
 #[allow(clippy::too_many_arguments)]
 pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     fragment: &F,
+    program: &DepthProgram,
     walk: bool,
     lanes: &Lanes,
     setup_words: &[u64],
@@ -251,7 +252,6 @@ pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     faces: &mut [u32],
     shared: &mut FineShared<TriangleSetup, u64>,
 ) {
-    let program = DepthProgram::of(frame);
     let tile = wg.y * frame.tiles_x + wg.x;
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
@@ -263,15 +263,15 @@ pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     } else {
         fine::count_tile(lid, Counter::TilesPartial, stats);
         if walk {
-            multisample::walk_samples(&program, lanes, bins, bin_start, bin_len, setup_words, i, j, params.samples, &mut states, &mut count);
+            multisample::walk_samples(program, lanes, bins, bin_start, bin_len, setup_words, i, j, params.samples, &mut states, &mut count);
         } else {
             let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
             let mut batch_start = 0;
             while batch_start < bin_len {
                 let batch_len = fine::batch_len(bin_len, batch_start);
-                fine::fine_load(&program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, u64::MAX, shared);
+                fine::fine_load(program, lid, bins, bin_start, bin_len, batch_start, setups, &tile_rect, u64::MAX, shared);
                 barrier();
-                multisample::test_samples(&program, i, j, batch_len, shared, params.samples, &mut states, &mut count);
+                multisample::test_samples(program, i, j, batch_len, shared, params.samples, &mut states, &mut count);
                 barrier();
                 batch_start += BATCH;
             }
@@ -279,7 +279,7 @@ pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     }
     fine::write_tile_stats(lid, tile, bin_len, 0, frame, tile_stats);
     if inside {
-        let out = multisample::resolve_samples(fragment, params, &program, setups, shading, textures, texels, &states, params.samples, i, j);
+        let out = multisample::resolve_samples(fragment, params, program, setups, shading, textures, texels, &states, params.samples, i, j);
         let k = fine::window_index(i, j, frame);
         values[k] = out.depth;
         colours[k] = out.colour;

@@ -10,6 +10,7 @@ use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
+use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::stages::{bin, fine};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
@@ -529,23 +530,25 @@ impl GpuContext {
             w if w == FineWalk::Never as u8 => false,
             _ => walks_bins(self.gpu.info.device_type),
         };
+        // The frame's depth test, fixed in the stages that test depth (`DepthProgram::spec_bits`).
+        let depth = prepared.render.as_ref().map_or(0, |r| DepthProgram::spec_bits(r.depth_test));
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => {
                     // The multisampled stage walks its bins where the others do.
-                    let walk = (info.stage == Stage::FineSamples).then_some((fine::WALK_SPEC_ID, if walks { fine::WALK } else { 0 }));
+                    let walk = (info.stage == Stage::FineSamples).then_some((fine::WALK_SPEC_ID, if walks { fine::WALK } else { 0 } | depth));
                     Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), walk] }
                 }
                 // Binning writes its entries' keys where `fine_depth`'s walk rejects hidden
                 // triangles (`stages::bin::entry_keys`).
                 Stage::BinFill => {
                     let keys = walks && prepared.pipeline() == Pipeline::Render && prepared.params.skips.hidden_triangles;
-                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, keys as u32)), None] }
+                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, if keys { 1 | depth } else { 0 })), None] }
                 }
                 Stage::FineRaster | Stage::FineDepth => {
                     let walk = if walks { fine::WALK } else { 0 };
-                    // `fine_raster`'s value mode shares the constant.
-                    let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { 0 };
+                    // `fine_raster`'s value mode shares the constant, as `fine_depth`'s depth test.
+                    let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { depth };
                     Build { row, fragment: None, spec: [Some((fine::WALK_SPEC_ID, mode | walk)), None] }
                 }
                 _ => Build { row, fragment: None, spec: [None; 2] },
@@ -705,7 +708,7 @@ impl GpuContext {
     /// Whether the binning pipeline among `rows` writes its entries' keys (`bin::KEYS_SPEC_ID`).
     fn writes_bin_keys(&self, rows: &[Option<usize>]) -> bool {
         let bin_fill = STAGES.iter().position(|s| s.stage == Stage::BinFill);
-        bin_fill.and_then(|row| rows[row]).is_some_and(|k| self.pipelines[k].0.spec[0] == Some((bin::KEYS_SPEC_ID, 1)))
+        bin_fill.and_then(|row| rows[row]).is_some_and(|k| matches!(self.pipelines[k].0.spec[0], Some((bin::KEYS_SPEC_ID, value)) if value & 1 != 0))
     }
 
     /// The largest binding a bin entry takes room in: its slot (4 bytes), or its two keys.

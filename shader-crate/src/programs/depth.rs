@@ -11,7 +11,7 @@
 //! `Σ (w_k · c3) · z_k` in `f32`, each operation correctly rounded (see
 //! `docs/numeric-contract.md` for its bound).
 
-use crate::abi::{Coverage, DepthFunc, FrameParams, PixelRect, TriangleSetup};
+use crate::abi::{Coverage, DepthFunc, DepthTest, FrameParams, PixelRect, TriangleSetup};
 use crate::programs::height::{barycentric_bits, barycentric_bits_of};
 use crate::stages::fine::PixelProgram;
 
@@ -29,6 +29,30 @@ impl DepthProgram {
     #[inline]
     pub fn of(frame: &FrameParams) -> DepthProgram {
         DepthProgram { func: frame.depth_test.func(), write: frame.depth_test.write(), clear: f32::from_bits(frame.nodata_bits) }
+    }
+
+    /// The bit of a stage's specialisation constant (`fine::WALK_SPEC_ID`, or
+    /// `bin::KEYS_SPEC_ID`) that says it fixes the frame's depth test in the bits above it...
+    pub const SPECIALISED: u32 = 1 << 16;
+    const FUNC_SHIFT: u32 = 17;
+    const WRITE_BIT: u32 = 1 << 20;
+
+    /// ... `test` in those bits: the host writes the frame's own, so that the driver folds
+    /// the depth functions the frame does not use out of the key, the test and the resolve (a
+    /// CPU implementation of Vulkan runs every arm of a `match` on a uniform).
+    pub fn spec_bits(test: DepthTest) -> u32 {
+        Self::SPECIALISED | (test.func() as u32) << Self::FUNC_SHIFT | if test.write() { Self::WRITE_BIT } else { 0 }
+    }
+
+    /// [`Self::of`], with the depth test the stage's constant `spec` fixes where it fixes one
+    /// (the same as the frame's: [`Self::spec_bits`]).
+    #[inline]
+    pub fn specialised(frame: &FrameParams, spec: u32) -> DepthProgram {
+        let program = Self::of(frame);
+        if spec & Self::SPECIALISED == 0 {
+            return program;
+        }
+        DepthProgram { func: DepthFunc::from_code(spec >> Self::FUNC_SHIFT & 0x7), write: spec & Self::WRITE_BIT != 0, ..program }
     }
 
     /// How this program's keys order passing fragments by depth: the nearest first (`Less…`),

@@ -218,6 +218,7 @@ macro_rules! shading_entry_points {
                 let params = &ShadeVariant(variant).apply(params);
                 $crate::entry::fine_samples_workgroup(
                     &$program,
+                    &$crate::programs::depth::DepthProgram::specialised(frame, way),
                     way & $crate::stages::fine::WALK != 0,
                     &$crate::memory::Lanes::new(subgroup_lane),
                     setup_words,

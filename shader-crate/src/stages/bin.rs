@@ -163,11 +163,13 @@ pub const KEYS_SPEC_ID: u32 = 1;
 
 /// Fill pass: claim a slot in each of those tiles' bins and write the triangle's setup slot,
 /// with `FULL_TILE_BIT` where it covers the whole tile; with `write_keys`, the entry's keys
-/// under the frame's depth test too (`entry_keys`): the occluder key at the entry's index of
-/// `keys`, the lowest key at the window's number of entries past it.
+/// under the frame's depth test too (`entry_keys`; fixed by `depth_spec` where it holds
+/// `DepthProgram::spec_bits`): the occluder key at the entry's index of `keys`, the lowest key
+/// at the window's number of entries past it.
 #[allow(clippy::too_many_arguments)]
 pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized, K: Slots<u64> + ?Sized>(
     write_keys: bool,
+    depth_spec: u32,
     setup: &TriangleSetup,
     frame: &FrameParams,
     part: u32,
@@ -185,7 +187,7 @@ pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized, K: Slots<u64> + ?Sized>
         let word = setup.coverage.slot | if cover == TileCover::Full { FULL_TILE_BIT } else { 0 };
         bins.store(entry as usize, word);
         if write_keys {
-            let (occluder, lowest) = entry_keys(&DepthProgram::of(frame), setup, word, &tile_rect(tx, ty, frame));
+            let (occluder, lowest) = entry_keys(&DepthProgram::specialised(frame, depth_spec), setup, word, &tile_rect(tx, ty, frame));
             keys.store(entry as usize, occluder);
             keys.store((entries + entry) as usize, lowest);
         }

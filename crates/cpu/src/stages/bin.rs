@@ -24,7 +24,7 @@ pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32], o
     listed.par_iter().for_each(|&t| {
         let s = &setups[t as usize];
         let no_keys: &mut [u64] = &mut [];
-        (0..frame.bin_parts).for_each(|part| bin::bin_fill(false, s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink }, no_keys))
+        (0..frame.bin_parts).for_each(|part| bin::bin_fill(false, 0, s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink }, no_keys))
     });
     bins.into_iter().map(AtomicU32::into_inner).collect()
 }

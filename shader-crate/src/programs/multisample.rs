@@ -100,8 +100,9 @@ pub fn test_samples(
 /// tests its samples against every triangle of the tile's bin whose rectangle holds it, a
 /// group of eight lanes taking the bin eight entries at a time, voting on which reach its
 /// pixels, and reading each record it must test together (`memory::Lanes`). No workgroup
-/// memory and no barrier. The host's twin, one pixel at a time, tests the same triangles that
-/// hold its pixel: the same states and count.
+/// memory and no barrier. It tests every triangle that holds the pixel, as the batches do, and
+/// a sample's owner is the smallest key whatever the order: the CPU backend's twin keeps the
+/// batches, with the same states and count.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn walk_samples(

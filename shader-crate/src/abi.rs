@@ -775,9 +775,9 @@ impl Address {
     }
 }
 
-/// One texture of a frame: its mip levels in the texel buffer (two words a texel: red and
-/// green, then blue and alpha, 16 bits each, linear: sRGB textures are decoded on the host
-/// before any filtering) and how it is sampled.
+/// One texture of a frame: its mip levels in the texel buffer (a `u64` a texel: red, green,
+/// blue and alpha from the low bits, 16 bits each, linear: sRGB textures are decoded on the
+/// host before any filtering) and how it is sampled.
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]

@@ -95,7 +95,7 @@ pub fn bin_fill(
     let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
         let setup = &setups[listed[t as usize] as usize];
-        fill_tiles(keys & 1 != 0, keys, setup, frame, part, offsets, cursors, bins, bin_keys);
+        fill_tiles(keys & bin::WRITE_KEYS != 0, keys, setup, frame, part, offsets, cursors, bins, bin_keys);
     }
 }
 

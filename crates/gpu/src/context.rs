@@ -532,21 +532,21 @@ impl GpuContext {
         };
         // The frame's depth test, fixed in the stages that test depth (`DepthProgram::spec_bits`).
         let depth = prepared.render.as_ref().map_or(0, |r| DepthProgram::spec_bits(r.depth_test));
+        let walk = if walks { fine::WALK } else { 0 };
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => {
                     // The multisampled stage walks its bins where the others do.
-                    let walk = (info.stage == Stage::FineSamples).then_some((fine::WALK_SPEC_ID, if walks { fine::WALK } else { 0 } | depth));
-                    Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), walk] }
+                    let way = (info.stage == Stage::FineSamples).then_some((fine::WALK_SPEC_ID, walk | depth));
+                    Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), way] }
                 }
                 // Binning writes its entries' keys where `fine_depth`'s walk rejects hidden
                 // triangles (`stages::bin::entry_keys`).
                 Stage::BinFill => {
                     let keys = walks && prepared.pipeline() == Pipeline::Render && prepared.params.skips.hidden_triangles;
-                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, if keys { 1 | depth } else { 0 })), None] }
+                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, if keys { bin::WRITE_KEYS | depth } else { 0 })), None] }
                 }
                 Stage::FineRaster | Stage::FineDepth => {
-                    let walk = if walks { fine::WALK } else { 0 };
                     // `fine_raster`'s value mode shares the constant, as `fine_depth`'s depth test.
                     let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { depth };
                     Build { row, fragment: None, spec: [Some((fine::WALK_SPEC_ID, mode | walk)), None] }
@@ -708,7 +708,9 @@ impl GpuContext {
     /// Whether the binning pipeline among `rows` writes its entries' keys (`bin::KEYS_SPEC_ID`).
     fn writes_bin_keys(&self, rows: &[Option<usize>]) -> bool {
         let bin_fill = STAGES.iter().position(|s| s.stage == Stage::BinFill);
-        bin_fill.and_then(|row| rows[row]).is_some_and(|k| matches!(self.pipelines[k].0.spec[0], Some((bin::KEYS_SPEC_ID, value)) if value & 1 != 0))
+        bin_fill
+            .and_then(|row| rows[row])
+            .is_some_and(|k| matches!(self.pipelines[k].0.spec[0], Some((bin::KEYS_SPEC_ID, value)) if value & bin::WRITE_KEYS != 0))
     }
 
     /// The largest binding a bin entry takes room in: its slot (4 bytes), or its two keys.

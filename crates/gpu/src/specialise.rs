@@ -2,9 +2,10 @@
 //!
 //! The shading entry points take the frame's `ShadeVariant` as specialisation constant
 //! `ShadeVariant::SPEC_ID`; `fine_raster` the frame's value mode and its way through the bins
-//! as `HeightProgram::MODE_SPEC_ID`, which is also `fine_depth`'s way (`fine::WALK_SPEC_ID`)
-//! and whether `bin_fill` writes its keys (`bin::KEYS_SPEC_ID`): each pipeline is built from its
-//! own copy of the module. wgpu hands a passthrough module to the driver without
+//! as `HeightProgram::MODE_SPEC_ID`, which is also the way of `fine_depth` and `fine_samples`
+//! (`fine::WALK_SPEC_ID`, with the frame's depth test: `DepthProgram::spec_bits`) and whether
+//! `bin_fill` writes its keys (`bin::KEYS_SPEC_ID`): each pipeline is built from its own copy
+//! of the module. wgpu hands a passthrough module to the driver without
 //! specialisation info, so the backend writes the value into the module instead: it becomes the
 //! constant's default, which the driver then uses as it would a specialised value, folding the
 //! branches the frame does not take out of the pipeline.

@@ -156,10 +156,12 @@ pub fn bin_count<C: Counters + ?Sized>(setup: &TriangleSetup, frame: &FrameParam
     });
 }
 
-/// The `SpecId` of `bin_fill`'s constant: non-zero where it writes the entries' keys (under the
-/// frame's depth test), because the render pipeline's fine stage walks and rejects hidden
-/// triangles.
+/// The `SpecId` of `bin_fill`'s constant...
 pub const KEYS_SPEC_ID: u32 = 1;
+/// ... and its bit that makes it write the entries' keys, because the render pipeline's fine
+/// stage walks and rejects hidden triangles (under the frame's depth test, which the constant
+/// may fix too: `DepthProgram::spec_bits`).
+pub const WRITE_KEYS: u32 = 1;
 
 /// Fill pass: claim a slot in each of those tiles' bins and write the triangle's setup slot,
 /// with `FULL_TILE_BIT` where it covers the whole tile; with `write_keys`, the entry's keys

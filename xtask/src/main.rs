@@ -23,11 +23,12 @@
 //!   `--fragment`: only its programmable fragment stage section.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
-//! - `cargo xtask stage-times [--walk always|never|auto] [--cpu | --gpu] [NAME_PART]`: a
+//! - `cargo xtask stage-times [--walk always|never|auto] [--runs N] [--cpu | --gpu] [NAME_PART]`: a
 //!   call's time pass by pass on each backend (the CPU's host times, the GPU's device times
 //!   from timestamp queries, with its dispatches, waits and bytes moved) on the
 //!   micro-triangles, the slivers, the 4096² TIN and the render pipeline's meshes, printed as
-//!   markdown. `--walk` sets how the GPU's heightfield tiles meet their bins (`FineWalk`).
+//!   markdown. `--walk` sets how the GPU's heightfield tiles meet their bins (`FineWalk`);
+//!   `--runs` how many calls each median takes (a profiler wants a long run).
 
 mod bench_report;
 mod delaunay_report;
@@ -49,7 +50,7 @@ const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--walk always|never|auto] [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
+        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--walk always|never|auto] [--runs N] [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
     );
     ExitCode::from(2)
 }
@@ -166,14 +167,21 @@ fn main() -> ExitCode {
                 }
                 rest => rest,
             };
+            let (runs, rest) = match rest {
+                ["--runs", n, rest @ ..] => match n.parse::<usize>() {
+                    Ok(n) if n > 0 => (Some(n), rest),
+                    _ => return usage(),
+                },
+                rest => (None, rest),
+            };
             let (backends, only) = match rest {
                 ["--cpu", only @ ..] => (stage_times::Backends::Cpu, only),
                 ["--gpu", only @ ..] => (stage_times::Backends::Gpu, only),
                 only => (stage_times::Backends::Both, only),
             };
             match only {
-                [] => print_markdown("stage-times", stage_times::run(None, backends)),
-                [only] => print_markdown("stage-times", stage_times::run(Some(only), backends)),
+                [] => print_markdown("stage-times", stage_times::run(None, backends, runs)),
+                [only] => print_markdown("stage-times", stage_times::run(Some(only), backends, runs)),
                 _ => usage(),
             }
         }

@@ -162,15 +162,16 @@ pub enum Backends {
     Both,
 }
 
-/// The tables, over the cases whose name contains `only` (all of them without it).
-pub fn run(only: Option<&str>, backends: Backends) -> Result<String, String> {
+/// The tables, over the cases whose name contains `only` (all of them without it), each row
+/// the medians of `runs` calls (`None`: the backend's default, 15 on the CPU and 5 on the GPU).
+pub fn run(only: Option<&str>, backends: Backends, runs: Option<usize>) -> Result<String, String> {
     let cases: Vec<(String, Case)> = cases()?.into_iter().filter(|(name, _)| only.is_none_or(|o| name.contains(o))).collect();
     let mut s = String::new();
     if backends != Backends::Gpu {
-        s += &cpu_table(&cases)?;
+        s += &cpu_table(&cases, runs.unwrap_or(15))?;
     }
     if backends != Backends::Cpu {
-        s += &gpu_table(&cases)?;
+        s += &gpu_table(&cases, runs.unwrap_or(5))?;
     }
     Ok(s)
 }
@@ -184,16 +185,15 @@ fn table_header<'a>(s: &mut String, header: &mut Option<Vec<&'a str>>, names: &[
     }
 }
 
-fn cpu_table(cases: &[(String, Case)]) -> Result<String, String> {
-    const RUNS: usize = 15;
+fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut s = format!("CPU backend ({threads} threads; heightfields in exact mode); median ms per pass of {RUNS} calls after a warm-up.\n");
+    let mut s = format!("CPU backend ({threads} threads; heightfields in exact mode); median ms per pass of {runs} calls after a warm-up.\n");
     let mut header = None;
     for (name, case) in cases {
         let names: Vec<&str> = ["prepare", "plan"].into_iter().chain(stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
         table_header(&mut s, &mut header, &names);
         one_call(case)?;
-        let calls = (0..RUNS).map(|_| one_call(case)).collect::<Result<Vec<_>, _>>()?;
+        let calls = (0..runs).map(|_| one_call(case)).collect::<Result<Vec<_>, _>>()?;
         let medians: Vec<String> = (0..names.len()).map(|k| format!("{:.1}", median(calls.iter().map(|c| c[k]).collect()))).collect();
         let _ = writeln!(s, "| {name} | {} |", medians.join(" | "));
         eprintln!("cpu: {name} done");
@@ -201,11 +201,10 @@ fn cpu_table(cases: &[(String, Case)]) -> Result<String, String> {
     Ok(s)
 }
 
-fn gpu_table(cases: &[(String, Case)]) -> Result<String, String> {
-    const RUNS: usize = 5;
+fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let adapter = tileraster::gpu_adapter().map_err(|e| e.to_string())?;
     let mut s = format!(
-        "\nGPU backend on {adapter}; median of {RUNS} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time (upload, waits and read-back included).\n"
+        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time (upload, waits and read-back included).\n"
     );
     let mut header = None;
     for (name, case) in cases {
@@ -213,7 +212,7 @@ fn gpu_table(cases: &[(String, Case)]) -> Result<String, String> {
         let names: Vec<&str> = rows.iter().map(|info| info.name).chain(["device", "call", "dispatches", "submissions", "waits", "MB up", "MB down"]).collect();
         table_header(&mut s, &mut header, &names);
         one_gpu_call(case)?;
-        let calls = (0..RUNS).map(|_| one_gpu_call(case)).collect::<Result<Vec<_>, _>>()?;
+        let calls = (0..runs).map(|_| one_gpu_call(case)).collect::<Result<Vec<_>, _>>()?;
         let Some(_) = calls[0].0.stage_ms else {
             return Err(format!("{adapter} writes no timestamps: the GPU's stage times cannot be measured on it"));
         };

@@ -106,18 +106,34 @@ pub fn div_portable(a: f32, b: f32) -> f32 {
 }
 
 /// The quotient of the significands of `a` and `b` (bits), times `2^shift`, estimated in
-/// `f32`: `1/b'` for `b'` in `[1, 2)` from a bit-pattern guess (within 1/8) and three Newton
-/// steps, times `a'`.
+/// `f32`: `1/b'` for `b'` in `[1, 2)` ([`unit_recip`]), times `a'`.
 #[inline]
 fn quotient_estimate(ab: u32, bb: u32, shift: u32) -> u64 {
     let (fa, fb) = (unit_significand(ab), unit_significand(bb));
-    let mut r = f32::from_bits(0x7ef3_11c3 - fb.to_bits());
+    scaled_estimate(fa * unit_recip(fb), shift)
+}
+
+/// `1/x` for `x` in `[1, 2)`, estimated: a bit-pattern guess (within 1/8) and three Newton
+/// steps.
+#[inline]
+fn unit_recip(x: f32) -> f32 {
+    let mut r = f32::from_bits(0x7ef3_11c3 - x.to_bits());
     let mut k = 0;
     while k < 3 {
-        r = r * (2.0 - fb * r);
+        r = r * (2.0 - x * r);
         k += 1;
     }
-    scaled_estimate(fa * r, shift)
+    r
+}
+
+/// An estimate of `1/x` for a positive normal `x` below `2^126`, within `2^−20` of it
+/// (relative) whatever the device's rounding: for callers that settle their result exactly
+/// afterwards (`programs::texture::modulo`), where a correctly rounded [`recip`] would be wasted.
+#[inline]
+pub fn recip_estimate(x: f32) -> f32 {
+    let bits = x.to_bits();
+    // x = x' · 2^(e − 127) with x' in [1, 2): 1/x = (1/x') · 2^(127 − e), a normal power of two.
+    unit_recip(unit_significand(bits)) * f32::from_bits((254 - (bits >> 23)) << 23)
 }
 
 /// The `Q` near the estimate `q` whose half-unit interval holds the exact result: `2·Q + 1`
@@ -276,6 +292,18 @@ mod tests {
             worst = worst.max((root_estimate(m) as i64 - exact).abs());
         }
         assert!(worst <= 3, "a root estimate was {worst} units off");
+    }
+
+    /// The estimate's stated bound, on every significand and across the exponents.
+    #[test]
+    fn reciprocal_estimates_are_within_their_bound() {
+        let mut worst = 0f64;
+        for bits in (0x3f80_0000u32..0x4000_0000).chain(samples().into_iter().map(f32::to_bits).filter(|&b| b >> 23 < 253)) {
+            let x = f32::from_bits(bits);
+            let exact = 1.0 / x as f64;
+            worst = worst.max(((recip_estimate(x) as f64 - exact) / exact).abs());
+        }
+        assert!(worst <= 2f64.powi(-20), "a reciprocal estimate was {worst:e} off");
     }
 
     #[test]

@@ -88,13 +88,24 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
     if len <= 1.0e-30 {
         return [0.0; 3];
     }
-    let mut unit = [0.0f32; 3];
+    // One copy of the division, and named components (see `base_colour`).
+    let (mut x, mut y, mut z) = (0.0, 0.0, 0.0);
     let mut k = 0;
     while k < 3 {
-        unit[k] = scale_div(v[k], len);
+        let component = match k {
+            0 => v[0],
+            1 => v[1],
+            _ => v[2],
+        };
+        let q = scale_div(component, len);
+        match k {
+            0 => x = q,
+            1 => y = q,
+            _ => z = q,
+        }
         k += 1;
     }
-    unit
+    [x, y, z]
 }
 
 /// `x / d` for `d > 0` and any finite `x`, by the sign of `x` (one division).
@@ -243,14 +254,20 @@ pub(crate) fn base_colour(
     let level = if info.filter() == crate::abi::Filter::Trilinear && info.levels > 1 {
         // The quad's top-left pixel, the one right of it and the one below, in one loop (one
         // copy of the weights' division).
+        // (Named values, not an array indexed by the loop: a CPU implementation of Vulkan
+        // keeps such an array in memory and reaches it one lane at a time.)
         let (qx, qy) = (i & !1, j & !1);
-        let mut corners = [[0.0f32; 2]; 3];
+        let (mut at, mut right, mut below) = ([0.0f32; 2], [0.0f32; 2], [0.0f32; 2]);
         let mut k = 0;
         while k < 3 {
-            corners[k] = uv_at(s, t, params.interpolation, qx + (k == 1) as i32, qy + (k == 2) as i32);
+            let uv = uv_at(s, t, params.interpolation, qx + (k == 1) as i32, qy + (k == 2) as i32);
+            match k {
+                0 => at = uv,
+                1 => right = uv,
+                _ => below = uv,
+            }
             k += 1;
         }
-        let [at, right, below] = corners;
         lod(info.width, info.height, [right[0] - at[0], right[1] - at[1], below[0] - at[0], below[1] - at[1]])
     } else {
         0

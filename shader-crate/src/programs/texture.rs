@@ -18,6 +18,7 @@
 
 use crate::abi::{Address, Filter, MAX_MIP_LEVELS, TextureInfo};
 use crate::math::fixed::msb;
+use crate::math::float::recip_estimate;
 
 /// Sub-texel bits of a filtered coordinate.
 pub const SUBTEXEL_BITS: u32 = 8;
@@ -59,27 +60,53 @@ pub fn fixed_floor(x: f32, frac_bits: u32, limit: i64) -> i64 {
     if negative { -clamped } else { clamped }
 }
 
-/// Texel index `i` of a level `n` texels across, as `mode` addresses it. (`i32`: coordinates
-/// are clamped to ±2^30 texels, and a GPU divides 32-bit integers in hardware where a 64-bit
-/// remainder is a long routine.)
+/// `i mod m` in `[0, m)` (the remainder of floored division) for `|i| ≤ 2^30 + 2` and
+/// `1 ≤ m ≤ 2^15`, without an integer division: a GPU has none in hardware, and a CPU
+/// implementation of Vulkan divides one lane at a time.
+///
+/// Two rounds of a quotient estimated in `f32`, each followed by the exact integer remainder.
+/// Whatever the device rounds, the estimate of `i/m` is within `|i/m|·2^−19` of it (the
+/// reciprocal within `2^−20`, the conversion of `i` and the product within `2^−23` each), and
+/// the conversion back truncates within one more, so the first remainder lies within
+/// `|i|·2^−19 + m < 2^16` of zero and converts exactly. The second estimate is then within
+/// `2^−8` of its quotient, which leaves a remainder in `(−(1 + 2^−8)·m, (1 + 2^−8)·m)`, and
+/// three steps of `±m` settle it. The result is the one remainder: the same bits on every
+/// device.
 #[inline]
-pub fn address(i: i32, n: u32, mode: Address) -> u32 {
-    let n = n as i32;
+pub fn modulo(i: i32, m: u32) -> u32 {
+    let m = m as i32;
+    let inv = recip_estimate(m as f32);
+    let r = i - ((i as f32) * inv) as i32 * m;
+    let r = r - ((r as f32) * inv) as i32 * m;
+    let r = if r < 0 { r + m } else { r };
+    let r = if r >= m { r - m } else { r };
+    (if r < 0 { r + m } else { r }) as u32
+}
+
+/// Texel indices `i` and `i + 1` of a level `n` texels across, as `mode` addresses them: the
+/// pair a bilinear filter reads (nearest filtering takes the first). One remainder serves both
+/// and each mode is then a few selects (a CPU implementation of Vulkan runs every arm). `i` is
+/// within `±(2^30 + 1)`: coordinates are clamped to `±2^30` texels.
+#[inline]
+pub fn address_pair(i: i32, n: u32, mode: Address) -> (u32, u32) {
+    let period = if mode == Address::MirroredRepeat { 2 * n } else { n };
+    let r = modulo(i, period);
+    let next = if r + 1 == period { 0 } else { r + 1 };
+    let clamp = |i: i32| {
+        (if i < 0 {
+            0
+        } else if i >= n as i32 {
+            n as i32 - 1
+        } else {
+            i
+        }) as u32
+    };
+    // A mirrored period reads 0 1 … n−1 n−1 … 1 0.
+    let reflect = |m: u32| if m >= n { 2 * n - 1 - m } else { m };
     match mode {
-        Address::Repeat => i.rem_euclid(n) as u32,
-        Address::ClampToEdge => {
-            (if i < 0 {
-                0
-            } else if i >= n {
-                n - 1
-            } else {
-                i
-            }) as u32
-        }
-        Address::MirroredRepeat => {
-            let m = i.rem_euclid(2 * n);
-            (if m >= n { 2 * n - 1 - m } else { m }) as u32
-        }
+        Address::Repeat => (r, next),
+        Address::ClampToEdge => (clamp(i), clamp(i + 1)),
+        Address::MirroredRepeat => (reflect(r), reflect(next)),
     }
 }
 
@@ -91,13 +118,34 @@ pub fn level_size(info: &TextureInfo, level: u32) -> (u32, u32) {
     (if w == 0 { 1 } else { w }, if h == 0 { 1 } else { h })
 }
 
-/// The 16-bit channels of texel `(x, y)` of `level` (a texel is a `u64`, red in its low bits:
-/// one load).
+/// Texel `(x, y)` of `level`: four 16-bit channels, red in the low bits (one load).
 #[inline]
-fn fetch(texels: &[u64], info: &TextureInfo, level: u32, x: u32, y: u32) -> [u32; 4] {
+fn fetch(texels: &[u64], info: &TextureInfo, level: u32, x: u32, y: u32) -> u64 {
     let (w, _) = level_size(info, level);
-    let texel = texels[(info.offsets[level as usize] + y * w + x) as usize];
+    texels[(info.offsets[level as usize] + y * w + x) as usize]
+}
+
+/// The four 16-bit channels of a texel.
+#[inline]
+fn channels(texel: u64) -> [u32; 4] {
     [texel as u32 & 0xffff, (texel >> 16) as u32 & 0xffff, (texel >> 32) as u32 & 0xffff, (texel >> 48) as u32]
+}
+
+/// Four channels weighted and summed: `sums` plus `weight` times each channel of `texel`.
+/// (Named sums rather than a loop over an array: a CPU implementation of Vulkan keeps an array
+/// indexed by a loop counter in memory and reaches it one lane at a time.)
+#[inline]
+fn add_weighted(sums: [u32; 4], texel: u64, weight: u32) -> [u32; 4] {
+    let [c0, c1, c2, c3] = channels(texel);
+    let [s0, s1, s2, s3] = sums;
+    [s0 + weight * c0, s1 + weight * c1, s2 + weight * c2, s3 + weight * c3]
+}
+
+/// Weighted sums rounded back to 16-bit channels: `⌊s / 2^bits + ½⌋` each, packed as a texel.
+#[inline]
+fn rounded(sums: [u32; 4], bits: u32) -> u64 {
+    let round = |s: u32| ((s + (1 << (bits - 1))) >> bits) as u64;
+    round(sums[0]) | round(sums[1]) << 16 | round(sums[2]) << 32 | round(sums[3]) << 48
 }
 
 /// Coordinate `u` (texture space, `[0, 1)` across) in a level `n` texels across, in fixed
@@ -110,57 +158,37 @@ fn subtexel(u: f32, n: u32) -> i64 {
 
 /// The texel coordinate `(u, v)` falls in, at `level`.
 #[inline]
-pub fn nearest(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
+pub fn nearest(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) -> u64 {
     let (w, h) = level_size(info, level);
-    let x = address((subtexel(u, w) >> SUBTEXEL_BITS) as i32, w, info.address_u());
-    let y = address((subtexel(v, h) >> SUBTEXEL_BITS) as i32, h, info.address_v());
+    let (x, _) = address_pair((subtexel(u, w) >> SUBTEXEL_BITS) as i32, w, info.address_u());
+    let (y, _) = address_pair((subtexel(v, h) >> SUBTEXEL_BITS) as i32, h, info.address_v());
     fetch(texels, info, level, x, y)
 }
 
 /// The four texels around `(u, v)` at `level`, weighted by the 8-bit fractions of the
-/// coordinate past their centres, rounded to 16 bits. (Loops over the axes and the texels, so
-/// that the stage holds one copy of the addressing.)
+/// coordinate past their centres, rounded to 16 bits. (A loop over the texels, so that the
+/// stage holds one copy of the fetch.)
 #[inline]
-pub fn bilinear(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) -> [u32; 4] {
+pub fn bilinear(texels: &[u64], info: &TextureInfo, level: u32, u: f32, v: f32) -> u64 {
     let (w, h) = level_size(info, level);
     let half = 1 << (SUBTEXEL_BITS - 1);
     let one = 1u32 << SUBTEXEL_BITS;
-    // Per axis: the fraction past the first texel's centre, and the two texels' indices.
-    let (mut frac, mut first, mut second) = ([0u32; 2], [0u32; 2], [0u32; 2]);
-    let mut axis = 0;
-    while axis < 2 {
-        let (c, n, mode) = if axis == 0 { (u, w, info.address_u()) } else { (v, h, info.address_v()) };
-        let sc = subtexel(c, n) - half;
-        frac[axis] = (sc & (one as i64 - 1)) as u32;
-        // Within ±(2^30 + 1): an `i32`, and so is the next.
-        let i0 = (sc >> SUBTEXEL_BITS) as i32;
-        first[axis] = address(i0, n, mode);
-        second[axis] = address(i0 + 1, n, mode);
-        axis += 1;
-    }
-    let (fx, fy) = (frac[0], frac[1]);
-    let wt = [(one - fx) * (one - fy), fx * (one - fy), (one - fx) * fy, fx * fy];
+    // Per axis: the fraction past the first texel's centre, and the two texels' indices
+    // (within ±(2^30 + 1): `i32`s).
+    let (su, sv) = (subtexel(u, w) - half, subtexel(v, h) - half);
+    let (fx, fy) = ((su & (one as i64 - 1)) as u32, (sv & (one as i64 - 1)) as u32);
+    let (x0, x1) = address_pair((su >> SUBTEXEL_BITS) as i32, w, info.address_u());
+    let (y0, y1) = address_pair((sv >> SUBTEXEL_BITS) as i32, h, info.address_v());
+    // At most 2^16 · 65535 < 2^32 in all.
     let mut sums = [0u32; 4];
     let mut k = 0;
     while k < 4 {
-        let x = if k & 1 == 0 { first[0] } else { second[0] };
-        let y = if k & 2 == 0 { first[1] } else { second[1] };
-        let texel = fetch(texels, info, level, x, y);
-        let mut c = 0;
-        while c < 4 {
-            // At most 2^16 · 65535 < 2^32 in all.
-            sums[c] += wt[k] * texel[c];
-            c += 1;
-        }
+        let (x, wx) = if k & 1 == 0 { (x0, one - fx) } else { (x1, fx) };
+        let (y, wy) = if k & 2 == 0 { (y0, one - fy) } else { (y1, fy) };
+        sums = add_weighted(sums, fetch(texels, info, level, x, y), wx * wy);
         k += 1;
     }
-    let mut out = [0u32; 4];
-    let mut c = 0;
-    while c < 4 {
-        out[c] = (sums[c] + (1 << (2 * SUBTEXEL_BITS - 1))) >> (2 * SUBTEXEL_BITS);
-        c += 1;
-    }
-    out
+    rounded(sums, 2 * SUBTEXEL_BITS)
 }
 
 /// `floor(log2(x) · 2^9)` for `x > 0`, by the leading bit and nine squarings of the
@@ -192,16 +220,23 @@ fn log2_fixed9(x: u64) -> i32 {
 pub fn lod(width: u32, height: u32, d: [f32; 4]) -> i32 {
     const LIMIT: i64 = 1 << 30;
     // In one loop: one copy of the conversion.
-    let mut f = [0i64; 4];
+    let (mut lx, mut ly) = (0u64, 0u64);
     let mut k = 0;
     while k < 4 {
-        let n = if k % 2 == 0 { width } else { height };
-        f[k] = fixed_floor(d[k] * n as f32, 16, LIMIT);
+        let (x, n) = match k {
+            0 => (d[0], width),
+            1 => (d[1], height),
+            2 => (d[2], width),
+            _ => (d[3], height),
+        };
+        let f = fixed_floor(x * n as f32, 16, LIMIT);
+        if k < 2 {
+            lx += (f * f) as u64;
+        } else {
+            ly += (f * f) as u64;
+        }
         k += 1;
     }
-    let [sx, tx, sy, ty] = f;
-    let lx = (sx * sx + tx * tx) as u64;
-    let ly = (sy * sy + ty * ty) as u64;
     let l = if lx > ly { lx } else { ly };
     if l == 0 {
         return i32::MIN;
@@ -217,7 +252,7 @@ pub fn lod(width: u32, height: u32, d: [f32; 4]) -> i32 {
 pub fn filtered(texels: &[u64], info: &TextureInfo, u: f32, v: f32, lod: i32) -> [u32; 4] {
     // The level to read, and the weight of the one above it (trilinear between two levels).
     let (level, upper) = match info.filter() {
-        Filter::Nearest => return nearest(texels, info, 0, u, v),
+        Filter::Nearest => return channels(nearest(texels, info, 0, u, v)),
         Filter::Bilinear => (0, 0),
         Filter::Trilinear => {
             let top = info.levels as i32 - 1;
@@ -236,22 +271,10 @@ pub fn filtered(texels: &[u64], info: &TextureInfo, u: f32, v: f32, lod: i32) ->
     let mut sums = [0u32; 4];
     let mut k = 0;
     while k < 1 + (upper != 0) as u32 {
-        let texel = bilinear(texels, info, level + k, u, v);
-        let weight = if k == 0 { one - upper } else { upper };
-        let mut c = 0;
-        while c < 4 {
-            sums[c] += texel[c] * weight;
-            c += 1;
-        }
+        sums = add_weighted(sums, bilinear(texels, info, level + k, u, v), if k == 0 { one - upper } else { upper });
         k += 1;
     }
-    let mut out = [0u32; 4];
-    let mut c = 0;
-    while c < 4 {
-        out[c] = (sums[c] + (one >> 1)) >> SUBTEXEL_BITS;
-        c += 1;
-    }
-    out
+    channels(rounded(sums, SUBTEXEL_BITS))
 }
 
 /// A 16-bit channel in `[0, 1]`: `c / 65535`, as one correctly rounded product.
@@ -305,16 +328,36 @@ mod tests {
         assert_eq!(fixed_floor(f32::NAN, 8, limit), 0);
     }
 
+    /// Euclid's remainder, over every modulus a level can need (a side, or twice one for the
+    /// mirror) at the coordinates' extremes and around zero, and at random ones.
+    #[test]
+    fn modulo_is_the_remainder() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let extremes = [0i32, 1, -1, (1 << 30) + 2, -(1 << 30) - 2, (1 << 30) - 1, -(1 << 30) + 1, 1 << 24, -(1 << 24) - 1];
+        for m in 1..=1u32 << 15 {
+            let random = (0..6).map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((state >> 33) as i64 % (2 * (1i64 << 30) + 5) - (1i64 << 30) - 2) as i32
+            });
+            for i in extremes.into_iter().chain(extremes.map(|e| e.saturating_add(m as i32).min((1 << 30) + 2))).chain(random) {
+                assert_eq!(modulo(i, m) as i64, (i as i64).rem_euclid(m as i64), "{i} mod {m}");
+            }
+        }
+    }
+
     #[test]
     fn address_modes_follow_their_definitions() {
-        for n in [1u32, 2, 5, 16] {
-            for i in (-40i32..40).chain([-(1 << 30) - 1, -(1 << 30), (1 << 30) + 2, 1_234_567_891]) {
-                let (n64, i) = (n as i64, i as i64);
-                assert_eq!(address(i as i32, n, Address::Repeat) as i64, ((i % n64) + n64) % n64);
-                assert_eq!(address(i as i32, n, Address::ClampToEdge) as i64, i.clamp(0, n64 - 1));
+        for n in [1u32, 2, 5, 16, 16384] {
+            for i in (-40i32..40).chain([-(1 << 30) - 1, -(1 << 30), 1 << 30, 1_000_000_007, -999_999_937]) {
+                let n64 = n as i64;
+                let repeat = |i: i64| i.rem_euclid(n64);
+                let clamp = |i: i64| i.clamp(0, n64 - 1);
                 // Mirrored: 0 1 .. n−1 n−1 .. 0 0 1 ..
-                let period = i.rem_euclid(2 * n64);
-                assert_eq!(address(i as i32, n, Address::MirroredRepeat) as i64, period.min(2 * n64 - 1 - period), "i {i}, n {n}");
+                let mirror = |i: i64| i.rem_euclid(2 * n64).min(2 * n64 - 1 - i.rem_euclid(2 * n64));
+                for (mode, want) in [(Address::Repeat, &repeat as &dyn Fn(i64) -> i64), (Address::ClampToEdge, &clamp), (Address::MirroredRepeat, &mirror)] {
+                    let (a, b) = address_pair(i, n, mode);
+                    assert_eq!((a as i64, b as i64), (want(i as i64), want(i as i64 + 1)), "{mode:?} of {i} and {} in {n}", i as i64 + 1);
+                }
             }
         }
     }

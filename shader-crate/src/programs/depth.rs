@@ -198,6 +198,17 @@ impl PixelProgram for DepthProgram {
         if self.write { depth_bits(setup, i, j) } else { self.clear.to_bits() }
     }
 
+    /// Where the key holds the depth: every order but `Always` with depth writes. (Where the
+    /// stage fixes the depth test, the driver drops `value`'s arithmetic altogether.)
+    #[inline(always)]
+    fn value_in_key(&self, key: u64) -> Option<u32> {
+        self.value_of_key(key)
+    }
+
+    /// A full tile's pixels would have no key to take the depth from (render frames never ask
+    /// for the path).
+    const FULL_TILE_PATH: bool = false;
+
     #[inline(always)]
     fn background(&self) -> u32 {
         self.clear.to_bits()

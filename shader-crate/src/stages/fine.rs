@@ -78,6 +78,17 @@ pub trait PixelProgram {
     }
     /// The owner's value at pixel `(i, j)`.
     fn value(&self, setup: &Self::Setup, i: i32, j: i32) -> Self::Value;
+    /// The owner's value, where its key holds it (the depth test's key holds the depth), so
+    /// that resolving a pixel reads no setup record; `None` where [`Self::value`] must work it
+    /// out.
+    #[inline(always)]
+    fn value_in_key(&self, _key: Self::Key) -> Option<Self::Value> {
+        None
+    }
+    /// Whether a tile whose bin is one triangle covering it whole may skip the tests
+    /// (`full_tile`): not for a program whose value comes from the key, which that path does
+    /// not work out.
+    const FULL_TILE_PATH: bool = true;
     /// The value of a pixel no triangle covers.
     fn background(&self) -> Self::Value;
 
@@ -558,7 +569,7 @@ pub fn empty_tile(bin_len: u32, frame: &FrameParams) -> bool {
 /// other triangle to compare it with).
 #[inline]
 pub fn full_tile<P: PixelProgram>(bin: &[u32], bin_start: u32, bin_len: u32, setups: &[P::Setup], frame: &FrameParams, state: &mut PixelState<P::Key>) -> bool {
-    if !frame.flags.contains(FrameFlags::FULL_TILES) || bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
+    if !P::FULL_TILE_PATH || !frame.flags.contains(FrameFlags::FULL_TILES) || bin_len != 1 || bin[bin_start as usize] & FULL_TILE_BIT == 0 {
         return false;
     }
     let slot = bin[bin_start as usize] & !FULL_TILE_BIT;
@@ -567,13 +578,17 @@ pub fn full_tile<P: PixelProgram>(bin: &[u32], bin_start: u32, bin_len: u32, set
     true
 }
 
-/// Phase 3: the pixel's outputs. A centre inside no triangle falls back to a triangle whose
-/// excluded edge it lies on (with `HULL_EDGES`): nobody continues across that edge.
+/// Phase 3: the pixel's outputs: the owner's value from its key where the key holds it, else
+/// from its setup record. A centre inside no triangle falls back to a triangle whose excluded
+/// edge it lies on (with `HULL_EDGES`): nobody continues across that edge.
 #[inline]
 pub fn fine_resolve<P: PixelProgram>(program: &P, i: i32, j: i32, state: &PixelState<P::Key>, setups: &[P::Setup]) -> PixelOut<P::Value> {
     let (owner, slot, count) = if state.owner != NO_OWNER {
+        if let Some(value) = program.value_in_key(state.key) {
+            return PixelOut { value, owner: state.owner, count: state.count };
+        }
         (state.owner, state.slot, state.count)
-    } else if state.edge_owner != NO_OWNER {
+    } else if P::HULL_EDGES && state.edge_owner != NO_OWNER {
         (state.edge_owner, state.edge_slot, 1)
     } else {
         return background_pixel(program);

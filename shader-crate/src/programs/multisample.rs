@@ -50,6 +50,25 @@ pub fn sample_position(samples: u32, s: u32) -> (i64, i64) {
     }
 }
 
+/// Calls `f(s)` for every sample `s` of a pixel of `samples` (4 or 8), written out rather than
+/// looped: a CPU implementation of Vulkan keeps an array indexed by a loop counter in memory and
+/// reaches it one lane at a time, where with a constant index in each call the per-sample
+/// states stay in registers. (`samples` is a specialisation constant of the stage, so the
+/// driver drops the second half at 4 samples.)
+#[inline(always)]
+pub fn for_each_sample(samples: u32, mut f: impl FnMut(usize)) {
+    f(0);
+    f(1);
+    f(2);
+    f(3);
+    if samples > 4 {
+        f(4);
+        f(5);
+        f(6);
+        f(7);
+    }
+}
+
 /// The edge functions of coverage `c` at sample `s` of pixel `(i, j)`.
 #[inline]
 pub fn sample_edges(c: &Coverage, i: i32, j: i32, samples: u32, s: u32) -> [i64; 3] {
@@ -150,21 +169,19 @@ fn test_triangle_samples(
     let c = &staged.coverage;
     if c.rect.contains(i, j) {
         let mut covered = false;
-        let mut s = 0;
-        while s < samples {
-            let w = sample_edges(c, i, j, samples, s);
+        for_each_sample(samples, |s| {
+            let w = sample_edges(c, i, j, samples, s as u32);
             if side_of(w[0], w[1], w[2], c.excluded_edges) == Side::Inside {
                 covered = true;
                 let bits = barycentric_bits_of(staged, w);
                 if program.passes(f32::from_bits(bits)) {
                     let key = program.key_of(bits, c.index);
-                    if key < states[s as usize].key {
-                        states[s as usize] = SampleState { key, slot: c.slot };
+                    if key < states[s].key {
+                        states[s] = SampleState { key, slot: c.slot };
                     }
                 }
             }
-            s += 1;
-        }
+        });
         if covered {
             *count += 1;
         }
@@ -205,20 +222,20 @@ pub fn resolve_samples<F: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
         fragment.colour(params, setup, &shading.record(slot), textures, texels, depth_bits(setup, i, j), i, j)
     };
     let colours = sample_colours(shade, params.background, states, samples);
-    let mut sums = [0u32; 4];
-    let mut s = 0;
-    while s < samples {
-        let mut c = 0u32;
-        while c < 4 {
-            sums[c as usize] += (colours[s as usize] >> (8 * c)) & 0xff;
-            c += 1;
-        }
-        s += 1;
-    }
-    let mean = |c: usize| (sums[c] + samples / 2) / samples;
-    let colour = mean(0) | mean(1) << 8 | mean(2) << 16 | mean(3) << 24;
+    let (mut r, mut g, mut b, mut a) = (0u32, 0u32, 0u32, 0u32);
+    for_each_sample(samples, |s| {
+        let c = colours[s];
+        (r, g, b, a) = (r + (c & 0xff), g + (c >> 8 & 0xff), b + (c >> 16 & 0xff), a + (c >> 24));
+    });
+    let mean = |sum: u32| (sum + samples / 2) / samples;
+    let colour = mean(r) | mean(g) << 8 | mean(b) << 16 | mean(a) << 24;
     let layer = if params.layer_sample < samples { params.layer_sample } else { 0 };
-    let slot = states[layer as usize].slot;
+    let mut slot = NO_OWNER;
+    for_each_sample(samples, |s| {
+        if s as u32 == layer {
+            slot = states[s].slot;
+        }
+    });
     if slot == NO_OWNER {
         return Resolved { colour, face: NO_OWNER, slot, depth: program.clear.to_bits() };
     }
@@ -242,14 +259,12 @@ fn sample_colours(shade: impl Fn(u32) -> u32, background: u32, states: &[SampleS
     loop {
         if slot != NO_OWNER {
             let colour = shade(slot);
-            let mut s = 0;
-            while s < samples {
-                if states[s as usize].slot == slot {
-                    colours[s as usize] = colour;
+            for_each_sample(samples, |s| {
+                if states[s].slot == slot {
+                    colours[s] = colour;
                     coloured |= 1 << s;
                 }
-                s += 1;
-            }
+            });
         }
         slot = first_uncoloured(states, samples, coloured);
         if slot == NO_OWNER {
@@ -264,13 +279,11 @@ fn sample_colours(shade: impl Fn(u32) -> u32, background: u32, states: &[SampleS
 #[inline]
 fn first_uncoloured(states: &[SampleState; MAX_SAMPLES], samples: u32, coloured: u32) -> u32 {
     let mut slot = NO_OWNER;
-    let mut s = 0;
-    while s < samples {
+    for_each_sample(samples, |s| {
         if slot == NO_OWNER && coloured >> s & 1 == 0 {
-            slot = states[s as usize].slot;
+            slot = states[s].slot;
         }
-        s += 1;
-    }
+    });
     slot
 }
 

@@ -44,17 +44,16 @@ pub fn depth_bounds(s: &TriangleSetup, tile: &PixelRect) -> (f32, f32, bool) {
     let rect = &s.coverage.rect;
     let (di0, di1) = ((tile.i0 - rect.i0) as i64, (tile.i1 - rect.i0) as i64);
     let (dj0, dj1) = ((tile.j0 - rect.j0) as i64, (tile.j1 - rect.j0) as i64);
-    let mut lo = [0.0f32; 3];
-    let mut hi = [0.0f32; 3];
-    let mut k = 0;
-    while k < 3 {
+    // Each edge's weight at its smallest and largest over the tile's corners (three calls with
+    // a constant index, not a loop over arrays: see `stages::bin::tile_cover`).
+    let weights = |k: usize| {
         let edge = &s.coverage.edges[k];
         let (a, b, c_, d) = (edge.at(di0, dj0), edge.at(di1, dj0), edge.at(di0, dj1), edge.at(di1, dj1));
         let (min, max) = (min_i64(min_i64(a, b), min_i64(c_, d)), max_i64(max_i64(a, b), max_i64(c_, d)));
-        lo[k] = i64_to_f32(min) * c[3];
-        hi[k] = i64_to_f32(max) * c[3];
-        k += 1;
-    }
+        (i64_to_f32(min) * c[3], i64_to_f32(max) * c[3])
+    };
+    let ((lo0, hi0), (lo1, hi1), (lo2, hi2)) = (weights(0), weights(1), weights(2));
+    let (lo, hi) = ([lo0, lo1, lo2], [hi0, hi1, hi2]);
     let low = lo[0] * c[0] + lo[1] * c[1] + lo[2] * c[2];
     let high = hi[0] * c[0] + hi[1] * c[1] + hi[2] * c[2];
     if !(finite(low) && finite(high)) {

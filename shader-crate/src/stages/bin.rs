@@ -80,9 +80,10 @@ pub fn tile_cover(c: &Coverage, tx: u32, ty: u32, frame: &FrameParams) -> TileCo
     if i0 > i1 || j0 > j1 {
         return TileCover::Outside;
     }
-    let mut full = i0 == ti0 && i1 == ti1 && j0 == tj0 && j1 == tj1;
-    let mut k = 0;
-    while k < 3 {
+    // Per edge: whether it excludes every centre, and whether it includes every one. (Three
+    // calls with a constant index, not a loop: a CPU implementation of Vulkan reaches an array
+    // indexed by a loop counter one lane at a time.)
+    let edge = |k: usize| {
         let e = &c.edges[k];
         let at_corner = e.e0 + e.step_i * (i0 - r.i0) as i64 + e.step_j * (j0 - r.j0) as i64;
         let across_i = e.step_i * (i1 - i0) as i64;
@@ -92,15 +93,14 @@ pub fn tile_cover(c: &Coverage, tx: u32, ty: u32, frame: &FrameParams) -> TileCo
         // (a step is a whole multiple of 16: the render pipeline snaps to 1/256 px).
         let reach = if frame.samples > 1 { 7 * ((abs_i64(e.step_i) + abs_i64(e.step_j)) >> 4) } else { 0 };
         let hi = at_corner + max_i64(across_i, 0) + max_i64(across_j, 0) + reach;
-        if hi < 0 {
-            return TileCover::Outside;
-        }
         let excluded = (c.excluded_edges >> k) & 1 != 0;
-        if lo < 0 || (lo == 0 && excluded) {
-            full = false;
-        }
-        k += 1;
+        (hi < 0, !(lo < 0 || (lo == 0 && excluded)))
+    };
+    let ((out0, in0), (out1, in1), (out2, in2)) = (edge(0), edge(1), edge(2));
+    if out0 || out1 || out2 {
+        return TileCover::Outside;
     }
+    let full = i0 == ti0 && i1 == ti1 && j0 == tj0 && j1 == tj1 && in0 && in1 && in2;
     if full { TileCover::Full } else { TileCover::Partial }
 }
 

@@ -13,21 +13,19 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
     // Centre of the rectangle's corner pixel, in snapped units.
     let px = input.rect.i0 as i64 * unit + (unit >> 1);
     let py = input.rect.j0 as i64 * unit + (unit >> 1);
-    let mut edges = [EdgeEq::default(); 3];
-    let mut excluded_edges = 0;
-    let mut k = 0;
-    while k < 3 {
-        let b = if k == 2 { 0 } else { k + 1 };
+    // Edge `k` runs from vertex `k` to the next (three calls with a constant index, not a loop:
+    // a CPU implementation of Vulkan reaches an array indexed by a loop counter one lane at a
+    // time).
+    let edge = |k: usize, b: usize| {
         let dx = input.x[b] - input.x[k];
         let dy = input.y[b] - input.y[k];
         // Positive inside: e(p) = dx·(p.y − a.y) − dy·(p.x − a.x).
         let e0 = dx * (py - input.y[k]) - dy * (px - input.x[k]);
-        if !is_top_left(dx, dy) {
-            excluded_edges |= 1 << k;
-        }
-        edges[k] = EdgeEq { e0, step_i: -dy * unit, step_j: dx * unit };
-        k += 1;
-    }
+        let excluded = if is_top_left(dx, dy) { 0 } else { 1 << k };
+        (EdgeEq { e0, step_i: -dy * unit, step_j: dx * unit }, excluded)
+    };
+    let ((e0, x0), (e1, x1), (e2, x2)) = (edge(0, 1), edge(1, 2), edge(2, 0));
+    let (edges, excluded_edges) = ([e0, e1, e2], x0 | x1 | x2);
     TriangleSetup {
         coverage: Coverage { edges, rect: input.rect, index: input.index, slot, excluded_edges, _pad: 0 },
         plane: input.plane,

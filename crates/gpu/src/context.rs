@@ -11,6 +11,7 @@ use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, Shad
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
 use tileraster_kernels::programs::depth::DepthProgram;
+use tileraster_kernels::stages::setup::edges_fit_i32;
 use tileraster_kernels::stages::{bin, fine};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
@@ -530,8 +531,12 @@ impl GpuContext {
             w if w == FineWalk::Never as u8 => false,
             _ => walks_bins(self.gpu.info.device_type),
         };
-        // The frame's depth test, fixed in the stages that test depth (`DepthProgram::spec_bits`).
-        let depth = prepared.render.as_ref().map_or(0, |r| DepthProgram::spec_bits(r.depth_test));
+        // The frame's depth test, fixed in the stages that test depth (`DepthProgram::spec_bits`),
+        // and whether every triangle's edge functions fit 32 bits, so that those stages take
+        // them in 32-bit arithmetic.
+        let small_edges = |p: &Prepared| p.triangles.iter().all(|t| edges_fit_i32(t, p.snap_bits));
+        let depth =
+            prepared.render.as_ref().map_or(0, |r| DepthProgram::spec_bits(r.depth_test) | if small_edges(prepared) { DepthProgram::SMALL_EDGES } else { 0 });
         let walk = if walks { fine::WALK } else { 0 };
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {

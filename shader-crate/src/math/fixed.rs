@@ -78,6 +78,17 @@ pub fn i64_to_f32(n: i64) -> f32 {
     i64_to_f32_portable(n)
 }
 
+/// [`i64_to_f32`] of a value in `(−2^31, 2^31)`, in 32-bit operations: its magnitude is
+/// `hi · 2^16 + lo` with both halves below `2^16`, which convert exactly on any device; the
+/// product by `2^16` is exact and the one addition rounds once, to nearest even (as in
+/// [`i64_to_f32_portable`]). The same bits as [`i64_to_f32`].
+#[inline]
+pub fn i32_to_f32(n: i32) -> f32 {
+    let m = n.unsigned_abs();
+    let magnitude = (m >> 16) as f32 * 65_536.0 + (m & 0xffff) as f32;
+    if n < 0 { -magnitude } else { magnitude }
+}
+
 /// [`i64_to_f32`] with no branch (a SIMD lane computes every branch, taken or not):
 ///
 /// 1. The magnitude `m` is cut to at most 48 significant bits, `m' = ⌊m / 2^s⌋` with the cut
@@ -180,6 +191,26 @@ mod tests {
             let n = (s as i64) >> (s % 63);
             check(n);
             check(n & !0x7f | 0x80);
+        }
+    }
+
+    /// Every magnitude in 32 bits, the ties of each binade, and the extremes.
+    #[test]
+    fn the_small_conversion_is_rusts() {
+        let check = |n: i32| assert_eq!(i32_to_f32(n).to_bits(), (n as f32).to_bits(), "{n}");
+        for n in [0, 1, -1, i32::MAX, -i32::MAX, (1 << 24) + 1, -(1 << 24) - 1, (1 << 30) + (1 << 6), (1 << 30) + 3 * (1 << 6)] {
+            check(n);
+        }
+        let mut s = 0x2545_f491u32;
+        for _ in 0..2_000_000 {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            let n = (s as i32) >> (s % 31);
+            if n != i32::MIN {
+                check(n);
+                check(n & !0x7f | 0x40);
+            }
         }
     }
 

@@ -12,7 +12,7 @@
 //! `docs/numeric-contract.md` for its bound).
 
 use crate::abi::{Coverage, DepthFunc, DepthTest, FrameParams, PixelRect, TriangleSetup};
-use crate::programs::height::{barycentric_bits, barycentric_bits_of};
+use crate::programs::height::{barycentric_bits, barycentric_bits_of, barycentric_bits_small};
 use crate::stages::fine::PixelProgram;
 
 /// [`PixelProgram`] of the render pipeline.
@@ -22,13 +22,16 @@ pub struct DepthProgram {
     pub write: bool,
     /// The depth buffer's clear value.
     pub clear: f32,
+    /// Every triangle's edge functions fit 32 bits (`stages::setup::edges_fit_i32`): coverage
+    /// and depth take them in 32-bit arithmetic, with the same results.
+    pub small_edges: bool,
 }
 
 impl DepthProgram {
     /// The program a frame asks for.
     #[inline]
     pub fn of(frame: &FrameParams) -> DepthProgram {
-        DepthProgram { func: frame.depth_test.func(), write: frame.depth_test.write(), clear: f32::from_bits(frame.nodata_bits) }
+        DepthProgram { func: frame.depth_test.func(), write: frame.depth_test.write(), clear: f32::from_bits(frame.nodata_bits), small_edges: false }
     }
 
     /// The bit of a stage's specialisation constant (`fine::WALK_SPEC_ID`, or
@@ -36,6 +39,9 @@ impl DepthProgram {
     pub const SPECIALISED: u32 = 1 << 16;
     const FUNC_SHIFT: u32 = 17;
     const WRITE_BIT: u32 = 1 << 20;
+    /// A bit of the same constant, with [`Self::SPECIALISED`]: every triangle of the frame has
+    /// edge functions that fit 32 bits (`stages::setup::edges_fit_i32`), which the host checks.
+    pub const SMALL_EDGES: u32 = 1 << 21;
 
     /// ... `test` in those bits: the host writes the frame's own, so that the driver folds
     /// the depth functions the frame does not use out of the key, the test and the resolve (a
@@ -52,7 +58,12 @@ impl DepthProgram {
         if spec & Self::SPECIALISED == 0 {
             return program;
         }
-        DepthProgram { func: DepthFunc::from_code(spec >> Self::FUNC_SHIFT & 0x7), write: spec & Self::WRITE_BIT != 0, ..program }
+        DepthProgram {
+            func: DepthFunc::from_code(spec >> Self::FUNC_SHIFT & 0x7),
+            write: spec & Self::WRITE_BIT != 0,
+            small_edges: spec & Self::SMALL_EDGES != 0,
+            ..program
+        }
     }
 
     /// How this program's keys order passing fragments by depth: the nearest first (`Less…`),
@@ -115,6 +126,13 @@ impl DepthProgram {
             return u64::MAX;
         }
         self.key_of(bits, index)
+    }
+
+    /// The barycentric depth bits of triangle `s` from its edge functions at a point, converted
+    /// in 32-bit operations where they fit ([`Self::small_edges`]): the same bits either way.
+    #[inline(always)]
+    pub fn depth_of_edges(&self, s: &TriangleSetup, edges: [i64; 3]) -> u32 {
+        if self.small_edges { barycentric_bits_small(s, edges) } else { barycentric_bits_of(s, edges) }
     }
 
     /// Whether a fragment of depth `d` passes the test against the clear value.
@@ -189,7 +207,12 @@ impl PixelProgram for DepthProgram {
     /// The depth from the edge functions the coverage test computed: the same bits.
     #[inline(always)]
     fn key_at(&self, s: &TriangleSetup, _i: i32, _j: i32, edges: &[i64; 3]) -> u64 {
-        self.key_of_depth(barycentric_bits_of(s, *edges), s.coverage.index)
+        self.key_of_depth(self.depth_of_edges(s, *edges), s.coverage.index)
+    }
+
+    #[inline(always)]
+    fn small_edges(&self) -> bool {
+        self.small_edges
     }
 
     /// The depth the pixel keeps: the owner's, or the clear value without depth writes.

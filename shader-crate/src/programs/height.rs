@@ -4,7 +4,7 @@
 
 use crate::NO_OWNER;
 use crate::abi::{Coverage, FloatCoeffs, FrameParams, PixelRect, Plane, TriangleSetup, ValueMode};
-use crate::math::fixed::{fixed_to_f32_bits, i64_to_f32};
+use crate::math::fixed::{fixed_to_f32_bits, i32_to_f32, i64_to_f32};
 use crate::stages::fine::PixelProgram;
 
 /// Heights of the frame's triangles: [`PixelProgram`] for the heightfield pipeline.
@@ -120,6 +120,15 @@ pub fn barycentric_bits(s: &TriangleSetup, i: i32, j: i32) -> u32 {
 pub fn barycentric_bits_of(s: &TriangleSetup, edges: [i64; 3]) -> u32 {
     let c = &s.coeffs.c;
     let weight = |k: usize| i64_to_f32(edges[k]) * c[3];
+    (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
+}
+
+/// [`barycentric_bits_of`] for edge values in `(−2^31, 2^31)` (`stages::setup::edges_fit_i32`),
+/// converted in 32-bit operations: the same bits.
+#[inline]
+pub fn barycentric_bits_small(s: &TriangleSetup, edges: [i64; 3]) -> u32 {
+    let c = &s.coeffs.c;
+    let weight = |k: usize| i32_to_f32(edges[k] as i32) * c[3];
     (weight(0) * c[0] + weight(1) * c[1] + weight(2) * c[2]).to_bits()
 }
 

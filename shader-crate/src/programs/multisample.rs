@@ -18,7 +18,6 @@ use crate::math::edge::{Side, side_of};
 use crate::memory::{LANE_GROUP, Lanes};
 use crate::programs::depth::{DepthProgram, depth_bits};
 use crate::programs::fragment::FragmentProgram;
-use crate::programs::height::barycentric_bits_of;
 use crate::stages::fine::FineShared;
 use crate::{FULL_TILE_BIT, NO_OWNER};
 
@@ -79,6 +78,29 @@ pub fn sample_edges(c: &Coverage, i: i32, j: i32, samples: u32, s: u32) -> [i64;
     let e = &c.edges;
     let at = |k: usize| e[k].at(di, dj) + (e[k].step_i >> 4) * ox + (e[k].step_j >> 4) * oy;
     [at(0), at(1), at(2)]
+}
+
+/// [`sample_edges`] in 32-bit wrapping arithmetic, exact for a triangle whose edge functions fit
+/// 32 bits at its pixels' samples (`stages::setup::edges_fit_i32`; see
+/// `stages::fine::side_and_edges_small`).
+#[inline]
+pub fn sample_edges_small(c: &Coverage, i: i32, j: i32, samples: u32, s: u32) -> [i64; 3] {
+    let (sx, sy) = sample_position(samples, s);
+    let (ox, oy) = (sx as i32 - 8, sy as i32 - 8);
+    let (di, dj) = (i - c.rect.i0, j - c.rect.j0);
+    let e = &c.edges;
+    let at = |k: usize| {
+        let (e0, si, sj) = (e[k].e0 as i32, e[k].step_i as i32, e[k].step_j as i32);
+        e0.wrapping_add(si.wrapping_mul(di)).wrapping_add(sj.wrapping_mul(dj)).wrapping_add((si >> 4).wrapping_mul(ox)).wrapping_add((sj >> 4).wrapping_mul(oy))
+            as i64
+    };
+    [at(0), at(1), at(2)]
+}
+
+/// The edge functions of sample `s`, in 32-bit arithmetic where `program`'s triangles allow it.
+#[inline(always)]
+fn program_sample_edges(program: &DepthProgram, c: &Coverage, i: i32, j: i32, samples: u32, s: u32) -> [i64; 3] {
+    if program.small_edges { sample_edges_small(c, i, j, samples, s) } else { sample_edges(c, i, j, samples, s) }
 }
 
 /// What a pixel keeps of one sample: the smallest depth key of a triangle covering it and that
@@ -170,10 +192,10 @@ fn test_triangle_samples(
     if c.rect.contains(i, j) {
         let mut covered = false;
         for_each_sample(samples, |s| {
-            let w = sample_edges(c, i, j, samples, s as u32);
+            let w = program_sample_edges(program, c, i, j, samples, s as u32);
             if side_of(w[0], w[1], w[2], c.excluded_edges) == Side::Inside {
                 covered = true;
-                let bits = barycentric_bits_of(staged, w);
+                let bits = program.depth_of_edges(staged, w);
                 if program.passes(f32::from_bits(bits)) {
                     let key = program.key_of(bits, c.index);
                     if key < states[s].key {
@@ -240,7 +262,11 @@ pub fn resolve_samples<F: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
         return Resolved { colour, face: NO_OWNER, slot, depth: program.clear.to_bits() };
     }
     let setup = &setups[slot as usize];
-    let depth = if program.write { barycentric_bits_of(setup, sample_edges(&setup.coverage, i, j, samples, layer)) } else { program.clear.to_bits() };
+    let depth = if program.write {
+        program.depth_of_edges(setup, program_sample_edges(program, &setup.coverage, i, j, samples, layer))
+    } else {
+        program.clear.to_bits()
+    };
     Resolved { colour, face: shading.record(slot).face, slot, depth }
 }
 

@@ -357,7 +357,7 @@ pub fn shaded_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
     // One loop for both, so that the stage holds one copy of `program` (a driver reads every
     // inlined copy before the frame's specialisation removes one).
     let blend = params.blend != 0;
-    let test = DepthProgram { func: params.depth_test.func(), write: true, clear: f32::from_bits(clear_bits) };
+    let test = DepthProgram { func: params.depth_test.func(), write: true, clear: f32::from_bits(clear_bits), small_edges: false };
     let write = params.depth_test.write();
     let mut out = Shaded { colour: params.background, face: NO_OWNER };
     let mut running = f32::from_bits(clear_bits);

@@ -85,6 +85,13 @@ pub trait PixelProgram {
     fn value_in_key(&self, _key: Self::Key) -> Option<Self::Value> {
         None
     }
+    /// Whether every triangle's edge functions fit 32 bits (`stages::setup::edges_fit_i32`), so
+    /// that coverage takes them in 32-bit arithmetic ([`side_and_edges_small`]) and a key that
+    /// reuses them may too: the same values, fewer instructions.
+    #[inline(always)]
+    fn small_edges(&self) -> bool {
+        false
+    }
     /// Whether a tile whose bin is one triangle covering it whole may skip the tests
     /// (`full_tile`): not for a program whose value comes from the key, which that path does
     /// not work out.
@@ -370,6 +377,28 @@ pub fn side_and_edges(c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
     (side, edges)
 }
 
+/// [`side_and_edges`] for a triangle whose edge functions fit 32 bits over its rectangle
+/// (`stages::setup::edges_fit_i32`): each edge from the setup's terms in 32-bit wrapping
+/// arithmetic, which is exact modulo 2^32 and so exact where the value fits. (A GPU runs
+/// 32-bit integer arithmetic natively; 64-bit products are several instructions each.)
+#[inline(always)]
+pub fn side_and_edges_small(c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
+    let r = &c.rect;
+    let di = i.clamp(r.i0, r.i1) - r.i0;
+    let dj = j.clamp(r.j0, r.j1) - r.j0;
+    let e = &c.edges;
+    let at = |k: usize| (e[k].e0 as i32).wrapping_add((e[k].step_i as i32).wrapping_mul(di)).wrapping_add((e[k].step_j as i32).wrapping_mul(dj));
+    let (w0, w1, w2) = (at(0), at(1), at(2));
+    let side = if c.rect.contains(i, j) { side_of(w0 as i64, w1 as i64, w2 as i64, c.excluded_edges) } else { Side::Outside };
+    (side, [w0 as i64, w1 as i64, w2 as i64])
+}
+
+/// [`side_and_edges`], or its 32-bit twin where the program's triangles allow it.
+#[inline(always)]
+fn program_side_and_edges<P: PixelProgram>(program: &P, c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
+    if program.small_edges() { side_and_edges_small(c, i, j) } else { side_and_edges(c, i, j) }
+}
+
 /// What a pixel state keeps of one triangle test at pixel `(i, j)`: a count, the smallest key
 /// (with its triangle's index and setup slot) among the triangles it is inside, and the
 /// lowest index among those it lies on an excluded edge of. Minimum and sum do not depend on
@@ -448,7 +477,7 @@ pub fn fine_test<P: PixelProgram>(
         let k = shared.lists[(at / 4) as usize] >> (8 * (at % 4)) & 0xff;
         let staged = &shared.batch[k as usize];
         // One coverage test serves both cases (and the key where it needs the edges).
-        let (side, edges) = side_and_edges(P::coverage(staged), i, j);
+        let (side, edges) = program_side_and_edges(program, P::coverage(staged), i, j);
         if !P::OCCLUSION || shared.hidden[k as usize] == 0 {
             accumulate_at(program, side, &edges, staged, i, j, state);
         } else if count_hidden && side == Side::Inside {
@@ -545,7 +574,7 @@ where
             let staged = P::Staged::read_setup(lanes, setup_words, slots.get(m) & !FULL_TILE_BIT);
             let c = P::coverage(&staged);
             if !done && c.rect.contains(i, j) {
-                let (side, edges) = side_and_edges(c, i, j);
+                let (side, edges) = program_side_and_edges(program, c, i, j);
                 if hides >> m & 1 == 0 {
                     accumulate_at(program, side, &edges, &staged, i, j, state);
                 } else if side == Side::Inside {

@@ -3,7 +3,9 @@
 //!
 //! Range: the host guarantees `(extent_px + 1) << snap_bits < 2^29` for every triangle
 //! (`EXTENT_LIMIT_BITS`), so coordinate differences stay below 2^29 and every product here,
-//! and every edge value inside the rectangle, stays below 2^60.
+//! and every edge value inside the rectangle, stays below 2^60. A smaller triangle's edge
+//! values fit 32 bits ([`edges_fit_i32`]), where the fine stages may take them in 32-bit
+//! arithmetic (`stages::fine::side_and_edges_small`).
 
 use crate::abi::{Coverage, EdgeEq, TriangleInput, TriangleSetup};
 use crate::math::edge::is_top_left;
@@ -30,5 +32,82 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
         coverage: Coverage { edges, rect: input.rect, index: input.index, slot, excluded_edges, _pad: 0 },
         plane: input.plane,
         coeffs: input.coeffs,
+    }
+}
+
+/// Whether every edge function of the triangle lies in `(−2^31, 2^31)` at every pixel centre of
+/// its rectangle and at every sample of those pixels, so that 32-bit wrapping arithmetic on the
+/// setup's terms gives it exactly (every operation is exact modulo 2^32, and the one value in
+/// range that agrees modulo 2^32 is the true one). The bound: with `E` the larger side of the
+/// snapped bounding box, `|dx|, |dy| ≤ E`, and a pixel centre of the rectangle lies in the box,
+/// a sample within half a pixel of it, so `|p − a| ≤ E + unit/2` on each axis and
+/// `|e(p)| ≤ |dx|·|p.y − a.y| + |dy|·|p.x − a.x| ≤ 2·E·(E + unit/2)`.
+pub fn edges_fit_i32(input: &TriangleInput, snap_bits: u32) -> bool {
+    let side = |v: &[i64; 3]| max(max(v[0], v[1]), v[2]) - min(min(v[0], v[1]), v[2]);
+    let extent = max(side(&input.x), side(&input.y));
+    let half = 1i64 << snap_bits >> 1;
+    2 * extent * (extent + half) < 1 << 31
+}
+
+fn max(a: i64, b: i64) -> i64 {
+    if a > b { a } else { b }
+}
+
+fn min(a: i64, b: i64) -> i64 {
+    if a < b { a } else { b }
+}
+
+#[cfg(all(test, not(target_arch = "spirv")))]
+mod tests {
+    use super::*;
+    use crate::abi::PixelRect;
+    use crate::programs::multisample::{sample_edges, sample_edges_small};
+    use crate::stages::fine::{side_and_edges, side_and_edges_small};
+
+    /// Triangles at the bound's edge, every orientation: where `edges_fit_i32` holds, the 32-bit
+    /// edge functions equal the 64-bit ones at the rectangle's corner pixels (where a linear
+    /// function is extreme) and at every sample of them; just past the bound it fails.
+    #[test]
+    fn small_edges_are_exact_within_the_bound() {
+        let snap_bits = 8;
+        let unit = 1i64 << snap_bits;
+        // The largest extent the bound allows at 8 bits: 2E(E + 128) < 2^31.
+        let limit = (0i64..1 << 16).take_while(|&e| 2 * e * (e + unit / 2) < 1 << 31).last().unwrap();
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |n: i64| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) as i64 % n
+        };
+        let mut checked = 0;
+        for _ in 0..2000 {
+            let (x0, y0) = (next(1 << 20), next(1 << 20));
+            let x = [x0, x0 + next(limit + 1), x0 + next(limit + 1)];
+            let y = [y0, y0 + next(limit + 1), y0 + limit * next(2)];
+            let pixel = |v: i64, up: bool| if up { (v - unit / 2 + unit - 1).div_euclid(unit) } else { (v - unit / 2).div_euclid(unit) } as i32;
+            let rect = PixelRect {
+                i0: pixel(*x.iter().min().unwrap(), true),
+                j0: pixel(*y.iter().min().unwrap(), true),
+                i1: pixel(*x.iter().max().unwrap(), false),
+                j1: pixel(*y.iter().max().unwrap(), false),
+            };
+            if rect.i0 > rect.i1 || rect.j0 > rect.j1 {
+                continue;
+            }
+            let input = TriangleInput { x, y, rect, ..Default::default() };
+            assert!(edges_fit_i32(&input, snap_bits));
+            let c = setup_triangle(&input, 0, snap_bits).coverage;
+            for (i, j) in [(rect.i0, rect.j0), (rect.i1, rect.j0), (rect.i0, rect.j1), (rect.i1, rect.j1)] {
+                assert_eq!(side_and_edges_small(&c, i, j).1, side_and_edges(&c, i, j).1, "{x:?} {y:?} at ({i}, {j})");
+                for samples in [4, 8] {
+                    for s in 0..samples {
+                        assert_eq!(sample_edges_small(&c, i, j, samples, s), sample_edges(&c, i, j, samples, s));
+                    }
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 4000, "{checked}");
+        let wide = TriangleInput { x: [0, limit + 1, 0], y: [0, 0, 1], ..Default::default() };
+        assert!(!edges_fit_i32(&wide, snap_bits));
     }
 }

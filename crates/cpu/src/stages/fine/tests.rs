@@ -243,13 +243,13 @@ fn value_of_key_undoes_the_key() {
     for depth in [-f32::INFINITY, -3.5, -f32::MIN_POSITIVE / 2.0, -0.0, 0.0, 1e-40, 0.25, 1.0, f32::MAX] {
         let bits = depth.to_bits();
         for func in [DepthFunc::Less, DepthFunc::LessEqual, DepthFunc::Greater, DepthFunc::GreaterEqual] {
-            let program = DepthProgram { func, write: true, clear: 0.5 };
+            let program = DepthProgram { func, write: true, clear: 0.5, small_edges: false };
             let above = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { !ordered(bits) } else { ordered(bits) };
             assert_eq!(program.value_of_key((above as u64) << 32 | 7), Some(bits), "{depth} under {func:?}");
         }
     }
-    assert_eq!(DepthProgram { func: DepthFunc::Always, write: true, clear: 0.5 }.value_of_key(0), None);
-    assert_eq!(DepthProgram { func: DepthFunc::Less, write: false, clear: 0.5 }.value_of_key(3), Some(0.5f32.to_bits()));
+    assert_eq!(DepthProgram { func: DepthFunc::Always, write: true, clear: 0.5, small_edges: false }.value_of_key(0), None);
+    assert_eq!(DepthProgram { func: DepthFunc::Less, write: false, clear: 0.5, small_edges: false }.value_of_key(3), Some(0.5f32.to_bits()));
 }
 
 /// The wide-vector build of fine raster gives the same bits as the plain one.

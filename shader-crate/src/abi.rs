@@ -292,16 +292,17 @@ impl SetupPart for Coverage {
 }
 
 impl SetupPart for TriangleSetup {
-    /// Word 12 is the coverage's slot and padding; then the plane (13..17) and the `f32`
-    /// coefficients (17..19).
+    /// Word 12 is the coverage's slot and padding; then the `f32` coefficients (13..15) and the
+    /// plane (15..19). A program that reads no plane (the render pipeline's) reads no third
+    /// word group: the driver drops the unused loads.
     #[inline(always)]
     fn read_setup(lanes: &Lanes, setup_words: &[u64], slot: u32) -> TriangleSetup {
         let at = slot * SETUP_WORDS;
         let (a, b, c) = (lanes.read8(setup_words, at), lanes.read8(setup_words, at + 8), lanes.read8(setup_words, at + 16));
-        let plane = Plane { z: b.get(5) as i64, gi: b.get(6) as i64, gj: b.get(7) as i64, frac_bits: c.get(0) as u32 as i32, _pad: 0 };
-        let (c01, c23) = (halves(c.get(1)), halves(c.get(2)));
+        let (c01, c23) = (halves(b.get(5)), halves(b.get(6)));
         let coeffs = FloatCoeffs { c: [f32::from_bits(c01.0), f32::from_bits(c01.1), f32::from_bits(c23.0), f32::from_bits(c23.1)] };
-        TriangleSetup { coverage: coverage_of(&a, &b, slot), plane, coeffs }
+        let plane = Plane { z: b.get(7) as i64, gi: c.get(0) as i64, gj: c.get(1) as i64, frac_bits: c.get(2) as u32 as i32, _pad: 0 };
+        TriangleSetup { coverage: coverage_of(&a, &b, slot), coeffs, plane }
     }
 }
 
@@ -312,7 +313,7 @@ const _: () = {
     assert!(
         offset_of!(Coverage, rect) == RECT_WORD as usize * 8 && offset_of!(Coverage, index) == 11 * 8 && offset_of!(Coverage, excluded_edges) == 11 * 8 + 4
     );
-    assert!(offset_of!(Coverage, slot) == 12 * 8 && offset_of!(TriangleSetup, plane) == 13 * 8 && offset_of!(TriangleSetup, coeffs) == 17 * 8);
+    assert!(offset_of!(Coverage, slot) == 12 * 8 && offset_of!(TriangleSetup, coeffs) == 13 * 8 && offset_of!(TriangleSetup, plane) == 15 * 8);
     assert!(offset_of!(Plane, frac_bits) == 24 && SETUP_WORDS == 19 && core::mem::align_of::<TriangleSetup>() == 8);
 };
 
@@ -322,8 +323,10 @@ const _: () = {
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
 pub struct TriangleSetup {
     pub coverage: Coverage,
-    pub plane: Plane,
+    /// Before the plane: the render pipeline's walks read the coverage and these, the first
+    /// sixteen words, in two reads of eight (`SetupPart for TriangleSetup`).
     pub coeffs: FloatCoeffs,
+    pub plane: Plane,
 }
 
 /// Everything a dispatch needs to know about the window of the grid it rasterises.

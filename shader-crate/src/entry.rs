@@ -95,7 +95,7 @@ pub fn bin_fill(
     let (t, part) = (id / frame.bin_parts, id % frame.bin_parts);
     if t < frame.triangles {
         let setup = &setups[listed[t as usize] as usize];
-        fill_tiles(keys & bin::WRITE_KEYS != 0, keys, setup, frame, part, offsets, cursors, bins, bin_keys);
+        fill_tiles(keys & bin::WRITE_KEYS != 0, keys & bin::WRITE_SPANS != 0, keys, setup, frame, part, offsets, cursors, bins, bin_keys);
     }
 }
 
@@ -263,7 +263,22 @@ pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     } else {
         fine::count_tile(lid, Counter::TilesPartial, stats);
         if walk {
-            multisample::walk_samples(program, lanes, bins, bin_start, bin_len, setup_words, i, j, params.samples, &mut states, &mut count);
+            let entries = offsets[frame.tile_count() as usize];
+            multisample::walk_samples(
+                program,
+                lanes,
+                bins,
+                bin_start,
+                bin_len,
+                entries,
+                setup_words,
+                fine::span_bit(lid),
+                i,
+                j,
+                params.samples,
+                &mut states,
+                &mut count,
+            );
         } else {
             let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
             let mut batch_start = 0;
@@ -350,6 +365,7 @@ fn fine_raster_workgroup<P: PixelProgram<Setup = TriangleSetup>>(
                     setup_words,
                     rejects_hidden,
                     count_hidden,
+                    fine::span_bit(lid),
                     i,
                     j,
                     overlap_free,

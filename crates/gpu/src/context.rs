@@ -545,11 +545,13 @@ impl GpuContext {
                     let way = (info.stage == Stage::FineSamples).then_some((fine::WALK_SPEC_ID, walk | depth));
                     Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), way] }
                 }
-                // Binning writes its entries' keys where `fine_depth`'s walk rejects hidden
-                // triangles (`stages::bin::entry_keys`).
+                // Binning writes its entries' span masks where the fine stage walks
+                // (`stages::bin::entry_spans`), and their keys where `fine_depth`'s walk
+                // rejects hidden triangles (`stages::bin::entry_keys`).
                 Stage::BinFill => {
                     let keys = walks && prepared.pipeline() == Pipeline::Render && prepared.params.skips.hidden_triangles;
-                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, if keys { bin::WRITE_KEYS | depth } else { 0 })), None] }
+                    let spans = if walks { bin::WRITE_SPANS } else { 0 };
+                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, spans | if keys { bin::WRITE_KEYS | depth } else { 0 })), None] }
                 }
                 Stage::FineRaster | Stage::FineDepth => {
                     // `fine_raster`'s value mode shares the constant, as `fine_depth`'s depth test.
@@ -718,9 +720,25 @@ impl GpuContext {
             .is_some_and(|k| matches!(self.pipelines[k].0.spec[0], Some((bin::KEYS_SPEC_ID, value)) if value & bin::WRITE_KEYS != 0))
     }
 
-    /// The largest binding a bin entry takes room in: its slot (4 bytes), or its two keys.
+    /// Whether the binning pipeline among `rows` writes its entries' span masks after them in
+    /// the bins (`bin::WRITE_SPANS`), for a fine stage that walks.
+    fn writes_bin_spans(&self, rows: &[Option<usize>]) -> bool {
+        let bin_fill = STAGES.iter().position(|s| s.stage == Stage::BinFill);
+        bin_fill
+            .and_then(|row| rows[row])
+            .is_some_and(|k| matches!(self.pipelines[k].0.spec[0], Some((bin::KEYS_SPEC_ID, value)) if value & bin::WRITE_SPANS != 0))
+    }
+
+    /// The largest binding a bin entry takes room in: its slot (4 bytes), with its span mask,
+    /// or its two keys.
     fn bytes_per_bin_entry(&self, rows: &[Option<usize>]) -> u64 {
-        if self.writes_bin_keys(rows) { 2 * 8 } else { 4 }
+        if self.writes_bin_keys(rows) {
+            2 * 8
+        } else if self.writes_bin_spans(rows) {
+            2 * 4
+        } else {
+            4
+        }
     }
 
     /// One window's dispatches and readback; returns its statistics counters.
@@ -745,6 +763,7 @@ impl GpuContext {
         let tiles = frame.tile_count() as u64;
         let pixels = frame.win_w as u64 * frame.win_h as u64;
         let keys = self.writes_bin_keys(scene.rows);
+        let spans = self.writes_bin_spans(scene.rows);
         let device = &self.gpu.device;
         let b = &mut self.buffers;
         let frame_buf = b.frame.get(device, std::mem::size_of::<FrameParams>() as u64);
@@ -752,7 +771,7 @@ impl GpuContext {
         let counts = b.counts.get(device, tiles * 4);
         let cursors = b.cursors.get(device, tiles * 4);
         let offsets = b.offsets.get(device, (tiles + 1) * 4);
-        let bins = b.bins.get(device, entries * 4);
+        let bins = b.bins.get(device, entries * 4 * if spans { 2 } else { 1 });
         let bin_keys = b.bin_keys.get(device, if keys { 2 * entries * 8 } else { 0 });
         let values = b.values.get(device, pixels * 4);
         let owner_bytes = if frame.outputs.contains(OutputSet::OWNER) { pixels * 4 } else { 0 };

@@ -13,7 +13,7 @@
 //! by default, as OpenGL resolves integer targets); the coverage layer counts the triangles
 //! that cover at least one sample of the pixel.
 
-use crate::abi::{Coverage, PixelRect, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleSetup, setup_rect};
+use crate::abi::{Coverage, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleSetup};
 use crate::math::edge::{Side, side_of};
 use crate::memory::{LANE_GROUP, Lanes};
 use crate::programs::depth::{DepthProgram, depth_bits};
@@ -139,9 +139,10 @@ pub fn test_samples(
 
 /// The walk instead of the batches (as `fine::fine_walk` for pixel centres): pixel `(i, j)`
 /// tests its samples against every triangle of the tile's bin whose rectangle holds it, a
-/// group of eight lanes taking the bin eight entries at a time, voting on which reach its
-/// pixels, and reading each record it must test together (`memory::Lanes`). No workgroup
-/// memory and no barrier. It tests every triangle that holds the pixel, as the batches do, and
+/// group of eight lanes (one span of the tile, bit `span`) taking the bin eight entries at a
+/// time, voting on which reach its span (the masks binning wrote after the window's `entries`
+/// entries of `bin`), and reading each record it must test together (`memory::Lanes`). No
+/// workgroup memory and no barrier. It tests every triangle that holds the pixel, as the batches do, and
 /// a sample's owner is the smallest key whatever the order: the CPU backend's twin keeps the
 /// batches, with the same states and count.
 #[allow(clippy::too_many_arguments)]
@@ -152,19 +153,20 @@ pub fn walk_samples(
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
+    entries: u32,
     setup_words: &[u64],
+    span: u32,
     i: i32,
     j: i32,
     samples: u32,
     states: &mut [SampleState; MAX_SAMPLES],
     count: &mut u32,
 ) {
-    let group = PixelRect { i0: lanes.group_min(i), j0: lanes.group_min(j), i1: lanes.group_max(i), j1: lanes.group_max(j) };
     let mut k = 0;
     while k < bin_len {
         let slots = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let mut left = slots.select(run, |entry| setup_rect(setup_words, entry & !FULL_TILE_BIT).overlaps(&group));
+        let mut left = lanes.read8(bin, entries + bin_start + k).select(run, |spans| spans >> span & 1 != 0);
         while left != 0 {
             let m = left.trailing_zeros();
             left &= left - 1;

@@ -15,7 +15,7 @@
 use crate::abi::{Coverage, FrameParams, PixelRect, TriangleSetup};
 use crate::memory::{Counters, Slots};
 use crate::programs::depth::DepthProgram;
-use crate::stages::fine::{PixelProgram, tile_rect};
+use crate::stages::fine::{self, PixelProgram, tile_rect};
 use crate::{FULL_TILE_BIT, TILE};
 
 /// Tiles `tx0..=tx1` × `ty0..=ty1` of the window (empty when `tx0 > tx1` or `ty0 > ty1`).
@@ -163,14 +163,37 @@ pub const KEYS_SPEC_ID: u32 = 1;
 /// may fix too: `DepthProgram::spec_bits`).
 pub const WRITE_KEYS: u32 = 1;
 
+/// ... and its bit that makes it write each entry's spans (`entry_spans`), because the fine
+/// stage walks its bins.
+pub const WRITE_SPANS: u32 = 2;
+
+/// The spans of `tile` (its pixels, `stages::fine::tile_rect`) that the pixel rectangle `rect`
+/// reaches: bit [`fine::span_bit`] of each 8-pixel half of a tile row it overlaps. A walk's
+/// group of lanes is one span, so a group votes on an entry with one load and one bit (a
+/// triangle touches no pixel outside its rectangle).
+#[inline]
+pub fn entry_spans(rect: &PixelRect, tile: &PixelRect) -> u32 {
+    let (lo, hi) = (max_i32(rect.j0 - tile.j0, 0), min_i32(rect.j1 - tile.j0, TILE as i32 - 1));
+    if lo > hi {
+        return 0;
+    }
+    let rows = ((2u32 << hi as u32) - 1) & !((1u32 << lo as u32) - 1);
+    let half = fine::SPAN as i32;
+    let left = rect.i0 < tile.i0 + half && rect.i1 >= tile.i0;
+    let right = rect.i0 < tile.i0 + 2 * half && rect.i1 >= tile.i0 + half;
+    (if left { rows } else { 0 }) | if right { rows << TILE } else { 0 }
+}
+
 /// Fill pass: claim a slot in each of those tiles' bins and write the triangle's setup slot,
-/// with `FULL_TILE_BIT` where it covers the whole tile; with `write_keys`, the entry's keys
-/// under the frame's depth test too (`entry_keys`; fixed by `depth_spec` where it holds
-/// `DepthProgram::spec_bits`): the occluder key at the entry's index of `keys`, the lowest key
-/// at the window's number of entries past it.
+/// with `FULL_TILE_BIT` where it covers the whole tile; with `write_spans`, the entry's spans
+/// (`entry_spans`) at the window's number of entries past it in `bins`; with `write_keys`,
+/// the entry's keys under the frame's depth test too (`entry_keys`; fixed by `depth_spec`
+/// where it holds `DepthProgram::spec_bits`): the occluder key at the entry's index of `keys`,
+/// the lowest key at the window's number of entries past it.
 #[allow(clippy::too_many_arguments)]
 pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized, K: Slots<u64> + ?Sized>(
     write_keys: bool,
+    write_spans: bool,
     depth_spec: u32,
     setup: &TriangleSetup,
     frame: &FrameParams,
@@ -188,6 +211,9 @@ pub fn bin_fill<C: Counters + ?Sized, S: Slots + ?Sized, K: Slots<u64> + ?Sized>
         let entry = offsets[tile] + k;
         let word = setup.coverage.slot | if cover == TileCover::Full { FULL_TILE_BIT } else { 0 };
         bins.store(entry as usize, word);
+        if write_spans {
+            bins.store((entries + entry) as usize, entry_spans(&setup.coverage.rect, &tile_rect(tx, ty, frame)));
+        }
         if write_keys {
             let (occluder, lowest) = entry_keys(&DepthProgram::specialised(frame, depth_spec), setup, word, &tile_rect(tx, ty, frame));
             keys.store(entry as usize, occluder);
@@ -205,4 +231,31 @@ pub fn entry_keys<P: PixelProgram>(program: &P, setup: &P::Setup, word: u32, til
     let staged = P::staged(setup);
     let occluder = if word & FULL_TILE_BIT != 0 { program.occluder_key(staged, tile) } else { P::NO_KEY };
     (occluder, program.lowest_key(staged, tile))
+}
+
+#[cfg(all(test, not(target_arch = "spirv")))]
+mod tests {
+    use super::*;
+
+    /// A span's bit is set exactly where some pixel of the span lies in the rectangle.
+    #[test]
+    fn entry_spans_mark_the_spans_a_rectangle_reaches() {
+        let tile = PixelRect { i0: 32, j0: 48, i1: 47, j1: 63 };
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |n: i32| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) as i32 % n
+        };
+        for _ in 0..20_000 {
+            let (i0, j0) = (tile.i0 - 20 + next(40), tile.j0 - 20 + next(40));
+            let rect = PixelRect { i0, j0, i1: i0 + next(30), j1: j0 + next(30) };
+            let spans = entry_spans(&rect, &tile);
+            for lid in 0..crate::TILE_PIXELS {
+                let bit = fine::span_bit(lid);
+                let (row, first) = (tile.j0 + (lid / TILE) as i32, tile.i0 + (lid % TILE / fine::SPAN * fine::SPAN) as i32);
+                let reaches = (first..first + fine::SPAN as i32).any(|i| rect.contains(i, row));
+                assert_eq!(spans >> bit & 1 != 0, reaches, "{rect:?}, pixel {lid}");
+            }
+        }
+    }
 }

@@ -37,7 +37,7 @@
 //! on the order of the bin; the coverage count is a plain count. Both are therefore
 //! deterministic whatever the scheduling of the binning atomics.
 
-use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart, TriangleSetup, setup_rect};
+use crate::abi::{Counter, Coverage, FrameFlags, FrameParams, OutputSet, PixelRect, SetupPart, TriangleSetup};
 use crate::math::edge::{Side, side_of};
 use crate::memory::{Counters, LANE_GROUP, LaneValue, Lanes};
 use crate::{BATCH, FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
@@ -318,6 +318,16 @@ pub const SPANS: u32 = TILE_PIXELS / SPAN;
 // A span lies in one tile row, and a batch position fits a byte.
 const _: () = assert!(TILE.is_multiple_of(SPAN) && BATCH <= 256 && BATCH.is_multiple_of(4));
 
+/// The bit of invocation `lid`'s span in a bin entry's span mask (`stages::bin::entry_spans`):
+/// `half · 16 + row`, for the tile's two 8-pixel halves of its 16 rows.
+#[inline]
+pub fn span_bit(lid: u32) -> u32 {
+    (lid % TILE / SPAN) * TILE + lid / TILE
+}
+
+// The spans of a tile are the 32 bits of a mask, and a walk's lane group is one span.
+const _: () = assert!(SPANS == 32 && TILE / SPAN == 2 && SPAN == crate::memory::LANE_GROUP);
+
 /// Phase 1b, invocations `lid < SPANS` (after the batch is staged): span `lid`'s list of the
 /// batch's triangles whose rectangle reaches it, in batch order. A triangle owns, covers and
 /// touches nothing outside its rectangle, and a hidden one owns nothing: it is listed only
@@ -498,19 +508,19 @@ pub const WALK: u32 = 1 << 8;
 /// memory and no barrier: on a CPU implementation of Vulkan a barrier switches every
 /// invocation of the workgroup out and back in.
 ///
-/// The bin is taken eight entries at a time by a group of eight lanes. Each lane judges one
-/// entry (does its rectangle reach the group's pixels: two loads of the setup buffer as
-/// words), the group votes, and then reads together (`Lanes`: a word loaded per lane, passed
-/// round) the records of the triangles it must test, so every lane runs every iteration; a
-/// pixel that may stop (`overlap_free`, an owner found) only stops testing, and the group
-/// stops once all its pixels have. The host's twin, one pixel at a time, judges all eight
-/// entries itself and keeps those that reach its own pixel: neither skips a triangle that
-/// holds a pixel. The records are read as words (`setup_words`), so the walk is for programs
-/// whose setup is a [`TriangleSetup`].
+/// The bin is taken eight entries at a time by a group of eight lanes, one span of the tile
+/// (`span` is its bit, [`span_bit`]). Each lane judges one entry (does its rectangle reach the
+/// span: one load of the span mask binning wrote after the window's `entries` entries of
+/// `bin`, `stages::bin::entry_spans`), the group votes, and then reads together (`Lanes`: a
+/// word loaded per lane, passed round) the records of the triangles it must test, so every
+/// lane runs every iteration; a pixel that may stop (`overlap_free`, an owner found) only stops
+/// testing, and the group stops once all its pixels have. The host's twin, one pixel at a
+/// time, judges all eight entries itself by its own span: neither skips a triangle that holds a
+/// pixel. The records are read as words (`setup_words`), so the walk is for programs whose
+/// setup is a [`TriangleSetup`].
 ///
 /// Where the frame rejects hidden triangles (`rejects_hidden`), binning wrote each entry's
-/// keys (`bin_keys`, `stages::bin::entry_keys`; `entries` is the window's number of bin
-/// entries): a first pass takes the tile's bound, the smallest occluder key of the bin (as
+/// keys (`bin_keys`, `stages::bin::entry_keys`): a first pass takes the tile's bound, the smallest occluder key of the bin (as
 /// `fine_occluders` and `occluding_key` take it for the batches), and a triangle whose lowest
 /// key lies above it is hidden, as the batches judge it. Returns how many of the bin's
 /// triangles it hides (the same in every lane).
@@ -527,6 +537,7 @@ pub fn fine_walk<P: PixelProgram<Setup = TriangleSetup>>(
     setup_words: &[u64],
     rejects_hidden: bool,
     count_hidden: bool,
+    span: u32,
     i: i32,
     j: i32,
     overlap_free: bool,
@@ -548,7 +559,6 @@ where
             k += LANE_GROUP;
         }
     }
-    let group = PixelRect { i0: lanes.group_min(i), j0: lanes.group_min(j), i1: lanes.group_max(i), j1: lanes.group_max(j) };
     let mut hidden = 0;
     let mut k = 0;
     while k < bin_len {
@@ -559,7 +569,8 @@ where
             if rejects_hidden && occluding != P::NO_KEY { lanes.read8(bin_keys, entries + bin_start + k).select(run, |lowest| lowest > occluding) } else { 0 };
         hidden += hides.count_ones();
         // A hidden triangle is only counted, and only where the coverage layer is asked for.
-        let mut left = slots.select(run, |entry| setup_rect(setup_words, entry & !FULL_TILE_BIT).overlaps(&group)) & if count_hidden { !0 } else { !hides };
+        let reach = lanes.read8(bin, entries + bin_start + k).select(run, |spans| spans >> span & 1 != 0);
+        let mut left = reach & if count_hidden { !0 } else { !hides };
         while left != 0 {
             let m = left.trailing_zeros();
             left &= left - 1;

@@ -15,8 +15,9 @@ pub fn bin_count(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32]) 
     counts.into_iter().map(AtomicU32::into_inner).collect()
 }
 
-/// The entry point without its keys (`bin::KEYS_SPEC_ID` 0): the CPU backend's depth stages do
-/// not walk their bins (the plain twin's walk works the keys out itself, `plain::window_keys`).
+/// The entry point without its keys and spans (`bin::KEYS_SPEC_ID` 0): the CPU backend's fine
+/// stages do not walk their bins (the plain twin's walk works them out itself,
+/// `plain::window_keys`, `plain::window_spans`).
 pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32], offsets: &[u32]) -> Vec<u32> {
     let cursors = atomic_zeroed(frame.tile_count() as usize);
     let bins = atomic_zeroed(offsets[frame.tile_count() as usize] as usize);
@@ -24,7 +25,7 @@ pub fn bin_fill(frame: &FrameParams, setups: &[TriangleSetup], listed: &[u32], o
     listed.par_iter().for_each(|&t| {
         let s = &setups[t as usize];
         let no_keys: &mut [u64] = &mut [];
-        (0..frame.bin_parts).for_each(|part| bin::bin_fill(false, 0, s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink }, no_keys))
+        (0..frame.bin_parts).for_each(|part| bin::bin_fill(false, false, 0, s, frame, part, offsets, &mut { cursors_sink }, &mut { bins_sink }, no_keys))
     });
     bins.into_iter().map(AtomicU32::into_inner).collect()
 }

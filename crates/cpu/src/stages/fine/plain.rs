@@ -4,7 +4,7 @@ use super::band::{Band, BandCounters, StatCounters, for_each_band};
 use tileraster_core::Raster;
 use tileraster_kernels::abi::{Counter, FrameParams, SetupPart, TriangleSetup};
 use tileraster_kernels::memory::{LaneValue, Lanes};
-use tileraster_kernels::stages::bin::entry_keys;
+use tileraster_kernels::stages::bin::{entry_keys, entry_spans};
 use tileraster_kernels::stages::fine::{self, FineShared, PixelProgram, PixelState};
 use tileraster_kernels::{BATCH, FULL_TILE_BIT, TILE_PIXELS};
 
@@ -25,7 +25,15 @@ where
     P::Staged: Default + SetupPart,
     P::Key: LaneValue + Sync,
 {
-    // What the GPU's binning writes for a walk that rejects hidden triangles.
+    // What the GPU's binning writes for a walk: the entries' span masks after the entries, and
+    // the keys where it rejects hidden triangles.
+    let with_spans;
+    let bins = if walk {
+        with_spans = window_spans(frame, setups, offsets, bins);
+        &with_spans[..]
+    } else {
+        bins
+    };
     let keys = if walk && fine::rejects_hidden::<P>(frame) { window_keys(program, frame, setups, offsets, bins) } else { Vec::new() };
     for_each_band(frame, raster, |band, stats| {
         let mut counts = BandCounters::default();
@@ -34,6 +42,24 @@ where
         }
         counts.add_to(stats);
     })
+}
+
+/// The window's bins as `bin_fill` leaves them for a walk: the entries, then each entry's span
+/// mask (`stages::bin::entry_spans`).
+fn window_spans(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32]) -> Vec<u32> {
+    let entries = offsets[frame.tile_count() as usize] as usize;
+    let mut out = bins[..entries].to_vec();
+    out.resize(2 * entries, 0);
+    for ty in 0..frame.tiles_y {
+        for tx in 0..frame.tiles_x {
+            let (start, len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+            let tile = fine::tile_rect(tx, ty, frame);
+            for e in start as usize..(start + len) as usize {
+                out[entries + e] = entry_spans(&setups[(bins[e] & !FULL_TILE_BIT) as usize].coverage.rect, &tile);
+            }
+        }
+    }
+    out
 }
 
 /// The keys `bin_fill` writes for every entry of the window's bins where the walk rejects
@@ -107,6 +133,7 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Setup = TriangleSetup, Valu
                     words,
                     rejects_hidden,
                     count_hidden,
+                    fine::span_bit(lid as u32),
                     i,
                     j,
                     overlap_free,

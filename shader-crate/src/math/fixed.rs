@@ -20,24 +20,6 @@ pub fn msb(v: u64) -> u32 {
     if hi != 0 { 63 - hi.leading_zeros() } else { 31 - lo.leading_zeros() }
 }
 
-/// `round(m / 2^s)` to nearest, ties to even, for any `s` (large shifts round to 0).
-fn round_shr(m: u64, s: u32) -> u64 {
-    if s == 0 {
-        return m;
-    }
-    if s > 64 {
-        return 0;
-    }
-    if s == 64 {
-        // m / 2^64 < 1: rounds up only when strictly above one half.
-        return if m > (1u64 << 63) { 1 } else { 0 };
-    }
-    let q = m >> s;
-    let rem = m & ((1u64 << s) - 1);
-    let half = 1u64 << (s - 1);
-    if rem > half || (rem == half && (q & 1) == 1) { q + 1 } else { q }
-}
-
 /// Bits of the `f32` nearest to `n · 2^−frac_bits` (round to nearest, ties to even,
 /// subnormals kept, ±∞ on overflow; zero is +0).
 ///
@@ -111,34 +93,42 @@ pub fn i64_to_f32_portable(n: i64) -> f32 {
     if n < 0 { -magnitude } else { magnitude }
 }
 
-/// [`fixed_to_f32_bits`] with integer operations only.
+/// [`fixed_to_f32_bits`] with integer operations only, and no branch: a SIMD lane runs every
+/// branch, taken or not, so the normal, subnormal and overflowing cases share one path.
+///
+/// The result's biased exponent is that of the leading bit, at least 1 (a subnormal's unit is
+/// the smallest normal's); the bits of `|n|` below the result's last significand bit are
+/// dropped with rounding to nearest, ties to even (or zeros appended). Then
+/// `(exponent − 1) · 2^23 + m` is the encoding: a significand with its implicit bit adds the
+/// one back, a rounding that carries into `2^24` moves to the next binade, and a subnormal's
+/// `m` (below `2^23`, or exactly `2^23`: the smallest normal) stays below the exponent field.
+/// Past the largest finite value it is `+∞`.
 pub fn fixed_to_f32_bits_by_hand(n: i64, frac_bits: i32) -> u32 {
-    if n == 0 {
-        return 0;
-    }
     let sign: u32 = if n < 0 { 0x8000_0000 } else { 0 };
     let mag = n.unsigned_abs();
-    let top = msb(mag) as i32;
-    // Unbiased exponent of the leading bit.
-    let exp = top - frac_bits;
-    if exp > 127 {
-        return sign | 0x7f80_0000;
-    }
-    if exp >= -126 {
-        // Normal: keep 24 significant bits.
-        let m = if top > 23 { round_shr(mag, (top - 23) as u32) } else { mag << (23 - top) as u32 };
-        // Rounding may carry into a 25th bit: that is the next binade.
-        let (m, exp) = if m == (1u64 << 24) { (m >> 1, exp + 1) } else { (m, exp) };
-        if exp > 127 {
-            return sign | 0x7f80_0000;
-        }
-        return sign | (((exp + 127) as u32) << 23) | (m as u32 & 0x007f_ffff);
-    }
-    // Subnormal: the bits are the value in units of 2^-149; a carry to 2^23 lands exactly on
-    // the smallest normal's encoding.
-    let shift = frac_bits - 149;
-    let m = if shift >= 0 { round_shr(mag, shift as u32) } else { mag << (-shift) as u32 };
-    sign | m as u32
+    let top = msb(mag | 1) as i64;
+    let frac = frac_bits as i64;
+    let biased = if top - frac + 127 > 1 { top - frac + 127 } else { 1 };
+    // Bits of `mag` below the result's last significand bit (negative: bits to append, at most
+    // 23, since a normal result keeps 24 and a subnormal one needs `top < 23`).
+    let drop = biased - 150 + frac;
+    let right = drop.clamp(0, 63) as u32;
+    let left = if drop < 0 { (-drop) as u32 } else { 0 };
+    let q = mag >> right;
+    let rem = mag & ((1u64 << right) - 1);
+    let half = (1u64 << right) >> 1;
+    let up = drop > 0 && (rem > half || (rem == half && q & 1 == 1));
+    // Beyond 63 bits dropped the value is below half a unit (`|n| ≤ 2^63`): zero.
+    let m = if drop > 63 {
+        0
+    } else if drop < 0 {
+        mag << left
+    } else {
+        q + up as u64
+    };
+    let bits = ((biased - 1) as u64) * (1 << 23) + m;
+    let bits = if bits >= 0x7f80_0000 { 0x7f80_0000 } else { bits as u32 };
+    if n == 0 { 0 } else { sign | bits }
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]

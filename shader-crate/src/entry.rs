@@ -350,7 +350,7 @@ fn fine_raster_workgroup<P: PixelProgram<Setup = TriangleSetup>>(
         } else {
             fine::count_tile(lid, Counter::TilesPartial, stats);
             let tile_rect = fine::tile_rect(wg.x, wg.y, frame);
-            let overlap_free = fine::overlap_free(frame);
+            let overlap_free = fine::overlap_free::<P>(frame);
             let count_hidden = fine::counts_hidden(frame);
             let rejects_hidden = fine::rejects_hidden::<P>(frame);
             if walk {

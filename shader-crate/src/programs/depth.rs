@@ -232,6 +232,9 @@ impl PixelProgram for DepthProgram {
     /// for the path).
     const FULL_TILE_PATH: bool = false;
 
+    /// Render frames never prove their triangles overlap-free (the host leaves it off).
+    const OVERLAP_FREE_PATH: bool = false;
+
     #[inline(always)]
     fn background(&self) -> u32 {
         self.clear.to_bits()

@@ -92,6 +92,10 @@ pub trait PixelProgram {
     fn small_edges(&self) -> bool {
         false
     }
+    /// Whether a pixel may stop at the first triangle it is inside where the frame proves that
+    /// none overlap (`overlap_free`): not for a program whose frames never ask for it (the
+    /// depth test, where every fragment's key counts), so that its stage holds no such check.
+    const OVERLAP_FREE_PATH: bool = true;
     /// Whether a tile whose bin is one triangle covering it whole may skip the tests
     /// (`full_tile`): not for a program whose value comes from the key, which that path does
     /// not work out.
@@ -450,8 +454,8 @@ fn accumulate_with<P: PixelProgram>(side: Side, staged: &P::Staged, state: &mut 
 
 /// Whether the frame lets a pixel stop at the first triangle it is inside.
 #[inline]
-pub fn overlap_free(frame: &FrameParams) -> bool {
-    frame.flags.contains(FrameFlags::OVERLAP_FREE)
+pub fn overlap_free<P: PixelProgram>(frame: &FrameParams) -> bool {
+    P::OVERLAP_FREE_PATH && frame.flags.contains(FrameFlags::OVERLAP_FREE)
 }
 
 /// Whether the frame writes the coverage layer, so that a hidden triangle is still counted
@@ -575,7 +579,7 @@ where
             let m = left.trailing_zeros();
             left &= left - 1;
             let done = overlap_free && state.owner != NO_OWNER;
-            if lanes.all(done) {
+            if overlap_free && lanes.all(done) {
                 // (The hidden count needs every entry.)
                 if !rejects_hidden {
                     return 0;

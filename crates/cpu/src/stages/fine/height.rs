@@ -91,7 +91,7 @@ fn fine_raster_tile(
         TileKind::Empty
     } else if fine::full_tile::<HeightProgram>(bins, bin_start, bin_len, setups, frame, &mut full) {
         TileKind::Full
-    } else if fine::overlap_free(frame) {
+    } else if fine::overlap_free::<HeightProgram>(frame) {
         TileKind::OverlapFree
     } else {
         TileKind::Overlapping

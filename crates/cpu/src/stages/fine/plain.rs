@@ -114,7 +114,7 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Setup = TriangleSetup, Valu
         fine::count_tile(0, Counter::TilesPartial, stats);
         let tile = fine::tile_rect(tx, ty, frame);
         let mut shared = FineShared::new(P::Staged::default(), P::NO_KEY);
-        let overlap_free = fine::overlap_free(frame);
+        let overlap_free = fine::overlap_free::<P>(frame);
         let count_hidden = fine::counts_hidden(frame);
         let rejects_hidden = fine::rejects_hidden::<P>(frame);
         // The entry point's two ways through the bin, as it takes them.

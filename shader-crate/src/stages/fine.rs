@@ -518,7 +518,9 @@ pub const WALK: u32 = 1 << 8;
 /// `bin`, `stages::bin::entry_spans`), the group votes, and then reads together (`Lanes`: a
 /// word loaded per lane, passed round) the records of the triangles it must test, so every
 /// lane runs every iteration; a pixel that may stop (`overlap_free`, an owner found) only stops
-/// testing, and the group stops once all its pixels have. The host's twin, one pixel at a
+/// testing, and the group stops before its next eight entries once all its pixels have (asking
+/// the group is a loop over its lanes on a CPU implementation of Vulkan: once a round, not
+/// once a triangle). The host's twin, one pixel at a
 /// time, judges all eight entries itself by its own span: neither skips a triangle that holds a
 /// pixel. The records are read as words (`setup_words`), so the walk is for programs whose
 /// setup is a [`TriangleSetup`].
@@ -566,6 +568,11 @@ where
     let mut hidden = 0;
     let mut k = 0;
     while k < bin_len {
+        // A group whose pixels have all found their owner stops (the hidden count needs every
+        // entry).
+        if overlap_free && !rejects_hidden && lanes.all(state.owner != NO_OWNER) {
+            return 0;
+        }
         let slots = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
         // Without a bound (`NO_KEY`) nothing is hidden, as `PixelProgram::hidden` has it.
@@ -579,13 +586,6 @@ where
             let m = left.trailing_zeros();
             left &= left - 1;
             let done = overlap_free && state.owner != NO_OWNER;
-            if overlap_free && lanes.all(done) {
-                // (The hidden count needs every entry.)
-                if !rejects_hidden {
-                    return 0;
-                }
-                continue;
-            }
             let staged = P::Staged::read_setup(lanes, setup_words, slots.get(m) & !FULL_TILE_BIT);
             let c = P::coverage(&staged);
             if !done && c.rect.contains(i, j) {

@@ -14,7 +14,7 @@ use crate::abi::{
 };
 use crate::math::edge::Side;
 use crate::math::fixed::i64_to_f32;
-use crate::math::float::{div, recip, sqrt};
+use crate::math::float::{Divisor, recip, sqrt};
 use crate::programs::depth::{DepthProgram, depth_bits};
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::texture::{self, lod};
@@ -88,7 +88,9 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
     if len <= 1.0e-30 {
         return [0.0; 3];
     }
-    // One copy of the division, and named components (see `base_colour`).
+    // One copy of the division, its divisor's part shared, and named components (see
+    // `base_colour`).
+    let len = Divisor::new(len);
     let (mut x, mut y, mut z) = (0.0, 0.0, 0.0);
     let mut k = 0;
     while k < 3 {
@@ -97,7 +99,7 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
             1 => v[1],
             _ => v[2],
         };
-        let q = scale_div(component, len);
+        let q = scale_div(component, &len);
         match k {
             0 => x = q,
             1 => y = q,
@@ -110,8 +112,8 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
 
 /// `x / d` for `d > 0` and any finite `x`, by the sign of `x` (one division).
 #[inline]
-fn scale_div(x: f32, d: f32) -> f32 {
-    let q = div(if x > 0.0 { x } else { -x }, d);
+fn scale_div(x: f32, d: &Divisor) -> f32 {
+    let q = d.divide(if x > 0.0 { x } else { -x });
     if x > 0.0 {
         q
     } else if x < 0.0 {

@@ -90,75 +90,74 @@ fn scaled_estimate(x: f32, shift: u32) -> u64 {
 /// last bit settled in integers.
 #[inline]
 pub fn div_portable(a: f32, b: f32) -> f32 {
-    Divisor::new(b).divide_portable(a)
+    quotient_portable(a, b, &DivisorParts::of(b))
 }
 
-/// A divisor whose parts, and the estimate of its significand's reciprocal, several quotients
-/// share (a vector's three components over its length): each [`Divisor::divide`] gives
-/// [`div`]'s bits.
+/// A divisor that several quotients share (a vector's three components over its length): on
+/// the GPU its parts and the estimate of its significand's reciprocal are worked out once.
+/// Each [`Divisor::divide`] gives [`div`]'s bits; the host divides natively, as `div` does.
 #[derive(Copy, Clone)]
 pub struct Divisor {
     b: f32,
-    /// Its significand (24 bits) and biased exponent.
-    mb: u64,
-    eb: i32,
-    /// `1/b'` for its significand `b'` in `[1, 2)`, estimated ([`unit_recip`]) once, on the
-    /// GPU; the host, which divides natively in the domain, works it out where it needs it.
-    #[cfg_attr(not(target_arch = "spirv"), allow(dead_code))]
-    recip: f32,
+    #[cfg(target_arch = "spirv")]
+    parts: DivisorParts,
 }
 
 impl Divisor {
     #[inline]
     pub fn new(b: f32) -> Divisor {
-        let bits = b.to_bits();
-        let (mb, eb) = parts(bits);
-        #[cfg(target_arch = "spirv")]
-        let recip = unit_recip(unit_significand(bits));
-        #[cfg(not(target_arch = "spirv"))]
-        let recip = 0.0;
-        Divisor { b, mb, eb, recip }
-    }
-
-    /// The estimate of the significand's reciprocal.
-    #[inline]
-    fn recip(&self) -> f32 {
-        #[cfg(target_arch = "spirv")]
-        return self.recip;
-        #[cfg(not(target_arch = "spirv"))]
-        unit_recip(unit_significand(self.b.to_bits()))
+        Divisor {
+            b,
+            #[cfg(target_arch = "spirv")]
+            parts: DivisorParts::of(b),
+        }
     }
 
     /// `a / b`, correctly rounded, for positive normal `a` (as [`div`]).
     #[inline]
     pub fn divide(&self, a: f32) -> f32 {
         #[cfg(not(target_arch = "spirv"))]
-        if normal(a.to_bits()) && normal(self.b.to_bits()) {
-            let q = a / self.b;
-            if normal(q.to_bits()) {
-                return q;
-            }
-        }
-        self.divide_portable(a)
+        return div(a, self.b);
+        #[cfg(target_arch = "spirv")]
+        quotient_portable(a, self.b, &self.parts)
     }
+}
 
-    /// [`Self::divide`] on every device alike.
+/// What a portable division needs of its divisor besides the divisor itself.
+#[derive(Copy, Clone)]
+struct DivisorParts {
+    /// Its significand (24 bits) and biased exponent.
+    mb: u64,
+    eb: i32,
+    /// `1/b'` for its significand `b'` in `[1, 2)`, estimated ([`unit_recip`]).
+    recip: f32,
+}
+
+impl DivisorParts {
     #[inline]
-    fn divide_portable(&self, a: f32) -> f32 {
-        let (ab, bb) = (a.to_bits(), self.b.to_bits());
-        if !normal(ab) || !normal(bb) {
-            return if ab == 0 { 0.0 } else { f32::from_bits(0x7f80_0000) };
-        }
-        let (ma, ea) = parts(ab);
-        let mb = self.mb;
-        // The quotient of the significands lies in (1/2, 2). Its correctly rounded significand
-        // Q has 24 bits: Q = RN(n / mb) with n = ma·2^23 where ma ≥ mb (quotient in [1, 2)),
-        // else ma·2^24 (quotient in (1/2, 1)).
-        let shift: u32 = if ma >= mb { 23 } else { 24 };
-        let n = ma << shift;
-        let q = settle(scaled_estimate(unit_significand(ab) * self.recip(), shift), |q| 2 * q + 1, |t| t * mb, 2 * n);
-        assemble(q, ea - self.eb + 127 + 23 - shift as i32)
+    fn of(b: f32) -> DivisorParts {
+        let bits = b.to_bits();
+        let (mb, eb) = parts(bits);
+        DivisorParts { mb, eb, recip: unit_recip(unit_significand(bits)) }
     }
+}
+
+/// `a / b` on every device alike, with `b`'s parts `d`.
+#[inline]
+fn quotient_portable(a: f32, b: f32, d: &DivisorParts) -> f32 {
+    let (ab, bb) = (a.to_bits(), b.to_bits());
+    if !normal(ab) || !normal(bb) {
+        return if ab == 0 { 0.0 } else { f32::from_bits(0x7f80_0000) };
+    }
+    let (ma, ea) = parts(ab);
+    let mb = d.mb;
+    // The quotient of the significands lies in (1/2, 2). Its correctly rounded significand Q
+    // has 24 bits: Q = RN(n / mb) with n = ma·2^23 where ma ≥ mb (quotient in [1, 2)), else
+    // ma·2^24 (quotient in (1/2, 1)).
+    let shift: u32 = if ma >= mb { 23 } else { 24 };
+    let n = ma << shift;
+    let q = settle(scaled_estimate(unit_significand(ab) * d.recip, shift), |q| 2 * q + 1, |t| t * mb, 2 * n);
+    assemble(q, ea - d.eb + 127 + 23 - shift as i32)
 }
 
 /// The quotient of the significands of `a` and `b` (bits), times `2^shift`, estimated in
@@ -362,15 +361,16 @@ mod tests {
         assert!(worst <= 2f64.powi(-20), "a reciprocal estimate was {worst:e} off");
     }
 
-    /// A shared divisor gives each quotient `div`'s bits, on both paths.
+    /// A divisor's parts, worked out once, give each quotient the IEEE bits, as the GPU's
+    /// `Divisor` uses them.
     #[test]
-    fn a_shared_divisor_divides_as_div_does() {
+    fn shared_divisor_parts_divide_as_div_does() {
         let xs = samples();
         for (k, &b) in xs.iter().enumerate().step_by(11) {
-            let d = Divisor::new(b);
+            let (d, shared) = (DivisorParts::of(b), Divisor::new(b));
             for &a in xs.iter().skip(k % 5).step_by(5) {
-                assert_eq!(d.divide(a).to_bits(), div(a, b).to_bits(), "{a:e} / {b:e}");
-                assert_eq!(d.divide_portable(a).to_bits(), div_portable(a, b).to_bits(), "{a:e} / {b:e}");
+                assert_eq!(quotient_portable(a, b, &d).to_bits(), div(a, b).to_bits(), "{a:e} / {b:e}");
+                assert_eq!(shared.divide(a).to_bits(), div(a, b).to_bits(), "{a:e} / {b:e}");
             }
         }
     }

@@ -293,8 +293,8 @@ impl SetupPart for Coverage {
 
 impl SetupPart for TriangleSetup {
     /// Word 12 is the coverage's slot and padding; then the `f32` coefficients (13..15) and the
-    /// plane (15..19). A program that reads no plane (the render pipeline's) reads no third
-    /// word group: the driver drops the unused loads.
+    /// plane (15..19). A program that reads no plane (the render pipeline's) leaves the third
+    /// group's loads unused, and the driver's compiler drops them.
     #[inline(always)]
     fn read_setup(lanes: &Lanes, setup_words: &[u64], slot: u32) -> TriangleSetup {
         let at = slot * SETUP_WORDS;

@@ -237,25 +237,21 @@ impl<W: LaneValue> Words8<W> {
 }
 
 impl Lanes {
-    /// The smallest of `v` over the group's lanes; on the host, `v`.
+    /// The bitwise OR of `v` over the group's lanes; on the host, `v`. (The walks OR their
+    /// lanes' span bits: whatever the device's order of subgroup lanes against invocations, a
+    /// group votes for every span its pixels lie in.)
     #[cfg(target_arch = "spirv")]
     #[inline(always)]
-    pub fn group_min(&self, v: i32) -> i32 {
-        let a = v.min(spirv_std::arch::subgroup_shuffle_xor(v, 1));
-        let b = a.min(spirv_std::arch::subgroup_shuffle_xor(a, 2));
-        b.min(spirv_std::arch::subgroup_shuffle_xor(b, 4))
+    pub fn group_or(&self, v: u32) -> u32 {
+        let a = v | spirv_std::arch::subgroup_shuffle_xor(v, 1);
+        let b = a | spirv_std::arch::subgroup_shuffle_xor(a, 2);
+        b | spirv_std::arch::subgroup_shuffle_xor(b, 4)
     }
 
     #[cfg(not(target_arch = "spirv"))]
     #[inline(always)]
-    pub fn group_min(&self, v: i32) -> i32 {
+    pub fn group_or(&self, v: u32) -> u32 {
         v
-    }
-
-    /// The largest of `v` over the group's lanes (pixel coordinates: `-v` does not overflow).
-    #[inline(always)]
-    pub fn group_max(&self, v: i32) -> i32 {
-        -self.group_min(-v)
     }
 }
 

@@ -551,7 +551,10 @@ impl GpuContext {
                 Stage::BinFill => {
                     let keys = walks && prepared.pipeline() == Pipeline::Render && prepared.params.skips.hidden_triangles;
                     let spans = if walks { bin::WRITE_SPANS } else { 0 };
-                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, spans | if keys { bin::WRITE_KEYS | depth } else { 0 })), None] }
+                    // (Binning's keys take no edge function at a pixel: the small-edge bit
+                    // stays out of its constant, and out of its pipeline variants.)
+                    let keys = if keys { bin::WRITE_KEYS | depth & !DepthProgram::SMALL_EDGES } else { 0 };
+                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, spans | keys)), None] }
                 }
                 Stage::FineRaster | Stage::FineDepth => {
                     // `fine_raster`'s value mode shares the constant, as `fine_depth`'s depth test.

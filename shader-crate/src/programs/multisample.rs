@@ -139,9 +139,9 @@ pub fn test_samples(
 
 /// The walk instead of the batches (as `fine::fine_walk` for pixel centres): pixel `(i, j)`
 /// tests its samples against every triangle of the tile's bin whose rectangle holds it, a
-/// group of eight lanes (one span of the tile, bit `span`) taking the bin eight entries at a
-/// time, voting on which reach its span (the masks binning wrote after the window's `entries`
-/// entries of `bin`), and reading each record it must test together (`memory::Lanes`). No
+/// group of eight lanes (the spans of its pixels, each pixel's bit `span`, ORed) taking the bin
+/// eight entries at a time, voting on which reach its spans (the masks binning wrote after the
+/// window's `entries` entries of `bin`), and reading each record it must test together (`memory::Lanes`). No
 /// workgroup memory and no barrier. It tests every triangle that holds the pixel, as the batches do, and
 /// a sample's owner is the smallest key whatever the order: the CPU backend's twin keeps the
 /// batches, with the same states and count.
@@ -162,11 +162,12 @@ pub fn walk_samples(
     states: &mut [SampleState; MAX_SAMPLES],
     count: &mut u32,
 ) {
+    let group_spans = lanes.group_or(1 << span);
     let mut k = 0;
     while k < bin_len {
         let slots = lanes.read8(bin, bin_start + k);
         let run = if bin_len - k < LANE_GROUP { bin_len - k } else { LANE_GROUP };
-        let mut left = lanes.read8(bin, entries + bin_start + k).select(run, |spans| spans >> span & 1 != 0);
+        let mut left = lanes.read8(bin, entries + bin_start + k).select(run, move |spans| spans & group_spans != 0);
         while left != 0 {
             let m = left.trailing_zeros();
             left &= left - 1;

@@ -329,7 +329,8 @@ pub fn span_bit(lid: u32) -> u32 {
     (lid % TILE / SPAN) * TILE + lid / TILE
 }
 
-// The spans of a tile are the 32 bits of a mask, and a walk's lane group is one span.
+// The spans of a tile are the 32 bits of a mask (a walk's lane group is one span where the
+// device numbers subgroup lanes as invocations).
 const _: () = assert!(SPANS == 32 && TILE / SPAN == 2 && SPAN == crate::memory::LANE_GROUP);
 
 /// Phase 1b, invocations `lid < SPANS` (after the batch is staged): span `lid`'s list of the
@@ -513,14 +514,15 @@ pub const WALK: u32 = 1 << 8;
 /// invocation of the workgroup out and back in.
 ///
 /// The bin is taken eight entries at a time by a group of eight lanes, one span of the tile
-/// (`span` is its bit, [`span_bit`]). Each lane judges one entry (does its rectangle reach the
-/// span: one load of the span mask binning wrote after the window's `entries` entries of
-/// `bin`, `stages::bin::entry_spans`), the group votes, and then reads together (`Lanes`: a
-/// word loaded per lane, passed round) the records of the triangles it must test, so every
-/// lane runs every iteration; a pixel that may stop (`overlap_free`, an owner found) only stops
-/// testing, and the group stops before its next eight entries once all its pixels have (asking
-/// the group is a loop over its lanes on a CPU implementation of Vulkan: once a round, not
-/// once a triangle). The host's twin, one pixel at a
+/// where the device numbers its subgroup lanes as its invocations (`span` is each pixel's bit,
+/// [`span_bit`]; the group ORs its pixels' bits once, so any order is right). Each lane judges
+/// one entry (does its rectangle reach the group's spans: one load of the span mask binning
+/// wrote after the window's `entries` entries of `bin`, `stages::bin::entry_spans`), the group
+/// votes, and then reads together (`Lanes`: a word loaded per lane, passed round) the records
+/// of the triangles it must test, so every lane runs every iteration; a pixel that may stop
+/// (`overlap_free`, an owner found) only stops testing, and the subgroup stops before its next
+/// eight entries once all its pixels have (asking it is a loop over its lanes on a CPU
+/// implementation of Vulkan: once a round, not once a triangle). The host's twin, one pixel at a
 /// time, judges all eight entries itself by its own span: neither skips a triangle that holds a
 /// pixel. The records are read as words (`setup_words`), so the walk is for programs whose
 /// setup is a [`TriangleSetup`].
@@ -565,10 +567,11 @@ where
             k += LANE_GROUP;
         }
     }
+    let group_spans = lanes.group_or(1 << span);
     let mut hidden = 0;
     let mut k = 0;
     while k < bin_len {
-        // A group whose pixels have all found their owner stops (the hidden count needs every
+        // A subgroup whose pixels have all found their owner stops (the hidden count needs every
         // entry).
         if overlap_free && !rejects_hidden && lanes.all(state.owner != NO_OWNER) {
             return 0;
@@ -580,7 +583,7 @@ where
             if rejects_hidden && occluding != P::NO_KEY { lanes.read8(bin_keys, entries + bin_start + k).select(run, |lowest| lowest > occluding) } else { 0 };
         hidden += hides.count_ones();
         // A hidden triangle is only counted, and only where the coverage layer is asked for.
-        let reach = lanes.read8(bin, entries + bin_start + k).select(run, |spans| spans >> span & 1 != 0);
+        let reach = lanes.read8(bin, entries + bin_start + k).select(run, move |spans| spans & group_spans != 0);
         let mut left = reach & if count_hidden { !0 } else { !hides };
         while left != 0 {
             let m = left.trailing_zeros();

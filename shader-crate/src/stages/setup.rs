@@ -35,18 +35,19 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
     }
 }
 
-/// Whether every edge function of the triangle lies in `(−2^31, 2^31)` at every pixel centre of
-/// its rectangle and at every sample of those pixels, so that 32-bit wrapping arithmetic on the
-/// setup's terms gives it exactly (every operation is exact modulo 2^32, and the one value in
-/// range that agrees modulo 2^32 is the true one). The bound: with `E` the larger side of the
-/// snapped bounding box, `|dx|, |dy| ≤ E`, and a pixel centre of the rectangle lies in the box,
-/// a sample within half a pixel of it, so `|p − a| ≤ E + unit/2` on each axis and
-/// `|e(p)| ≤ |dx|·|p.y − a.y| + |dy|·|p.x − a.x| ≤ 2·E·(E + unit/2)`.
+/// Whether every edge function of the triangle lies in `(−2^31, 2^31)` at every point within
+/// a pixel of its snapped bounding box on each axis, so that 32-bit wrapping arithmetic on the
+/// setup's terms gives it exactly there (every operation is exact modulo 2^32, and the one
+/// value in range that agrees modulo 2^32 is the true one). That holds the fine stages'
+/// points: the centres of the triangle's rectangle lie in the box, or with several samples
+/// within 7/16 px of it (the render pipeline widens a multisampled triangle's rectangle so),
+/// and a sample within 7/16 px of its centre. The bound: with `E` the larger side of the box,
+/// `|dx|, |dy| ≤ E` and `|p − a| < E + unit` on each axis, so
+/// `|e(p)| ≤ |dx|·|p.y − a.y| + |dy|·|p.x − a.x| < 2·E·(E + unit)`.
 pub fn edges_fit_i32(input: &TriangleInput, snap_bits: u32) -> bool {
     let side = |v: &[i64; 3]| max(max(v[0], v[1]), v[2]) - min(min(v[0], v[1]), v[2]);
     let extent = max(side(&input.x), side(&input.y));
-    let half = 1i64 << snap_bits >> 1;
-    2 * extent * (extent + half) < 1 << 31
+    2 * extent * (extent + (1 << snap_bits)) <= 1 << 31
 }
 
 fn max(a: i64, b: i64) -> i64 {
@@ -64,15 +65,17 @@ mod tests {
     use crate::programs::multisample::{sample_edges, sample_edges_small};
     use crate::stages::fine::{side_and_edges, side_and_edges_small};
 
-    /// Triangles at the bound's edge, every orientation: where `edges_fit_i32` holds, the 32-bit
-    /// edge functions equal the 64-bit ones at the rectangle's corner pixels (where a linear
-    /// function is extreme) and at every sample of them; just past the bound it fails.
+    /// Triangles at the bound's edge, every orientation, with the rectangles of one sample and
+    /// of several (widened by 7/16 px, as the render pipeline widens them): where
+    /// `edges_fit_i32` holds, the 32-bit edge functions equal the 64-bit ones at the
+    /// rectangle's corner pixels (where a linear function is extreme) and at every sample of
+    /// them; just past the bound it fails.
     #[test]
     fn small_edges_are_exact_within_the_bound() {
         let snap_bits = 8;
         let unit = 1i64 << snap_bits;
-        // The largest extent the bound allows at 8 bits: 2E(E + 128) < 2^31.
-        let limit = (0i64..1 << 16).take_while(|&e| 2 * e * (e + unit / 2) < 1 << 31).last().unwrap();
+        // The largest extent the bound allows at 8 bits: 2E(E + 256) ≤ 2^31.
+        let limit = (0i64..1 << 16).take_while(|&e| 2 * e * (e + unit) <= 1 << 31).last().unwrap();
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = |n: i64| {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -84,11 +87,12 @@ mod tests {
             let x = [x0, x0 + next(limit + 1), x0 + next(limit + 1)];
             let y = [y0, y0 + next(limit + 1), y0 + limit * next(2)];
             let pixel = |v: i64, up: bool| if up { (v - unit / 2 + unit - 1).div_euclid(unit) } else { (v - unit / 2).div_euclid(unit) } as i32;
+            let reach = if next(2) == 0 { 0 } else { 7 * unit / 16 };
             let rect = PixelRect {
-                i0: pixel(*x.iter().min().unwrap(), true),
-                j0: pixel(*y.iter().min().unwrap(), true),
-                i1: pixel(*x.iter().max().unwrap(), false),
-                j1: pixel(*y.iter().max().unwrap(), false),
+                i0: pixel(*x.iter().min().unwrap() - reach, true),
+                j0: pixel(*y.iter().min().unwrap() - reach, true),
+                i1: pixel(*x.iter().max().unwrap() + reach, false),
+                j1: pixel(*y.iter().max().unwrap() + reach, false),
             };
             if rect.i0 > rect.i1 || rect.j0 > rect.j1 {
                 continue;

@@ -10,6 +10,19 @@ impl EdgeEq {
     pub fn at(&self, di: i64, dj: i64) -> i64 {
         self.e0 + self.step_i * di + self.step_j * dj
     }
+
+    /// [`Self::at`] in 32-bit wrapping arithmetic, plus `extra_i`, `extra_j` sixteenths of a
+    /// step (a sample's offset): exact modulo 2^32, so exact wherever the value fits 32 bits
+    /// (`stages::setup::edges_fit_i32`).
+    #[inline(always)]
+    pub fn at_i32(&self, di: i32, dj: i32, extra_i: i32, extra_j: i32) -> i32 {
+        let (step_i, step_j) = (self.step_i as i32, self.step_j as i32);
+        (self.e0 as i32)
+            .wrapping_add(step_i.wrapping_mul(di))
+            .wrapping_add(step_j.wrapping_mul(dj))
+            .wrapping_add((step_i >> 4).wrapping_mul(extra_i))
+            .wrapping_add((step_j >> 4).wrapping_mul(extra_j))
+    }
 }
 
 /// Top-left rule for a positively oriented triangle in raster space (x right, y down): an

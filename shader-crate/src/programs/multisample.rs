@@ -89,12 +89,7 @@ pub fn sample_edges_small(c: &Coverage, i: i32, j: i32, samples: u32, s: u32) ->
     let (ox, oy) = (sx as i32 - 8, sy as i32 - 8);
     let (di, dj) = (i - c.rect.i0, j - c.rect.j0);
     let e = &c.edges;
-    let at = |k: usize| {
-        let (e0, si, sj) = (e[k].e0 as i32, e[k].step_i as i32, e[k].step_j as i32);
-        e0.wrapping_add(si.wrapping_mul(di)).wrapping_add(sj.wrapping_mul(dj)).wrapping_add((si >> 4).wrapping_mul(ox)).wrapping_add((sj >> 4).wrapping_mul(oy))
-            as i64
-    };
-    [at(0), at(1), at(2)]
+    [e[0].at_i32(di, dj, ox, oy) as i64, e[1].at_i32(di, dj, ox, oy) as i64, e[2].at_i32(di, dj, ox, oy) as i64]
 }
 
 /// The edge functions of sample `s`, in 32-bit arithmetic where `program`'s triangles allow it.

@@ -393,8 +393,8 @@ pub fn side_and_edges(c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
 }
 
 /// [`side_and_edges`] for a triangle whose edge functions fit 32 bits over its rectangle
-/// (`stages::setup::edges_fit_i32`): each edge from the setup's terms in 32-bit wrapping
-/// arithmetic, which is exact modulo 2^32 and so exact where the value fits. (A GPU runs
+/// (`stages::setup::edges_fit_i32`): each edge in 32-bit wrapping arithmetic
+/// (`EdgeEq::at_i32`), exact modulo 2^32 and so exact where the value fits. (A GPU runs
 /// 32-bit integer arithmetic natively; 64-bit products are several instructions each.)
 #[inline(always)]
 pub fn side_and_edges_small(c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
@@ -402,10 +402,9 @@ pub fn side_and_edges_small(c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
     let di = i.clamp(r.i0, r.i1) - r.i0;
     let dj = j.clamp(r.j0, r.j1) - r.j0;
     let e = &c.edges;
-    let at = |k: usize| (e[k].e0 as i32).wrapping_add((e[k].step_i as i32).wrapping_mul(di)).wrapping_add((e[k].step_j as i32).wrapping_mul(dj));
-    let (w0, w1, w2) = (at(0), at(1), at(2));
-    let side = if c.rect.contains(i, j) { side_of(w0 as i64, w1 as i64, w2 as i64, c.excluded_edges) } else { Side::Outside };
-    (side, [w0 as i64, w1 as i64, w2 as i64])
+    let edges = [e[0].at_i32(di, dj, 0, 0) as i64, e[1].at_i32(di, dj, 0, 0) as i64, e[2].at_i32(di, dj, 0, 0) as i64];
+    let side = if c.rect.contains(i, j) { side_of(edges[0], edges[1], edges[2], c.excluded_edges) } else { Side::Outside };
+    (side, edges)
 }
 
 /// [`side_and_edges`], or its 32-bit twin where the program's triangles allow it.

@@ -45,17 +45,9 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
 /// `|dx|, |dy| ≤ E` and `|p − a| < E + unit` on each axis, so
 /// `|e(p)| ≤ |dx|·|p.y − a.y| + |dy|·|p.x − a.x| < 2·E·(E + unit)`.
 pub fn edges_fit_i32(input: &TriangleInput, snap_bits: u32) -> bool {
-    let side = |v: &[i64; 3]| max(max(v[0], v[1]), v[2]) - min(min(v[0], v[1]), v[2]);
-    let extent = max(side(&input.x), side(&input.y));
+    let side = |v: &[i64; 3]| v[0].max(v[1]).max(v[2]) - v[0].min(v[1]).min(v[2]);
+    let extent = side(&input.x).max(side(&input.y));
     2 * extent * (extent + (1 << snap_bits)) <= 1 << 31
-}
-
-fn max(a: i64, b: i64) -> i64 {
-    if a > b { a } else { b }
-}
-
-fn min(a: i64, b: i64) -> i64 {
-    if a < b { a } else { b }
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]

@@ -82,12 +82,14 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
         c[3] = if k % 3 == 0 { 0.5 } else { 1.0 };
     }
     let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
-    for blend in [false, true] {
+    // Without blending or tile counts, the small triangles skip binning (`fine_small`), in
+    // each window.
+    for (blend, count_tiles) in [(false, true), (true, true), (false, false)] {
         let params = RenderParams {
             cull: Cull::None,
             shading: Shading::Phong,
             blend,
-            count_tiles: true,
+            count_tiles,
             ..RenderParams::new(150, 110, camera.view_projection(150, 110).unwrap())
         };
         let cpu = render(&mesh, &params, Backend::Cpu).unwrap();
@@ -95,7 +97,11 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
             tileraster::set_gpu_window_limit(limit);
             let gpu = render(&mesh, &params, Backend::Gpu).unwrap();
             assert!(
-                gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(),
+                gpu.colour == cpu.colour
+                    && gpu.ids == cpu.ids
+                    && gpu.fragments == cpu.fragments
+                    && gpu.tiles == cpu.tiles
+                    && cpu.tiles.is_some() == count_tiles,
                 "blend {blend}, window limit {limit}: the frames differ"
             );
             assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "blend {blend}, window limit {limit}: depths differ");
@@ -148,12 +154,14 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
     let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
     for (name, mesh, limit) in [("sphere", &sphere, 64u64 << 10), ("soup", &soup, 12 << 10)] {
         assert!(mesh.triangles.len() as u64 * shading > limit, "{name}: the limit must split the scene");
-        for blend in [false, true] {
+        // Without blending or tile counts, the small triangles skip binning (`fine_small`),
+        // each part taking its own.
+        for (blend, count_tiles) in [(false, true), (true, true), (false, false)] {
             let params = RenderParams {
                 cull: Cull::None,
                 shading: Shading::Phong,
                 blend,
-                count_tiles: true,
+                count_tiles,
                 ..RenderParams::new(190, 150, camera.view_projection(190, 150).unwrap())
             };
             let cpu = render(mesh, &params, Backend::Cpu).unwrap();
@@ -162,11 +170,21 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
             tileraster::set_gpu_binding_limit(u64::MAX);
             let gpu = gpu.unwrap_or_else(|e| panic!("{name}, blend {blend}: {e}"));
             assert!(
-                gpu.colour == cpu.colour && gpu.ids == cpu.ids && gpu.fragments == cpu.fragments && gpu.tiles == cpu.tiles && cpu.tiles.is_some(),
+                gpu.colour == cpu.colour
+                    && gpu.ids == cpu.ids
+                    && gpu.fragments == cpu.fragments
+                    && gpu.tiles == cpu.tiles
+                    && cpu.tiles.is_some() == count_tiles,
                 "{name}, blend {blend}: the frames differ"
             );
             assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}, blend {blend}: depths differ");
             assert_eq!(cpu.stats, gpu.stats, "{name}, blend {blend}: statistics");
+            let small = cpu.stats.raster.triangles_small;
+            let splits = !blend && !count_tiles;
+            assert!(
+                (small == 0 || splits) && (small > 0 || !splits || name != "sphere"),
+                "{name}, blend {blend}, tile counts {count_tiles}: {small} small triangles"
+            );
         }
     }
 }

@@ -108,6 +108,10 @@ flag_set! {
         /// A depth-tested tile rejects the triangles its depth bound hides
         /// (`programs::occlusion`).
         HIDDEN_TRIANGLES = 8,
+        /// The frame's small triangles were rasterised apart, one invocation each
+        /// (`stages::small`): its bins hold only the others, and each pixel starts from the
+        /// key and count they left.
+        SMALL_TRIANGLES = 16,
     }
 }
 
@@ -361,6 +365,8 @@ pub struct FrameParams {
     /// Samples per pixel of a multisampled frame (binning reaches its tiles' border samples);
     /// 0 or 1: one, at the centre.
     pub samples: u32,
+    /// Triangles of the frame's small list (`stages::small`), rasterised one invocation each.
+    pub small_triangles: u32,
 }
 
 impl FrameParams {

@@ -15,10 +15,11 @@ use crate::programs::height::HeightProgram;
 use crate::programs::multisample::{self, MAX_SAMPLES, SampleState};
 use crate::programs::shade::shaded_pixel;
 use crate::stages::bin::{self, bin_count as count_tiles, bin_fill as fill_tiles};
-use crate::stages::fine::{self, FineShared, PixelProgram, PixelState};
+use crate::stages::fine::{self, FineShared, PixelProgram};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
-use crate::{BATCH, NO_OWNER};
+use crate::stages::small;
+use crate::{BATCH, NO_OWNER, TRIANGLE_GROUP};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 pub use spirv_std::glam::{UVec3, UVec4};
 pub use spirv_std::spirv;
@@ -131,8 +132,10 @@ pub fn fine_raster(
         setup_words,
         offsets,
         bins,
-        // The heightfield rejects no hidden triangle: its walk reads no key.
+        // The heightfield rejects no hidden triangle, and rasterises no small triangle apart:
+        // it reads no key.
         bins,
+        setup_words,
         values,
         owners,
         coverage,
@@ -140,6 +143,28 @@ pub fn fine_raster(
         tile_stats,
         shared,
     );
+}
+
+/// Fine raster of the frame's small triangles, one invocation each (`stages::small`), for the
+/// depth test of `fine_depth`, which then starts each pixel from their keys and counts. Its
+/// own 2D layout: invocation `y · (groups in x) · 64 + x`.
+#[cfg(feature = "entry-points")]
+#[spirv(compute(threads(64)))]
+#[allow(clippy::too_many_arguments)]
+pub fn fine_small(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(num_workgroups)] groups: UVec3,
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] setups: &[TriangleSetup],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] small_listed: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] keys: &mut [u64],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] coverage: &mut [u32],
+    #[spirv(spec_constant(id = 1, default = 0))] way: u32,
+) {
+    let t = gid.y * groups.x * TRIANGLE_GROUP + gid.x;
+    if t < frame.small_triangles {
+        small::fine_small(&DepthProgram::specialised(frame, way), &setups[small_listed[t as usize] as usize], frame, keys, coverage);
+    }
 }
 
 /// Fine raster of the render pipeline: the depth test (`programs::depth`).
@@ -160,6 +185,7 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tile_stats: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u64],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bin_keys: &[u64],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] pixel_keys: &[u64],
     #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
     #[spirv(spec_constant(id = 1, default = 0))] way: u32,
@@ -176,6 +202,7 @@ pub fn fine_depth(
         offsets,
         bins,
         bin_keys,
+        pixel_keys,
         values,
         owners,
         coverage,
@@ -325,6 +352,7 @@ fn fine_raster_workgroup<P: PixelProgram<Setup = TriangleSetup>>(
     offsets: &[u32],
     bins: &[u32],
     bin_keys: &[P::Key],
+    pixel_keys: &[u64],
     values: &mut [P::Value],
     owners: &mut [u32],
     coverage: &mut [u32],
@@ -338,12 +366,13 @@ fn fine_raster_workgroup<P: PixelProgram<Setup = TriangleSetup>>(
     let tile = wg.y * frame.tiles_x + wg.x;
     let (bin_start, bin_len) = fine::bin_range(offsets, tile);
     let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
-    let mut state = PixelState::empty(P::NO_KEY);
+    let mut state = fine::starting_state(program, i, j, inside, frame, pixel_keys, coverage);
     let mut hidden = 0;
     // Uniform per workgroup: the whole tile takes the same branch, barriers included.
     let out = if fine::empty_tile(bin_len, frame) {
         fine::count_tile(lid, Counter::TilesEmpty, stats);
-        fine::background_pixel(program)
+        // What the small triangles left, or the background.
+        fine::fine_resolve(program, i, j, &state, setups)
     } else {
         if fine::full_tile::<P>(bins, bin_start, bin_len, setups, frame, &mut state) {
             fine::count_tile(lid, Counter::TilesFull, stats);

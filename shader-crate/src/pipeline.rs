@@ -21,7 +21,8 @@
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins, bin keys (cursors: its atomics)
 //!  height:  setups (and as words), offsets, bins ─▶ fine_raster ─▶ values, owners, coverage, stats, tile stats
-//!  render:  setups (and as words), offsets, bins, bin keys ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
+//!  render:  setups, small listed ─▶ fine_small ─▶ pixel keys, coverage (where the plan lists small triangles)
+//!           setups (and as words), offsets, bins, bin keys, pixel keys ─▶ fine_depth ─▶ values (depth), owners (slots), coverage, stats, tile stats
 //!           shade params, setups, shading, textures, texels, offsets, bins, values, owners ─▶ shade ─▶ colours, faces
 //!  multisampled render:
 //!           setups, offsets, bins, shade params, shading, textures, texels ─▶ fine_samples ─▶ values, owners, coverage, stats, tile stats, colours, faces
@@ -38,6 +39,7 @@ pub enum Stage {
     BinScan,
     BinFill,
     FineRaster,
+    FineSmall,
     FineDepth,
     Shade,
     FineSamples,
@@ -78,6 +80,11 @@ pub enum Buffer {
     SetupWords,
     /// Setup slots of the window's triangles, `u32` each.
     Listed,
+    /// Setup slots of the window's small triangles, which skip binning (`stages::small`).
+    SmallListed,
+    /// Per window pixel, the complement of the smallest key of the small triangles' fragments
+    /// there (`stages::small`), `u64` each.
+    PixelKeys,
     /// Entries per tile.
     Counts,
     /// Exclusive prefix sum of `Counts`, one more entry for the total.
@@ -149,6 +156,9 @@ pub enum Dispatch {
     Single,
     /// One workgroup per window tile, one invocation per pixel.
     PerTile,
+    /// One per small triangle of the window (`FrameParams::small_triangles`), `TRIANGLE_GROUP`
+    /// a workgroup, in 2D past 65,535 workgroups (its own width: the dispatch's).
+    PerSmallTriangle,
 }
 
 /// How often a stage runs.
@@ -215,9 +225,10 @@ const FINE_BINDINGS: [Binding; 10] = [
     read(Buffer::SetupWords),
 ];
 
-/// What the render pipeline's fine raster binds: the heightfield's bindings, and the bin
-/// entries' keys its walk reads where it rejects hidden triangles.
-const DEPTH_BINDINGS: [Binding; 11] = appended(FINE_BINDINGS, read(Buffer::BinKeys));
+/// What the render pipeline's fine raster binds: the heightfield's bindings, the bin entries'
+/// keys its walk reads where it rejects hidden triangles, and the keys the small triangles
+/// left.
+const DEPTH_BINDINGS: [Binding; 12] = appended(appended::<10, 11>(FINE_BINDINGS, read(Buffer::BinKeys)), read(Buffer::PixelKeys));
 
 /// `bindings` and then `last`.
 const fn appended<const N: usize, const M: usize>(bindings: [Binding; N], last: Binding) -> [Binding; M] {
@@ -232,7 +243,7 @@ const fn appended<const N: usize, const M: usize>(bindings: [Binding; N], last: 
 }
 
 /// The stages in the order they run.
-pub const STAGES: [StageInfo; 8] = [
+pub const STAGES: [StageInfo; 9] = [
     StageInfo {
         stage: Stage::Setup,
         name: "setup",
@@ -290,6 +301,16 @@ pub const STAGES: [StageInfo; 8] = [
         dispatch: Dispatch::PerTile,
         bindings: &FINE_BINDINGS,
         pipelines: &[Pipeline::Height],
+    },
+    StageInfo {
+        stage: Stage::FineSmall,
+        name: "fine_small",
+        entry_point: "entry::fine_small",
+        scope: Scope::Window,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerSmallTriangle,
+        bindings: &[uniform(Buffer::Frame), read(Buffer::Setups), read(Buffer::SmallListed), write(Buffer::PixelKeys), write(Buffer::Coverage)],
+        pipelines: &[Pipeline::Render],
     },
     StageInfo {
         stage: Stage::FineDepth,
@@ -354,8 +375,17 @@ pub const STAGES: [StageInfo; 8] = [
 ];
 
 impl Stage {
-    pub const ALL: [Stage; 8] =
-        [Stage::Setup, Stage::BinCount, Stage::BinScan, Stage::BinFill, Stage::FineRaster, Stage::FineDepth, Stage::Shade, Stage::FineSamples];
+    pub const ALL: [Stage; 9] = [
+        Stage::Setup,
+        Stage::BinCount,
+        Stage::BinScan,
+        Stage::BinFill,
+        Stage::FineRaster,
+        Stage::FineSmall,
+        Stage::FineDepth,
+        Stage::Shade,
+        Stage::FineSamples,
+    ];
 
     /// The stage's row of the table.
     pub fn info(self) -> &'static StageInfo {

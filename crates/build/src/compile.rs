@@ -51,6 +51,7 @@ impl Shader {
     fn compile(&self, crate_path: &Path) -> Result<Module, BuildError> {
         let mut builder = SpirvBuilder::new(crate_path, "spirv-unknown-vulkan1.2")
             .capability(Capability::Int64)
+            .capability(Capability::Int64Atomics)
             .capability(Capability::GroupNonUniform)
             .capability(Capability::GroupNonUniformVote)
             .capability(Capability::GroupNonUniformBallot)

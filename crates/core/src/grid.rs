@@ -119,6 +119,11 @@ pub struct Skips {
     /// In a rendered world of several instances, an instance whose bounding box lies outside
     /// the view frustum gets no vertex work (`GeometryCounts::instances_culled` counts them).
     pub cull_instances: bool,
+    /// In a depth-tested frame (one sample per pixel, no blending, no tile counts), triangles whose rectangle
+    /// spans at most `SMALL_SIDE` pixels each way skip binning: one invocation each tests its
+    /// centres and keeps each pixel's smallest key with an atomic minimum (`fine_small`), and
+    /// the tiles walk only the large triangles (`Stats::triangles_small` counts the others).
+    pub small_triangles: bool,
 }
 
 /// One of the pipeline's skips, by name (see [`Skips`]).
@@ -130,10 +135,12 @@ pub enum Skip {
     OverlapFree,
     HiddenTriangles,
     CullInstances,
+    SmallTriangles,
 }
 
 impl Skip {
-    pub const ALL: [Skip; 6] = [Skip::CullWindow, Skip::EmptyTiles, Skip::FullTiles, Skip::OverlapFree, Skip::HiddenTriangles, Skip::CullInstances];
+    pub const ALL: [Skip; 7] =
+        [Skip::CullWindow, Skip::EmptyTiles, Skip::FullTiles, Skip::OverlapFree, Skip::HiddenTriangles, Skip::CullInstances, Skip::SmallTriangles];
 
     /// The name the command line (`--no-skip NAME`) and the reports use.
     pub fn name(self) -> &'static str {
@@ -144,6 +151,7 @@ impl Skip {
             Skip::OverlapFree => "overlap_free",
             Skip::HiddenTriangles => "hidden_triangles",
             Skip::CullInstances => "cull_instances",
+            Skip::SmallTriangles => "small_triangles",
         }
     }
 }
@@ -167,9 +175,24 @@ impl std::str::FromStr for Skip {
 }
 
 impl Skips {
-    pub const ALL: Skips = Skips { cull_window: true, empty_tiles: true, full_tiles: true, overlap_free: true, hidden_triangles: true, cull_instances: true };
-    pub const NONE: Skips =
-        Skips { cull_window: false, empty_tiles: false, full_tiles: false, overlap_free: false, hidden_triangles: false, cull_instances: false };
+    pub const ALL: Skips = Skips {
+        cull_window: true,
+        empty_tiles: true,
+        full_tiles: true,
+        overlap_free: true,
+        hidden_triangles: true,
+        cull_instances: true,
+        small_triangles: true,
+    };
+    pub const NONE: Skips = Skips {
+        cull_window: false,
+        empty_tiles: false,
+        full_tiles: false,
+        overlap_free: false,
+        hidden_triangles: false,
+        cull_instances: false,
+        small_triangles: false,
+    };
 
     /// All skips but `skip`.
     pub fn all_but(skip: Skip) -> Skips {
@@ -197,6 +220,7 @@ impl Skips {
             Skip::OverlapFree => &mut self.overlap_free,
             Skip::HiddenTriangles => &mut self.hidden_triangles,
             Skip::CullInstances => &mut self.cull_instances,
+            Skip::SmallTriangles => &mut self.small_triangles,
         }
     }
 }

@@ -8,8 +8,9 @@ use crate::{Error, Prepared, Raster, Window};
 use rayon::prelude::*;
 use tileraster_kernels::abi::DepthTest;
 use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
-use tileraster_kernels::pipeline::{Stage, window_stages};
+use tileraster_kernels::pipeline::{Pipeline, Stage, StageInfo, window_stages};
 use tileraster_kernels::stages::bin::tile_span;
+use tileraster_kernels::stages::small::is_small;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
 
 /// A pass of a call, as `Stats::passes` lists them: the kernel stages of the stage table
@@ -81,6 +82,9 @@ pub struct Stats {
     pub triangles_flat: u64,
     /// Triangles the binning stages took.
     pub triangles_binned: u64,
+    /// Triangles small enough to skip binning (`Skip::SmallTriangles`): one invocation each
+    /// rasterised them.
+    pub triangles_small: u64,
     /// Bin entries (a triangle in a tile) that a depth-tested tile's depth bound rejected
     /// before their depth tests: triangles hidden all over the tile (`Skip::HiddenTriangles`).
     pub triangles_hidden: u64,
@@ -101,7 +105,8 @@ impl Stats {
         let passes: Vec<String> = self.passes.iter().map(|p| format!("\"{}\"", p.name())).collect();
         format!(
             "{{\"tiles_total\":{},\"tiles_empty_skipped\":{},\"tiles_full\":{},\"tiles_partial\":{},\
-             \"triangles_culled\":{},\"triangles_flat\":{},\"triangles_binned\":{},\"triangles_hidden\":{},\"overlap_free\":{},\
+             \"triangles_culled\":{},\"triangles_flat\":{},\"triangles_binned\":{},\"triangles_small\":{},\"triangles_hidden\":{},\
+             \"overlap_free\":{},\
              \"passes\":[{}],\"bytes_uploaded\":{}}}",
             self.tiles_total,
             self.tiles_empty_skipped,
@@ -110,6 +115,7 @@ impl Stats {
             self.triangles_culled,
             self.triangles_flat,
             self.triangles_binned,
+            self.triangles_small,
             self.triangles_hidden,
             self.overlap_free,
             passes.join(","),
@@ -135,6 +141,9 @@ pub struct Plan {
     pub window: Window,
     /// Setup slots of the triangles the binning stages take.
     pub listed: Vec<u32>,
+    /// Setup slots of the small triangles, which skip binning (`Skip::SmallTriangles`,
+    /// `stages::small`): each is rasterised by one invocation of `fine_small`.
+    pub small: Vec<u32>,
     /// The part of `window` the kernels rasterise, aligned to the window's tiles; `None` when
     /// no triangle reaches the window.
     pub active: Option<Window>,
@@ -159,26 +168,35 @@ impl Prepared {
             (Some(a), Some(b)) => Some(PixelRect { i0: a.i0.min(b.i0), j0: a.j0.min(b.j0), i1: a.i1.max(b.i1), j1: a.j1.max(b.j1) }),
             (a, b) => a.or(b),
         };
-        let pieces: Vec<(Vec<u32>, Option<PixelRect>)> = self
+        // Small triangles skip binning in a single-sample depth-tested frame that does not
+        // blend (blending walks the bins in the shade stage) and counts no tile's triangles
+        // (the tile statistics count bin entries: every triangle stays in the bins).
+        let splits = skips.small_triangles
+            && self.pipeline() == Pipeline::Render
+            && self.render.as_ref().is_some_and(|r| r.params.blend == 0)
+            && !self.params.outputs.tiles;
+        let pieces: Vec<(Vec<u32>, Vec<u32>, Option<PixelRect>)> = self
             .triangles
             .par_chunks(PLAN_CHUNK)
             .enumerate()
             .map(|(c, chunk)| {
-                let (mut listed, mut reached) = (Vec::with_capacity(chunk.len()), None);
+                let (mut listed, mut small, mut reached) = (Vec::with_capacity(chunk.len()), Vec::new(), None);
                 for (k, t) in chunk.iter().enumerate() {
                     let r = intersect(&t.rect, &area);
                     if !r.is_empty() {
                         reached = union(reached, Some(r));
                     }
                     if !skips.cull_window || !r.is_empty() {
-                        listed.push((c * PLAN_CHUNK + k) as u32);
+                        let slot = (c * PLAN_CHUNK + k) as u32;
+                        if splits && is_small(&t.rect) { small.push(slot) } else { listed.push(slot) }
                     }
                 }
-                (listed, reached)
+                (listed, small, reached)
             })
             .collect();
         let listed: Vec<u32> = pieces.iter().flat_map(|p| p.0.iter().copied()).collect();
-        let reached = pieces.iter().fold(None, |r, p| union(r, p.1));
+        let small: Vec<u32> = pieces.iter().flat_map(|p| p.1.iter().copied()).collect();
+        let reached = pieces.iter().fold(None, |r, p| union(r, p.2));
         let active = if skips.empty_tiles { reached.map(|r| tile_aligned(&r, &window)) } else { Some(window) };
         let rows = self.overlap_free_rows.as_ref();
         let overlap_free = skips.overlap_free && rows.is_some_and(|r| r.start <= window.y0 && window.y0 + window.height <= r.end);
@@ -186,7 +204,8 @@ impl Prepared {
             .with(FrameFlags::EMPTY_TILES, skips.empty_tiles)
             .with(FrameFlags::FULL_TILES, skips.full_tiles)
             .with(FrameFlags::OVERLAP_FREE, overlap_free)
-            .with(FrameFlags::HIDDEN_TRIANGLES, skips.hidden_triangles);
+            .with(FrameFlags::HIDDEN_TRIANGLES, skips.hidden_triangles)
+            .with(FrameFlags::SMALL_TRIANGLES, !small.is_empty());
 
         let tiles = |w: &Window| w.width.div_ceil(TILE) as u64 * w.height.div_ceil(TILE) as u64;
         let tiles_total = tiles(&window);
@@ -203,11 +222,13 @@ impl Prepared {
             passes.push(Pass::FillNodata);
         }
         if active.is_some() {
-            passes.extend(window_stages(self.pipeline()).map(|s| Pass::from(s.stage)));
+            // `fine_small` runs where the plan lists small triangles.
+            let runs = |s: &&StageInfo| s.stage != Stage::FineSmall || !small.is_empty();
+            passes.extend(window_stages(self.pipeline()).filter(runs).map(|s| Pass::from(s.stage)));
             if !overlap_free {
                 passes.push(Pass::Ownership);
             }
-            bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64;
+            bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64 + std::mem::size_of_val(small.as_slice()) as u64;
         }
         if self.params.outputs.owner {
             passes.push(Pass::WriteOwner);
@@ -221,12 +242,13 @@ impl Prepared {
             triangles_culled: (self.culled + self.triangles.len() - listed.len()) as u64,
             triangles_flat: self.degenerate as u64,
             triangles_binned: if active.is_some() { listed.len() as u64 } else { 0 },
+            triangles_small: if active.is_some() { small.len() as u64 } else { 0 },
             overlap_free,
             passes,
             bytes_uploaded,
             ..Stats::default()
         };
-        Ok(Plan { window, listed, active, flags, stats })
+        Ok(Plan { window, listed, small, active, flags, stats })
     }
 }
 
@@ -250,12 +272,13 @@ fn tile_aligned(r: &PixelRect, window: &Window) -> Window {
 impl Plan {
     /// Kernel parameters for rasterising `part` of the active window.
     pub fn frame(&self, prepared: &Prepared, part: Window) -> FrameParams {
-        self.frame_listing(prepared, part, &self.listed)
+        self.frame_listing(prepared, part, &self.listed, self.small.len())
     }
 
     /// Kernel parameters for rasterising `part` with the binning stages taking `listed` (setup
-    /// slots of `prepared`'s triangles; the plan's list, or the part of it that reaches `part`).
-    pub fn frame_listing(&self, prepared: &Prepared, part: Window, listed: &[u32]) -> FrameParams {
+    /// slots of `prepared`'s triangles; the plan's list, or the part of it that reaches `part`),
+    /// and `fine_small` that many small triangles.
+    pub fn frame_listing(&self, prepared: &Prepared, part: Window, listed: &[u32], small: usize) -> FrameParams {
         let tiles_x = part.width.div_ceil(TILE);
         let tiles_y = part.height.div_ceil(TILE);
         let mut frame = FrameParams {
@@ -276,6 +299,7 @@ impl Plan {
             flags: self.flags,
             depth_test: prepared.render.as_ref().map_or(DepthTest::default(), |s| s.depth_test),
             samples: prepared.render.as_ref().map_or(1, |s| s.params.samples),
+            small_triangles: small as u32,
         };
         // Enough bands for the tallest listed triangle in the part.
         let rows = listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
@@ -286,8 +310,17 @@ impl Plan {
     /// The plan's triangles whose rectangle reaches `part` (of the active window), in the
     /// plan's order: all that binning `part` can take.
     pub fn listed_reaching(&self, prepared: &Prepared, part: Window) -> Vec<u32> {
+        Self::reaching(prepared, &self.listed, part)
+    }
+
+    /// The plan's small triangles whose rectangle reaches `part`, in the plan's order.
+    pub fn small_reaching(&self, prepared: &Prepared, part: Window) -> Vec<u32> {
+        Self::reaching(prepared, &self.small, part)
+    }
+
+    fn reaching(prepared: &Prepared, slots: &[u32], part: Window) -> Vec<u32> {
         let area = PixelRect { i0: part.x0 as i32, j0: part.y0 as i32, i1: (part.x0 + part.width - 1) as i32, j1: (part.y0 + part.height - 1) as i32 };
-        self.listed.par_iter().copied().filter(|&s| !intersect(&prepared.triangles[s as usize].rect, &area).is_empty()).collect()
+        slots.par_iter().copied().filter(|&s| !intersect(&prepared.triangles[s as usize].rect, &area).is_empty()).collect()
     }
 
     /// Most (triangle, tile) entries binning can write for `frame` (every tile of every listed

@@ -7,7 +7,9 @@ use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
-use tileraster_kernels::abi::{Counter, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading};
+use tileraster_kernels::abi::{
+    Counter, FrameFlags, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading,
+};
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
 use tileraster_kernels::programs::depth::DepthProgram;
@@ -163,6 +165,8 @@ struct StagePipeline {
 struct Buffers {
     frame: Grown,
     listed: Grown,
+    small_listed: Grown,
+    pixel_keys: Grown,
     counts: Grown,
     offsets: Grown,
     cursors: Grown,
@@ -286,6 +290,8 @@ impl GpuContext {
         let buffers = Buffers {
             frame: Grown::uniform("frame"),
             listed: Grown::storage("listed triangles"),
+            small_listed: Grown::storage("small triangles"),
+            pixel_keys: Grown::storage("pixel keys"),
             counts: Grown::storage("bin counts"),
             offsets: Grown::storage("bin offsets"),
             cursors: Grown::storage("bin cursors"),
@@ -449,12 +455,8 @@ impl GpuContext {
             None => None,
         };
         // The window's list of triangles, once for all its dispatches (a resident scene's).
-        let listed_buf = whole.then(|| {
-            let listed: &[u8] = bytemuck::cast_slice(&plan.listed);
-            let buf = self.buffers.listed.get(&self.gpu.device, listed.len() as u64);
-            self.recorder.upload(&self.gpu.queue, &buf, listed);
-            buf
-        });
+        let listed_buf = whole.then(|| self.upload_list(ListBuffer::Listed, &plan.listed));
+        let small_buf = whole.then(|| self.upload_list(ListBuffer::Small, &plan.small));
         let mut pending = windows(&active, max_pixels);
         pending.reverse();
         while let Some(window) = pending.pop() {
@@ -462,18 +464,25 @@ impl GpuContext {
             let part = if whole {
                 None
             } else {
-                let slots = plan.listed_reaching(prepared, window);
-                if !self.scene_fits(prepared, slots.len() as u64) {
-                    let bytes = slots.len() as u64 * scene_bytes_per_triangle(prepared);
+                let part = ScenePart::of(plan.listed_reaching(prepared, window), plan.small_reaching(prepared, window));
+                if !self.scene_fits(prepared, part.slots.len() as u64) {
+                    let bytes = part.slots.len() as u64 * scene_bytes_per_triangle(prepared);
                     split(&mut pending, window, || {
-                        format!("{} triangles reach it, {bytes} bytes of setup, more than the GPU binds at once ({} bytes)", slots.len(), self.max_binding())
+                        format!(
+                            "{} triangles reach it, {bytes} bytes of setup, more than the GPU binds at once ({} bytes)",
+                            part.slots.len(),
+                            self.max_binding()
+                        )
                     })?;
                     continue;
                 }
-                Some(slots)
+                Some(part)
             };
-            let listed = part.as_deref().unwrap_or(&plan.listed);
-            let frame = plan.frame_listing(prepared, window, listed);
+            let (listed, small) = match &part {
+                Some(p) => (p.listed.as_slice(), p.small.as_slice()),
+                None => (plan.listed.as_slice(), plan.small.as_slice()),
+            };
+            let frame = plan.frame_listing(prepared, window, listed, small.len());
             let entries = Plan::bin_capacity_listing(prepared, &frame, listed);
             if entries * self.bytes_per_bin_entry(&rows) > self.max_binding() || entries > u32::MAX as u64 {
                 split(&mut pending, window, || format!("{entries} triangle–tile pairs, more than the GPU binds"))?;
@@ -483,17 +492,17 @@ impl GpuContext {
                 None => {
                     let r = resident.as_ref().expect("a whole scene is set up before its windows");
                     let scene = SceneBuffers::of(prepared, &rows, r, shade_params.as_ref(), materials.as_ref());
-                    self.rasterise_window(&frame, entries, &scene, listed_buf.as_ref().expect("listed with the whole scene"), None, raster)?
+                    let lists = (listed_buf.as_ref().expect("listed with the whole scene"), small_buf.as_ref().expect("listed with the whole scene"));
+                    self.rasterise_window(&frame, entries, &scene, lists, None, raster)?
                 }
-                Some(slots) => {
-                    let r = self.upload_and_setup(prepared, &rows, Some(slots))?;
+                Some(part) => {
+                    let r = self.upload_and_setup(prepared, &rows, Some(&part.slots))?;
                     let scene = SceneBuffers::of(prepared, &rows, &r, shade_params.as_ref(), materials.as_ref());
-                    // The part's setups are its own slots 0, 1, ...: the binning stages take them all.
-                    let local: Vec<u32> = (0..slots.len() as u32).collect();
-                    let listed_buf = self.buffers.listed.get(&self.gpu.device, (local.len() as u64 * 4).max(4));
-                    self.recorder.upload(&self.gpu.queue, &listed_buf, bytemuck::cast_slice(&local));
-                    let owners = prepared.pipeline().renders().then_some(slots.as_slice());
-                    self.rasterise_window(&frame, entries, &scene, &listed_buf, owners, raster)?
+                    // The part's setups are its own slots 0, 1, ...: the stages take them by those.
+                    let listed_buf = self.upload_list(ListBuffer::Listed, &part.local_listed);
+                    let small_buf = self.upload_list(ListBuffer::Small, &part.local_small);
+                    let owners = prepared.pipeline().renders().then_some(part.slots.as_slice());
+                    self.rasterise_window(&frame, entries, &scene, (&listed_buf, &small_buf), owners, raster)?
                 }
             };
             for (total, c) in counters.iter_mut().zip(window_counters) {
@@ -501,6 +510,17 @@ impl GpuContext {
             }
         }
         Ok(())
+    }
+
+    /// `slots` in the buffer of list `which` (a binding holds at least one element).
+    fn upload_list(&mut self, which: ListBuffer, slots: &[u32]) -> wgpu::Buffer {
+        let grown = match which {
+            ListBuffer::Listed => &mut self.buffers.listed,
+            ListBuffer::Small => &mut self.buffers.small_listed,
+        };
+        let buf = grown.get(&self.gpu.device, (std::mem::size_of_val(slots) as u64).max(4));
+        self.recorder.upload(&self.gpu.queue, &buf, bytemuck::cast_slice(slots));
+        buf
     }
 
     /// Workgroups for `items` invocations of a per-triangle stage, in 2D past 65,535.
@@ -556,6 +576,8 @@ impl GpuContext {
                     let keys = if keys { bin::WRITE_KEYS | depth & !DepthProgram::SMALL_EDGES } else { 0 };
                     Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, spans | keys)), None] }
                 }
+                // The small triangles' depth test is `fine_depth`'s.
+                Stage::FineSmall => Build { row, fragment: None, spec: [Some((fine::WALK_SPEC_ID, depth)), None] },
                 Stage::FineRaster | Stage::FineDepth => {
                     // `fine_raster`'s value mode shares the constant, as `fine_depth`'s depth test.
                     let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { depth };
@@ -615,7 +637,10 @@ impl GpuContext {
         triangle_groups: (u32, u32),
         buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
     ) -> Result<(), Error> {
-        let run: Vec<(usize, &StageInfo)> = STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline)).collect();
+        // `fine_small` runs where the frame lists small triangles.
+        let listed = |info: &StageInfo| info.stage != Stage::FineSmall || frame.flags.contains(FrameFlags::SMALL_TRIANGLES);
+        let run: Vec<(usize, &StageInfo)> =
+            STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline) && listed(info)).collect();
         let record = |encoder: &mut wgpu::CommandEncoder, queries: Option<&wgpu::QuerySet>| -> Result<(), Error> {
             for (n, &(k, info)) in run.iter().enumerate() {
                 let stage = &self.pipelines[rows[k].ok_or_else(|| Error::Gpu(format!("stage {} has no pipeline for this frame", info.name)))?].1;
@@ -631,6 +656,10 @@ impl GpuContext {
                     Dispatch::PerTriangle | Dispatch::PerTrianglePart => triangle_groups,
                     Dispatch::Single => (1, 1),
                     Dispatch::PerTile => (frame.tiles_x, frame.tiles_y),
+                    Dispatch::PerSmallTriangle => {
+                        let groups = frame.small_triangles.div_ceil(TRIANGLE_GROUP).max(1);
+                        (groups.min(65_535), groups.div_ceil(65_535))
+                    }
                 };
                 let timestamp_writes = queries.map(|query_set| wgpu::ComputePassTimestampWrites {
                     query_set,
@@ -750,7 +779,7 @@ impl GpuContext {
         frame: &FrameParams,
         entries: u64,
         scene: &SceneBuffers,
-        listed: &wgpu::Buffer,
+        (listed, small_listed): (&wgpu::Buffer, &wgpu::Buffer),
         owner_slots: Option<&[u32]>,
         raster: &mut Raster,
     ) -> Result<[u32; Counter::COUNT], Error> {
@@ -777,6 +806,8 @@ impl GpuContext {
         let bins = b.bins.get(device, entries * 4 * if spans { 2 } else { 1 });
         let bin_keys = b.bin_keys.get(device, if keys { 2 * entries * 8 } else { 0 });
         let values = b.values.get(device, pixels * 4);
+        let small = frame.flags.contains(FrameFlags::SMALL_TRIANGLES);
+        let pixel_keys = b.pixel_keys.get(device, if small { pixels * 8 } else { 8 });
         let owner_bytes = if frame.outputs.contains(OutputSet::OWNER) { pixels * 4 } else { 0 };
         let coverage_bytes = if frame.outputs.contains(OutputSet::COVERAGE) { pixels * 4 } else { 0 };
         let owners = b.owners.get(device, owner_bytes);
@@ -796,12 +827,19 @@ impl GpuContext {
         encoder.clear_buffer(&counts, 0, Some(tiles * 4));
         encoder.clear_buffer(&cursors, 0, Some(tiles * 4));
         encoder.clear_buffer(&stats, 0, Some(stats_bytes));
+        // The small triangles' atomics start from zero: keys stored complemented, counts.
+        if small {
+            encoder.clear_buffer(&pixel_keys, 0, Some(pixels * 8));
+            encoder.clear_buffer(&coverage, 0, Some(coverage_bytes));
+        }
         let buffers = |buffer| {
             Some(match buffer {
                 Buffer::Frame => frame_buf.clone(),
                 Buffer::Inputs => return None,
                 Buffer::Setups | Buffer::SetupWords => scene.setups.clone(),
                 Buffer::Listed => listed.clone(),
+                Buffer::SmallListed => small_listed.clone(),
+                Buffer::PixelKeys => pixel_keys.clone(),
                 Buffer::Counts => counts.clone(),
                 Buffer::Offsets => offsets.clone(),
                 Buffer::Cursors => cursors.clone(),
@@ -875,6 +913,52 @@ impl GpuContext {
         }
         Ok(counters)
     }
+}
+
+/// The triangles of a scene set up in parts that reach one window: their setup slots in the
+/// scene's order (the part's slots 0, 1, ...), the binned ones and the small ones among them,
+/// by scene slot and by part slot.
+struct ScenePart {
+    slots: Vec<u32>,
+    listed: Vec<u32>,
+    small: Vec<u32>,
+    local_listed: Vec<u32>,
+    local_small: Vec<u32>,
+}
+
+impl ScenePart {
+    /// The part of the (ascending) scene slots `listed` and `small`.
+    fn of(listed: Vec<u32>, small: Vec<u32>) -> ScenePart {
+        let mut slots = Vec::with_capacity(listed.len() + small.len());
+        let (mut local_listed, mut local_small) = (Vec::with_capacity(listed.len()), Vec::with_capacity(small.len()));
+        let (mut a, mut b) = (listed.iter().peekable(), small.iter().peekable());
+        loop {
+            let next_listed = match (a.peek(), b.peek()) {
+                (Some(x), Some(y)) => x < y,
+                (Some(_), None) => true,
+                (None, Some(_)) => false,
+                (None, None) => break,
+            };
+            let local = slots.len() as u32;
+            if next_listed {
+                slots.push(*a.next().expect("peeked"));
+                local_listed.push(local);
+            } else {
+                slots.push(*b.next().expect("peeked"));
+                local_small.push(local);
+            }
+        }
+        ScenePart { slots, listed, small, local_listed, local_small }
+    }
+}
+
+/// Which list of setup slots a buffer holds.
+#[derive(Copy, Clone)]
+enum ListBuffer {
+    /// The triangles the binning stages take (`Buffer::Listed`).
+    Listed,
+    /// The small ones, which `fine_small` takes (`Buffer::SmallListed`).
+    Small,
 }
 
 /// A scene's buffers on the device, as one window's dispatches bind them.

@@ -98,8 +98,9 @@ impl Survey {
 
 /// The features the kernels need of an adapter.
 pub(crate) fn needed_features() -> wgpu::Features {
-    // Subgroups: the kernels' module declares shuffles (`memory::Lanes`).
-    wgpu::Features::SHADER_INT64 | wgpu::Features::PASSTHROUGH_SHADERS | wgpu::Features::SUBGROUP
+    // Subgroups: the kernels' module declares shuffles (`memory::Lanes`); 64-bit atomic
+    // minima: the small triangles' keys (`stages::small`).
+    wgpu::Features::SHADER_INT64 | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX | wgpu::Features::PASSTHROUGH_SHADERS | wgpu::Features::SUBGROUP
 }
 
 /// This machine's Vulkan adapters: from the cache when its key matches, else enumerated (no

@@ -11,9 +11,11 @@
 //! `Σ (w_k · c3) · z_k` in `f32`, each operation correctly rounded (see
 //! `docs/numeric-contract.md` for its bound).
 
+use crate::NO_OWNER;
 use crate::abi::{Coverage, DepthFunc, DepthTest, FrameParams, PixelRect, TriangleSetup};
 use crate::programs::height::{barycentric_bits, barycentric_bits_of, barycentric_bits_small};
-use crate::stages::fine::PixelProgram;
+use crate::stages::fine::{PixelProgram, PixelState};
+use crate::stages::small::stored_key;
 
 /// [`PixelProgram`] of the render pipeline.
 #[derive(Copy, Clone)]
@@ -116,6 +118,13 @@ impl DepthProgram {
         };
         let tie = if self.later_wins() { !index } else { index };
         (depth as u64) << 32 | tie as u64
+    }
+
+    /// The index of the triangle whose fragment has key `key` (its tie bits, [`Self::key_of`]).
+    #[inline]
+    pub fn index_of_key(&self, key: u64) -> u32 {
+        let tie = key as u32;
+        if self.later_wins() { !tie } else { tie }
     }
 
     /// The key of a fragment of depth bits `bits` of triangle `index`: `NO_KEY` where it fails
@@ -238,6 +247,15 @@ impl PixelProgram for DepthProgram {
     #[inline(always)]
     fn background(&self) -> u32 {
         self.clear.to_bits()
+    }
+
+    /// The owner is the key's triangle, whose index is its setup slot (render triangles carry
+    /// their slot as their index).
+    #[inline(always)]
+    fn seeded(&self, stored: u64, count: u32) -> PixelState<u64> {
+        let key = stored_key(stored);
+        let owner = if key != Self::NO_KEY { self.index_of_key(key) } else { NO_OWNER };
+        PixelState { key, owner, slot: if owner != NO_OWNER { owner } else { 0 }, count, edge_owner: NO_OWNER, edge_slot: 0 }
     }
 
     #[inline(always)]

@@ -103,6 +103,16 @@ pub trait PixelProgram {
     /// The value of a pixel no triangle covers.
     fn background(&self) -> Self::Value;
 
+    /// The state a pixel starts the tile stage from where the frame's small triangles were
+    /// rasterised apart (`stages::small`, `FrameFlags::SMALL_TRIANGLES`): the word their
+    /// atomics left in its key (`small::stored_key`), and their fragments there. Only a program
+    /// whose keys name their owner can take it; the default is for the others, whose frames
+    /// never ask for it.
+    #[inline(always)]
+    fn seeded(&self, _stored: u64, _count: u32) -> PixelState<Self::Key> {
+        PixelState::empty(Self::NO_KEY)
+    }
+
     /// Whether the program can bound its keys over a tile ([`Self::occluder_key`],
     /// [`Self::lowest_key`]), so that a tile rejects the triangles that cannot own any of its
     /// pixels.
@@ -409,7 +419,7 @@ pub fn side_and_edges_small(c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
 
 /// [`side_and_edges`], or its 32-bit twin where the program's triangles allow it.
 #[inline(always)]
-fn program_side_and_edges<P: PixelProgram>(program: &P, c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
+pub fn program_side_and_edges<P: PixelProgram>(program: &P, c: &Coverage, i: i32, j: i32) -> (Side, [i64; 3]) {
     if program.small_edges() { side_and_edges_small(c, i, j) } else { side_and_edges(c, i, j) }
 }
 
@@ -450,6 +460,19 @@ fn accumulate_with<P: PixelProgram>(side: Side, staged: &P::Staged, state: &mut 
         }
         Side::Outside => {}
     }
+}
+
+/// Pixel `(i, j)`'s state before the tile's bin: what the frame's small triangles left there
+/// (`PixelProgram::seeded`, from `keys` and the coverage layer's counts) where the frame
+/// rasterised them apart, else empty.
+#[inline]
+pub fn starting_state<P: PixelProgram>(program: &P, i: i32, j: i32, inside: bool, frame: &FrameParams, keys: &[u64], coverage: &[u32]) -> PixelState<P::Key> {
+    if !(inside && frame.flags.contains(FrameFlags::SMALL_TRIANGLES)) {
+        return PixelState::empty(P::NO_KEY);
+    }
+    let k = window_index(i, j, frame);
+    let count = if counts_hidden(frame) { coverage[k] } else { 0 };
+    program.seeded(keys[k], count)
 }
 
 /// Whether the frame lets a pixel stop at the first triangle it is inside.

@@ -5,3 +5,4 @@ pub mod bin;
 pub mod fine;
 pub mod scan;
 pub mod setup;
+pub mod small;

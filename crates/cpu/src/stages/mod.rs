@@ -1,5 +1,5 @@
 //! One twin per kernel stage, with the stage's name, in files named as the kernel crate's
-//! `stages/` (`setup`, `bin`, `scan`, `fine`, `shade`), and `multisample` for the stage its
+//! `stages/` (`setup`, `bin`, `scan`, `small`, `fine`, `shade`), and `multisample` for the stage its
 //! program of that name makes (`fine_samples`).
 
 mod bin;
@@ -10,6 +10,7 @@ mod occlusion;
 mod scan;
 mod setup;
 mod shade;
+mod small;
 
 pub use bin::{bin_count, bin_fill};
 pub use fine::{FinePath, fine_depth, fine_raster};
@@ -17,6 +18,7 @@ pub use multisample::fine_samples;
 pub use scan::bin_scan;
 pub use setup::{setup, setup_into};
 pub use shade::shade;
+pub use small::{SmallSeeds, fine_small};
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::memory::{Counters, Slots};

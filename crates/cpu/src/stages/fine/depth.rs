@@ -2,6 +2,7 @@
 //! of the tile, centre by centre or 16 lanes at a time, then the pixels resolved from their
 //! smallest keys.
 
+use super::SmallSeeds;
 use super::band::{Band, BandCounters, StatCounters, fine_resolve_empty_tile, for_each_band, tile_rows};
 use super::rows::{Lanes, TriangleRows};
 use super::wide::fine_depth_band_wide;
@@ -9,7 +10,7 @@ use std::simd::cmp::{SimdPartialEq, SimdPartialOrd};
 use std::simd::num::{SimdFloat, SimdInt, SimdUint};
 use std::simd::{Mask, Select, Simd};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, DepthFunc, FrameParams, PixelRect, TriangleSetup};
+use tileraster_kernels::abi::{Counter, DepthFunc, FrameFlags, FrameParams, PixelRect, TriangleSetup};
 use tileraster_kernels::programs::depth::{DepthOrder, DepthProgram};
 use tileraster_kernels::stages::fine::{self, PixelProgram};
 use tileraster_kernels::{FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
@@ -41,16 +42,17 @@ pub(super) fn fine_depth_using(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
+    seeds: &SmallSeeds,
     raster: &mut Raster,
 ) -> StatCounters {
     for_each_band(frame, raster, |band, stats| match way {
         // SAFETY: `Way::WideLanes` comes only from `Way::fastest` when `wide_vectors` found the features.
-        Way::WideLanes => unsafe { fine_depth_band_wide(program, frame, setups, offsets, bins, band, stats) },
-        Way::Lanes => fine_depth_band_rows(program, frame, setups, offsets, bins, band, stats),
+        Way::WideLanes => unsafe { fine_depth_band_wide(program, frame, setups, offsets, bins, seeds, band, stats) },
+        Way::Lanes => fine_depth_band_rows(program, frame, setups, offsets, bins, seeds, band, stats),
         Way::Centres => {
             let mut counts = BandCounters::default();
             for tx in 0..frame.tiles_x {
-                fine_depth_tile(program, tx, frame, setups, offsets, bins, band, &mut counts);
+                fine_depth_tile(program, tx, frame, setups, offsets, bins, seeds, band, &mut counts);
             }
             counts.add_to(stats);
         }
@@ -58,6 +60,7 @@ pub(super) fn fine_depth_using(
 }
 
 /// Every `fine_depth` workgroup of one row of tiles, rows of lanes at a time.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn fine_depth_band_rows(
     program: &DepthProgram,
@@ -65,12 +68,13 @@ pub(super) fn fine_depth_band_rows(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
+    seeds: &SmallSeeds,
     band: &mut Band,
     stats: &StatCounters,
 ) {
     let mut counts = BandCounters::default();
     for tx in 0..frame.tiles_x {
-        fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, band, &mut counts);
+        fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, seeds, band, &mut counts);
     }
     counts.add_to(stats);
 }
@@ -87,12 +91,14 @@ fn fine_depth_tile(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
+    seeds: &SmallSeeds,
     band: &mut Band,
     stats: &mut BandCounters,
 ) {
     let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
     const N: usize = TILE_PIXELS as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
+    seed_tile(program, tx, frame, band.ty, seeds, &mut key, &mut owner, &mut slot, &mut count);
     let bin = &bins[bin_start as usize..][..bin_len as usize];
     let occluding = occluding_key(program, frame, setups, bin, &tile);
     let count_hidden = fine::counts_hidden(frame);
@@ -130,19 +136,49 @@ fn fine_depth_tile(
 }
 
 /// The start of a `fine_depth` workgroup: a tile with an empty bin is resolved to the
-/// background (`None`); any other is counted partial, and its bin's range and its pixels are
-/// returned.
+/// background (`None`), or, where the frame's small triangles were rasterised apart, goes on
+/// with no entries to resolve what they left; any other is counted partial. Returns the bin's
+/// range and the tile's pixels.
 #[inline(always)]
 fn depth_tile_bin(tx: u32, frame: &FrameParams, offsets: &[u32], band: &mut Band, stats: &mut BandCounters) -> Option<(u32, u32, PixelRect)> {
     let (bin_start, bin_len) = fine::bin_range(offsets, band.ty * frame.tiles_x + tx);
     if fine::empty_tile(bin_len, frame) {
         fine::count_tile(0, Counter::TilesEmpty, stats);
+        if frame.flags.contains(FrameFlags::SMALL_TRIANGLES) {
+            return Some((bin_start, 0, fine::tile_rect(tx, band.ty, frame)));
+        }
         band.record_tile(tx, bin_len, 0, frame);
         fine_resolve_empty_tile(tx, frame, band);
         return None;
     }
     fine::count_tile(0, Counter::TilesPartial, stats);
     Some((bin_start, bin_len, fine::tile_rect(tx, band.ty, frame)))
+}
+
+/// The tile's pixel states before its bin (tile pixel order): what the frame's small
+/// triangles left there (`fine::starting_state`), where it rasterised them apart.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn seed_tile(
+    program: &DepthProgram,
+    tx: u32,
+    frame: &FrameParams,
+    ty: u32,
+    seeds: &SmallSeeds,
+    key: &mut [u64],
+    owner: &mut [u32],
+    slot: &mut [u32],
+    count: &mut [u32],
+) {
+    if !frame.flags.contains(FrameFlags::SMALL_TRIANGLES) {
+        return;
+    }
+    for lid in 0..TILE_PIXELS {
+        let (i, j, inside) = fine::tile_pixel(tx, ty, lid, frame);
+        let s = fine::starting_state(program, i, j, inside, frame, &seeds.keys, &seeds.counts);
+        let p = lid as usize;
+        (key[p], owner[p], slot[p], count[p]) = (s.key, s.owner, s.slot, s.count);
+    }
 }
 
 /// The tile's depth bound (`fine::fine_occluders` and `fine::occluding_key` in one loop): the
@@ -208,6 +244,7 @@ fn fine_depth_tile_rows(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
+    seeds: &SmallSeeds,
     band: &mut Band,
     stats: &mut BandCounters,
 ) {
@@ -217,6 +254,7 @@ fn fine_depth_tile_rows(
     const N: usize = (TILE_PIXELS + TILE) as usize;
     const L: usize = TILE as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
+    seed_tile(program, tx, frame, band.ty, seeds, &mut key, &mut owner, &mut slot, &mut count);
     let bin = &bins[bin_start as usize..][..bin_len as usize];
     let occluding = occluding_key(program, frame, setups, bin, &tile);
     let count_hidden = fine::counts_hidden(frame);

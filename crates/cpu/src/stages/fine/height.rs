@@ -3,6 +3,7 @@
 //! a row of 16 pixels at a time, where the frame is proven overlap-free or not.
 
 use super::FinePath;
+use super::SmallSeeds;
 use super::band::{Band, BandCounters, StatCounters, fill_other_layers, fine_resolve_empty_tile, for_each_band, tile_rows, write_masked};
 use super::plain::fine_raster_tile_plain;
 use super::rows::{Lanes, TriangleRows, lane_steps};
@@ -97,7 +98,7 @@ fn fine_raster_tile(
         TileKind::Overlapping
     };
     if !path.takes(kind) {
-        return fine_raster_tile_plain(&HeightProgram::of(frame), false, tx, frame, setups, offsets, bins, &[], band, stats);
+        return fine_raster_tile_plain(&HeightProgram::of(frame), false, tx, frame, setups, offsets, bins, &[], &SmallSeeds::default(), band, stats);
     }
     band.record_tile(tx, bin_len, 0, frame);
     let bin = &bins[bin_start as usize..][..bin_len as usize];

@@ -33,6 +33,7 @@ use tileraster_kernels::abi::{FrameFlags, FrameParams, TriangleSetup};
 use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::programs::height::HeightProgram;
 
+use super::SmallSeeds;
 pub(crate) use plain::fine_raster_plain;
 
 /// Which fine-raster twin runs: every fast path (the default), the plain twin that runs each
@@ -90,29 +91,39 @@ impl FinePath {
 /// rayon task.
 pub fn fine_raster(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
     match path {
-        FinePath::Plain => fine_raster_plain(&HeightProgram::of(frame), false, frame, setups, offsets, bins, raster),
-        FinePath::Walk => fine_raster_plain(&HeightProgram::of(frame), true, frame, setups, offsets, bins, raster),
+        FinePath::Plain => fine_raster_plain(&HeightProgram::of(frame), false, frame, setups, offsets, bins, &SmallSeeds::default(), raster),
+        FinePath::Walk => fine_raster_plain(&HeightProgram::of(frame), true, frame, setups, offsets, bins, &SmallSeeds::default(), raster),
         FinePath::Specialised => height::fine_raster_using(path, wide::wide_vectors(), frame, setups, offsets, bins, raster),
         _ => height::fine_raster_using(path, false, frame, setups, offsets, bins, raster),
     }
 }
 
 /// Twin of the `fine_depth` entry point (the render pipeline's depth test): the CPU's way
-/// round (the default), or as the GPU runs its workgroups.
-pub fn fine_depth(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) -> StatCounters {
+/// round (the default), or as the GPU runs its workgroups; each pixel starts from what the
+/// small triangles left (`seeds`, `fine_small`).
+#[allow(clippy::too_many_arguments)]
+pub fn fine_depth(
+    path: FinePath,
+    frame: &FrameParams,
+    setups: &[TriangleSetup],
+    offsets: &[u32],
+    bins: &[u32],
+    seeds: &SmallSeeds,
+    raster: &mut Raster,
+) -> StatCounters {
     let program = DepthProgram::of(frame);
     // Render frames never take the full-tile path (the depth test needs every fragment's
     // key); a frame that allowed it goes the GPU's way.
     if frame.flags.contains(FrameFlags::FULL_TILES) {
-        return fine_raster_plain(&program, false, frame, setups, offsets, bins, raster);
+        return fine_raster_plain(&program, false, frame, setups, offsets, bins, seeds, raster);
     }
     let way = match path {
         FinePath::Specialised => depth::Way::fastest(wide::wide_vectors()),
         FinePath::DepthCentres => depth::Way::Centres,
         FinePath::DepthLanes => depth::Way::Lanes,
         FinePath::Plain | FinePath::Walk | FinePath::WholeTiles | FinePath::OverlapFreeRows | FinePath::OverlappingRows => {
-            return fine_raster_plain(&program, false, frame, setups, offsets, bins, raster);
+            return fine_raster_plain(&program, false, frame, setups, offsets, bins, seeds, raster);
         }
     };
-    depth::fine_depth_using(way, &program, frame, setups, offsets, bins, raster)
+    depth::fine_depth_using(way, &program, frame, setups, offsets, bins, seeds, raster)
 }

@@ -1,5 +1,6 @@
 //! The plain twin: each tile exactly as the GPU runs its workgroup, for any pixel program.
 
+use super::SmallSeeds;
 use super::band::{Band, BandCounters, StatCounters, for_each_band};
 use tileraster_core::Raster;
 use tileraster_kernels::abi::{Counter, FrameParams, SetupPart, TriangleSetup};
@@ -18,6 +19,7 @@ pub(crate) fn fine_raster_plain<P: PixelProgram<Setup = TriangleSetup, Value = u
     setups: &[P::Setup],
     offsets: &[u32],
     bins: &[u32],
+    seeds: &SmallSeeds,
     raster: &mut Raster,
 ) -> StatCounters
 where
@@ -38,7 +40,7 @@ where
     for_each_band(frame, raster, |band, stats| {
         let mut counts = BandCounters::default();
         for tx in 0..frame.tiles_x {
-            fine_raster_tile_plain(program, walk, tx, frame, setups, offsets, bins, &keys, band, &mut counts);
+            fine_raster_tile_plain(program, walk, tx, frame, setups, offsets, bins, &keys, seeds, band, &mut counts);
         }
         counts.add_to(stats);
     })
@@ -92,6 +94,7 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Setup = TriangleSetup, Valu
     offsets: &[u32],
     bins: &[u32],
     bin_keys: &[P::Key],
+    seeds: &SmallSeeds,
     band: &mut Band,
     stats: &mut BandCounters,
 ) where
@@ -102,7 +105,10 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Setup = TriangleSetup, Valu
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
     let pixel = |lid: u32| fine::tile_pixel(tx, ty, lid, frame);
-    let mut states = [PixelState::empty(P::NO_KEY); TILE_PIXELS as usize];
+    let mut states: [PixelState<P::Key>; TILE_PIXELS as usize] = core::array::from_fn(|lid| {
+        let (i, j, inside) = pixel(lid as u32);
+        fine::starting_state(program, i, j, inside, frame, &seeds.keys, &seeds.counts)
+    });
     let mut hidden = 0;
     let empty = fine::empty_tile(bin_len, frame);
     if empty {
@@ -176,7 +182,8 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Setup = TriangleSetup, Valu
         if !inside {
             continue;
         }
-        let out = if empty { fine::background_pixel(program) } else { fine::fine_resolve(program, i, j, state, setups) };
+        // An empty tile's pixels hold what the small triangles left, or nothing.
+        let out = fine::fine_resolve(program, i, j, state, setups);
         let k = band.index(i, j);
         band.values[k] = f32::from_bits(out.value);
         if let Some(owner) = band.owner.as_deref_mut() {

@@ -4,6 +4,7 @@ use super::height::fine_raster_using;
 use super::plain::fine_raster_plain;
 use super::rows::TriangleRows;
 use super::wide::wide_vectors;
+use crate::SmallSeeds;
 use tileraster_core::Raster;
 use tileraster_core::{Grid, Mode, Outputs, Params, Skips, prepare};
 use tileraster_kernels::abi::{Counter, Coverage, DepthFunc, FrameParams, TriangleSetup};
@@ -84,7 +85,7 @@ fn a_depth_keyed_program_resolves_the_lowest_surface() {
             let params = Params::new(grid).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
             let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
             let mut raster = plan.allocate_raster(&prepared).unwrap();
-            fine_raster_plain(&LowestSurface, false, &frame, &setups, &offsets, &bins, &mut raster);
+            fine_raster_plain(&LowestSurface, false, &frame, &setups, &offsets, &bins, &SmallSeeds::default(), &mut raster);
             let (owners, counts) = (raster.owner.as_ref().unwrap(), raster.coverage.as_ref().unwrap());
             for j in 0..frame.win_h {
                 for i in 0..frame.win_w {
@@ -169,15 +170,16 @@ fn depth_test_in_lanes_changes_no_bit() {
         crossing.positions.extend([[-1.0, -1.0, left], [1.0, -1.0, right], [1.0, 1.0, right], [-1.0, 1.0, left]]);
         crossing.triangles.extend([[v, v + 1, v + 2], [v, v + 2, v + 3]]);
     }
-    let mut hidden_somewhere = false;
+    let (mut hidden_somewhere, mut small_somewhere) = (false, false);
     for mesh in [soup, back_to_front, front_to_back, crossing] {
         for func in DepthFunc::ALL {
             for write in [true, false] {
                 // The `Greater` functions pass against a clear value of 0.
                 let clear_depth = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
                 let mut reference: Option<Raster> = None;
-                for (count_fragments, hidden_triangles) in [(true, false), (true, true), (false, true), (false, false)] {
-                    let skips = tileraster_core::Skips { hidden_triangles, ..tileraster_core::Skips::ALL };
+                let variants = [(true, false, true), (true, true, true), (false, true, true), (false, false, true), (true, true, false), (false, true, false)];
+                for (count_fragments, hidden_triangles, small_triangles) in variants {
+                    let skips = tileraster_core::Skips { hidden_triangles, small_triangles, ..tileraster_core::Skips::ALL };
                     let params = RenderParams {
                         cull: Cull::None,
                         depth_func: func,
@@ -193,19 +195,25 @@ fn depth_test_in_lanes_changes_no_bit() {
                     let frame = plan.frame(&prepared, plan.active.unwrap());
                     let StageBuffers { setups, offsets, bins, .. } = crate::stage_buffers(&prepared).unwrap().unwrap();
                     let program = DepthProgram::of(&frame);
+                    // The small triangles first (`fine_small`), where the plan lists them apart.
+                    let seeds = crate::fine_small(&frame, &setups, &plan.small);
+                    assert!(small_triangles || plan.small.is_empty(), "small triangles listed apart with the skip off");
+                    small_somewhere |= !plan.small.is_empty();
                     let run = |way: Option<Way>| {
                         let mut raster = plan.allocate_raster(&prepared).unwrap();
                         let counters = match way {
-                            Some(way) => fine_depth_using(way, &program, &frame, &setups, &offsets, &bins, &mut raster),
-                            None => fine_raster_plain(&program, false, &frame, &setups, &offsets, &bins, &mut raster),
+                            Some(way) => fine_depth_using(way, &program, &frame, &setups, &offsets, &bins, &seeds, &mut raster),
+                            None => fine_raster_plain(&program, false, &frame, &setups, &offsets, &bins, &seeds, &mut raster),
                         };
                         (raster, counters.map(|c| c.into_inner()))
                     };
-                    let what = format!("{func:?}, write {write}, fragments counted {count_fragments}, hidden triangles rejected {hidden_triangles}");
+                    let what = format!(
+                        "{func:?}, write {write}, fragments counted {count_fragments}, hidden triangles rejected {hidden_triangles}, small triangles apart {small_triangles}"
+                    );
                     let (plain, plain_counts) = run(None);
                     // The walk, with the keys binning writes for it (`bin::entry_keys`).
                     let mut walked = plan.allocate_raster(&prepared).unwrap();
-                    let walked_counts = fine_raster_plain(&program, true, &frame, &setups, &offsets, &bins, &mut walked).map(|c| c.into_inner());
+                    let walked_counts = fine_raster_plain(&program, true, &frame, &setups, &offsets, &bins, &seeds, &mut walked).map(|c| c.into_inner());
                     assert_eq!(walked.compare_bits(&plain, 4), (0, vec![]), "{what}: the walk against the batches");
                     assert_eq!(walked_counts, plain_counts, "{what}: the walk's statistics");
                     let mut lanes = None;
@@ -234,6 +242,7 @@ fn depth_test_in_lanes_changes_no_bit() {
         }
     }
     assert!(hidden_somewhere, "the depth bounds hid no triangle in any scene");
+    assert!(small_somewhere, "no scene has small triangles");
 }
 
 /// A key's depth read back is the depth it was built from, for every sign and size.

@@ -3,6 +3,7 @@
 //! multiplies them), called only where the CPU has it: the same code and the same bits.
 
 use super::FinePath;
+use super::SmallSeeds;
 use super::band::{Band, StatCounters};
 use super::depth::fine_depth_band_rows;
 use super::height::fine_raster_band;
@@ -15,29 +16,33 @@ use tileraster_kernels::programs::depth::DepthProgram;
 /// lane).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+#[allow(clippy::too_many_arguments)]
 pub(super) fn fine_depth_band_wide(
     program: &DepthProgram,
     frame: &FrameParams,
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
+    seeds: &SmallSeeds,
     band: &mut Band,
     stats: &StatCounters,
 ) {
-    fine_depth_band_rows(program, frame, setups, offsets, bins, band, stats)
+    fine_depth_band_rows(program, frame, setups, offsets, bins, seeds, band, stats)
 }
 
 #[cfg(not(target_arch = "x86_64"))]
+#[allow(clippy::too_many_arguments)]
 pub(super) unsafe fn fine_depth_band_wide(
     program: &DepthProgram,
     frame: &FrameParams,
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
+    seeds: &SmallSeeds,
     band: &mut Band,
     stats: &StatCounters,
 ) {
-    fine_depth_band_rows(program, frame, setups, offsets, bins, band, stats)
+    fine_depth_band_rows(program, frame, setups, offsets, bins, seeds, band, stats)
 }
 
 /// Whether the CPU has the vector instructions that turn a row of fixed-point values into

@@ -48,20 +48,24 @@ pub enum Side {
 /// excluded edges (bit `k`: edge `k` is not top-left).
 #[inline(always)]
 pub fn side_of(w0: i64, w1: i64, w2: i64, excluded_edges: u32) -> Side {
-    if (w0 | w1 | w2) < 0 {
-        return Side::Outside;
-    }
-    let on_edges = (w0 == 0) as u32 | ((w1 == 0) as u32) << 1 | ((w2 == 0) as u32) << 2;
-    if on_edges & excluded_edges != 0 { Side::OnExcludedEdge } else { Side::Inside }
+    side_from((w0 | w1 | w2) < 0, (w0 == 0) as u32 | ((w1 == 0) as u32) << 1 | ((w2 == 0) as u32) << 2, excluded_edges)
 }
 
 /// [`side_of`] for edge functions that fit 32 bits (`stages::setup::edges_fit_i32`): the same
 /// decision in 32-bit operations.
 #[inline(always)]
 pub fn side_of_i32(w0: i32, w1: i32, w2: i32, excluded_edges: u32) -> Side {
-    if (w0 | w1 | w2) < 0 {
-        return Side::Outside;
+    side_from((w0 | w1 | w2) < 0, (w0 == 0) as u32 | ((w1 == 0) as u32) << 1 | ((w2 == 0) as u32) << 2, excluded_edges)
+}
+
+/// The side, from whether an edge function is negative and which are zero (bit `k`: edge `k`).
+#[inline(always)]
+fn side_from(negative: bool, on_edges: u32, excluded_edges: u32) -> Side {
+    if negative {
+        Side::Outside
+    } else if on_edges & excluded_edges != 0 {
+        Side::OnExcludedEdge
+    } else {
+        Side::Inside
     }
-    let on_edges = (w0 == 0) as u32 | ((w1 == 0) as u32) << 1 | ((w2 == 0) as u32) << 2;
-    if on_edges & excluded_edges != 0 { Side::OnExcludedEdge } else { Side::Inside }
 }

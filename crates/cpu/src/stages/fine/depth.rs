@@ -35,6 +35,7 @@ impl Way {
 }
 
 /// The depth test's fast path, every band in parallel.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn fine_depth_using(
     way: Way,
     program: &DepthProgram,

@@ -12,6 +12,7 @@ use tileraster_kernels::{BATCH, FULL_TILE_BIT, TILE_PIXELS};
 /// The plain twin, for any pixel program whose values are 32-bit words (the raster's values
 /// layer holds their bits); with `walk`, the entry point's walk (`fine::fine_walk`) where it
 /// takes it.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn fine_raster_plain<P: PixelProgram<Setup = TriangleSetup, Value = u32> + Sync>(
     program: &P,
     walk: bool,

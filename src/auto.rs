@@ -49,7 +49,9 @@ pub fn choose_backend(pixels: u64) -> BackendChoice {
         }
         None => match std::env::var("TILERASTER_ADAPTER") {
             Ok(name) => cpu(format!("no usable Vulkan adapter is named like TILERASTER_ADAPTER={name:?} ({known})")),
-            Err(_) => cpu(format!("no Vulkan adapter has 64-bit integers and subgroup operations in shaders and SPIR-V passthrough ({known})")),
+            Err(_) => {
+                cpu(format!("no Vulkan adapter has 64-bit integers, 64-bit atomic minima and subgroup operations in shaders and SPIR-V passthrough ({known})"))
+            }
         },
         Some(a) if a.kind != AdapterKind::Gpu => {
             cpu(format!("the Vulkan adapter, {}, is a CPU implementation, slower than the CPU backend on the same cores ({known})", a.name))

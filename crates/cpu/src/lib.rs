@@ -6,7 +6,10 @@
 
 mod stages;
 
-pub use stages::{FinePath, SmallSeeds, bin_count, bin_fill, bin_scan, fine_depth, fine_raster, fine_samples, fine_small, setup, setup_into, shade};
+pub use stages::{
+    FinePath, SmallBins, SmallSeeds, SmallTriangles, bin_count, bin_fill, bin_scan, fine_depth, fine_raster, fine_samples, fine_small, fine_small_for, setup,
+    setup_into, shade,
+};
 pub use tileraster_kernels::pipeline::StageBuffers;
 
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
@@ -87,7 +90,7 @@ struct WindowBuffers {
     counts: Vec<u32>,
     offsets: Vec<u32>,
     bins: Vec<u32>,
-    seeds: SmallSeeds,
+    small: SmallTriangles,
 }
 
 /// The stages of `plan` in the table's order. With a `workspace`, the raster takes its layers
@@ -135,9 +138,9 @@ fn rasterise_planned_with(
                     let stats = fine_raster(path, &frame, setups, &b.offsets, &b.bins, &mut raster);
                     counters = stats.map(|c| c.into_inner() as u64);
                 }
-                Stage::FineSmall => b.seeds = fine_small(&frame, setups, &plan.small),
+                Stage::FineSmall => b.small = fine_small_for(path.bins_small(&frame), &frame, setups, &plan.small),
                 Stage::FineDepth => {
-                    let stats = fine_depth(path, &frame, setups, &b.offsets, &b.bins, &b.seeds, &mut raster);
+                    let stats = fine_depth(path, &frame, setups, &b.offsets, &b.bins, &b.small, &mut raster);
                     counters = stats.map(|c| c.into_inner() as u64);
                 }
                 Stage::FineSamples => {

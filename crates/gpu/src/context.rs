@@ -262,9 +262,9 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>
     usable.into_iter().next().ok_or_else(|| match (&wanted, seen.is_empty()) {
         (_, true) => "no Vulkan adapter was found".into(),
         (Some(name), false) => {
-            format!("no adapter named like {name:?} with 64-bit integers and subgroup operations in shaders and SPIR-V passthrough among {seen:?}")
+            format!("no adapter named like {name:?} with 64-bit integers, 64-bit atomic minima and subgroup operations in shaders and SPIR-V passthrough among {seen:?}")
         }
-        (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers and subgroup operations in shaders and SPIR-V passthrough"),
+        (None, false) => format!("none of the Vulkan adapters {seen:?} supports 64-bit integers, 64-bit atomic minima and subgroup operations in shaders and SPIR-V passthrough"),
     })
 }
 

@@ -18,7 +18,7 @@ pub use multisample::fine_samples;
 pub use scan::bin_scan;
 pub use setup::{setup, setup_into};
 pub use shade::shade;
-pub use small::{SmallSeeds, fine_small};
+pub use small::{SmallBins, SmallSeeds, SmallTriangles, fine_small, fine_small_for};
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::memory::{Counters, Slots};

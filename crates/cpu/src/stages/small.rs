@@ -1,5 +1,7 @@
 //! Twin of the `fine_small` entry point: one invocation per small triangle of the window
-//! (`stages::small`), the pixels' keys and counts host atomics.
+//! (`stages::small`), the pixels' keys and counts host atomics; or, for the fast paths of
+//! `fine_depth`, the small triangles binned on their own, so that each tile takes them with its
+//! bin the CPU's way round (every triangle through the tile's rows, no atomics).
 
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
@@ -7,7 +9,7 @@ use tileraster_kernels::abi::{FrameFlags, FrameParams, OutputSet, TriangleSetup}
 use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::stages::small::{self, PixelKeys};
 
-use super::{AtomicSlice, atomic_zeroed};
+use super::{AtomicSlice, bin_count, bin_fill, bin_scan};
 
 /// What the small triangles leave for the tile stage (`Buffer::PixelKeys`, and the coverage
 /// layer's counts): per window pixel, the complement of its smallest key and its fragments.
@@ -16,6 +18,54 @@ use super::{AtomicSlice, atomic_zeroed};
 pub struct SmallSeeds {
     pub keys: Vec<u64>,
     pub counts: Vec<u32>,
+}
+
+/// The small triangles binned apart (the binning stages' twins over the small list): each
+/// tile's small triangles, which the fast paths of `fine_depth` take after its bin. Empty
+/// where the frame lists no small triangle.
+#[derive(Default)]
+pub struct SmallBins {
+    offsets: Vec<u32>,
+    bins: Vec<u32>,
+}
+
+impl SmallBins {
+    /// The small triangles of window tile `tile` (setup slots, with `FULL_TILE_BIT` where they
+    /// cover it whole).
+    pub fn of_tile(&self, tile: u32) -> &[u32] {
+        match self.offsets.get(tile as usize..tile as usize + 2) {
+            Some(&[start, end]) => &self.bins[start as usize..end as usize],
+            _ => &[],
+        }
+    }
+}
+
+/// What the small triangles leave for the CPU's fine raster: `fine_small`'s keys and counts
+/// for the plain twin, or their own bins for the fast paths (`FinePath::bins_small`).
+pub enum SmallTriangles {
+    Seeded(SmallSeeds),
+    Binned(SmallBins),
+}
+
+impl Default for SmallTriangles {
+    fn default() -> Self {
+        SmallTriangles::Seeded(SmallSeeds::default())
+    }
+}
+
+/// The stage's twin for the fine-raster path `binned` says: the small triangles binned apart
+/// where `binned`, else as the GPU runs them.
+pub fn fine_small_for(binned: bool, frame: &FrameParams, setups: &[TriangleSetup], small_listed: &[u32]) -> SmallTriangles {
+    if !binned {
+        return SmallTriangles::Seeded(fine_small(frame, setups, small_listed));
+    }
+    if !frame.flags.contains(FrameFlags::SMALL_TRIANGLES) {
+        return SmallTriangles::Binned(SmallBins::default());
+    }
+    let counts = bin_count(frame, setups, small_listed);
+    let offsets = bin_scan(frame, &counts);
+    let bins = bin_fill(frame, setups, small_listed, &offsets);
+    SmallTriangles::Binned(SmallBins { offsets, bins })
 }
 
 /// Host atomics standing in for `Buffer::PixelKeys`.
@@ -33,10 +83,20 @@ pub fn fine_small(frame: &FrameParams, setups: &[TriangleSetup], small_listed: &
         return SmallSeeds::default();
     }
     let pixels = frame.win_w as usize * frame.win_h as usize;
-    let keys: Vec<AtomicU64> = (0..pixels).map(|_| AtomicU64::new(0)).collect();
-    let counts = atomic_zeroed(if frame.outputs.contains(OutputSet::COVERAGE) { pixels } else { 0 });
+    let counted = frame.outputs.contains(OutputSet::COVERAGE);
+    // Zeros written before the invocations (the allocator's untouched pages would fault in
+    // under the atomics, one thread against the other), then seen as atomics: no pass copies
+    // them out.
+    let mut seeds = SmallSeeds { keys: zeroed(pixels), counts: zeroed(if counted { pixels } else { 0 }) };
     let program = DepthProgram::of(frame);
-    let (keys_sink, counts_sink) = (AtomicKeys(&keys), AtomicSlice(&counts));
+    let (keys_sink, counts_sink) = (AtomicKeys(AtomicU64::from_mut_slice(&mut seeds.keys)), AtomicSlice(AtomicU32::from_mut_slice(&mut seeds.counts)));
     small_listed.par_iter().for_each(|&t| small::fine_small(&program, &setups[t as usize], frame, &mut { keys_sink }, &mut { counts_sink }));
-    SmallSeeds { keys: keys.into_iter().map(AtomicU64::into_inner).collect(), counts: counts.into_iter().map(AtomicU32::into_inner).collect() }
+    seeds
+}
+
+/// `n` zeros, written (not the allocator's zeroed pages).
+fn zeroed<T: Copy + Default>(n: usize) -> Vec<T> {
+    let mut v = Vec::with_capacity(n);
+    v.resize(n, T::default());
+    v
 }

@@ -2,7 +2,7 @@
 //! of the tile, centre by centre or 16 lanes at a time, then the pixels resolved from their
 //! smallest keys.
 
-use super::SmallSeeds;
+use super::super::SmallBins;
 use super::band::{Band, BandCounters, StatCounters, fine_resolve_empty_tile, for_each_band, tile_rows};
 use super::rows::{Lanes, TriangleRows};
 use super::wide::fine_depth_band_wide;
@@ -10,7 +10,7 @@ use std::simd::cmp::{SimdPartialEq, SimdPartialOrd};
 use std::simd::num::{SimdFloat, SimdInt, SimdUint};
 use std::simd::{Mask, Select, Simd};
 use tileraster_core::Raster;
-use tileraster_kernels::abi::{Counter, DepthFunc, FrameFlags, FrameParams, PixelRect, TriangleSetup};
+use tileraster_kernels::abi::{Counter, DepthFunc, FrameParams, PixelRect, TriangleSetup};
 use tileraster_kernels::programs::depth::{DepthOrder, DepthProgram};
 use tileraster_kernels::stages::fine::{self, PixelProgram};
 use tileraster_kernels::{FULL_TILE_BIT, NO_OWNER, TILE, TILE_PIXELS};
@@ -43,17 +43,17 @@ pub(super) fn fine_depth_using(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
-    seeds: &SmallSeeds,
+    small: &SmallBins,
     raster: &mut Raster,
 ) -> StatCounters {
     for_each_band(frame, raster, |band, stats| match way {
         // SAFETY: `Way::WideLanes` comes only from `Way::fastest` when `wide_vectors` found the features.
-        Way::WideLanes => unsafe { fine_depth_band_wide(program, frame, setups, offsets, bins, seeds, band, stats) },
-        Way::Lanes => fine_depth_band_rows(program, frame, setups, offsets, bins, seeds, band, stats),
+        Way::WideLanes => unsafe { fine_depth_band_wide(program, frame, setups, offsets, bins, small, band, stats) },
+        Way::Lanes => fine_depth_band_rows(program, frame, setups, offsets, bins, small, band, stats),
         Way::Centres => {
             let mut counts = BandCounters::default();
             for tx in 0..frame.tiles_x {
-                fine_depth_tile(program, tx, frame, setups, offsets, bins, seeds, band, &mut counts);
+                fine_depth_tile(program, tx, frame, setups, offsets, bins, small, band, &mut counts);
             }
             counts.add_to(stats);
         }
@@ -69,13 +69,13 @@ pub(super) fn fine_depth_band_rows(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
-    seeds: &SmallSeeds,
+    small: &SmallBins,
     band: &mut Band,
     stats: &StatCounters,
 ) {
     let mut counts = BandCounters::default();
     for tx in 0..frame.tiles_x {
-        fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, seeds, band, &mut counts);
+        fine_depth_tile_rows(program, tx, frame, setups, offsets, bins, small, band, &mut counts);
     }
     counts.add_to(stats);
 }
@@ -92,21 +92,21 @@ fn fine_depth_tile(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
-    seeds: &SmallSeeds,
+    small: &SmallBins,
     band: &mut Band,
     stats: &mut BandCounters,
 ) {
-    let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
+    let Some((bin_start, bin_len, side, tile)) = depth_tile_bin(tx, frame, offsets, small, band, stats) else { return };
     const N: usize = TILE_PIXELS as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
-    seed_tile(program, tx, frame, band.ty, seeds, &mut key, &mut owner, &mut slot, &mut count);
     let bin = &bins[bin_start as usize..][..bin_len as usize];
     let occluding = occluding_key(program, frame, setups, bin, &tile);
     let count_hidden = fine::counts_hidden(frame);
     let mut hidden_here = 0;
-    for &entry in bin {
+    // The bin, then the tile's small triangles (never hidden: the GPU's bound takes only the bin).
+    for (k, &entry) in bin.iter().chain(side).enumerate() {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
-        let hidden = program.hidden(s, &tile, occluding);
+        let hidden = k < bin.len() && program.hidden(s, &tile, occluding);
         hidden_here += hidden as u32;
         if hidden && !count_hidden {
             continue;
@@ -136,50 +136,32 @@ fn fine_depth_tile(
     resolve_depth_tile(program, tx, frame, setups, band, &key, &owner, &slot, &count);
 }
 
-/// The start of a `fine_depth` workgroup: a tile with an empty bin is resolved to the
-/// background (`None`), or, where the frame's small triangles were rasterised apart, goes on
-/// with no entries to resolve what they left; any other is counted partial. Returns the bin's
-/// range and the tile's pixels.
+/// The start of a `fine_depth` workgroup: a tile with an empty bin and no small triangle is
+/// resolved to the background (`None`); any other is counted (empty or partial, by its bin as
+/// the GPU counts it). Returns the bin's range, the tile's small triangles and its pixels.
 #[inline(always)]
-fn depth_tile_bin(tx: u32, frame: &FrameParams, offsets: &[u32], band: &mut Band, stats: &mut BandCounters) -> Option<(u32, u32, PixelRect)> {
-    let (bin_start, bin_len) = fine::bin_range(offsets, band.ty * frame.tiles_x + tx);
-    if fine::empty_tile(bin_len, frame) {
-        fine::count_tile(0, Counter::TilesEmpty, stats);
-        if frame.flags.contains(FrameFlags::SMALL_TRIANGLES) {
-            return Some((bin_start, 0, fine::tile_rect(tx, band.ty, frame)));
-        }
-        band.record_tile(tx, bin_len, 0, frame);
-        fine_resolve_empty_tile(tx, frame, band);
-        return None;
-    }
-    fine::count_tile(0, Counter::TilesPartial, stats);
-    Some((bin_start, bin_len, fine::tile_rect(tx, band.ty, frame)))
-}
-
-/// The tile's pixel states before its bin (tile pixel order): what the frame's small
-/// triangles left there (`fine::starting_state`), where it rasterised them apart.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn seed_tile(
-    program: &DepthProgram,
+fn depth_tile_bin<'a>(
     tx: u32,
     frame: &FrameParams,
-    ty: u32,
-    seeds: &SmallSeeds,
-    key: &mut [u64],
-    owner: &mut [u32],
-    slot: &mut [u32],
-    count: &mut [u32],
-) {
-    if !frame.flags.contains(FrameFlags::SMALL_TRIANGLES) {
-        return;
+    offsets: &[u32],
+    small: &'a SmallBins,
+    band: &mut Band,
+    stats: &mut BandCounters,
+) -> Option<(u32, u32, &'a [u32], PixelRect)> {
+    let t = band.ty * frame.tiles_x + tx;
+    let (bin_start, bin_len) = fine::bin_range(offsets, t);
+    let side = small.of_tile(t);
+    if fine::empty_tile(bin_len, frame) {
+        fine::count_tile(0, Counter::TilesEmpty, stats);
+        if side.is_empty() {
+            band.record_tile(tx, bin_len, 0, frame);
+            fine_resolve_empty_tile(tx, frame, band);
+            return None;
+        }
+    } else {
+        fine::count_tile(0, Counter::TilesPartial, stats);
     }
-    for lid in 0..TILE_PIXELS {
-        let (i, j, inside) = fine::tile_pixel(tx, ty, lid, frame);
-        let s = fine::starting_state(program, i, j, inside, frame, &seeds.keys, &seeds.counts);
-        let p = lid as usize;
-        (key[p], owner[p], slot[p], count[p]) = (s.key, s.owner, s.slot, s.count);
-    }
+    Some((bin_start, bin_len, side, fine::tile_rect(tx, band.ty, frame)))
 }
 
 /// The tile's depth bound (`fine::fine_occluders` and `fine::occluding_key` in one loop): the
@@ -245,24 +227,24 @@ fn fine_depth_tile_rows(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
-    seeds: &SmallSeeds,
+    small: &SmallBins,
     band: &mut Band,
     stats: &mut BandCounters,
 ) {
-    let Some((bin_start, bin_len, tile)) = depth_tile_bin(tx, frame, offsets, band, stats) else { return };
+    let Some((bin_start, bin_len, side, tile)) = depth_tile_bin(tx, frame, offsets, small, band, stats) else { return };
     // The tile's pixel states, one row of lanes past its end: a row of a triangle starting
     // `shift` pixels into the tile's last row reads and writes (masked) 16 lanes from there.
     const N: usize = (TILE_PIXELS + TILE) as usize;
     const L: usize = TILE as usize;
     let (mut key, mut owner, mut slot, mut count) = ([DepthProgram::NO_KEY; N], [NO_OWNER; N], [0u32; N], [0u32; N]);
-    seed_tile(program, tx, frame, band.ty, seeds, &mut key, &mut owner, &mut slot, &mut count);
     let bin = &bins[bin_start as usize..][..bin_len as usize];
     let occluding = occluding_key(program, frame, setups, bin, &tile);
     let count_hidden = fine::counts_hidden(frame);
     let mut hidden_here = 0;
-    for &entry in bin {
+    // The bin, then the tile's small triangles (never hidden: the GPU's bound takes only the bin).
+    for (k, &entry) in bin.iter().chain(side).enumerate() {
         let s = &setups[(entry & !FULL_TILE_BIT) as usize];
-        let hidden = program.hidden(s, &tile, occluding);
+        let hidden = k < bin.len() && program.hidden(s, &tile, occluding);
         hidden_here += hidden as u32;
         if hidden && !count_hidden {
             continue;

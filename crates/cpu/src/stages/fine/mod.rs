@@ -33,7 +33,7 @@ use tileraster_kernels::abi::{FrameFlags, FrameParams, TriangleSetup};
 use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::programs::height::HeightProgram;
 
-use super::SmallSeeds;
+use super::{SmallSeeds, SmallTriangles};
 pub(crate) use plain::fine_raster_plain;
 
 /// Which fine-raster twin runs: every fast path (the default), the plain twin that runs each
@@ -100,7 +100,7 @@ pub fn fine_raster(path: FinePath, frame: &FrameParams, setups: &[TriangleSetup]
 
 /// Twin of the `fine_depth` entry point (the render pipeline's depth test): the CPU's way
 /// round (the default), or as the GPU runs its workgroups; each pixel starts from what the
-/// small triangles left (`seeds`, `fine_small`).
+/// small triangles left (`fine_small`), which the fast paths take binned apart instead.
 #[allow(clippy::too_many_arguments)]
 pub fn fine_depth(
     path: FinePath,
@@ -108,22 +108,38 @@ pub fn fine_depth(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
-    seeds: &SmallSeeds,
+    small: &SmallTriangles,
     raster: &mut Raster,
 ) -> StatCounters {
     let program = DepthProgram::of(frame);
-    // Render frames never take the full-tile path (the depth test needs every fragment's
-    // key); a frame that allowed it goes the GPU's way.
-    if frame.flags.contains(FrameFlags::FULL_TILES) {
-        return fine_raster_plain(&program, false, frame, setups, offsets, bins, seeds, raster);
+    match (path.depth_way(frame), small) {
+        (Some(way), SmallTriangles::Binned(small)) => depth::fine_depth_using(way, &program, frame, setups, offsets, bins, small, raster),
+        (None, SmallTriangles::Seeded(seeds)) => fine_raster_plain(&program, false, frame, setups, offsets, bins, seeds, raster),
+        // `FinePath::bins_small` made them for this path: never the other way round.
+        (Some(way), SmallTriangles::Seeded(_)) => unreachable!("the fast path {way:?} takes its small triangles binned"),
+        (None, SmallTriangles::Binned(_)) => unreachable!("the plain twin takes the small triangles' keys"),
     }
-    let way = match path {
-        FinePath::Specialised => depth::Way::fastest(wide::wide_vectors()),
-        FinePath::DepthCentres => depth::Way::Centres,
-        FinePath::DepthLanes => depth::Way::Lanes,
-        FinePath::Plain | FinePath::Walk | FinePath::WholeTiles | FinePath::OverlapFreeRows | FinePath::OverlappingRows => {
-            return fine_raster_plain(&program, false, frame, setups, offsets, bins, seeds, raster);
+}
+
+impl FinePath {
+    /// How `fine_depth` takes a frame: a fast path's way, or `None` for the plain twin. Render
+    /// frames never take the full-tile path (the depth test needs every fragment's key); a
+    /// frame that allowed it goes the GPU's way.
+    fn depth_way(self, frame: &FrameParams) -> Option<depth::Way> {
+        if frame.flags.contains(FrameFlags::FULL_TILES) {
+            return None;
         }
-    };
-    depth::fine_depth_using(way, &program, frame, setups, offsets, bins, seeds, raster)
+        match self {
+            FinePath::Specialised => Some(depth::Way::fastest(wide::wide_vectors())),
+            FinePath::DepthCentres => Some(depth::Way::Centres),
+            FinePath::DepthLanes => Some(depth::Way::Lanes),
+            FinePath::Plain | FinePath::Walk | FinePath::WholeTiles | FinePath::OverlapFreeRows | FinePath::OverlappingRows => None,
+        }
+    }
+
+    /// Whether `fine_small`'s twin bins the frame's small triangles apart for this path (a fast
+    /// path of `fine_depth`) rather than running them as the GPU does (the plain twin).
+    pub fn bins_small(self, frame: &FrameParams) -> bool {
+        self.depth_way(frame).is_some()
+    }
 }

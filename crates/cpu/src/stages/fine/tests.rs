@@ -197,12 +197,16 @@ fn depth_test_in_lanes_changes_no_bit() {
                     let program = DepthProgram::of(&frame);
                     // The small triangles first (`fine_small`), where the plan lists them apart.
                     let seeds = crate::fine_small(&frame, &setups, &plan.small);
+                    // The fast paths' way: the small triangles binned apart.
+                    let crate::SmallTriangles::Binned(small_bins) = crate::fine_small_for(true, &frame, &setups, &plan.small) else {
+                        panic!("binned apart, as asked")
+                    };
                     assert!(small_triangles || plan.small.is_empty(), "small triangles listed apart with the skip off");
                     small_somewhere |= !plan.small.is_empty();
                     let run = |way: Option<Way>| {
                         let mut raster = plan.allocate_raster(&prepared).unwrap();
                         let counters = match way {
-                            Some(way) => fine_depth_using(way, &program, &frame, &setups, &offsets, &bins, &seeds, &mut raster),
+                            Some(way) => fine_depth_using(way, &program, &frame, &setups, &offsets, &bins, &small_bins, &mut raster),
                             None => fine_raster_plain(&program, false, &frame, &setups, &offsets, &bins, &seeds, &mut raster),
                         };
                         (raster, counters.map(|c| c.into_inner()))

@@ -2,8 +2,8 @@
 //! values to `f32` at once, correctly rounded as the scalar conversion is, and `vpmullq`
 //! multiplies them), called only where the CPU has it: the same code and the same bits.
 
+use super::super::SmallBins;
 use super::FinePath;
-use super::SmallSeeds;
 use super::band::{Band, StatCounters};
 use super::depth::fine_depth_band_rows;
 use super::height::fine_raster_band;
@@ -23,11 +23,11 @@ pub(super) fn fine_depth_band_wide(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
-    seeds: &SmallSeeds,
+    small: &SmallBins,
     band: &mut Band,
     stats: &StatCounters,
 ) {
-    fine_depth_band_rows(program, frame, setups, offsets, bins, seeds, band, stats)
+    fine_depth_band_rows(program, frame, setups, offsets, bins, small, band, stats)
 }
 
 #[cfg(not(target_arch = "x86_64"))]
@@ -38,11 +38,11 @@ pub(super) unsafe fn fine_depth_band_wide(
     setups: &[TriangleSetup],
     offsets: &[u32],
     bins: &[u32],
-    seeds: &SmallSeeds,
+    small: &SmallBins,
     band: &mut Band,
     stats: &StatCounters,
 ) {
-    fine_depth_band_rows(program, frame, setups, offsets, bins, seeds, band, stats)
+    fine_depth_band_rows(program, frame, setups, offsets, bins, small, band, stats)
 }
 
 /// Whether the CPU has the vector instructions that turn a row of fixed-point values into

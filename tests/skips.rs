@@ -194,3 +194,28 @@ fn a_sparse_scene_rasterises_only_the_tiles_it_covers() {
     let covered = raster.values.iter().filter(|&&v| v != -1.0).count();
     assert!((3900..=4400).contains(&covered), "{covered} cells covered");
 }
+
+/// Small triangles skip binning in a single-sample depth-tested frame (`Skip::SmallTriangles`):
+/// the statistics count them apart, every triangle is culled, binned or small, `fine_small`
+/// runs only where they are, and turning the skip off bins them all with the same bits.
+#[test]
+fn small_triangles_skip_binning_and_are_counted_apart() {
+    use tileraster::render::{Camera, Cull, RenderParams, render};
+    // Large triangles at the equator, small ones towards the poles.
+    let mesh = tileraster_testkit::meshes::sphere([0.0; 3], 1.0, 16, 32);
+    let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
+    let on = RenderParams { cull: Cull::None, count_fragments: true, ..RenderParams::new(640, 480, camera.view_projection(640, 480).unwrap()) };
+    let off = RenderParams { skips: on.skips.without(Skip::SmallTriangles), ..on.clone() };
+    for backend in backends("small_triangles_skip_binning_and_are_counted_apart") {
+        let (a, b) = (render(&mesh, &on, backend).unwrap(), render(&mesh, &off, backend).unwrap());
+        let (s, t) = (&a.stats.raster, &b.stats.raster);
+        // Prepared: the triangles rasterised and those that reach no pixel centre (culled there).
+        let prepared = a.stats.geometry.rasterised + a.stats.geometry.culled_no_centre;
+        assert!(s.triangles_small > 0 && s.triangles_binned > 0, "{backend:?}: {s:?}");
+        assert_eq!(s.triangles_small + s.triangles_binned + s.triangles_culled, prepared, "{backend:?}: every triangle culled, binned or small");
+        assert_eq!((t.triangles_small, t.triangles_binned + t.triangles_culled), (0, prepared), "{backend:?}: the skip off bins them all");
+        assert!(s.passes.contains(&Pass::Kernel(Stage::FineSmall)) && !t.passes.contains(&Pass::Kernel(Stage::FineSmall)), "{backend:?}");
+        assert!(a.colour == b.colour && a.ids == b.ids && a.fragments == b.fragments, "{backend:?}: the skip changes a bit");
+        assert!(a.depth.iter().zip(&b.depth).all(|(x, y)| x.to_bits() == y.to_bits()), "{backend:?}: depths differ");
+    }
+}

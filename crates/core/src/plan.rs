@@ -69,7 +69,8 @@ pub struct Stats {
     pub tiles_total: u64,
     /// Tiles no triangle reaches, which got no per-pixel work: those outside the part of the
     /// window the triangles can cover, filled with nodata on the host, and those inside it
-    /// whose bin was empty.
+    /// whose bin was empty (where small triangles skip binning, such a tile still resolves
+    /// what they left there).
     pub tiles_empty_skipped: u64,
     /// Tiles covered whole by one triangle, written with no edge test.
     pub tiles_full: u64,
@@ -239,7 +240,7 @@ impl Prepared {
         let stats = Stats {
             tiles_total,
             tiles_empty_skipped: tiles_total - active.as_ref().map_or(0, tiles),
-            triangles_culled: (self.culled + self.triangles.len() - listed.len()) as u64,
+            triangles_culled: (self.culled + self.triangles.len() - listed.len() - small.len()) as u64,
             triangles_flat: self.degenerate as u64,
             triangles_binned: if active.is_some() { listed.len() as u64 } else { 0 },
             triangles_small: if active.is_some() { small.len() as u64 } else { 0 },

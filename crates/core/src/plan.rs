@@ -273,13 +273,13 @@ fn tile_aligned(r: &PixelRect, window: &Window) -> Window {
 impl Plan {
     /// Kernel parameters for rasterising `part` of the active window.
     pub fn frame(&self, prepared: &Prepared, part: Window) -> FrameParams {
-        self.frame_listing(prepared, part, &self.listed, self.small.len())
+        self.frame_listing(prepared, part, &self.listed, &self.small)
     }
 
     /// Kernel parameters for rasterising `part` with the binning stages taking `listed` (setup
     /// slots of `prepared`'s triangles; the plan's list, or the part of it that reaches `part`),
-    /// and `fine_small` that many small triangles.
-    pub fn frame_listing(&self, prepared: &Prepared, part: Window, listed: &[u32], small: usize) -> FrameParams {
+    /// and `fine_small` the small ones `small`.
+    pub fn frame_listing(&self, prepared: &Prepared, part: Window, listed: &[u32], small: &[u32]) -> FrameParams {
         let tiles_x = part.width.div_ceil(TILE);
         let tiles_y = part.height.div_ceil(TILE);
         let mut frame = FrameParams {
@@ -300,10 +300,17 @@ impl Plan {
             flags: self.flags,
             depth_test: prepared.render.as_ref().map_or(DepthTest::default(), |s| s.depth_test),
             samples: prepared.render.as_ref().map_or(1, |s| s.params.samples),
-            small_triangles: small as u32,
+            small_triangles: small.len() as u32,
         };
-        // Enough bands for the tallest listed triangle in the part.
-        let rows = listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
+        // Enough bands for the tallest listed triangle in the part, small ones included (the CPU's
+        // fast paths bin those apart with the same bands).
+        let rows = listed
+            .par_iter()
+            .chain(small.par_iter())
+            .map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame))
+            .filter(|s| !s.empty)
+            .map(|s| s.ty1 - s.ty0 + 1)
+            .max();
         frame.bin_parts = rows.unwrap_or(1).div_ceil(frame.bin_part_rows).max(1);
         frame
     }

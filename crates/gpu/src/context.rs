@@ -482,7 +482,7 @@ impl GpuContext {
                 Some(p) => (p.listed.as_slice(), p.small.as_slice()),
                 None => (plan.listed.as_slice(), plan.small.as_slice()),
             };
-            let frame = plan.frame_listing(prepared, window, listed, small.len());
+            let frame = plan.frame_listing(prepared, window, listed, small);
             let entries = Plan::bin_capacity_listing(prepared, &frame, listed);
             if entries * self.bytes_per_bin_entry(&rows) > self.max_binding() || entries > u32::MAX as u64 {
                 split(&mut pending, window, || format!("{entries} triangle–tile pairs, more than the GPU binds"))?;

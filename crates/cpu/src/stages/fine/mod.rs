@@ -112,12 +112,13 @@ pub fn fine_depth(
     raster: &mut Raster,
 ) -> StatCounters {
     let program = DepthProgram::of(frame);
+    // `FinePath::bins_small` makes the small triangles' form for the path; given the other
+    // form, the path that takes it runs (the same bits).
     match (path.depth_way(frame), small) {
-        (Some(way), SmallTriangles::Binned(small)) => depth::fine_depth_using(way, &program, frame, setups, offsets, bins, small, raster),
-        (None, SmallTriangles::Seeded(seeds)) => fine_raster_plain(&program, false, frame, setups, offsets, bins, seeds, raster),
-        // `FinePath::bins_small` made them for this path: never the other way round.
-        (Some(way), SmallTriangles::Seeded(_)) => unreachable!("the fast path {way:?} takes its small triangles binned"),
-        (None, SmallTriangles::Binned(_)) => unreachable!("the plain twin takes the small triangles' keys"),
+        (way, SmallTriangles::Binned(small)) => {
+            depth::fine_depth_using(way.unwrap_or(depth::Way::Centres), &program, frame, setups, offsets, bins, small, raster)
+        }
+        (_, SmallTriangles::Seeded(seeds)) => fine_raster_plain(&program, false, frame, setups, offsets, bins, seeds, raster),
     }
 }
 

@@ -28,6 +28,7 @@
 //!           setups, offsets, bins, shade params, shading, textures, texels ─▶ fine_samples ─▶ values, owners, coverage, stats, tile stats, colours, faces
 //! ```
 
+use crate::abi::FrameFlags;
 use crate::{SCAN_GROUP, TILE, TRIANGLE_GROUP};
 
 /// A kernel stage.
@@ -187,6 +188,12 @@ pub struct StageInfo {
 }
 
 impl StageInfo {
+    /// Whether the stage runs for a frame with `flags` (of a pipeline it is in): every stage
+    /// does but `fine_small`, which runs where the frame lists small triangles.
+    pub fn runs_for(&self, flags: FrameFlags) -> bool {
+        self.stage != Stage::FineSmall || flags.contains(FrameFlags::SMALL_TRIANGLES)
+    }
+
     pub fn runs_in(&self, pipeline: Pipeline) -> bool {
         let mut k = 0;
         while k < self.pipelines.len() {

@@ -8,7 +8,7 @@ use crate::{Error, Prepared, Raster, Window};
 use rayon::prelude::*;
 use tileraster_kernels::abi::DepthTest;
 use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
-use tileraster_kernels::pipeline::{Pipeline, Stage, StageInfo, window_stages};
+use tileraster_kernels::pipeline::{Pipeline, Stage, window_stages};
 use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::stages::small::is_small;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
@@ -223,9 +223,7 @@ impl Prepared {
             passes.push(Pass::FillNodata);
         }
         if active.is_some() {
-            // `fine_small` runs where the plan lists small triangles.
-            let runs = |s: &&StageInfo| s.stage != Stage::FineSmall || !small.is_empty();
-            passes.extend(window_stages(self.pipeline()).filter(runs).map(|s| Pass::from(s.stage)));
+            passes.extend(window_stages(self.pipeline()).filter(|s| s.runs_for(flags)).map(|s| Pass::from(s.stage)));
             if !overlap_free {
                 passes.push(Pass::Ownership);
             }

@@ -118,7 +118,7 @@ fn rasterise_planned_with(
         let mut b = WindowBuffers::default();
         // The stage table's order, the pipeline's rows; each stage's twin. The scene stage runs
         // once per scene.
-        for info in stages(prepared.pipeline()) {
+        for info in stages(prepared.pipeline()).filter(|s| s.runs_for(frame.flags)) {
             let setups = resident.as_ref().map(|r| r.setups.as_slice()).unwrap_or_default();
             match info.stage {
                 Stage::Setup => {

@@ -637,10 +637,8 @@ impl GpuContext {
         triangle_groups: (u32, u32),
         buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
     ) -> Result<(), Error> {
-        // `fine_small` runs where the frame lists small triangles.
-        let listed = |info: &StageInfo| info.stage != Stage::FineSmall || frame.flags.contains(FrameFlags::SMALL_TRIANGLES);
         let run: Vec<(usize, &StageInfo)> =
-            STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline) && listed(info)).collect();
+            STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline) && info.runs_for(frame.flags)).collect();
         let record = |encoder: &mut wgpu::CommandEncoder, queries: Option<&wgpu::QuerySet>| -> Result<(), Error> {
             for (n, &(k, info)) in run.iter().enumerate() {
                 let stage = &self.pipelines[rows[k].ok_or_else(|| Error::Gpu(format!("stage {} has no pipeline for this frame", info.name)))?].1;

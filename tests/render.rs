@@ -8,10 +8,11 @@ use common::gpu_or_skip;
 use tileraster::render::{Camera, Cull, DepthFunc, Frame, FrontFace, Interpolation, Mesh, NO_FACE, RenderParams, Shading, prepare_render, render};
 use tileraster::{Backend, Error, Skips};
 use tileraster_cpu::FinePath;
+use tileraster_kernels::abi::ShadeParams;
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::programs::shade::{interpolate, weights};
 use tileraster_kernels::stages::fine::side;
-use tileraster_kernels::stages::setup::setup_triangle;
+use tileraster_kernels::stages::setup::{edges_fit_i32, setup_triangle};
 use tileraster_testkit::meshes;
 
 /// A camera looking at the origin from `distance` along a fixed direction.
@@ -318,9 +319,10 @@ fn attributes_are_within_their_bound_of_the_f64_reference() {
     let (prepared, _) = prepare_render(&mesh, &params).unwrap();
     let render = prepared.render.as_ref().unwrap();
     let mut worst = [0.0f64; 2];
-    let mut checked = 0;
+    let (mut checked, mut in_32_bits) = (0, 0);
     for (slot, t) in prepared.triangles.iter().enumerate() {
         let s = setup_triangle(t, slot as u32, prepared.snap_bits);
+        let fits_32_bits = edges_fit_i32(t, prepared.snap_bits);
         let shading = &render.triangles[slot];
         let (x, y) = (t.x.map(|v| v as f64 / 256.0), t.y.map(|v| v as f64 / 256.0));
         for j in t.rect.j0..=t.rect.j1 {
@@ -333,7 +335,15 @@ fn attributes_are_within_their_bound_of_the_f64_reference() {
                 for (m, interpolation) in [Interpolation::Perspective, Interpolation::Screen].into_iter().enumerate() {
                     let q = [0, 1, 2].map(|k| if interpolation == Interpolation::Screen { e[k] } else { e[k] * shading.inv_w[k] as f64 });
                     let sum: f64 = q.iter().sum();
-                    let b = weights(&s, shading, interpolation as u32, i, j);
+                    let params = ShadeParams { interpolation: interpolation as u32, ..Default::default() };
+                    let b = weights(&s, shading, &params, i, j);
+                    // Where the triangle's edge functions fit 32 bits, that arithmetic gives the
+                    // same weights.
+                    if fits_32_bits {
+                        let small = weights(&s, shading, &ShadeParams { small_edges: 1, ..params }, i, j);
+                        assert_eq!(small.map(f32::to_bits), b.map(f32::to_bits), "32-bit and 64-bit edge functions at ({i}, {j})");
+                        in_32_bits += 1;
+                    }
                     for a in 0..12 {
                         let values = [0, 1, 2].map(|k| shading.attributes[k][a] as f64);
                         let reference: f64 = (0..3).map(|k| q[k] / sum * values[k]).sum();
@@ -349,7 +359,11 @@ fn attributes_are_within_their_bound_of_the_f64_reference() {
         }
     }
     assert!(checked > 10_000, "only {checked} pixels checked");
-    println!("attributes: {checked} pixel evaluations; largest error / largest vertex value: perspective {:e}, screen {:e}", worst[0], worst[1]);
+    assert!(in_32_bits > 1_000, "only {in_32_bits} pixels compared in 32-bit arithmetic");
+    println!(
+        "attributes: {checked} pixel evaluations ({in_32_bits} also in 32 bits); largest error / largest vertex value: perspective {:e}, screen {:e}",
+        worst[0], worst[1]
+    );
 }
 
 /// Attributes' bound against the f64 value (docs/numeric-contract.md), relative to the

@@ -545,6 +545,10 @@ pub struct ShadeParams {
     /// Non-zero where some triangle of the frame has a texture; zero lets shading leave the
     /// sampling out.
     pub textured: u32,
+    /// Non-zero where every triangle's edge functions fit 32 bits within two pixels of its
+    /// snapped box (`stages::setup::edges_fit_i32`), so that the interpolation weights take
+    /// them in 32-bit arithmetic (the same bits).
+    pub small_edges: u32,
     /// Ambient light, RGB.
     pub ambient: [f32; 4],
     /// Specular colour, RGB.
@@ -572,8 +576,8 @@ impl ShadeParams {
 }
 
 /// The frame-wide choices of the stages that colour fragments, in one word: the shading mode,
-/// the interpolation, blending, the number of lights, the samples and whether anything is
-/// textured. On the GPU each frame's word is a specialisation constant of its shading
+/// the interpolation, blending, the number of lights, the samples, whether anything is
+/// textured and whether the edge functions fit 32 bits. On the GPU each frame's word is a specialisation constant of its shading
 /// pipelines, so that the driver compiles only the branches the frame takes: a CPU
 /// implementation of Vulkan runs every branch of a kernel, taken or not, and a GPU's registers
 /// are sized for the longest. Every field repeats one of `ShadeParams`, so a specialised stage
@@ -603,7 +607,8 @@ impl ShadeVariant {
                 | field((params.blend != 0) as u32, 1, 6)
                 | field(params.lights, 2, 7)
                 | field(params.samples, 4, 9)
-                | field((params.textured != 0) as u32, 1, 13),
+                | field((params.textured != 0) as u32, 1, 13)
+                | field((params.small_edges != 0) as u32, 1, 14),
         )
     }
 
@@ -627,6 +632,7 @@ impl ShadeVariant {
             p.lights = w >> 7 & 0x3;
             p.samples = w >> 9 & 0xf;
             p.textured = w >> 13 & 1;
+            p.small_edges = w >> 14 & 1;
         }
         p
     }

@@ -19,7 +19,7 @@ use crate::stages::fine::{self, FineShared, PixelProgram};
 use crate::stages::scan::{self, ScanShared};
 use crate::stages::setup::setup_triangle;
 use crate::stages::small;
-use crate::{BATCH, NO_OWNER, TRIANGLE_GROUP};
+use crate::{BATCH, NO_OWNER, SHADE_PASSES, TILE_PIXELS, TRIANGLE_GROUP};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync as barrier;
 pub use spirv_std::glam::{UVec3, UVec4};
 pub use spirv_std::spirv;
@@ -69,14 +69,15 @@ pub fn bin_scan(
     #[spirv(uniform, descriptor_set = 0, binding = 0)] frame: &FrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] counts: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] tile_queue: &mut [u32],
     #[spirv(workgroup)] shared: &mut ScanShared,
 ) {
     let n = frame.tile_count();
-    scan::scan_reduce(lid, counts, n, shared);
+    scan::scan_reduce(lid, counts, n, frame, shared);
     barrier();
     scan::scan_partials(lid, shared);
     barrier();
-    scan::scan_write(lid, counts, n, shared, offsets);
+    scan::scan_write(lid, counts, n, frame, shared, offsets, tile_queue);
 }
 
 #[cfg(feature = "entry-points")]
@@ -186,15 +187,22 @@ pub fn fine_depth(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] setup_words: &[u64],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bin_keys: &[u64],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] pixel_keys: &[u64],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] tile_queue: &[u32],
     #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
     #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
     #[spirv(spec_constant(id = 1, default = 0))] way: u32,
 ) {
+    // The workgroups take the tile queue (`stages::scan`), not every tile.
+    fine::count_left_tiles(wg.x, wg.y, lid, frame, tile_queue, stats);
+    let (tx, ty, queued) = scan::queued_tile(wg.x, wg.y, frame, tile_queue);
+    if !queued {
+        return;
+    }
     fine_raster_workgroup(
         &DepthProgram::specialised(frame, way),
         way & fine::WALK != 0,
         &Lanes::new(subgroup_lane),
-        wg,
+        UVec3::new(tx, ty, 0),
         lid,
         frame,
         setups,
@@ -217,11 +225,16 @@ pub fn fine_depth(
 #[cfg(feature = "entry-points")]
 crate::shading_entry_points!(crate::programs::fragment::Builtin);
 
-/// The body of every `shade` entry point: one invocation per window pixel, from the owner fine
-/// raster left there, coloured by `program`.
+/// The body of every `shade` entry point: `SHADE_PASSES` window pixels per invocation, from the
+/// owner fine raster left there (or, in a tile it left to this stage, the owner of the small
+/// triangles' key, whose depth and owner it writes: `fine::left_to_shade`; where
+/// `resolves_left_tiles`, which the host turns off where the scene leaves no tile), coloured
+/// by `program`.
 #[allow(clippy::too_many_arguments)]
 pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     program: &F,
+    depth_program: &DepthProgram,
+    resolves_left_tiles: bool,
     wg: UVec3,
     lid: u32,
     frame: &FrameParams,
@@ -232,20 +245,36 @@ pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     texels: &[u64],
     offsets: &[u32],
     bins: &[u32],
-    values: &[u32],
-    owners: &[u32],
+    pixel_keys: &[u64],
+    values: &mut [u32],
+    owners: &mut [u32],
     colours: &mut [u32],
     faces: &mut [u32],
 ) {
-    let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid, frame);
-    if inside {
-        let k = fine::window_index(i, j, frame);
-        // Blended: the tile's bin; else the owner fine raster left.
-        let ((bin_start, bin_len), (owner, depth)) =
-            if params.blend != 0 { (fine::bin_range(offsets, wg.y * frame.tiles_x + wg.x), (NO_OWNER, 0)) } else { ((0, 0), (owners[k], values[k])) };
-        let out = shaded_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, owner, depth, i, j);
-        colours[k] = out.colour;
-        faces[k] = out.face;
+    let bin = fine::bin_range(offsets, wg.y * frame.tiles_x + wg.x);
+    // `SHADE_PASSES` pixels per invocation: a CPU implementation of Vulkan pays a fixed cost
+    // for every group of invocations it starts, a GPU for every invocation.
+    let mut pass = 0;
+    while pass < SHADE_PASSES {
+        let (i, j, inside) = fine::tile_pixel(wg.x, wg.y, lid + pass * TILE_PIXELS / SHADE_PASSES, frame);
+        if inside {
+            let k = fine::window_index(i, j, frame);
+            // Blended: the tile's bin; else the owner fine raster left, or this stage resolves.
+            let ((bin_start, bin_len), (owner, depth)) = if params.blend != 0 {
+                (bin, (NO_OWNER, 0))
+            } else if resolves_left_tiles && fine::left_to_shade(bin.1, frame) {
+                let out = fine::resolve_left(depth_program, i, j, pixel_keys[k], setups);
+                values[k] = out.value;
+                owners[k] = out.owner;
+                ((0, 0), (out.owner, out.value))
+            } else {
+                ((0, 0), (owners[k], values[k]))
+            };
+            let out = shaded_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, owner, depth, i, j);
+            colours[k] = out.colour;
+            faces[k] = out.face;
+        }
+        pass += 1;
     }
 }
 

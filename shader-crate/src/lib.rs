@@ -32,6 +32,9 @@ pub mod entry;
 pub const TILE: u32 = 16;
 /// Invocations in a fine-raster workgroup: one per pixel of a tile.
 pub const TILE_PIXELS: u32 = TILE * TILE;
+/// Pixels each invocation of the shade stage colours, a quarter of the tile's rows apart
+/// (`entry::shade_pixels`; its workgroup is `TILE × TILE / SHADE_PASSES`).
+pub const SHADE_PASSES: u32 = 4;
 /// Triangles staged in workgroup memory per fine-raster batch.
 pub const BATCH: u32 = 64;
 /// Invocations per workgroup of the per-triangle stages.

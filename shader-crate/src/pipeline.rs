@@ -29,7 +29,7 @@
 //! ```
 
 use crate::abi::FrameFlags;
-use crate::{SCAN_GROUP, TILE, TRIANGLE_GROUP};
+use crate::{SCAN_GROUP, SHADE_PASSES, TILE, TRIANGLE_GROUP};
 
 /// A kernel stage.
 #[repr(u32)]
@@ -90,6 +90,9 @@ pub enum Buffer {
     Counts,
     /// Exclusive prefix sum of `Counts`, one more entry for the total.
     Offsets,
+    /// The tiles `fine_depth` takes, after its indirect dispatch's arguments
+    /// (`stages::scan`).
+    TileQueue,
     /// Per-tile atomics of `bin_fill`.
     Cursors,
     /// The bins: setup slots, `FULL_TILE_BIT` on entries that cover their tile whole.
@@ -157,6 +160,8 @@ pub enum Dispatch {
     Single,
     /// One workgroup per window tile, one invocation per pixel.
     PerTile,
+    /// One workgroup per tile of the tile queue, indirect (`stages::scan`).
+    Queued,
     /// One per small triangle of the window (`FrameParams::small_triangles`), `TRIANGLE_GROUP`
     /// a workgroup, in 2D past 65,535 workgroups (its own width: the dispatch's).
     PerSmallTriangle,
@@ -233,9 +238,10 @@ const FINE_BINDINGS: [Binding; 10] = [
 ];
 
 /// What the render pipeline's fine raster binds: the heightfield's bindings, the bin entries'
-/// keys its walk reads where it rejects hidden triangles, and the keys the small triangles
-/// left.
-const DEPTH_BINDINGS: [Binding; 12] = appended(appended::<10, 11>(FINE_BINDINGS, read(Buffer::BinKeys)), read(Buffer::PixelKeys));
+/// keys its walk reads where it rejects hidden triangles, the keys the small triangles left,
+/// and the tile queue.
+const DEPTH_BINDINGS: [Binding; 13] =
+    appended(appended::<11, 12>(appended::<10, 11>(FINE_BINDINGS, read(Buffer::BinKeys)), read(Buffer::PixelKeys)), read(Buffer::TileQueue));
 
 /// `bindings` and then `last`.
 const fn appended<const N: usize, const M: usize>(bindings: [Binding; N], last: Binding) -> [Binding; M] {
@@ -278,7 +284,7 @@ pub const STAGES: [StageInfo; 9] = [
         scope: Scope::Window,
         workgroup: [SCAN_GROUP, 1, 1],
         dispatch: Dispatch::Single,
-        bindings: &[uniform(Buffer::Frame), read(Buffer::Counts), write(Buffer::Offsets)],
+        bindings: &[uniform(Buffer::Frame), read(Buffer::Counts), write(Buffer::Offsets), write(Buffer::TileQueue)],
         pipelines: ALL_PIPELINES,
     },
     StageInfo {
@@ -325,7 +331,7 @@ pub const STAGES: [StageInfo; 9] = [
         entry_point: "entry::fine_depth",
         scope: Scope::Window,
         workgroup: [TILE, TILE, 1],
-        dispatch: Dispatch::PerTile,
+        dispatch: Dispatch::Queued,
         bindings: &DEPTH_BINDINGS,
         pipelines: &[Pipeline::Render],
     },
@@ -334,7 +340,7 @@ pub const STAGES: [StageInfo; 9] = [
         name: "shade",
         entry_point: "entry::shade",
         scope: Scope::Window,
-        workgroup: [TILE, TILE, 1],
+        workgroup: [TILE, TILE / SHADE_PASSES, 1],
         dispatch: Dispatch::PerTile,
         bindings: &[
             uniform(Buffer::Frame),
@@ -345,10 +351,12 @@ pub const STAGES: [StageInfo; 9] = [
             read(Buffer::Texels),
             read(Buffer::Offsets),
             read(Buffer::Bins),
-            read(Buffer::Values),
-            read(Buffer::Owners),
+            // Written in the tiles fine raster leaves to it (`fine::left_to_shade`).
+            write(Buffer::Values),
+            write(Buffer::Owners),
             write(Buffer::Colours),
             write(Buffer::Faces),
+            read(Buffer::PixelKeys),
         ],
         pipelines: &[Pipeline::Render],
     },

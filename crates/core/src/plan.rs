@@ -157,6 +157,23 @@ pub struct Plan {
 impl Prepared {
     /// Plan a call over `window` (any window of the grid). `resident`: the backend already holds
     /// this preparation's triangles and their setup.
+    /// Whether the scene's small triangles skip binning (`Skip::SmallTriangles`): in a
+    /// single-sample depth-tested frame that does not blend (blending walks the bins in the
+    /// shade stage) and counts no tile's triangles (the tile statistics count bin entries:
+    /// every triangle stays in the bins).
+    pub fn splits_small_triangles(&self) -> bool {
+        self.params.skips.small_triangles
+            && self.pipeline() == Pipeline::Render
+            && self.render.as_ref().is_some_and(|r| r.params.blend == 0)
+            && !self.params.outputs.tiles
+    }
+
+    /// Whether some window of the scene may have small triangles rasterised apart, so that
+    /// fine raster leaves tiles to the shade stage (`stages::fine::left_to_shade`).
+    pub fn may_leave_tiles_to_shade(&self) -> bool {
+        self.splits_small_triangles() && self.params.skips.empty_tiles && self.triangles.par_iter().any(|t| is_small(&t.rect))
+    }
+
     pub fn plan(&self, window: Window, resident: bool) -> Result<Plan, Error> {
         window.validate(&self.params.grid)?;
         let skips = self.params.skips;
@@ -169,13 +186,7 @@ impl Prepared {
             (Some(a), Some(b)) => Some(PixelRect { i0: a.i0.min(b.i0), j0: a.j0.min(b.j0), i1: a.i1.max(b.i1), j1: a.j1.max(b.j1) }),
             (a, b) => a.or(b),
         };
-        // Small triangles skip binning in a single-sample depth-tested frame that does not
-        // blend (blending walks the bins in the shade stage) and counts no tile's triangles
-        // (the tile statistics count bin entries: every triangle stays in the bins).
-        let splits = skips.small_triangles
-            && self.pipeline() == Pipeline::Render
-            && self.render.as_ref().is_some_and(|r| r.params.blend == 0)
-            && !self.params.outputs.tiles;
+        let splits = self.splits_small_triangles();
         let pieces: Vec<(Vec<u32>, Vec<u32>, Option<PixelRect>)> = self
             .triangles
             .par_chunks(PLAN_CHUNK)

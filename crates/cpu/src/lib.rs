@@ -150,7 +150,7 @@ fn rasterise_planned_with(
                 }
                 Stage::Shade => {
                     let shading = prepared.render.as_ref().expect("the render pipeline has shading");
-                    shade(&frame, shading, setups, &b.offsets, &b.bins, &mut raster);
+                    shade(&frame, shading, setups, &b.offsets, &b.bins, &b.small, &mut raster);
                 }
             }
             observe(info.stage);

@@ -13,7 +13,7 @@ use tileraster_kernels::abi::{
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
 use tileraster_kernels::programs::depth::DepthProgram;
-use tileraster_kernels::stages::setup::edges_fit_i32;
+use tileraster_kernels::stages::scan::QUEUE_HEAD;
 use tileraster_kernels::stages::{bin, fine};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
@@ -167,6 +167,7 @@ struct Buffers {
     listed: Grown,
     small_listed: Grown,
     pixel_keys: Grown,
+    tile_queue: Grown,
     counts: Grown,
     offsets: Grown,
     cursors: Grown,
@@ -292,6 +293,7 @@ impl GpuContext {
             listed: Grown::storage("listed triangles"),
             small_listed: Grown::storage("small triangles"),
             pixel_keys: Grown::storage("pixel keys"),
+            tile_queue: Grown::new("tile queue", wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT),
             counts: Grown::storage("bin counts"),
             offsets: Grown::storage("bin offsets"),
             cursors: Grown::storage("bin cursors"),
@@ -552,18 +554,21 @@ impl GpuContext {
             _ => walks_bins(self.gpu.info.device_type),
         };
         // The frame's depth test, fixed in the stages that test depth (`DepthProgram::spec_bits`),
-        // and whether every triangle's edge functions fit 32 bits, so that those stages take
-        // them in 32-bit arithmetic.
-        let small_edges = |p: &Prepared| p.triangles.iter().all(|t| edges_fit_i32(t, p.snap_bits));
-        let depth =
-            prepared.render.as_ref().map_or(0, |r| DepthProgram::spec_bits(r.depth_test) | if small_edges(prepared) { DepthProgram::SMALL_EDGES } else { 0 });
+        // and whether every triangle's edge functions fit 32 bits (`ShadeParams::small_edges`,
+        // found by preparation), so that those stages take them in 32-bit arithmetic.
+        let depth = prepared
+            .render
+            .as_ref()
+            .map_or(0, |r| DepthProgram::spec_bits(r.depth_test) | if r.params.small_edges != 0 { DepthProgram::SMALL_EDGES } else { 0 });
         let walk = if walks { fine::WALK } else { 0 };
+        let no_tiles_left = if prepared.may_leave_tiles_to_shade() { 0 } else { fine::NO_TILES_LEFT };
         for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => {
-                    // The multisampled stage walks its bins where the others do.
-                    let way = (info.stage == Stage::FineSamples).then_some((fine::WALK_SPEC_ID, walk | depth));
-                    Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), way] }
+                    // Both test depth (the shade stage resolves the tiles fine raster leaves
+                    // to it); the multisampled stage walks its bins where the others do.
+                    let way = if info.stage == Stage::FineSamples { walk | depth } else { depth | no_tiles_left };
+                    Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), Some((fine::WALK_SPEC_ID, way))] }
                 }
                 // Binning writes its entries' span masks where the fine stage walks
                 // (`stages::bin::entry_spans`), and their keys where `fine_depth`'s walk
@@ -658,6 +663,8 @@ impl GpuContext {
                         let groups = frame.small_triangles.div_ceil(TRIANGLE_GROUP).max(1);
                         (groups.min(65_535), groups.div_ceil(65_535))
                     }
+                    // The counts are on the device: `bin_scan` wrote them.
+                    Dispatch::Queued => (0, 0),
                 };
                 let timestamp_writes = queries.map(|query_set| wgpu::ComputePassTimestampWrites {
                     query_set,
@@ -667,7 +674,13 @@ impl GpuContext {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(info.name), timestamp_writes });
                 pass.set_pipeline(&stage.pipeline);
                 pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(x, y, 1);
+                if info.dispatch == Dispatch::Queued {
+                    let queue = info.bindings.iter().position(|b| b.buffer == Buffer::TileQueue).map(|k| &bound[k]);
+                    let queue = queue.ok_or_else(|| Error::Gpu(format!("stage {} is dispatched by the tile queue but does not bind it", info.name)))?;
+                    pass.dispatch_workgroups_indirect(queue, 0);
+                } else {
+                    pass.dispatch_workgroups(x, y, 1);
+                }
                 self.recorder.dispatch();
             }
             Ok(())
@@ -801,6 +814,7 @@ impl GpuContext {
         let counts = b.counts.get(device, tiles * 4);
         let cursors = b.cursors.get(device, tiles * 4);
         let offsets = b.offsets.get(device, (tiles + 1) * 4);
+        let tile_queue = b.tile_queue.get(device, (QUEUE_HEAD as u64 + tiles) * 4);
         let bins = b.bins.get(device, entries * 4 * if spans { 2 } else { 1 });
         let bin_keys = b.bin_keys.get(device, if keys { 2 * entries * 8 } else { 0 });
         let values = b.values.get(device, pixels * 4);
@@ -840,6 +854,7 @@ impl GpuContext {
                 Buffer::PixelKeys => pixel_keys.clone(),
                 Buffer::Counts => counts.clone(),
                 Buffer::Offsets => offsets.clone(),
+                Buffer::TileQueue => tile_queue.clone(),
                 Buffer::Cursors => cursors.clone(),
                 Buffer::Bins => bins.clone(),
                 Buffer::BinKeys => bin_keys.clone(),

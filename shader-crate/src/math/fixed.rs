@@ -60,12 +60,21 @@ pub fn i64_to_f32(n: i64) -> f32 {
     i64_to_f32_portable(n)
 }
 
-/// [`i64_to_f32`] of a value in `(−2^31, 2^31)`, in 32-bit operations: its magnitude is
-/// `hi · 2^16 + lo` with both halves below `2^16`, which convert exactly on any device; the
-/// product by `2^16` is exact and the one addition rounds once, to nearest even (as in
-/// [`i64_to_f32_portable`]). The same bits as [`i64_to_f32`].
+/// [`i64_to_f32`] of a value in `(−2^31, 2^31)`, in 32-bit operations: natively the CPU's
+/// conversion (correctly rounded), on the GPU [`i32_to_f32_portable`]. The same bits.
 #[inline]
 pub fn i32_to_f32(n: i32) -> f32 {
+    #[cfg(not(target_arch = "spirv"))]
+    return n as f32;
+    #[cfg(target_arch = "spirv")]
+    i32_to_f32_portable(n)
+}
+
+/// [`i32_to_f32`] on every device alike: the magnitude is `hi · 2^16 + lo` with both halves
+/// below `2^16`, which convert exactly on any device; the product by `2^16` is exact and the
+/// one addition rounds once, to nearest even (as in [`i64_to_f32_portable`]).
+#[inline]
+pub fn i32_to_f32_portable(n: i32) -> f32 {
     let m = n.unsigned_abs();
     let magnitude = (m >> 16) as f32 * 65_536.0 + (m & 0xffff) as f32;
     if n < 0 { -magnitude } else { magnitude }
@@ -187,7 +196,7 @@ mod tests {
     /// Every magnitude in 32 bits, the ties of each binade, and the extremes.
     #[test]
     fn the_small_conversion_is_rusts() {
-        let check = |n: i32| assert_eq!(i32_to_f32(n).to_bits(), (n as f32).to_bits(), "{n}");
+        let check = |n: i32| assert_eq!(i32_to_f32_portable(n).to_bits(), (n as f32).to_bits(), "{n}");
         for n in [0, 1, -1, i32::MAX, -i32::MAX, (1 << 24) + 1, -(1 << 24) - 1, (1 << 30) + (1 << 6), (1 << 30) + 3 * (1 << 6)] {
             check(n);
         }

@@ -3,15 +3,17 @@
 //! Vulkan lets `OpFDiv` be off by 2.5 ulp and `sqrt` by 3 ulp, differently on every driver, so
 //! the kernels never use them where bits must match. Each function here estimates its result
 //! with a few `f32` multiplications and subtractions (a Newton iteration from a bit-pattern
-//! guess), then settles the last bit with integers: the estimate's significand `Q` is the
-//! correctly rounded one exactly when the true result lies within half a unit of it, which one
-//! 64-bit product of 25- and 24-bit integers decides with no rounding at all. The estimate is
-//! moved a unit at a time until that holds. So the result does not depend on how the device
-//! rounds, fuses or flushes the estimate's arithmetic: any estimate within a few units gives
-//! the same bits, those IEEE 754 round-to-nearest-even gives, as the tests check against the
-//! CPU's own operations. On a GPU this is a handful of 32-bit operations and one 64-bit multiply
-//! per correction step, where a 64-bit integer division or a digit-by-digit root is a long
-//! emulated loop.
+//! guess), then settles the last bit with 32-bit integers. The estimate's significand `Q` is
+//! the correctly rounded one exactly when the true result lies within half a unit of it; the
+//! distance to the true result, scaled to an integer (`2n − 2Q·m_b` for a quotient `n / m_b`,
+//! `T − 4S²` for a root `√T / 2`), is small, so wrapping 32-bit arithmetic gives it exactly
+//! (it agrees with the true value modulo `2^32`, and only one value in `(−2^31, 2^31)` does).
+//! That distance, times an estimate of its scale, names the correct significand up to one
+//! unit, and one exact comparison settles that unit. So the result does not depend on how the
+//! device rounds, fuses or flushes the estimate's arithmetic: any estimate within fifteen
+//! units (sixty for a quotient) gives the same bits, those IEEE 754 round-to-nearest-even
+//! gives, as the tests check against the CPU's own operations. On a GPU this is a few dozen 32-bit operations with no
+//! loop and no branch, where 64-bit products or a digit-by-digit root are emulated.
 //!
 //! Domain: positive, normal, finite operands, and results in the normal range (what the render
 //! pipeline feeds them: sums of positive weights, squared lengths). Outside it they return
@@ -25,21 +27,21 @@
 /// The significand with its implicit bit (24 bits) and the biased exponent of a positive
 /// normal `f32`.
 #[inline]
-fn parts(bits: u32) -> (u64, i32) {
-    (((bits & 0x007f_ffff) | 0x0080_0000) as u64, (bits >> 23) as i32)
+fn parts(bits: u32) -> (u32, i32) {
+    ((bits & 0x007f_ffff) | 0x0080_0000, (bits >> 23) as i32)
 }
 
 /// `m · 2^(e − 150)`, `m` a 24-bit significand with its implicit bit (or `2^24` after a carry),
 /// `e` the biased exponent: `+0` below the normal range, `+∞` above it.
 #[inline]
-fn assemble(m: u64, e: i32) -> f32 {
+fn assemble(m: u32, e: i32) -> f32 {
     let (m, e) = if m == 1 << 24 { (m >> 1, e + 1) } else { (m, e) };
     if e <= 0 {
         0.0
     } else if e >= 255 {
         f32::from_bits(0x7f80_0000)
     } else {
-        f32::from_bits(((e as u32) << 23) | (m as u32 & 0x007f_ffff))
+        f32::from_bits(((e as u32) << 23) | (m & 0x007f_ffff))
     }
 }
 
@@ -63,11 +65,6 @@ pub fn div(a: f32, b: f32) -> f32 {
     div_portable(a, b)
 }
 
-/// Most unit steps a correction takes: the estimates are within three units (the tests
-/// measure every significand), and the steps beyond only cost where a device's arithmetic
-/// makes an estimate worse than that.
-const MAX_STEPS: u32 = 8;
-
 /// The significand of `x` in `[1, 2)` as an `f32` (its exponent bits replaced by the bias).
 #[inline]
 fn unit_significand(bits: u32) -> f32 {
@@ -76,11 +73,11 @@ fn unit_significand(bits: u32) -> f32 {
 
 /// A positive `f32` estimate `x` in `[2^-2, 2^2)` as an integer `X` with `x ≈ X · 2^−shift`
 /// (its significand shifted by its exponent: exact where `x` has no bits below `2^−shift`,
-/// truncated otherwise, which the correction that follows tolerates).
+/// truncated otherwise, which the correction that follows tolerates). Below `2^26`.
 #[inline]
-fn scaled_estimate(x: f32, shift: u32) -> u64 {
+fn scaled_estimate(x: f32, shift: u32) -> u32 {
     let bits = x.to_bits();
-    let m = ((bits & 0x007f_ffff) | 0x0080_0000) as u64;
+    let m = (bits & 0x007f_ffff) | 0x0080_0000;
     // x = m · 2^(e − 150): scale by 2^shift.
     let k = (bits >> 23) as i32 - 150 + shift as i32;
     if k >= 0 { m << k as u32 } else { m >> (-k) as u32 }
@@ -127,7 +124,7 @@ impl Divisor {
 #[derive(Copy, Clone)]
 struct DivisorParts {
     /// Its significand (24 bits) and biased exponent.
-    mb: u64,
+    mb: u32,
     eb: i32,
     /// `1/b'` for its significand `b'` in `[1, 2)`, estimated ([`unit_recip`]).
     recip: f32,
@@ -150,20 +147,39 @@ fn quotient_portable(a: f32, b: f32, d: &DivisorParts) -> f32 {
         return if ab == 0 { 0.0 } else { f32::from_bits(0x7f80_0000) };
     }
     let (ma, ea) = parts(ab);
-    let mb = d.mb;
     // The quotient of the significands lies in (1/2, 2). Its correctly rounded significand Q
     // has 24 bits: Q = RN(n / mb) with n = ma·2^23 where ma ≥ mb (quotient in [1, 2)), else
     // ma·2^24 (quotient in (1/2, 1)).
-    let shift: u32 = if ma >= mb { 23 } else { 24 };
-    let n = ma << shift;
-    let q = settle(scaled_estimate(unit_significand(ab) * d.recip, shift), |q| 2 * q + 1, |t| t * mb, 2 * n);
+    let shift: u32 = if ma >= d.mb { 23 } else { 24 };
+    let estimate = scaled_estimate(unit_significand(ab) * d.recip, shift);
+    // 1/(2·mb) = (1/b') · 2^−24, with b' = mb · 2^−23.
+    let q = settle_quotient(estimate, ma << (shift + 1), d.mb, d.recip * f32::from_bits((127 - 24) << 23));
     assemble(q, ea - d.eb + 127 + 23 - shift as i32)
+}
+
+/// The correctly rounded significand `Q = RN(n / mb)` from an estimate `q` within some sixty
+/// units of it, given `2n` modulo `2^32` and an estimate `inv` of `1/(2·mb)` (within a
+/// thousandth of it, relative).
+///
+/// `D = 2n − 2q·mb` is below `2^31` in magnitude (`2^25 · 61`), so wrapping arithmetic gives
+/// it exactly, and `D / (2·mb)` is `n / mb − q`, whose nearest integer is `Q − q`: its estimate
+/// (off by a few hundredths at most), truncated, is within one of `Q − q` (less than
+/// `1/2 + 1 + 0.1` apart). Then `R = 2n − 2q'·mb` places the true quotient
+/// within half a unit of `q'` when `|R| < mb`, above when `R > mb`, below when `R < −mb` (never
+/// equal: a quotient of two significands is never halfway between two `f32`s).
+#[inline]
+fn settle_quotient(q: u32, twice_n: u32, mb: u32, inv: f32) -> u32 {
+    let distance = twice_n.wrapping_sub(q.wrapping_mul(mb) << 1) as i32;
+    let q = q.wrapping_add((distance as f32 * inv) as i32 as u32);
+    let rest = twice_n.wrapping_sub(q.wrapping_mul(mb) << 1) as i32;
+    let mb = mb as i32;
+    q.wrapping_add((rest > mb) as u32).wrapping_sub((rest < -mb) as u32)
 }
 
 /// The quotient of the significands of `a` and `b` (bits), times `2^shift`, estimated in
 /// `f32`: `1/b'` for `b'` in `[1, 2)` ([`unit_recip`]), times `a'`.
 #[cfg(test)]
-fn quotient_estimate(ab: u32, bb: u32, shift: u32) -> u64 {
+fn quotient_estimate(ab: u32, bb: u32, shift: u32) -> u32 {
     let (fa, fb) = (unit_significand(ab), unit_significand(bb));
     scaled_estimate(fa * unit_recip(fb), shift)
 }
@@ -189,27 +205,6 @@ pub fn recip_estimate(x: f32) -> f32 {
     let bits = x.to_bits();
     // x = x' · 2^(e − 127) with x' in [1, 2): 1/x = (1/x') · 2^(127 − e), a normal power of two.
     unit_recip(unit_significand(bits)) * f32::from_bits((254 - (bits >> 23)) << 23)
-}
-
-/// The `Q` near the estimate `q` whose half-unit interval holds the exact result: `2·Q + 1`
-/// scaled by `scale` (`t ↦ t · divisor`, or `t ↦ t²`) brackets `target` (twice the dividend,
-/// or four times the radicand) from above, `2·Q − 1` from below. No rounding is involved, and
-/// no result lies exactly on an interval's end (a quotient of two 24-bit significands, or a
-/// root of one, is never halfway between two `f32`s).
-#[inline]
-fn settle(mut q: u64, odd: impl Fn(u64) -> u64, scale: impl Fn(u64) -> u64, target: u64) -> u64 {
-    let mut k = 0;
-    while k < MAX_STEPS {
-        if scale(odd(q)) < target {
-            q += 1;
-        } else if q > 0 && scale(odd(q - 1)) > target {
-            q -= 1;
-        } else {
-            break;
-        }
-        k += 1;
-    }
-    q
 }
 
 /// `1 / x`, correctly rounded, for positive normal `x`.
@@ -243,24 +238,50 @@ pub fn sqrt_portable(x: f32) -> f32 {
     let e = unbiased - odd;
     let m = f32::from_bits((bits & 0x007f_ffff) | ((127 + odd as u32) << 23));
     // m = M · 2^−23 with M an integer below 2^25; the root's significand is
-    // S = RN(√m · 2^23) = RN(√(M · 2^23)), so (2S ± 1)² bracket 4 · M · 2^23 = M · 2^25.
-    let big_m = ((bits & 0x007f_ffff) | 0x0080_0000) as u64;
-    let target = big_m << (25 + odd as u32);
-    let s = settle(root_estimate(m), |s| 2 * s + 1, |t| t * t, target);
+    // S = RN(√m · 2^23) = RN(√(M · 2^23)), so (2S ± 1)² bracket T = 4 · M · 2^23 = M · 2^25.
+    let big_m = (bits & 0x007f_ffff) | 0x0080_0000;
+    let inv_root = unit_inv_root(m);
+    let estimate = scaled_estimate(m * inv_root, 23);
+    // 1/(8·S) ≈ (1/√m) · 2^−26.
+    let s = settle_root(estimate, big_m << (25 + odd as u32), inv_root * f32::from_bits((127 - 26) << 23));
     assemble(s, e / 2 + 127)
 }
 
-/// `√m · 2^23` for `m` in `[1, 4)`, estimated in `f32`: `1/√m` from a bit-pattern guess
-/// (within 4 %) and three Newton steps, times `m`.
+/// The correctly rounded root's significand `S = RN(√T / 2)` from an estimate `s` within
+/// fifteen units of it, given `T` modulo `2^32` and an estimate `inv` of `1/(8·s)` (within a
+/// thousandth of it, relative).
+///
+/// `D = T − 4s²` is `8s·c + 4c²` for the true offset `c = √T/2 − s`: below `2^31` in magnitude,
+/// (`2^27 · 16` at most) so wrapping arithmetic gives it exactly, and `D / (8s)` is `c` up to
+/// `c²/(2s)`: its estimate, truncated, is within one of `S − s`, the integer nearest `c`. Then `R = T − 4s'²` places `√T / 2` within half a unit of `s'`
+/// (`(2s' − 1)² < T < (2s' + 1)²`) when `1 − 4s' < R < 4s' + 1`, above or below past those
+/// ends (never on them: `T` is even, `(2s' ± 1)²` odd).
 #[inline]
-fn root_estimate(m: f32) -> u64 {
+fn settle_root(s: u32, target: u32, inv: f32) -> u32 {
+    let distance = target.wrapping_sub(s.wrapping_mul(s) << 2) as i32;
+    let s = s.wrapping_add((distance as f32 * inv) as i32 as u32);
+    let rest = target.wrapping_sub(s.wrapping_mul(s) << 2) as i32;
+    let bound = (s << 2) as i32 + 1;
+    s.wrapping_add((rest > bound) as u32).wrapping_sub((rest < 2 - bound) as u32)
+}
+
+/// `1/√m` for `m` in `[1, 4)`, estimated in `f32`: a bit-pattern guess (within 4 %) and three
+/// Newton steps.
+#[inline]
+fn unit_inv_root(m: f32) -> f32 {
     let mut y = f32::from_bits(0x5f37_59df - (m.to_bits() >> 1));
     let mut k = 0;
     while k < 3 {
         y = y * (1.5 - 0.5 * m * y * y);
         k += 1;
     }
-    scaled_estimate(m * y, 23)
+    y
+}
+
+/// `√m · 2^23` for `m` in `[1, 4)`, estimated in `f32` ([`unit_inv_root`] times `m`).
+#[cfg(test)]
+fn root_estimate(m: f32) -> u32 {
+    scaled_estimate(m * unit_inv_root(m), 23)
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]
@@ -323,7 +344,7 @@ mod tests {
 
     /// Every significand of the divisor against a few dividends, and every radicand in
     /// `[1, 4)`: the portable paths give the IEEE result, and their estimates are within three
-    /// units of it (the correction's further steps are a margin, not the rule).
+    /// units of it (the settling steps' further reach is a margin, not the rule).
     #[test]
     fn exhaustive_significands_match_ieee() {
         let mut worst = 0i64;
@@ -347,6 +368,47 @@ mod tests {
             worst = worst.max((root_estimate(m) as i64 - exact).abs());
         }
         assert!(worst <= 3, "a root estimate was {worst} units off");
+    }
+
+    /// The settling steps reach the correctly rounded significand from any estimate within
+    /// their stated reach (sixty units for a quotient, fifteen for a root), whatever a device's
+    /// arithmetic made of the estimate: the result is checked against its definition in `u64`.
+    #[test]
+    fn settling_reaches_from_distant_estimates() {
+        let xs = samples();
+        let mut checked = 0;
+        for (k, &b) in xs.iter().enumerate().step_by(17) {
+            let d = DivisorParts::of(b);
+            for &a in xs.iter().skip(k % 13).step_by(13) {
+                let (ma, _) = parts(a.to_bits());
+                let shift = if ma >= d.mb { 23 } else { 24 };
+                let (twice_n, mb) = (2 * ((ma as u64) << shift), d.mb as u64);
+                let inv = d.recip * f32::from_bits((127 - 24) << 23);
+                // The correctly rounded significand, from its definition.
+                let q = (twice_n + mb) / (2 * mb);
+                assert!((2 * q - 1) * mb < twice_n && twice_n < (2 * q + 1) * mb);
+                for off in -60i64..=60 {
+                    let estimate = (q as i64 + off) as u32;
+                    assert_eq!(settle_quotient(estimate, ma << (shift + 1), d.mb, inv) as u64, q, "{a:e} / {b:e}, estimate {off:+}");
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000, "only {checked} quotients checked");
+        for bits in (0x3f80_0000u32..0x4080_0000).step_by(997) {
+            let m = f32::from_bits(bits);
+            let odd = (bits >> 23) - 127;
+            let big_m = (bits & 0x007f_ffff) | 0x0080_0000;
+            let target = (big_m as u64) << (25 + odd);
+            let inv_root = unit_inv_root(m);
+            let s = ((target as f64).sqrt() / 2.0).round() as u64;
+            assert!((2 * s - 1) * (2 * s - 1) < target && target < (2 * s + 1) * (2 * s + 1), "√{m:e}");
+            for off in -15i64..=15 {
+                let estimate = (s as i64 + off) as u32;
+                let got = settle_root(estimate, big_m << (25 + odd), inv_root * f32::from_bits((127 - 26) << 23));
+                assert_eq!(got as u64, s, "√{m:e}, estimate {off:+}");
+            }
+        }
     }
 
     /// The estimate's stated bound, on every significand and across the exponents.

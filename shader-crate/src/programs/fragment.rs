@@ -98,7 +98,7 @@ impl Fragment {
         i: i32,
         j: i32,
     ) -> Fragment {
-        let b = weights(s, t, params.interpolation, i, j);
+        let b = weights(s, t, params, i, j);
         Fragment {
             pixel: [i, j],
             depth: f32::from_bits(depth_bits),
@@ -163,7 +163,7 @@ macro_rules! shading_entry_points {
 
             /// The render pipeline's shade stage: one invocation per window pixel, from the
             /// owner fine raster left there (`programs::shade`).
-            #[spirv(compute(threads(16, 16), entry_point_name = "entry::shade"))]
+            #[spirv(compute(threads(16, 4), entry_point_name = "entry::shade"))]
             #[allow(clippy::too_many_arguments)]
             pub fn shade(
                 #[spirv(workgroup_id)] wg: UVec3,
@@ -176,15 +176,34 @@ macro_rules! shading_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] texels: &[u64],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] offsets: &[u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] bins: &[u32],
-                #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] values: &[u32],
-                #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] owners: &[u32],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] values: &mut [u32],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] owners: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] colours: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] faces: &mut [u32],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] pixel_keys: &[u64],
                 #[spirv(spec_constant(id = 0, default = 0))] variant: u32,
+                #[spirv(spec_constant(id = 1, default = 0))] way: u32,
             ) {
                 let params = &ShadeVariant(variant).apply(params);
                 $crate::entry::shade_pixels(
-                    &$program, wg, lid, frame, params, setups, shading, textures, texels, offsets, bins, values, owners, colours, faces,
+                    &$program,
+                    &$crate::programs::depth::DepthProgram::specialised(frame, way),
+                    way & $crate::stages::fine::NO_TILES_LEFT == 0,
+                    wg,
+                    lid,
+                    frame,
+                    params,
+                    setups,
+                    shading,
+                    textures,
+                    texels,
+                    offsets,
+                    bins,
+                    pixel_keys,
+                    values,
+                    owners,
+                    colours,
+                    faces,
                 );
             }
 

@@ -13,7 +13,7 @@ use crate::abi::{
     TextureInfo, TriangleSetup, TriangleShading,
 };
 use crate::math::edge::Side;
-use crate::math::fixed::i64_to_f32;
+use crate::math::fixed::{i32_to_f32, i64_to_f32};
 use crate::math::float::{Divisor, recip, sqrt};
 use crate::programs::depth::{DepthProgram, depth_bits};
 use crate::programs::fragment::FragmentProgram;
@@ -32,18 +32,27 @@ pub struct Shaded {
 
 /// The weights of the owner's three vertices at pixel `(i, j)` (entry `k` for the vertex
 /// opposite edge `k`), summing to one up to rounding: perspective-correct (`w_k / w_vertex`,
-/// normalised), linear on the screen (`w_k / Σw`), or flat (`[1, 0, 0]`).
+/// normalised), linear on the screen (`w_k / Σw`), or flat (`[1, 0, 0]`), as
+/// `params.interpolation` says. The edge functions in 32-bit arithmetic where
+/// `params.small_edges` says they fit, else in 64 bits: the same values.
 #[inline]
-pub fn weights(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: i32) -> [f32; 3] {
+pub fn weights(s: &TriangleSetup, t: &TriangleShading, params: &ShadeParams, i: i32, j: i32) -> [f32; 3] {
+    let interpolation = params.interpolation;
     if interpolation == Interpolation::Flat as u32 {
         // Every entry holds the same values: one weight of exactly one reads them unchanged.
         return [1.0, 0.0, 0.0];
     }
     let rect = &s.coverage.rect;
-    let (di, dj) = ((i - rect.i0) as i64, (j - rect.j0) as i64);
     let e = &s.coverage.edges;
-    let weight = |k: usize| i64_to_f32(e[k].at(di, dj));
-    let w = [weight(0), weight(1), weight(2)];
+    let w = if params.small_edges != 0 {
+        let (di, dj) = (i - rect.i0, j - rect.j0);
+        let weight = |k: usize| i32_to_f32(e[k].at_i32(di, dj, 0, 0));
+        [weight(0), weight(1), weight(2)]
+    } else {
+        let (di, dj) = ((i - rect.i0) as i64, (j - rect.j0) as i64);
+        let weight = |k: usize| i64_to_f32(e[k].at(di, dj));
+        [weight(0), weight(1), weight(2)]
+    };
     if interpolation == Interpolation::Screen as u32 {
         let inv_area = s.coeffs.c[3];
         return [w[0] * inv_area, w[1] * inv_area, w[2] * inv_area];
@@ -224,8 +233,8 @@ pub fn shade_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
 
 /// The texture coordinates of triangle `(s, t)` at pixel `(i, j)`.
 #[inline]
-fn uv_at(s: &TriangleSetup, t: &TriangleShading, interpolation: u32, i: i32, j: i32) -> [f32; 2] {
-    let b = weights(s, t, interpolation, i, j);
+fn uv_at(s: &TriangleSetup, t: &TriangleShading, params: &ShadeParams, i: i32, j: i32) -> [f32; 2] {
+    let b = weights(s, t, params, i, j);
     [interpolate(t, &b, ATTR_UV), interpolate(t, &b, ATTR_UV + 1)]
 }
 
@@ -262,7 +271,7 @@ pub(crate) fn base_colour(
         let (mut at, mut right, mut below) = ([0.0f32; 2], [0.0f32; 2], [0.0f32; 2]);
         let mut k = 0;
         while k < 3 {
-            let uv = uv_at(s, t, params.interpolation, qx + (k == 1) as i32, qy + (k == 2) as i32);
+            let uv = uv_at(s, t, params, qx + (k == 1) as i32, qy + (k == 2) as i32);
             match k {
                 0 => at = uv,
                 1 => right = uv,
@@ -305,7 +314,7 @@ pub fn fragment_colour(
         ShadeMode::Ids => return id_colour(t.face),
         ShadeMode::Colour | ShadeMode::Phong | ShadeMode::Normals => {}
     }
-    let b = weights(s, t, params.interpolation, i, j);
+    let b = weights(s, t, params, i, j);
     if t.flags & SHADING_UNLIT != 0 {
         return rgba8(colour_at(t, &b));
     }

@@ -529,6 +529,9 @@ pub const WALK_SPEC_ID: u32 = 1;
 /// ... and its bit that makes them walk (`fine_walk`), so that the driver never sees the
 /// batches' barriers. (`fine_raster`'s constant also holds its value mode, below this bit.)
 pub const WALK: u32 = 1 << 8;
+/// A bit of the shade stage's constant at the same `SpecId`: no tile of the scene is left to
+/// it ([`left_to_shade`]), so that the driver leaves the resolve out of it.
+pub const NO_TILES_LEFT: u32 = 1 << 9;
 
 /// The walk, instead of the batches: pixel `(i, j)` tests every triangle of the tile's bin
 /// whose rectangle holds it (with `overlap_free`, only until it is inside one). No workgroup
@@ -631,6 +634,34 @@ where
 #[inline]
 pub fn empty_tile(bin_len: u32, frame: &FrameParams) -> bool {
     bin_len == 0 && frame.flags.contains(FrameFlags::EMPTY_TILES)
+}
+
+/// Whether fine raster leaves the tile to the shade stage: an empty tile of a frame whose small
+/// triangles were rasterised apart (`fine_small`), so that only they reach it and each pixel's
+/// owner is its key's. The shade stage reads every pixel anyway; it resolves these
+/// ([`resolve_left`]) and writes their depth and owner, which saves a pass over the tile. Their
+/// coverage counts are in the coverage layer already (`fine_small` counts there).
+#[inline]
+pub fn left_to_shade(bin_len: u32, frame: &FrameParams) -> bool {
+    empty_tile(bin_len, frame) && frame.flags.contains(FrameFlags::SMALL_TRIANGLES)
+}
+
+/// The first workgroup of the tile queue's dispatch (`stages::scan`) counts the tiles left out
+/// of it (left to the shade stage) as empty tiles, as the workgroups that never start would.
+#[inline]
+pub fn count_left_tiles<C: Counters + ?Sized>(x: u32, y: u32, lid: u32, frame: &FrameParams, queue: &[u32], stats: &mut C) {
+    let left = frame.tile_count() - queue[3];
+    if x == 0 && y == 0 && lid == 0 && left != 0 {
+        stats.fetch_add(Counter::TilesEmpty as usize, left);
+    }
+}
+
+/// Pixel `(i, j)` of a tile left to the shade stage ([`left_to_shade`]), resolved from the key
+/// the small triangles left there (`PixelProgram::seeded`) as fine raster resolves it: the
+/// same value and owner (its count is not asked for).
+#[inline]
+pub fn resolve_left<P: PixelProgram>(program: &P, i: i32, j: i32, stored_key: u64, setups: &[P::Setup]) -> PixelOut<P::Value> {
+    fine_resolve(program, i, j, &program.seeded(stored_key, 0), setups)
 }
 
 /// Whether the tile takes the full path: its bin is a single triangle covering the whole tile.

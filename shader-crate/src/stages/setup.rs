@@ -36,18 +36,19 @@ pub fn setup_triangle(input: &TriangleInput, slot: u32, snap_bits: u32) -> Trian
 }
 
 /// Whether every edge function of the triangle lies in `(−2^31, 2^31)` at every point within
-/// a pixel of its snapped bounding box on each axis, so that 32-bit wrapping arithmetic on the
-/// setup's terms gives it exactly there (every operation is exact modulo 2^32, and the one
-/// value in range that agrees modulo 2^32 is the true one). That holds the fine stages'
-/// points: the centres of the triangle's rectangle lie in the box, or with several samples
-/// within 7/16 px of it (the render pipeline widens a multisampled triangle's rectangle so),
-/// and a sample within 7/16 px of its centre. The bound: with `E` the larger side of the box,
-/// `|dx|, |dy| ≤ E` and `|p − a| < E + unit` on each axis, so
-/// `|e(p)| ≤ |dx|·|p.y − a.y| + |dy|·|p.x − a.x| < 2·E·(E + unit)`.
+/// two pixels of its snapped bounding box on each axis, so that 32-bit wrapping arithmetic on
+/// the setup's terms gives it exactly there (every operation is exact modulo 2^32, and the one
+/// value in range that agrees modulo 2^32 is the true one). That holds every point the stages
+/// evaluate: the centres of the triangle's rectangle lie in the box, or with several samples
+/// within 7/16 px of it (the render pipeline widens a multisampled triangle's rectangle so);
+/// a sample lies within 7/16 px of its centre, and the shade stage's quad corners (the level
+/// of detail's) within a pixel. The bound: with `E` the larger side of the box,
+/// `|dx|, |dy| ≤ E` and `|p − a| ≤ E + 2·unit` on each axis, so
+/// `|e(p)| ≤ |dx|·|p.y − a.y| + |dy|·|p.x − a.x| ≤ 2·E·(E + 2·unit) < 2^31`.
 pub fn edges_fit_i32(input: &TriangleInput, snap_bits: u32) -> bool {
     let side = |v: &[i64; 3]| v[0].max(v[1]).max(v[2]) - v[0].min(v[1]).min(v[2]);
     let extent = side(&input.x).max(side(&input.y));
-    2 * extent * (extent + (1 << snap_bits)) <= 1 << 31
+    2 * extent * (extent + (2 << snap_bits)) < 1 << 31
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]
@@ -60,14 +61,15 @@ mod tests {
     /// Triangles at the bound's edge, every orientation, with the rectangles of one sample and
     /// of several (widened by 7/16 px, as the render pipeline widens them): where
     /// `edges_fit_i32` holds, the 32-bit edge functions equal the 64-bit ones at the
-    /// rectangle's corner pixels (where a linear function is extreme) and at every sample of
-    /// them; just past the bound it fails.
+    /// rectangle's corner pixels (where a linear function is extreme), at every sample of
+    /// them and at the pixels around them (the shade stage's quad corners); just past the
+    /// bound it fails.
     #[test]
     fn small_edges_are_exact_within_the_bound() {
         let snap_bits = 8;
         let unit = 1i64 << snap_bits;
-        // The largest extent the bound allows at 8 bits: 2E(E + 256) ≤ 2^31.
-        let limit = (0i64..1 << 16).take_while(|&e| 2 * e * (e + unit) <= 1 << 31).last().unwrap();
+        // The largest extent the bound allows at 8 bits: 2E(E + 512) < 2^31.
+        let limit = (0i64..1 << 16).take_while(|&e| 2 * e * (e + 2 * unit) < 1 << 31).last().unwrap();
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = |n: i64| {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -97,6 +99,12 @@ mod tests {
                 for samples in [4, 8] {
                     for s in 0..samples {
                         assert_eq!(sample_edges_small(&c, i, j, samples, s), sample_edges(&c, i, j, samples, s));
+                    }
+                }
+                for (oi, oj) in [(-1, -1), (-1, 1), (1, -1), (1, 1)] {
+                    let (di, dj) = (i + oi - rect.i0, j + oj - rect.j0);
+                    for e in &c.edges {
+                        assert_eq!(e.at_i32(di, dj, 0, 0) as i64, e.at(di as i64, dj as i64), "{x:?} {y:?} at ({di}, {dj}) from the corner");
                     }
                 }
                 checked += 1;

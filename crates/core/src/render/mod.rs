@@ -38,6 +38,7 @@ use tileraster_kernels::abi::{
     ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, DepthFunc, DepthTest, FloatCoeffs, Interpolation, MAX_LIGHTS, PixelRect, ShadeMode,
     ShadeParams, TriangleInput, TriangleShading,
 };
+use tileraster_kernels::stages::setup::edges_fit_i32;
 
 /// The colour of a mesh without colours: linear light grey.
 pub(crate) const GREY: [f32; 4] = [0.8, 0.8, 0.8, 1.0];
@@ -693,6 +694,8 @@ pub(crate) fn prepare_instances_in(
     counts.rasterised = total as u64;
     let mut shade = shade_params(params, &lights, eye, depth_range(vertices));
     shade.textured = u32::from(!texture_infos.is_empty());
+    // Whether the stages may take every edge function in 32-bit arithmetic.
+    shade.small_edges = u32::from(triangles.par_iter().all(|t| edges_fit_i32(t, RENDER_SNAP_BITS)));
     // Multisampled tiles take neither path: both speak of pixel centres.
     let skips = Skips { full_tiles: false, overlap_free: false, hidden_triangles: params.skips.hidden_triangles && params.samples == 1, ..params.skips };
     let grid_params = Params {

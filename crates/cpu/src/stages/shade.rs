@@ -1,6 +1,8 @@
 //! Twin of the `shade` entry point: every pixel of the frame, rows in parallel, through the
 //! kernel's `shaded_pixel` (blended over the pixel's tile's bin where the frame blends), with the frame's
-//! fragment program: the built-in shadings, or the user's shader called natively.
+//! fragment program: the built-in shadings, or the user's shader called natively. First, where
+//! `fine_depth` ran as the GPU runs it, the tiles it left to this stage are resolved from the
+//! small triangles' keys (`fine::left_to_shade`).
 //!
 //! The built-in id view reads nothing of a pixel but its owner (`fragment_colour`'s `Ids` arm): there a
 //! run of pixels with the same owner is shaded once, with the kernel's function, so the bits
@@ -9,12 +11,20 @@
 use rayon::prelude::*;
 use tileraster_core::{Raster, RenderInputs};
 use tileraster_kernels::abi::{FrameParams, ShadeMode, TriangleSetup};
+use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::programs::fragment::{Builtin, FragmentProgram};
 use tileraster_kernels::programs::shade::{shade_pixel, shaded_pixel};
 use tileraster_kernels::stages::fine;
-use tileraster_kernels::{NO_OWNER, TILE};
+use tileraster_kernels::{NO_OWNER, TILE, TILE_PIXELS};
 
-pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], raster: &mut Raster) {
+use super::small::{SmallSeeds, SmallTriangles};
+
+#[allow(clippy::too_many_arguments)]
+pub fn shade(frame: &FrameParams, inputs: &RenderInputs, setups: &[TriangleSetup], offsets: &[u32], bins: &[u32], small: &SmallTriangles, raster: &mut Raster) {
+    // The fast paths of `fine_depth` resolve every tile (they take the small triangles binned).
+    if let SmallTriangles::Seeded(seeds) = small {
+        resolve_left_tiles(frame, setups, offsets, seeds, raster);
+    }
     // The program is chosen once per frame: the built-in shadings are called directly.
     match &inputs.fragment {
         None => shade_with(&Builtin, frame, inputs, setups, offsets, bins, raster),
@@ -78,4 +88,37 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(
             }
         },
     );
+}
+
+/// The pixels of the tiles `fine_depth` left to the shade stage (`fine::left_to_shade`),
+/// resolved from the small triangles' keys by the kernel's `resolve_left`, into the depth and
+/// owner layers as the entry point writes them; and their counts into the coverage layer,
+/// where the GPU's `fine_small` counts in place (here the counts are the seeds').
+fn resolve_left_tiles(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], seeds: &SmallSeeds, raster: &mut Raster) {
+    let program = DepthProgram::of(frame);
+    let stride = raster.window.width as usize;
+    let (x0, y0) = (raster.window.x0, raster.window.y0);
+    for ty in 0..frame.tiles_y {
+        for tx in 0..frame.tiles_x {
+            if !fine::left_to_shade(fine::bin_range(offsets, ty * frame.tiles_x + tx).1, frame) {
+                continue;
+            }
+            for lid in 0..TILE_PIXELS {
+                let (i, j, inside) = fine::tile_pixel(tx, ty, lid, frame);
+                if !inside {
+                    continue;
+                }
+                let at = fine::window_index(i, j, frame);
+                let out = fine::resolve_left(&program, i, j, seeds.keys[at], setups);
+                let k = (j as u32 - y0) as usize * stride + (i as u32 - x0) as usize;
+                raster.values[k] = f32::from_bits(out.value);
+                if let Some(owner) = raster.owner.as_deref_mut() {
+                    owner[k] = out.owner;
+                }
+                if let Some(coverage) = raster.coverage.as_deref_mut() {
+                    coverage[k] = seeds.counts.get(at).copied().unwrap_or(0);
+                }
+            }
+        }
+    }
 }

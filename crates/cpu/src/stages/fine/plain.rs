@@ -105,6 +105,11 @@ pub(super) fn fine_raster_tile_plain<P: PixelProgram<Setup = TriangleSetup, Valu
 {
     let ty = band.ty;
     let (bin_start, bin_len) = fine::bin_range(offsets, ty * frame.tiles_x + tx);
+    if fine::left_to_shade(bin_len, frame) {
+        fine::count_tile(0, Counter::TilesEmpty, stats);
+        band.record_tile(tx, bin_len, 0, frame);
+        return;
+    }
     let pixel = |lid: u32| fine::tile_pixel(tx, ty, lid, frame);
     let mut states: [PixelState<P::Key>; TILE_PIXELS as usize] = core::array::from_fn(|lid| {
         let (i, j, inside) = pixel(lid as u32);

@@ -163,7 +163,7 @@ macro_rules! shading_entry_points {
 
             /// The render pipeline's shade stage: one invocation per window pixel, from the
             /// owner fine raster left there (`programs::shade`).
-            #[spirv(compute(threads(16, 4), entry_point_name = "entry::shade"))]
+            #[spirv(compute(threads(16, 2), entry_point_name = "entry::shade"))]
             #[allow(clippy::too_many_arguments)]
             pub fn shade(
                 #[spirv(workgroup_id)] wg: UVec3,

@@ -310,6 +310,8 @@ fn stats_dict<'py>(py: Python<'py>, stats: &Stats) -> PyResult<Bound<'py, PyDict
     dict.set_item("triangles_culled", stats.triangles_culled)?;
     dict.set_item("triangles_flat", stats.triangles_flat)?;
     dict.set_item("triangles_binned", stats.triangles_binned)?;
+    dict.set_item("triangles_small", stats.triangles_small)?;
+    dict.set_item("triangles_hidden", stats.triangles_hidden)?;
     dict.set_item("overlap_free", stats.overlap_free)?;
     dict.set_item("passes", stats.passes.iter().map(|p| p.name()).collect::<Vec<_>>())?;
     dict.set_item("bytes_uploaded", stats.bytes_uploaded)?;
@@ -348,6 +350,8 @@ impl Raster {
                 "triangles_culled",
                 "triangles_flat",
                 "triangles_binned",
+                "triangles_small",
+                "triangles_hidden",
                 "bytes_uploaded",
             ] {
                 let mut total = 0u64;

@@ -171,6 +171,13 @@ def test_windows_prepared_scenes_and_georeferencing():
     [stats] = whole.bands
     assert stats["tiles_total"] == 19 * 12 and "fine_raster" in stats["passes"], stats  # 16 × 16-cell tiles
     assert whole.stats == {**stats, "bands": 1}
+    # The command line's `--stats` fields, every one (a heightfield bins every triangle it
+    # does not cull).
+    assert set(stats) == {
+        "tiles_total", "tiles_empty_skipped", "tiles_full", "tiles_partial", "triangles_culled", "triangles_flat",
+        "triangles_binned", "triangles_small", "triangles_hidden", "overlap_free", "passes", "bytes_uploaded",
+    }, stats
+    assert stats["triangles_small"] == stats["triangles_hidden"] == 0, stats
 
 
 def test_large_windows_run_in_bands_with_the_same_cells():

@@ -200,7 +200,7 @@ fn a_sparse_scene_rasterises_only_the_tiles_it_covers() {
 /// runs only where they are, and turning the skip off bins them all with the same bits.
 #[test]
 fn small_triangles_skip_binning_and_are_counted_apart() {
-    use tileraster::render::{Camera, Cull, RenderParams, render};
+    use tileraster::render::{Camera, Cull, DepthFunc, NO_FACE, RenderParams, render};
     // Large triangles at the equator, small ones towards the poles.
     let mesh = tileraster_testkit::meshes::sphere([0.0; 3], 1.0, 16, 32);
     let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
@@ -217,5 +217,23 @@ fn small_triangles_skip_binning_and_are_counted_apart() {
         assert!(s.passes.contains(&Pass::Kernel(Stage::FineSmall)) && !t.passes.contains(&Pass::Kernel(Stage::FineSmall)), "{backend:?}");
         assert!(a.colour == b.colour && a.ids == b.ids && a.fragments == b.fragments, "{backend:?}: the skip changes a bit");
         assert!(a.depth.iter().zip(&b.depth).all(|(x, y)| x.to_bits() == y.to_bits()), "{backend:?}: depths differ");
+        // A depth buffer cleared in front of part of the sphere: the fragments behind it fail,
+        // and a pixel they alone cover counts none: in tiles that large triangles reach, and in
+        // those only small triangles reach, which `fine_depth` leaves to the shade stage (the
+        // finer sphere's triangles are all small).
+        let fine = tileraster_testkit::meshes::sphere([0.0; 3], 1.0, 64, 128);
+        for (mesh, func, clear) in
+            [(&mesh, DepthFunc::Less, 0.86), (&mesh, DepthFunc::Less, 0.87), (&fine, DepthFunc::Less, 0.86), (&fine, DepthFunc::Greater, 1.0)]
+        {
+            let a = render(mesh, &on, backend).unwrap();
+            let near = RenderParams { depth_func: func, clear_depth: clear, ..on.clone() };
+            let far = RenderParams { skips: near.skips.without(Skip::SmallTriangles), ..near.clone() };
+            let (c, d) = (render(mesh, &near, backend).unwrap(), render(mesh, &far, backend).unwrap());
+            assert!(c.colour == d.colour && c.ids == d.ids && c.fragments == d.fragments, "{backend:?}, {func:?} against {clear}: the skip changes a bit");
+            assert!(c.fragments.iter().zip(&c.ids).all(|(&n, &id)| id != NO_FACE || n == 0), "{backend:?}: a pixel nothing owns counts no fragment");
+            // Pixels the sphere covers whose every fragment failed.
+            let failed = a.ids.iter().zip(&c.ids).filter(|&(&all, &passed)| all != NO_FACE && passed == NO_FACE).count();
+            assert!(failed > 1000, "{backend:?}, {func:?} against {clear}: only {failed} pixels lost their fragments");
+        }
     }
 }

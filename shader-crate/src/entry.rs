@@ -248,6 +248,7 @@ pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     pixel_keys: &[u64],
     values: &mut [u32],
     owners: &mut [u32],
+    coverage: &mut [u32],
     colours: &mut [u32],
     faces: &mut [u32],
 ) {
@@ -266,6 +267,10 @@ pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
                 let out = fine::resolve_left(depth_program, i, j, pixel_keys[k], setups);
                 values[k] = out.value;
                 owners[k] = out.owner;
+                // `fine_small` counted every fragment; a pixel nothing owns counts none.
+                if out.owner == NO_OWNER && fine::counts_hidden(frame) {
+                    coverage[k] = 0;
+                }
                 ((0, 0), (out.owner, out.value))
             } else {
                 ((0, 0), (owners[k], values[k]))

@@ -357,6 +357,7 @@ pub const STAGES: [StageInfo; 9] = [
             write(Buffer::Colours),
             write(Buffer::Faces),
             read(Buffer::PixelKeys),
+            write(Buffer::Coverage),
         ],
         pipelines: &[Pipeline::Render],
     },

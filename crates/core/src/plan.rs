@@ -155,8 +155,6 @@ pub struct Plan {
 }
 
 impl Prepared {
-    /// Plan a call over `window` (any window of the grid). `resident`: the backend already holds
-    /// this preparation's triangles and their setup.
     /// Whether the scene's small triangles skip binning (`Skip::SmallTriangles`): in a
     /// single-sample depth-tested frame that does not blend (blending walks the bins in the
     /// shade stage) and counts no tile's triangles (the tile statistics count bin entries:
@@ -174,6 +172,8 @@ impl Prepared {
         self.splits_small_triangles() && self.params.skips.empty_tiles && self.triangles.par_iter().any(|t| is_small(&t.rect))
     }
 
+    /// Plan a call over `window` (any window of the grid). `resident`: the backend already holds
+    /// this preparation's triangles and their setup.
     pub fn plan(&self, window: Window, resident: bool) -> Result<Plan, Error> {
         window.validate(&self.params.grid)?;
         let skips = self.params.skips;

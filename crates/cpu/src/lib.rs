@@ -115,7 +115,9 @@ fn rasterise_planned_with(
                 reason: format!("{entries} triangle–tile pairs exceed the 2^32 a window can bin"),
             });
         }
-        let mut b = WindowBuffers::default();
+        // The small triangles' form the fine path takes, empty until `fine_small` runs (a frame
+        // with none never runs it).
+        let mut b = WindowBuffers { small: SmallTriangles::empty_for(path.bins_small(&frame)), ..WindowBuffers::default() };
         // The stage table's order, the pipeline's rows; each stage's twin. The scene stage runs
         // once per scene.
         for info in stages(prepared.pipeline()).filter(|s| s.runs_for(frame.flags)) {

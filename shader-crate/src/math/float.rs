@@ -163,7 +163,7 @@ fn quotient_portable(a: f32, b: f32, d: &DivisorParts) -> f32 {
 ///
 /// `D = 2n − 2q·mb` is below `2^31` in magnitude (`2^25 · 61`), so wrapping arithmetic gives
 /// it exactly, and `D / (2·mb)` is `n / mb − q`, whose nearest integer is `Q − q`: its estimate
-/// (off by a few hundredths at most), truncated, is within one of `Q − q` (less than
+/// (off by 0.06 at most), truncated, is within one of `Q − q` (less than
 /// `1/2 + 1 + 0.1` apart). Then `R = 2n − 2q'·mb` places the true quotient
 /// within half a unit of `q'` when `|R| < mb`, above when `R > mb`, below when `R < −mb` (never
 /// equal: a quotient of two significands is never halfway between two `f32`s).
@@ -252,7 +252,7 @@ pub fn sqrt_portable(x: f32) -> f32 {
 /// thousandth of it, relative).
 ///
 /// `D = T − 4s²` is `8s·c + 4c²` for the true offset `c = √T/2 − s`: below `2^31` in magnitude,
-/// (`2^27 · 16` at most) so wrapping arithmetic gives it exactly, and `D / (8s)` is `c` up to
+/// (below `2^27 · 15.5 + 2^12`) so wrapping arithmetic gives it exactly, and `D / (8s)` is `c` up to
 /// `c²/(2s)`: its estimate, truncated, is within one of `S − s`, the integer nearest `c`. Then `R = T − 4s'²` places `√T / 2` within half a unit of `s'`
 /// (`(2s' − 1)² < T < (2s' + 1)²`) when `1 − 4s' < R < 4s' + 1`, above or below past those
 /// ends (never on them: `T` is even, `(2s' ± 1)²` odd).

@@ -161,8 +161,8 @@ macro_rules! shading_entry_points {
 
             // Named as the stage table names them, wherever the macro is invoked.
 
-            /// The render pipeline's shade stage: one invocation per window pixel, from the
-            /// owner fine raster left there (`programs::shade`).
+            /// The render pipeline's shade stage: `SHADE_PASSES` window pixels per invocation,
+            /// from the owner fine raster left there (`programs::shade`).
             #[spirv(compute(threads(16, 2), entry_point_name = "entry::shade"))]
             #[allow(clippy::too_many_arguments)]
             pub fn shade(
@@ -181,6 +181,7 @@ macro_rules! shading_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] colours: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] faces: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] pixel_keys: &[u64],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] coverage: &mut [u32],
                 #[spirv(spec_constant(id = 0, default = 0))] variant: u32,
                 #[spirv(spec_constant(id = 1, default = 0))] way: u32,
             ) {
@@ -202,6 +203,7 @@ macro_rules! shading_entry_points {
                     pixel_keys,
                     values,
                     owners,
+                    coverage,
                     colours,
                     faces,
                 );

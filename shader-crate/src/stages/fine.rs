@@ -640,7 +640,9 @@ pub fn empty_tile(bin_len: u32, frame: &FrameParams) -> bool {
 /// triangles were rasterised apart (`fine_small`), so that only they reach it and each pixel's
 /// owner is its key's. The shade stage reads every pixel anyway; it resolves these
 /// ([`resolve_left`]) and writes their depth and owner, which saves a pass over the tile. Their
-/// coverage counts are in the coverage layer already (`fine_small` counts there).
+/// coverage counts are in the coverage layer already (`fine_small` counts there), but for the
+/// pixels nothing owns (every fragment failed against the clear depth), which count none, as
+/// `fine_resolve` has it: the shade stage zeroes those.
 #[inline]
 pub fn left_to_shade(bin_len: u32, frame: &FrameParams) -> bool {
     empty_tile(bin_len, frame) && frame.flags.contains(FrameFlags::SMALL_TRIANGLES)

@@ -10,7 +10,7 @@
 
 use rayon::prelude::*;
 use tileraster_core::{Raster, RenderInputs};
-use tileraster_kernels::abi::{FrameParams, ShadeMode, TriangleSetup};
+use tileraster_kernels::abi::{FrameFlags, FrameParams, ShadeMode, TriangleSetup};
 use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::programs::fragment::{Builtin, FragmentProgram};
 use tileraster_kernels::programs::shade::{shade_pixel, shaded_pixel};
@@ -92,9 +92,13 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(
 
 /// The pixels of the tiles `fine_depth` left to the shade stage (`fine::left_to_shade`),
 /// resolved from the small triangles' keys by the kernel's `resolve_left`, into the depth and
-/// owner layers as the entry point writes them; and their counts into the coverage layer,
-/// where the GPU's `fine_small` counts in place (here the counts are the seeds').
-fn resolve_left_tiles(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], seeds: &SmallSeeds, raster: &mut Raster) {
+/// owner layers as the entry point writes them; and their counts into the coverage layer, where
+/// the GPU's `fine_small` counts in place (here the counts are the seeds'), none where nothing
+/// owns the pixel (as the entry point zeroes them).
+pub(crate) fn resolve_left_tiles(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[u32], seeds: &SmallSeeds, raster: &mut Raster) {
+    if !frame.flags.contains(FrameFlags::SMALL_TRIANGLES) {
+        return;
+    }
     let program = DepthProgram::of(frame);
     let stride = raster.window.width as usize;
     let (x0, y0) = (raster.window.x0, raster.window.y0);
@@ -116,7 +120,7 @@ fn resolve_left_tiles(frame: &FrameParams, setups: &[TriangleSetup], offsets: &[
                     owner[k] = out.owner;
                 }
                 if let Some(coverage) = raster.coverage.as_deref_mut() {
-                    coverage[k] = seeds.counts.get(at).copied().unwrap_or(0);
+                    coverage[k] = if out.owner != NO_OWNER { seeds.counts.get(at).copied().unwrap_or(0) } else { 0 };
                 }
             }
         }

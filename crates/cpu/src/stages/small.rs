@@ -53,6 +53,13 @@ impl Default for SmallTriangles {
     }
 }
 
+impl SmallTriangles {
+    /// No small triangle, in the form the fine path takes (`binned`: the fast paths').
+    pub fn empty_for(binned: bool) -> SmallTriangles {
+        if binned { SmallTriangles::Binned(SmallBins::default()) } else { SmallTriangles::default() }
+    }
+}
+
 /// The stage's twin for the fine-raster path `binned` says: the small triangles binned apart
 /// where `binned`, else as the GPU runs them.
 pub fn fine_small_for(binned: bool, frame: &FrameParams, setups: &[TriangleSetup], small_listed: &[u32]) -> SmallTriangles {

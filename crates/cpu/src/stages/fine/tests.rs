@@ -207,7 +207,13 @@ fn depth_test_in_lanes_changes_no_bit() {
                         let mut raster = plan.allocate_raster(&prepared).unwrap();
                         let counters = match way {
                             Some(way) => fine_depth_using(way, &program, &frame, &setups, &offsets, &bins, &small_bins, &mut raster),
-                            None => fine_raster_plain(&program, false, &frame, &setups, &offsets, &bins, &seeds, &mut raster),
+                            None => {
+                                let counters = fine_raster_plain(&program, false, &frame, &setups, &offsets, &bins, &seeds, &mut raster);
+                                // The tiles it leaves to the shade stage, as the shade twin
+                                // resolves them first.
+                                crate::stages::shade::resolve_left_tiles(&frame, &setups, &offsets, &seeds, &mut raster);
+                                counters
+                            }
                         };
                         (raster, counters.map(|c| c.into_inner()))
                     };
@@ -218,6 +224,7 @@ fn depth_test_in_lanes_changes_no_bit() {
                     // The walk, with the keys binning writes for it (`bin::entry_keys`).
                     let mut walked = plan.allocate_raster(&prepared).unwrap();
                     let walked_counts = fine_raster_plain(&program, true, &frame, &setups, &offsets, &bins, &seeds, &mut walked).map(|c| c.into_inner());
+                    crate::stages::shade::resolve_left_tiles(&frame, &setups, &offsets, &seeds, &mut walked);
                     assert_eq!(walked.compare_bits(&plain, 4), (0, vec![]), "{what}: the walk against the batches");
                     assert_eq!(walked_counts, plain_counts, "{what}: the walk's statistics");
                     let mut lanes = None;

@@ -12,8 +12,8 @@
 //! unit, and one exact comparison settles that unit. So the result does not depend on how the
 //! device rounds, fuses or flushes the estimate's arithmetic: any estimate within fifteen
 //! units (sixty for a quotient) gives the same bits, those IEEE 754 round-to-nearest-even
-//! gives, as the tests check against the CPU's own operations. On a GPU this is a few dozen 32-bit operations with no
-//! loop and no branch, where 64-bit products or a digit-by-digit root are emulated.
+//! gives, as the tests check against the CPU's own operations. On a GPU the settling is a
+//! dozen 32-bit operations with no loop and no 64-bit product (which a GPU emulates).
 //!
 //! Domain: positive, normal, finite operands, and results in the normal range (what the render
 //! pipeline feeds them: sums of positive weights, squared lengths). Outside it they return

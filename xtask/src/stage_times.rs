@@ -212,12 +212,16 @@ fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
 fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let adapter = tileraster::gpu_adapter().map_err(|e| e.to_string())?;
     let mut s = format!(
-        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time (upload, waits and read-back included).\n"
+        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped (the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (allocating the raster, recording passes, binding, the statistics).\n"
     );
     let mut header = None;
     for (name, case) in cases {
         let rows: Vec<_> = stages(case.pipeline()).collect();
-        let names: Vec<&str> = rows.iter().map(|info| info.name).chain(["device", "call", "dispatches", "submissions", "waits", "MB up", "MB down"]).collect();
+        let names: Vec<&str> = rows
+            .iter()
+            .map(|info| info.name)
+            .chain(["device", "call", "upload", "wait", "copy", "rest", "dispatches", "submissions", "waits", "MB up", "MB down"])
+            .collect();
         table_header(&mut s, &mut header, &names);
         one_gpu_call(case)?;
         let calls = (0..runs).map(|_| one_gpu_call(case)).collect::<Result<Vec<_>, _>>()?;
@@ -228,6 +232,9 @@ fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
         let mut cells: Vec<String> = (0..rows.len()).map(|k| format!("{:.1}", stage(k))).collect();
         cells.push(format!("{:.1}", median(calls.iter().map(|(p, _)| rows.iter().map(|info| p.stage(info.stage).unwrap_or(0.0)).sum()).collect())));
         cells.push(format!("{:.1}", median(calls.iter().map(|(_, ms)| *ms).collect())));
+        let host: [fn(&tileraster_gpu::CallProfile) -> f64; 3] = [|p| p.upload_ms, |p| p.wait_ms, |p| p.read_back_ms];
+        cells.extend(host.iter().map(|f| format!("{:.1}", median(calls.iter().map(|(p, _)| f(p)).collect()))));
+        cells.push(format!("{:.1}", median(calls.iter().map(|(p, ms)| ms - p.upload_ms - p.wait_ms - p.read_back_ms).collect())));
         let (p, _) = &calls[0];
         cells.extend([p.dispatches.to_string(), p.submissions.to_string(), p.waits.to_string()]);
         cells.extend([p.bytes_up, p.bytes_down].map(|b| format!("{:.2}", b as f64 / 1e6)));

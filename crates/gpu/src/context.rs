@@ -5,6 +5,7 @@ use crate::profile::{CallProfile, Recorder};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
+use std::time::{Duration, Instant};
 use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
@@ -884,8 +885,11 @@ impl GpuContext {
         self.recorder.window();
         self.recorder.submit();
         self.recorder.wait(total);
+        let submitted = Instant::now();
+        let mut copying = Duration::ZERO;
         self.gpu
             .submit_and_read(encoder, &readback, total, |bytes| {
+                let mapped = Instant::now();
                 let words: &[u32] = bytemuck::cast_slice(bytes);
                 let (stat_words, words) = words.split_at(Counter::COUNT);
                 counters.copy_from_slice(stat_words);
@@ -919,8 +923,10 @@ impl GpuContext {
                 if let Some(layer) = raster.tiles.as_mut() {
                     copy_tile_rows(tile_words, &frame, &raster.window, layer);
                 }
+                copying = mapped.elapsed();
             })
             .map_err(|e| Error::Gpu(format!("reading the raster back: {e}")))?;
+        self.recorder.read_back(submitted.elapsed(), copying);
         if owner_out_of_range {
             return Err(Error::Gpu(format!("the window at ({}, {}) names a triangle beyond its {} setups", frame.win_x0, frame.win_y0, frame.triangles)));
         }

@@ -4,6 +4,7 @@
 //! backend's stage times.
 
 use std::cell::{Cell, RefCell};
+use std::time::{Duration, Instant};
 use tileraster_kernels::pipeline::{STAGES, Stage};
 
 /// What one call did on the device.
@@ -25,6 +26,13 @@ pub struct CallProfile {
     pub bytes_down: u64,
     /// Windows the raster was cut into.
     pub windows: u64,
+    /// Host time spent handing uploads to the queue (copies into its staging memory), ms.
+    pub upload_ms: f64,
+    /// Host time from each read-back's submission until its buffer was mapped (the device's
+    /// work, the copies over the bus and the driver's waits), ms.
+    pub wait_ms: f64,
+    /// Host time copying the mapped read-back into the raster's layers, ms.
+    pub read_back_ms: f64,
 }
 
 impl CallProfile {
@@ -43,6 +51,9 @@ pub(crate) struct Recorder {
     bytes_up: Cell<u64>,
     bytes_down: Cell<u64>,
     windows: Cell<u64>,
+    upload: Cell<Duration>,
+    wait: Cell<Duration>,
+    read_back: Cell<Duration>,
     /// Whether the call in progress writes timestamps around its passes.
     timing: Cell<bool>,
     /// Query read-backs recorded and not yet read: each holds the timestamps of its stages'
@@ -59,6 +70,9 @@ impl Recorder {
     pub fn start(&self, timing: bool) {
         for c in [&self.dispatches, &self.submissions, &self.waits, &self.bytes_up, &self.bytes_down, &self.windows] {
             c.set(0);
+        }
+        for c in [&self.upload, &self.wait, &self.read_back] {
+            c.set(Duration::ZERO);
         }
         self.timing.set(timing);
         self.pending.borrow_mut().clear();
@@ -84,7 +98,16 @@ impl Recorder {
     /// Write `data` at the start of `buffer`, counting its bytes.
     pub fn upload(&self, queue: &wgpu::Queue, buffer: &wgpu::Buffer, data: &[u8]) {
         bump(&self.bytes_up, data.len() as u64);
+        let start = Instant::now();
         queue.write_buffer(buffer, 0, data);
+        self.upload.set(self.upload.get() + start.elapsed());
+    }
+
+    /// A read-back that took `total` from its submission to the end of its copy, `copying` of
+    /// it in the host's copy out of the mapped buffer.
+    pub fn read_back(&self, total: Duration, copying: Duration) {
+        self.wait.set(self.wait.get() + total.saturating_sub(copying));
+        self.read_back.set(self.read_back.get() + copying);
     }
 
     pub fn window(&self) {
@@ -140,6 +163,9 @@ impl Recorder {
             bytes_up: self.bytes_up.get(),
             bytes_down: self.bytes_down.get(),
             windows: self.windows.get(),
+            upload_ms: self.upload.get().as_secs_f64() * 1e3,
+            wait_ms: self.wait.get().as_secs_f64() * 1e3,
+            read_back_ms: self.read_back.get().as_secs_f64() * 1e3,
         })
     }
 }

@@ -401,15 +401,17 @@ impl Plan {
         let (ay0, ay1) = ((a.y0 - w.y0) as usize, (a.y0 - w.y0 + a.height) as usize);
         let nodata = raster.nodata;
         let width = w.width as usize;
+        // On all cores: the stores fault the fresh layers' pages in, which on one core took
+        // longer than the rest of a GPU call (7 ms of 13 for a 1080p frame on a 16-core host).
         let fill = |layer: &mut [u32], value: u32| {
-            for (y, row) in layer.chunks_mut(width).enumerate() {
+            layer.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
                 if (ay0..ay1).contains(&y) {
                     row[..ax0].fill(value);
                     row[ax1..].fill(value);
                 } else {
                     row.fill(value);
                 }
-            }
+            })
         };
         fill(bytemuck::cast_slice_mut(&mut raster.values), nodata.to_bits());
         if let Some(owner) = raster.owner.as_mut() {

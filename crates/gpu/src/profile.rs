@@ -99,7 +99,7 @@ impl Recorder {
     pub fn upload(&self, queue: &wgpu::Queue, buffer: &wgpu::Buffer, data: &[u8]) {
         bump(&self.bytes_up, data.len() as u64);
         let start = Instant::now();
-        queue.write_buffer(buffer, 0, data);
+        crate::device::write_buffer(queue, buffer, data);
         self.upload.set(self.upload.get() + start.elapsed());
     }
 

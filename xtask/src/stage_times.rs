@@ -212,7 +212,7 @@ fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
 fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let adapter = tileraster::gpu_adapter().map_err(|e| e.to_string())?;
     let mut s = format!(
-        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped (the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (allocating the raster, recording passes, binding, the statistics).\n"
+        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped, and its unmapping (the submission itself, the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (the context's lock, allocating the raster, recording passes, binding, the statistics, reading the timestamps back).\n"
     );
     let mut header = None;
     for (name, case) in cases {

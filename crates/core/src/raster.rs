@@ -50,21 +50,25 @@ pub fn reuse_cells<T: bytemuck::Zeroable + Clone>(spare: Option<Vec<T>>, len: us
     }
 }
 
-/// Layers from twice this size up are zeroed on all cores, in pieces of it.
+/// Layers from twice this size up (and below [`FRESH_MAPPING`]) are zeroed on all cores, in
+/// pieces of it.
 const ZERO_PIECE: usize = 1 << 20;
 
-/// glibc's allocator maps a block larger than this fresh from the kernel, whose pages read as
-/// zeros until first written (`DEFAULT_MMAP_THRESHOLD_MAX` on 64-bit targets): `calloc` clears
-/// nothing there, and clearing it ourselves would write the layer twice.
+/// glibc's allocator maps a block of this size or more fresh from the kernel, whose pages read
+/// as zeros until first written (its mmap threshold never rises above
+/// `DEFAULT_MMAP_THRESHOLD_MAX`, 32 MiB on 64-bit targets, and a block carries a header):
+/// `calloc` clears nothing there, and clearing it ourselves would write the layer twice. A
+/// heuristic for glibc; other allocators (musl, jemalloc, mimalloc) differ, and there the
+/// parallel clear costs at most one extra pass over a fresh block.
 const FRESH_MAPPING: usize = 32 << 20;
 
 /// `len` zeroed cells the way a raster's layers are allocated (what a store-bandwidth
 /// roofline should allocate too), or why not.
 ///
-/// A layer of 2 to 32 MiB is zeroed on all cores here rather than by the allocator: once a
-/// process has freed such a block, glibc serves the next one from its heap and `calloc` clears
-/// it on one core (a 1080p frame's layers took 3 ms so on a 2-core host; on a 16-core one, with
-/// the fill of the frame's inactive border, 7 ms of a 13 ms GPU call).
+/// A layer of 2 MiB up to 32 MiB is zeroed on all cores here rather than by the allocator:
+/// once a process has freed such a block, glibc serves the next one from its heap and `calloc`
+/// clears it on one core (a 1080p frame's layers took 3 ms so on a 2-core host; on a 16-core
+/// one, with the fill of the frame's inactive border, 7 ms of a 13 ms GPU call).
 pub fn zeroed_cells<T: bytemuck::Zeroable>(len: usize) -> Result<Vec<T>, String> {
     let bytes = len as u128 * std::mem::size_of::<T>() as u128;
     let layout = std::alloc::Layout::array::<T>(len).map_err(|e| format!("{bytes} bytes ({e})"))?;
@@ -76,7 +80,7 @@ pub fn zeroed_cells<T: bytemuck::Zeroable>(len: usize) -> Result<Vec<T>, String>
     // `Vec::from_raw_parts` requires.
     unsafe {
         let size = layout.size();
-        let zero_here = (2 * ZERO_PIECE..=FRESH_MAPPING).contains(&size);
+        let zero_here = (2 * ZERO_PIECE..FRESH_MAPPING).contains(&size);
         let ptr = if zero_here { std::alloc::alloc(layout) } else { std::alloc::alloc_zeroed(layout) };
         if ptr.is_null() {
             return Err(format!("allocating {bytes} bytes failed"));

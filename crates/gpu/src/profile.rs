@@ -28,8 +28,10 @@ pub struct CallProfile {
     pub windows: u64,
     /// Host time spent handing uploads to the queue (copies into its staging memory), ms.
     pub upload_ms: f64,
-    /// Host time from each read-back's submission until its buffer was mapped (the device's
-    /// work, the copies over the bus and the driver's waits), ms.
+    /// Host time from each read-back's submission until its buffer was mapped, and its unmapping
+    /// (finishing the command buffer, the queue's submission, the device's work, the copies
+    /// over the bus and the driver's waits), ms. Stage read-backs (`stage_buffers`) count in
+    /// `waits` but not here.
     pub wait_ms: f64,
     /// Host time copying the mapped read-back into the raster's layers, ms.
     pub read_back_ms: f64,

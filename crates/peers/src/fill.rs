@@ -11,9 +11,10 @@ const CPU_CHUNK: usize = 1 << 16;
 /// with `value` on all cores. The buffer is returned so the caller can keep the optimiser from
 /// removing the stores.
 pub fn fill_cpu(cells: usize, value: f32) -> Vec<f32> {
-    // Allocated as tileraster allocates its rasters (zeroed, lazily mapped, huge pages where
-    // the system gives them), so the page faults land in the parallel fill, as they do when
-    // the rasteriser writes its freshly allocated output.
+    // Allocated as tileraster allocates its rasters (`zeroed_cells`: huge pages where the
+    // system gives them; lazily mapped zeros above 32 MiB, so the page faults land in the
+    // parallel fill as they do when the rasteriser writes its output; below, cleared on all
+    // cores first, as a raster's layers are).
     let mut out: Vec<f32> = tileraster_core::zeroed_cells(cells).expect("memory for the roofline raster");
     out.par_chunks_mut(CPU_CHUNK).for_each(|chunk| chunk.fill(value));
     out

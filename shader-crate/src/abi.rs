@@ -354,7 +354,8 @@ pub struct FrameParams {
     pub dispatch_width: u32,
     /// How covered values are computed: a [`ValueMode`] code.
     pub mode: u32,
-    /// Tile rows each binning invocation takes of its triangle (see `BIN_PART_TILES`)...
+    /// Tile rows each binning invocation takes of its triangle (at most `BIN_PART_TILES` tiles'
+    /// worth; fewer where the frame has few triangles, `Plan::frame_listing`)...
     pub bin_part_rows: u32,
     /// ... and invocations per triangle, enough for the tallest triangle of the window.
     pub bin_parts: u32,

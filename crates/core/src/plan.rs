@@ -13,6 +13,11 @@ use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::stages::small::is_small;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
 
+/// Binning invocations a frame's bands aim for: enough to fill a large GPU. A frame with fewer
+/// (listed triangles × tile rows) takes one tile row a band; the count changes no bit (the
+/// order inside a bin is free, `stages::bin`).
+const BIN_INVOCATIONS: u64 = 16_384;
+
 /// A pass of a call, as `Stats::passes` lists them: the kernel stages of the stage table
 /// (`tileraster_kernels::pipeline`) and the host's own passes around them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -320,7 +325,13 @@ impl Plan {
             .filter(|s| !s.empty)
             .map(|s| s.ty1 - s.ty0 + 1)
             .max();
-        frame.bin_parts = rows.unwrap_or(1).div_ceil(frame.bin_part_rows).max(1);
+        let rows = rows.unwrap_or(1);
+        // Bands as short as keeps `BIN_INVOCATIONS` busy: a frame of a few large triangles
+        // (eight full-frame layers are 16 triangles) would otherwise leave each of a few dozen
+        // invocations a loop over thousands of tiles while the rest of the device idles.
+        let share = (listed.len() as u64 * rows as u64 / BIN_INVOCATIONS).clamp(1, frame.bin_part_rows as u64);
+        frame.bin_part_rows = share as u32;
+        frame.bin_parts = rows.div_ceil(frame.bin_part_rows).max(1);
         frame
     }
 

@@ -219,18 +219,19 @@ impl PreparedMesh {
         let memory = &mut self.memory;
         let spare = std::mem::take(frame);
         let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(&self.mesh, params, &mut memory.geometry)?;
+        let layers = Layers {
+            values: Some(spare.depth),
+            owner: memory.owner.take(),
+            coverage: Some(spare.fragments),
+            colours: Some(spare.colour),
+            faces: Some(spare.ids),
+        };
         let raster = match backend {
             Backend::Cpu => {
-                memory.cpu.recycle(Layers {
-                    values: Some(spare.depth),
-                    owner: memory.owner.take(),
-                    coverage: Some(spare.fragments),
-                    colours: Some(spare.colour),
-                    faces: Some(spare.ids),
-                });
+                memory.cpu.recycle(layers);
                 tileraster_cpu::rasterise_in(&prepared, &mut memory.cpu)
             }
-            Backend::Gpu => crate::rasterise_prepared(&prepared, backend),
+            Backend::Gpu => tileraster_gpu::rasterise_into(&prepared, layers),
         };
         memory.geometry.recycle(prepared);
         *frame = frame_of(raster?, geometry, params, &mut memory.owner);

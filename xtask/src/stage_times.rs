@@ -146,15 +146,17 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     Ok(laps)
 }
 
-/// One GPU call: its profile and wall time (ms).
-fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, f64), String> {
+/// One GPU call: its profile, the host's preparation and the call's wall time (ms).
+fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, f64, f64), String> {
+    let start = Instant::now();
     let prepared = case.prepare()?;
+    let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
     let plan = prepared.plan(prepared.window, false).map_err(|e| e.to_string())?;
     let start = Instant::now();
     let (raster, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, true).map_err(|e| e.to_string())?;
     let ms = start.elapsed().as_secs_f64() * 1e3;
     drop(raster);
-    Ok((profile, ms))
+    Ok((profile, prepare_ms, ms))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -212,14 +214,14 @@ fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
 fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let adapter = tileraster::gpu_adapter().map_err(|e| e.to_string())?;
     let mut s = format!(
-        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped, and its unmapping (the submission itself, the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (the context's lock, allocating the raster, recording passes, binding, the statistics, reading the timestamps back).\n"
+        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. *prepare* is the host's preparation before the call (the render pipeline's geometry stages, ms); stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped, and its unmapping (the submission itself, the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (the context's lock, allocating the raster, recording passes, binding, the statistics, reading the timestamps back).\n"
     );
     let mut header = None;
     for (name, case) in cases {
         let rows: Vec<_> = stages(case.pipeline()).collect();
-        let names: Vec<&str> = rows
-            .iter()
-            .map(|info| info.name)
+        let names: Vec<&str> = ["prepare"]
+            .into_iter()
+            .chain(rows.iter().map(|info| info.name))
             .chain(["device", "call", "upload", "wait", "copy", "rest", "dispatches", "submissions", "waits", "MB up", "MB down"])
             .collect();
         table_header(&mut s, &mut header, &names);
@@ -228,14 +230,15 @@ fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
         let Some(_) = calls[0].0.stage_ms else {
             return Err(format!("{adapter} writes no timestamps: the GPU's stage times cannot be measured on it"));
         };
-        let stage = |k: usize| median(calls.iter().map(|(p, _)| p.stage(rows[k].stage).unwrap_or(f64::NAN)).collect());
-        let mut cells: Vec<String> = (0..rows.len()).map(|k| format!("{:.1}", stage(k))).collect();
-        cells.push(format!("{:.1}", median(calls.iter().map(|(p, _)| rows.iter().map(|info| p.stage(info.stage).unwrap_or(0.0)).sum()).collect())));
-        cells.push(format!("{:.1}", median(calls.iter().map(|(_, ms)| *ms).collect())));
+        let stage = |k: usize| median(calls.iter().map(|(p, _, _)| p.stage(rows[k].stage).unwrap_or(f64::NAN)).collect());
+        let mut cells = vec![format!("{:.1}", median(calls.iter().map(|(_, prepare, _)| *prepare).collect()))];
+        cells.extend((0..rows.len()).map(|k| format!("{:.1}", stage(k))));
+        cells.push(format!("{:.1}", median(calls.iter().map(|(p, _, _)| rows.iter().map(|info| p.stage(info.stage).unwrap_or(0.0)).sum()).collect())));
+        cells.push(format!("{:.1}", median(calls.iter().map(|(_, _, ms)| *ms).collect())));
         let host: [fn(&tileraster_gpu::CallProfile) -> f64; 3] = [|p| p.upload_ms, |p| p.wait_ms, |p| p.read_back_ms];
-        cells.extend(host.iter().map(|f| format!("{:.1}", median(calls.iter().map(|(p, _)| f(p)).collect()))));
-        cells.push(format!("{:.1}", median(calls.iter().map(|(p, ms)| ms - p.upload_ms - p.wait_ms - p.read_back_ms).collect())));
-        let (p, _) = &calls[0];
+        cells.extend(host.iter().map(|f| format!("{:.1}", median(calls.iter().map(|(p, _, _)| f(p)).collect()))));
+        cells.push(format!("{:.1}", median(calls.iter().map(|(p, _, ms)| ms - p.upload_ms - p.wait_ms - p.read_back_ms).collect())));
+        let (p, _, _) = &calls[0];
         cells.extend([p.dispatches.to_string(), p.submissions.to_string(), p.waits.to_string()]);
         cells.extend([p.bytes_up, p.bytes_down].map(|b| format!("{:.2}", b as f64 / 1e6)));
         let _ = writeln!(s, "| {name} | {} |", cells.join(" | "));

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 use tileraster_core::render::FragmentStage;
-use tileraster_core::{Error, Mode, Plan, Prepared, Raster, Window};
+use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
     Counter, FrameFlags, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading,
 };
@@ -114,10 +114,17 @@ pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
     rasterise_planned(prepared, &prepared.plan(prepared.window, false)?, &mut None)
 }
 
+/// [`rasterise`] into the layers of `spare` (an earlier call's raster) where they hold enough
+/// memory: a caller that renders frame after frame faults no fresh pages in for the read-back.
+pub fn rasterise_into(prepared: &Prepared, spare: Layers) -> Result<Raster, Error> {
+    let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+    ctx.rasterise(prepared, &prepared.plan(prepared.window, false)?, &mut None, spare)
+}
+
 /// Run `plan`, uploading and setting the scene up first unless `resident` already holds it.
 pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
-    ctx.rasterise(prepared, plan, resident)
+    ctx.rasterise(prepared, plan, resident, Layers::default())
 }
 
 /// [`rasterise_planned`], and what the call did on the device: its dispatches, submissions,
@@ -127,7 +134,7 @@ pub fn rasterise_profiled(prepared: &Prepared, plan: &Plan, resident: &mut Optio
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     let timing = time_stages && ctx.timestamps;
     ctx.recorder.start(timing);
-    let raster = ctx.rasterise(prepared, plan, resident);
+    let raster = ctx.rasterise(prepared, plan, resident, Layers::default());
     let profile = ctx.recorder.finish(&ctx.gpu.device, ctx.gpu.queue.get_timestamp_period()).map_err(Error::Gpu)?;
     Ok((raster?, profile))
 }
@@ -149,7 +156,7 @@ pub fn stage_buffers(prepared: &Prepared) -> Result<Option<StageBuffers>, Error>
         return Err(Error::Gpu(format!("the {}×{} window is rasterised in parts: read its stage buffers window by window", active.width, active.height)));
     }
     let mut resident = None;
-    ctx.rasterise(prepared, &plan, &mut resident)?;
+    ctx.rasterise(prepared, &plan, &mut resident, Layers::default())?;
     let Some(Resident { setups, .. }) = resident else {
         return Err(Error::Gpu("the scene is set up in parts: read its stage buffers window by window".into()));
     };
@@ -385,23 +392,23 @@ impl GpuContext {
         triangles * scene_bytes_per_triangle(prepared) <= self.max_binding()
     }
 
-    fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
+    fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, spare: Layers) -> Result<Raster, Error> {
         let mode = prepared.params.mode;
         if mode != Mode::Exact {
             if self.float_modes.is_none() {
-                let checked = float_controls::check(|probe| self.rasterise_unchecked(probe, &probe.plan(probe.window, false)?, &mut None));
+                let checked = float_controls::check(|probe| self.rasterise_unchecked(probe, &probe.plan(probe.window, false)?, &mut None, Layers::default()));
                 self.float_modes = Some(checked);
             }
             if let Some(Err(reason)) = &self.float_modes {
                 return Err(Error::ModeInexactOnAdapter { mode: mode.name(), adapter: self.gpu.info.name.clone(), reason: reason.clone() });
             }
         }
-        self.rasterise_unchecked(prepared, plan, resident)
+        self.rasterise_unchecked(prepared, plan, resident, spare)
     }
 
     /// [`Self::rasterise`] without the check of the `f32` modes.
-    fn rasterise_unchecked(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>) -> Result<Raster, Error> {
-        let mut raster = plan.allocate_raster(prepared)?;
+    fn rasterise_unchecked(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, spare: Layers) -> Result<Raster, Error> {
+        let mut raster = plan.allocate_raster_reusing(prepared, spare)?;
         let mut counters = [0u64; Counter::COUNT];
         if let Some(active) = plan.active {
             let scope = self.gpu.error_scope();

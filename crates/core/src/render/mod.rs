@@ -507,8 +507,9 @@ pub(crate) fn prepare_instances_in(
     let bytes = first_vertex as u128 * (std::mem::size_of::<[f64; 3]>() + std::mem::size_of::<ClipVertex>()) as u128;
     let reserved = world.try_reserve_exact(first_vertex).and_then(|()| vertices.try_reserve_exact(first_vertex));
     reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{first_vertex} vertices, {bytes} bytes ({e})") })?;
-    world.resize(first_vertex, [0.0; 3]);
-    vertices.resize(first_vertex, ClipVertex::default());
+    // Filled on all cores (`resize` writes them on one).
+    world.par_extend(rayon::iter::repeat_n([0.0; 3], first_vertex));
+    vertices.par_extend(rayon::iter::repeat_n(ClipVertex::default(), first_vertex));
     // A fragment shader takes the vertex attributes as they are (no lighting on the host).
     let shading = if params.fragment.is_some() { Shading::Unlit } else { params.shading };
     // The depth and id views read no attribute: they carry zeros, and no normal is computed.

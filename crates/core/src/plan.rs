@@ -316,15 +316,9 @@ impl Plan {
             samples: prepared.render.as_ref().map_or(1, |s| s.params.samples),
             small_triangles: small.len() as u32,
         };
-        // Enough bands for the tallest listed triangle in the part, small ones included (the CPU's
-        // fast paths bin those apart with the same bands).
-        let rows = listed
-            .par_iter()
-            .chain(small.par_iter())
-            .map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame))
-            .filter(|s| !s.empty)
-            .map(|s| s.ty1 - s.ty0 + 1)
-            .max();
+        // Enough bands for the tallest listed triangle in the part (the CPU's fast paths bin the
+        // small ones apart, in one band).
+        let rows = listed.par_iter().map(|&s| tile_span(&prepared.triangles[s as usize].rect, &frame)).filter(|s| !s.empty).map(|s| s.ty1 - s.ty0 + 1).max();
         let rows = rows.unwrap_or(1);
         // Bands as short as keeps `BIN_INVOCATIONS` busy: a frame of a few large triangles
         // (eight full-frame layers are 16 triangles) would otherwise leave each of a few dozen

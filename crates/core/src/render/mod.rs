@@ -457,7 +457,12 @@ pub(crate) fn prepare_instances_in(
     let (mut first_vertex, mut first_face) = (0, 0u32);
     let all_faces: u64 = instances.iter().map(|i| meshes[i.mesh as usize].triangles.len() as u64).sum();
     let all_vertices: u64 = instances.iter().map(|i| meshes[i.mesh as usize].positions.len() as u64).sum();
-    // The wireframe's edges, once per placed mesh.
+    // The wireframe's edges, once per placed mesh. A mesh of more than 2^32 / 3 faces has more
+    // sides than `lines::edges` counts, and more lines than a frame numbers with its faces.
+    let most_faces = meshes.iter().zip(&placed).filter(|&(_, &placed)| placed).map(|(m, _)| m.triangles.len() as u64).max().unwrap_or(0);
+    if params.wireframe.is_some() && most_faces > u32::MAX as u64 / 3 {
+        return Err(Error::TooManyFaces { faces: all_faces + all_vertices + most_faces });
+    }
     let mesh_edges: Vec<Vec<[u32; 2]>> = match params.wireframe {
         Some(_) => meshes.par_iter().zip(&placed).map(|(m, &placed)| if placed { lines::edges(&m.triangles) } else { Vec::new() }).collect(),
         None => Vec::new(),

@@ -69,6 +69,9 @@ pub fn fine_small_for(binned: bool, frame: &FrameParams, setups: &[TriangleSetup
     if !frame.flags.contains(FrameFlags::SMALL_TRIANGLES) {
         return SmallTriangles::Binned(SmallBins::default());
     }
+    // One band of every tile row: a small triangle reaches a few tiles, and the frame's bands
+    // are sized for its listed triangles (one tile row each where they are few and large).
+    let frame = &FrameParams { bin_part_rows: frame.tiles_y, bin_parts: 1, ..*frame };
     let counts = bin_count(frame, setups, small_listed);
     let offsets = bin_scan(frame, &counts);
     let bins = bin_fill(frame, setups, small_listed, &offsets);

@@ -74,7 +74,9 @@ fn render_skips() -> [(&'static str, Skips); 5] {
 /// centre or in lanes), all together and each alone, against its plain twin (each tile as the
 /// GPU runs its workgroup): the same layers and counters.
 fn assert_plain_twin(name: &str, mesh: &Mesh, params: &RenderParams) {
-    let (prepared, _) = prepare_render(mesh, params).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let (mut prepared, _) = prepare_render(mesh, params).unwrap_or_else(|e| panic!("{name}: {e}"));
+    // The owner layers too, which a frame does not return.
+    prepared.params.outputs.owner = true;
     let run = |path| tileraster_cpu::rasterise_with(&prepared, path).unwrap_or_else(|e| panic!("{name}, {path:?}: {e}"));
     let plain = run(FinePath::Plain);
     for path in FinePath::DEPTH {

@@ -117,7 +117,8 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
 /// could set a scene up in parts.
 #[test]
 fn gpu_scenes_in_parts_equal_the_cpu() {
-    use tileraster::render::{Camera, Cull, RenderParams, Shading, render};
+    use tileraster::render::{Camera, Cull, RenderParams, Shading, prepare_render, render};
+    use tileraster::{Prepared, rasterise_prepared};
     use tileraster_kernels::abi::{TriangleSetup, TriangleShading};
     if !common::gpu_or_skip("gpu_scenes_in_parts_equal_the_cpu") {
         return;
@@ -179,6 +180,23 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
             );
             assert!(gpu.depth.iter().zip(&cpu.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}, blend {blend}: depths differ");
             assert_eq!(cpu.stats, gpu.stats, "{name}, blend {blend}: statistics");
+            // The owner layer (setup slots, which each part's readback maps back to the
+            // scene's) stays with the stages unless asked for; asked for, it is the CPU's.
+            let (mut prepared, _) = prepare_render(mesh, &params).unwrap();
+            let layers = |prepared: &Prepared| {
+                let cpu = rasterise_prepared(prepared, Backend::Cpu).unwrap();
+                tileraster::set_gpu_binding_limit(limit);
+                let gpu = rasterise_prepared(prepared, Backend::Gpu);
+                tileraster::set_gpu_binding_limit(u64::MAX);
+                (cpu, gpu.unwrap_or_else(|e| panic!("{name}, blend {blend}, raster: {e}")))
+            };
+            let (c, g) = layers(&prepared);
+            assert!(c.owner.is_none() && g.owner.is_none(), "{name}, blend {blend}: an owner layer nobody asked for");
+            prepared.params.outputs.owner = true;
+            let (c, g) = layers(&prepared);
+            assert!(c.owner.is_some() && g.owner.is_some(), "{name}, blend {blend}: no owner layer");
+            let (count, first) = c.compare_bits(&g, 5);
+            assert_eq!(count, 0, "{name}, blend {blend}: the asked-for layers differ: {first:?}");
             let small = cpu.stats.raster.triangles_small;
             let splits = !blend && !count_tiles;
             assert!(

@@ -145,7 +145,7 @@ impl Frame {
 pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
     let (prepared, geometry) = prepare_render(mesh, params)?;
     let raster = crate::rasterise_prepared(&prepared, backend)?;
-    Ok(frame_of(raster, geometry, params, &mut None))
+    Ok(frame_of(raster, geometry, params))
 }
 
 /// Render every instance of `world` (many placements of its meshes, each culled against the
@@ -155,7 +155,7 @@ pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Fr
 pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
     let (prepared, geometry) = prepare_world(world, params)?;
     let raster = crate::rasterise_prepared(&prepared, backend)?;
-    Ok(frame_of(raster, geometry, params, &mut None))
+    Ok(frame_of(raster, geometry, params))
 }
 
 /// A mesh checked once, with its normals computed once where it has none, and the memory its
@@ -187,9 +187,8 @@ pub struct PreparedMesh {
 #[derive(Default)]
 struct FrameMemory {
     geometry: GeometryMemory,
+    /// The CPU's setups and the layers the frame does not return (the owner layer).
     cpu: tileraster_cpu::Workspace,
-    /// The owner layer (setup slots), which the frame does not return.
-    owner: Option<Vec<u32>>,
 }
 
 impl PreparedMesh {
@@ -219,13 +218,7 @@ impl PreparedMesh {
         let memory = &mut self.memory;
         let spare = std::mem::take(frame);
         let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(&self.mesh, params, &mut memory.geometry)?;
-        let layers = Layers {
-            values: Some(spare.depth),
-            owner: memory.owner.take(),
-            coverage: Some(spare.fragments),
-            colours: Some(spare.colour),
-            faces: Some(spare.ids),
-        };
+        let layers = Layers { values: Some(spare.depth), owner: None, coverage: Some(spare.fragments), colours: Some(spare.colour), faces: Some(spare.ids) };
         let raster = match backend {
             Backend::Cpu => {
                 memory.cpu.recycle(layers);
@@ -234,19 +227,17 @@ impl PreparedMesh {
             Backend::Gpu => tileraster_gpu::rasterise_into(&prepared, layers),
         };
         memory.geometry.recycle(prepared);
-        *frame = frame_of(raster?, geometry, params, &mut memory.owner);
+        *frame = frame_of(raster?, geometry, params);
         Ok(())
     }
 }
 
-/// The frame a rasterised and shaded raster holds, with its statistics; the owner layer goes
-/// to `owner`.
-fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams, owner: &mut Option<Vec<u32>>) -> Frame {
+/// The frame a rasterised and shaded raster holds, with its statistics.
+fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams) -> Frame {
     let ids = raster.faces.expect("the render pipeline writes faces");
     let per_pixel = raster.coverage.unwrap_or_default();
     let covered = ids.par_iter().filter(|&&f| f != NO_FACE).count() as u64;
     let fragments = per_pixel.par_iter().map(|&c| c as u64).sum::<u64>();
-    *owner = raster.owner;
     Frame {
         width: params.width,
         height: params.height,

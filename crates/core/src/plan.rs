@@ -306,7 +306,7 @@ impl Plan {
             triangles: listed.len() as u32,
             snap_bits: prepared.snap_bits,
             nodata_bits: prepared.params.nodata.to_bits(),
-            outputs: prepared.params.output_set(),
+            outputs: prepared.output_set(),
             dispatch_width: 0,
             mode: prepared.params.mode as u32,
             bin_part_rows: (BIN_PART_TILES / tiles_x.max(1)).max(1),
@@ -358,16 +358,19 @@ impl Plan {
     }
 
     /// The call's raster: zeroed, with nodata (and no owner) already written outside the
-    /// active window.
-    pub fn allocate_raster(&self, prepared: &Prepared) -> Result<Raster, Error> {
-        self.allocate_raster_reusing(prepared, Layers::default())
+    /// active window. With `stages_in_raster` (a backend whose stages work in the raster's
+    /// layers, as the CPU's do) it has the owner layer the stages keep
+    /// ([`Prepared::keeps_owner`]) even where the call does not return it; otherwise only the
+    /// layers the call returns.
+    pub fn allocate_raster(&self, prepared: &Prepared, stages_in_raster: bool) -> Result<Raster, Error> {
+        self.allocate_raster_reusing(prepared, Layers::default(), stages_in_raster)
     }
 
     /// [`Plan::allocate_raster`], taking the layers of `spare` (an earlier call's raster) where
     /// it has them instead of fresh memory: a frame after the first then faults no page in.
     /// Their old contents are harmless: the stages write every pixel of the active window, and
     /// the rest is filled here.
-    pub fn allocate_raster_reusing(&self, prepared: &Prepared, spare: Layers) -> Result<Raster, Error> {
+    pub fn allocate_raster_reusing(&self, prepared: &Prepared, spare: Layers, stages_in_raster: bool) -> Result<Raster, Error> {
         let window = self.window;
         let n = usize::try_from(window.pixel_count()).map_err(|_| Error::RasterTooLarge {
             width: window.width as u64,
@@ -382,7 +385,7 @@ impl Plan {
             window,
             nodata: prepared.params.nodata,
             values: reuse_layer(true, values, n, &window)?.expect("the values layer is always there"),
-            owner: reuse_layer(outputs.owner, owner, n, &window)?,
+            owner: reuse_layer(outputs.owner || (stages_in_raster && prepared.keeps_owner()), owner, n, &window)?,
             coverage: reuse_layer(outputs.coverage, coverage, n, &window)?,
             colours: reuse_layer(render, colours, n, &window)?,
             faces: reuse_layer(render, faces, n, &window)?,

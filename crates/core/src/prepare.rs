@@ -16,7 +16,7 @@
 
 use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{DepthTest, FloatCoeffs, PixelRect, Plane, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{DepthTest, FloatCoeffs, OutputSet, PixelRect, Plane, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::pipeline::Pipeline;
@@ -101,6 +101,19 @@ pub struct RenderInputs {
 }
 
 impl Prepared {
+    /// Whether the stages keep an owner layer: where the call returns it, and in the
+    /// single-sample render pipeline, whose shade stage reads each pixel's setup by it (its
+    /// frame returns face ids instead).
+    pub fn keeps_owner(&self) -> bool {
+        self.params.outputs.owner || self.pipeline() == Pipeline::Render
+    }
+
+    /// The layers the kernels write (`FrameParams::outputs`): those the call returns, and the
+    /// owner layer where the stages keep it.
+    pub fn output_set(&self) -> OutputSet {
+        self.params.output_set().with(OutputSet::OWNER, self.keeps_owner())
+    }
+
     /// The pipeline this preparation runs.
     pub fn pipeline(&self) -> Pipeline {
         match &self.render {

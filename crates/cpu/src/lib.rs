@@ -37,9 +37,11 @@ pub struct Workspace {
 }
 
 impl Workspace {
-    /// Keep these layers (of a raster the caller is done with) for the next call.
+    /// Keep these layers (of a raster the caller is done with) for the next call, and the
+    /// owner layer the last call kept here where they have none.
     pub fn recycle(&mut self, layers: Layers) {
-        self.layers = layers;
+        let owner = layers.owner.or_else(|| self.layers.owner.take());
+        self.layers = Layers { owner, ..layers };
     }
 }
 
@@ -103,7 +105,7 @@ fn rasterise_planned_with(
     observe: &mut dyn FnMut(Stage),
     mut workspace: Option<&mut Workspace>,
 ) -> Result<Raster, Error> {
-    let mut raster = plan.allocate_raster_reusing(prepared, workspace.as_mut().map(|w| std::mem::take(&mut w.layers)).unwrap_or_default())?;
+    let mut raster = plan.allocate_raster_reusing(prepared, workspace.as_mut().map(|w| std::mem::take(&mut w.layers)).unwrap_or_default(), true)?;
     let mut counters = [0u64; Counter::COUNT];
     if let Some(active) = plan.active {
         let frame = plan.frame(prepared, active);
@@ -159,5 +161,12 @@ fn rasterise_planned_with(
         }
     }
     raster.stats = plan.stats(&counters);
+    // An owner layer the call does not return (the render pipeline's) stays in the workspace.
+    if !prepared.params.outputs.owner {
+        let owner = raster.owner.take();
+        if let Some(w) = workspace {
+            w.layers.owner = owner;
+        }
+    }
     Ok(raster)
 }

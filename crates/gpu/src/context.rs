@@ -377,7 +377,7 @@ impl GpuContext {
 
     /// Most pixels one window may have: every output layer must fit one binding.
     fn max_window_pixels(&self, prepared: &Prepared) -> u64 {
-        let layers = 1 + prepared.params.outputs.owner as u64 + prepared.params.outputs.coverage as u64 + 2 * prepared.render.is_some() as u64;
+        let layers = 1 + prepared.keeps_owner() as u64 + prepared.params.outputs.coverage as u64 + 2 * prepared.render.is_some() as u64;
         (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed))
     }
 
@@ -408,7 +408,8 @@ impl GpuContext {
 
     /// [`Self::rasterise`] without the check of the `f32` modes.
     fn rasterise_unchecked(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, spare: Layers) -> Result<Raster, Error> {
-        let mut raster = plan.allocate_raster_reusing(prepared, spare)?;
+        // The owner layer the stages keep without returning it stays on the device.
+        let mut raster = plan.allocate_raster_reusing(prepared, spare, false)?;
         let mut counters = [0u64; Counter::COUNT];
         if let Some(active) = plan.active {
             let scope = self.gpu.error_scope();
@@ -829,6 +830,8 @@ impl GpuContext {
         let small = frame.flags.contains(FrameFlags::SMALL_TRIANGLES);
         let pixel_keys = b.pixel_keys.get(device, if small { pixels * 8 } else { 8 });
         let owner_bytes = if frame.outputs.contains(OutputSet::OWNER) { pixels * 4 } else { 0 };
+        // Read back only where the call returns it (the render pipeline's stays here).
+        let owner_read = if raster.owner.is_some() { owner_bytes } else { 0 };
         let coverage_bytes = if frame.outputs.contains(OutputSet::COVERAGE) { pixels * 4 } else { 0 };
         let owners = b.owners.get(device, owner_bytes);
         let coverage = b.coverage.get(device, coverage_bytes);
@@ -839,7 +842,7 @@ impl GpuContext {
         let shaded_bytes = if scene.pipeline.renders() { pixels * 4 } else { 0 };
         let colours = b.colours.get(device, shaded_bytes);
         let faces = b.faces.get(device, shaded_bytes);
-        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_bytes + coverage_bytes + 2 * shaded_bytes + tile_bytes);
+        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_read + coverage_bytes + 2 * shaded_bytes + tile_bytes);
 
         let mut counters = [0u32; Counter::COUNT];
         let mut owner_out_of_range = false;
@@ -882,9 +885,9 @@ impl GpuContext {
         self.encode_stages(&mut encoder, scene.pipeline, scene.rows, Scope::Window, &frame, groups, &buffers)?;
         encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
         encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
-        encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_bytes);
-        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + pixels * 4 + owner_bytes, coverage_bytes);
-        let shaded_at = stats_bytes + pixels * 4 + owner_bytes + coverage_bytes;
+        encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_read);
+        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + pixels * 4 + owner_read, coverage_bytes);
+        let shaded_at = stats_bytes + pixels * 4 + owner_read + coverage_bytes;
         encoder.copy_buffer_to_buffer(&colours, 0, &readback, shaded_at, shaded_bytes);
         encoder.copy_buffer_to_buffer(&faces, 0, &readback, shaded_at + shaded_bytes, shaded_bytes);
         encoder.copy_buffer_to_buffer(&tile_stats, 0, &readback, shaded_at + 2 * shaded_bytes, tile_bytes);
@@ -901,7 +904,7 @@ impl GpuContext {
                 let (stat_words, words) = words.split_at(Counter::COUNT);
                 counters.copy_from_slice(stat_words);
                 let (value_words, rest) = words.split_at(pixels as usize);
-                let (owner_words, rest) = rest.split_at((owner_bytes / 4) as usize);
+                let (owner_words, rest) = rest.split_at((owner_read / 4) as usize);
                 let (coverage_words, rest) = rest.split_at((coverage_bytes / 4) as usize);
                 let (colour_words, rest) = rest.split_at((shaded_bytes / 4) as usize);
                 let (face_words, tile_words) = rest.split_at((shaded_bytes / 4) as usize);

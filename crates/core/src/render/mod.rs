@@ -707,7 +707,9 @@ pub(crate) fn prepare_instances_in(
     let grid_params = Params {
         grid,
         nodata: params.clear_depth,
-        outputs: Outputs { owner: true, coverage: params.count_fragments, tiles: params.count_tiles },
+        // The frame returns face ids, not setup slots: the stages keep their owner layer to
+        // themselves (`Prepared::keeps_owner`).
+        outputs: Outputs { owner: false, coverage: params.count_fragments, tiles: params.count_tiles },
         // The depth is the barycentric mode's arithmetic: the GPU backend checks that the
         // adapter gives the CPU's bits for it before using it.
         mode: Mode::Barycentric,

@@ -84,7 +84,7 @@ fn a_depth_keyed_program_resolves_the_lowest_surface() {
         for skips in [Skips::NONE, Skips::default()] {
             let params = Params::new(grid).with_skips(skips).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
             let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
-            let mut raster = plan.allocate_raster(&prepared).unwrap();
+            let mut raster = plan.allocate_raster(&prepared, true).unwrap();
             fine_raster_plain(&LowestSurface, false, &frame, &setups, &offsets, &bins, &SmallSeeds::default(), &mut raster);
             let (owners, counts) = (raster.owner.as_ref().unwrap(), raster.coverage.as_ref().unwrap());
             for j in 0..frame.win_h {
@@ -204,7 +204,7 @@ fn depth_test_in_lanes_changes_no_bit() {
                     assert!(small_triangles || plan.small.is_empty(), "small triangles listed apart with the skip off");
                     small_somewhere |= !plan.small.is_empty();
                     let run = |way: Option<Way>| {
-                        let mut raster = plan.allocate_raster(&prepared).unwrap();
+                        let mut raster = plan.allocate_raster(&prepared, true).unwrap();
                         let counters = match way {
                             Some(way) => fine_depth_using(way, &program, &frame, &setups, &offsets, &bins, &small_bins, &mut raster),
                             None => {
@@ -222,7 +222,7 @@ fn depth_test_in_lanes_changes_no_bit() {
                     );
                     let (plain, plain_counts) = run(None);
                     // The walk, with the keys binning writes for it (`bin::entry_keys`).
-                    let mut walked = plan.allocate_raster(&prepared).unwrap();
+                    let mut walked = plan.allocate_raster(&prepared, true).unwrap();
                     let walked_counts = fine_raster_plain(&program, true, &frame, &setups, &offsets, &bins, &seeds, &mut walked).map(|c| c.into_inner());
                     crate::stages::shade::resolve_left_tiles(&frame, &setups, &offsets, &seeds, &mut walked);
                     assert_eq!(walked.compare_bits(&plain, 4), (0, vec![]), "{what}: the walk against the batches");
@@ -291,7 +291,7 @@ fn wide_vectors_change_no_bit() {
             let params = Params::new(grid).with_mode(mode).with_outputs(Outputs { owner: true, coverage: true, tiles: true });
             let BeforeFine { prepared, plan, frame, setups, offsets, bins } = before_fine(scene, &params);
             let run = |wide| {
-                let mut raster = plan.allocate_raster(&prepared).unwrap();
+                let mut raster = plan.allocate_raster(&prepared, true).unwrap();
                 fine_raster_using(FinePath::Specialised, wide, &frame, &setups, &offsets, &bins, &mut raster);
                 raster
             };

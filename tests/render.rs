@@ -580,3 +580,35 @@ fn a_mesh_behind_the_camera_draws_nothing() {
     assert!(frame.colour.iter().all(|&c| c == u32::from_le_bytes([1, 2, 3, 4])));
     assert!(frame.ids.iter().all(|&id| id == NO_FACE) && frame.depth.iter().all(|&d| d == 1.0));
 }
+
+/// A frame without its colour or depth layer has that layer empty and every other layer and
+/// statistic of the full frame, on both backends, single-sampled and multisampled, rendered
+/// at once and by a prepared mesh whose reused memory held frames of other layers before.
+#[test]
+fn frames_return_the_layers_asked_for() {
+    use tileraster::render::PreparedMesh;
+    let mesh = meshes::sphere([0.0; 3], 1.0, 24, 40);
+    let backends: &[Backend] = if gpu_or_skip("frames_return_the_layers_asked_for") { &[Backend::Cpu, Backend::Gpu] } else { &[Backend::Cpu] };
+    for samples in [1, 4] {
+        let full = RenderParams { shading: Shading::Phong, samples, ..RenderParams::new(160, 120, view(160, 120, [2.5, -2.0, 1.5], 0.5, 9.0)) };
+        let reference = cpu(&mesh, &full);
+        assert!(reference.stats.pixels_covered > 1000, "the sphere must cover the frame");
+        for &backend in backends {
+            let mut prepared = PreparedMesh::new(mesh.clone()).unwrap();
+            let mut reused = Frame::default();
+            for (colour, depth) in [(false, false), (true, false), (true, true), (false, true), (false, false), (true, true)] {
+                let what = format!("{samples} samples, {backend:?}, colour {colour}, depth {depth}");
+                let params = RenderParams { return_colour: colour, return_depth: depth, ..full.clone() };
+                let once = render(&mesh, &params, backend).unwrap_or_else(|e| panic!("{what}: {e}"));
+                prepared.render_into(&params, backend, &mut reused).unwrap_or_else(|e| panic!("{what}, prepared: {e}"));
+                for (form, frame) in [("render", &once), ("prepared", &reused)] {
+                    let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<u32>>();
+                    assert_eq!(frame.colour, if colour { reference.colour.clone() } else { Vec::new() }, "{what}, {form}: colour");
+                    assert_eq!(bits(&frame.depth), if depth { bits(&reference.depth) } else { Vec::new() }, "{what}, {form}: depth");
+                    assert!(frame.ids == reference.ids && frame.fragments == reference.fragments, "{what}, {form}: ids or fragments");
+                    assert_eq!(frame.stats, reference.stats, "{what}, {form}: statistics");
+                }
+            }
+        }
+    }
+}

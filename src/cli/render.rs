@@ -274,6 +274,8 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     params.blend = blend;
     params.count_fragments = stats || heat_map.is_some();
     params.count_tiles = heat_map.is_some();
+    // The depth layer only where it is written or checksummed (the GPU then reads it back).
+    params.return_depth = depth.is_some() || stats;
     (params.points, params.faces, params.samples) = (points, !no_faces, msaa);
     params.wireframe = wireframe.map(|rule| Wireframe {
         rule: match rule {

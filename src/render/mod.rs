@@ -66,9 +66,11 @@ pub fn read_world(path: &Path) -> Result<World, DemError> {
 pub struct Frame {
     pub width: u32,
     pub height: u32,
-    /// RGBA8 per pixel (red in the low byte: `to_le_bytes` gives R, G, B, A).
+    /// RGBA8 per pixel (red in the low byte: `to_le_bytes` gives R, G, B, A). Empty where
+    /// `RenderParams::return_colour` is off.
     pub colour: Vec<u32>,
-    /// Depth per pixel (the clear value where no triangle is).
+    /// Depth per pixel (the clear value where no triangle is). Empty where
+    /// `RenderParams::return_depth` is off.
     pub depth: Vec<f32>,
     /// The input face per pixel, counting the mesh's triangles from 0 (`NO_FACE` where none).
     pub ids: Vec<u32>,
@@ -218,7 +220,14 @@ impl PreparedMesh {
         let memory = &mut self.memory;
         let spare = std::mem::take(frame);
         let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(&self.mesh, params, &mut memory.geometry)?;
-        let layers = Layers { values: Some(spare.depth), owner: None, coverage: Some(spare.fragments), colours: Some(spare.colour), faces: Some(spare.ids) };
+        // An empty layer (one the last frame did not return) leaves the workspace its own.
+        let layers = Layers {
+            values: reusable(spare.depth),
+            owner: None,
+            coverage: reusable(spare.fragments),
+            colours: reusable(spare.colour),
+            faces: reusable(spare.ids),
+        };
         let raster = match backend {
             Backend::Cpu => {
                 memory.cpu.recycle(layers);
@@ -232,6 +241,11 @@ impl PreparedMesh {
     }
 }
 
+/// A returned layer's memory for the next frame, unless it holds none.
+fn reusable<T>(layer: Vec<T>) -> Option<Vec<T>> {
+    (layer.capacity() > 0).then_some(layer)
+}
+
 /// The frame a rasterised and shaded raster holds, with its statistics.
 fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams) -> Frame {
     let ids = raster.faces.expect("the render pipeline writes faces");
@@ -241,7 +255,7 @@ fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams) -> 
     Frame {
         width: params.width,
         height: params.height,
-        colour: raster.colours.expect("the render pipeline writes colours"),
+        colour: raster.colours.unwrap_or_default(),
         depth: raster.values,
         ids,
         fragments: per_pixel,

@@ -88,7 +88,7 @@ pub fn run(quick: bool) -> Result<String, String> {
         "Medians of {runs} whole calls after a warm-up. tileraster draws triangle ids (`--shading ids`, the same fragment work as the \
          peer; no per-pixel fragment counts, which the peer does not make either) and, in its own columns, Phong shading; \"prepared\" is `PreparedMesh::render_into`, which keeps the frames' memory and \
          output layers between calls as the peer keeps its render target and buffers (on either backend); the render pipeline is wgpu's on {adapter} with a Depth32Float buffer and the `Less` \
-         test, writing R32Uint triangle ids. Both read their outputs back to the host. \"ids agree\" is the share of pixels where \
+         test, writing R32Uint triangle ids. Both read the ids back to the host, and nothing else (tileraster's ids frames turn          `return_colour` and `return_depth` off; its Phong frames return all three layers). \"ids agree\" is the share of pixels where \
          tileraster's CPU frame and the render pipeline name the same triangle.\n"
     );
     let _ = writeln!(
@@ -98,7 +98,8 @@ pub fn run(quick: bool) -> Result<String, String> {
     let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |");
     let mut notes = Vec::new();
     for scene in scenes(quick)? {
-        let ids = RenderParams { shading: Shading::Ids, ..scene.params.clone() };
+        // The ids alone come back, as the peer's: the colour and depth stay with the stages.
+        let ids = RenderParams { shading: Shading::Ids, return_colour: false, return_depth: false, ..scene.params.clone() };
         let phong = RenderParams { shading: Shading::Phong, ..scene.params.clone() };
         let (cpu_time, cpu) = timed(runs, || render(&scene.mesh, &ids, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (phong_time, _) = timed(runs, || render(&scene.mesh, &phong, Backend::Cpu).map_err(|e| e.to_string()))?;
@@ -187,7 +188,8 @@ pub fn fragment_only() -> Result<String, String> {
 fn fragment_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
     let mesh = procedural::scene();
-    let marble = procedural::params(&mesh, w, h).map_err(|e| e.to_string())?;
+    // Colour and ids back, no depth: the peer reads its colour back alone.
+    let marble = RenderParams { return_depth: false, ..procedural::params(&mesh, w, h).map_err(|e| e.to_string())? };
     let phong = RenderParams { fragment: None, ..marble.clone() };
     let mut peer = tileraster_peers::MarblePipeline::new()?;
     let mut s = String::new();
@@ -197,7 +199,7 @@ fn fragment_section(quick: bool, runs: usize, gpu: bool) -> Result<String, Strin
          The marble of `examples/procedural` (three octaves of value noise and Blinn-Phong lighting, a user's `no_std` function: \
          [fragment-stage.md](fragment-stage.md)) on a sphere and a floor of {} triangles, {w}×{h}, against the built-in Phong shading of \
          the same frame, medians of {runs} whole calls. The render pipeline is wgpu's on {} running the same shader written in WGSL \
-         (a depth buffer, the `Less` test, RGBA8 read back). \"differ\" is the share of covered pixels whose colour differs from \
+         (a depth buffer, the `Less` test, RGBA8 read back; tileraster returns colour and ids, not depth). \"differ\" is the share of covered pixels whose colour differs from \
          tileraster's CPU frame by more than one unit in a channel, and the largest difference.\n",
         mesh.triangles.len(),
         peer.adapter_name()
@@ -272,7 +274,7 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     let _ = writeln!(
         s,
         "\n### Lines and points\n\n\
-         The wireframe of a terrain mesh of {} triangles alone: {} edges one pixel wide, {w}×{h}, the ids view, medians of {runs} whole \
+         The wireframe of a terrain mesh of {} triangles alone: {} edges one pixel wide, {w}×{h}, the ids view (the ids alone returned), medians of {runs} whole \
          calls. The render pipeline is wgpu's on {} drawing the same edges as a line list (no depth test, the vertices transformed in \
          `f32`); it draws Vulkan's strict lines, which tileraster's rectangle rule follows. Then the mesh's vertices as points one \
          pixel wide against its point list. \"differ\" is the share of pixels lit by either that only one lights \
@@ -291,6 +293,8 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
             wireframe: Some(Wireframe { rule, colour: None }),
             eye: Some(camera.eye),
             count_fragments: false,
+            return_colour: false,
+            return_depth: false,
             ..RenderParams::new(w, h, matrix)
         };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
@@ -313,6 +317,8 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
         points: Some(1.0),
         eye: Some(camera.eye),
         count_fragments: false,
+        return_colour: false,
+        return_depth: false,
         ..RenderParams::new(w, h, matrix)
     };
     let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
@@ -370,7 +376,7 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
          A ground plane of {} triangles seen towards the horizon, its {size}² sRGB texture repeating 16 times across it (magnified near the \
          camera, minified far away), unlit, {w}×{h}, medians of {runs} whole calls. The render pipeline is wgpu's on {} with the same \
          texture (`Rgba8UnormSrgb`, a mip chain of linear 2×2 means for trilinear, built once and uploaded with the texture on every call) \
-         and sampler; tileraster decodes the texture and builds its chain on every call. \"differ\" is the share of covered pixels \
+         and sampler; tileraster decodes the texture and builds its chain on every call, and returns colour and ids, not depth. \"differ\" is the share of covered pixels \
          whose colour differs from the CPU frame's by more than one unit in a channel ([docs/textures.md](textures.md) explains why).\n",
         mesh.triangles.len(),
         peer.adapter_name()
@@ -383,6 +389,7 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
             cull: Cull::None,
             eye: Some(camera.eye),
             count_fragments: false,
+            return_depth: false,
             texture_filter: Some(filter),
             texture_address: Some(Address::Repeat),
             ..RenderParams::new(w, h, matrix)

@@ -359,9 +359,10 @@ impl Plan {
 
     /// The call's raster: zeroed, with nodata (and no owner) already written outside the
     /// active window. With `stages_in_raster` (a backend whose stages work in the raster's
-    /// layers, as the CPU's do) it has the owner layer the stages keep
-    /// ([`Prepared::keeps_owner`]) even where the call does not return it; otherwise only the
-    /// layers the call returns.
+    /// layers, as the CPU's do) it has every layer the stages write, also those the call does
+    /// not return (a frame's owner layer, [`Prepared::keeps_owner`], and its depth or colour
+    /// where not asked for); otherwise only the layers the call returns (a values layer not
+    /// returned is empty).
     pub fn allocate_raster(&self, prepared: &Prepared, stages_in_raster: bool) -> Result<Raster, Error> {
         self.allocate_raster_reusing(prepared, Layers::default(), stages_in_raster)
     }
@@ -384,10 +385,10 @@ impl Plan {
             grid: prepared.params.grid,
             window,
             nodata: prepared.params.nodata,
-            values: reuse_layer(true, values, n, &window)?.expect("the values layer is always there"),
+            values: reuse_layer(stages_in_raster || prepared.returns_values(), values, n, &window)?.unwrap_or_default(),
             owner: reuse_layer(outputs.owner || (stages_in_raster && prepared.keeps_owner()), owner, n, &window)?,
             coverage: reuse_layer(outputs.coverage, coverage, n, &window)?,
-            colours: reuse_layer(render, colours, n, &window)?,
+            colours: reuse_layer(render && (stages_in_raster || prepared.returns_colours()), colours, n, &window)?,
             faces: reuse_layer(render, faces, n, &window)?,
             tiles: reuse_layer(outputs.tiles, None, 2 * window.width.div_ceil(TILE) as usize * window.height.div_ceil(TILE) as usize, &window)?,
             snap_bits: prepared.snap_bits,

@@ -98,6 +98,10 @@ pub struct RenderInputs {
     pub texels: Vec<u64>,
     /// The frame's fragment shader; `None`: the built-in shadings.
     pub fragment: Option<crate::render::FragmentStage>,
+    /// Whether the call returns the colour layer, and the depth layer (the values): the stages
+    /// write both in any case.
+    pub returns_colour: bool,
+    pub returns_depth: bool,
 }
 
 impl Prepared {
@@ -106,6 +110,17 @@ impl Prepared {
     /// frame returns face ids instead).
     pub fn keeps_owner(&self) -> bool {
         self.params.outputs.owner || self.pipeline() == Pipeline::Render
+    }
+
+    /// Whether the call returns the values layer: always for a heightfield, as asked for a
+    /// frame's depth.
+    pub fn returns_values(&self) -> bool {
+        self.render.as_ref().is_none_or(|r| r.returns_depth)
+    }
+
+    /// Whether the call returns a colour layer (a frame, where asked for).
+    pub fn returns_colours(&self) -> bool {
+        self.render.as_ref().is_some_and(|r| r.returns_colour)
     }
 
     /// The layers the kernels write (`FrameParams::outputs`): those the call returns, and the

@@ -8,12 +8,14 @@ pub struct Raster {
     pub grid: Grid,
     pub window: Window,
     pub nodata: f32,
+    /// Empty where the call does not return them (a frame without its depth layer).
     pub values: Vec<f32>,
     /// Owning triangle index per pixel (`u32::MAX` where none), when asked for.
     pub owner: Option<Vec<u32>>,
     /// Number of triangles covering each pixel centre, when asked for.
     pub coverage: Option<Vec<u32>>,
-    /// The render pipeline's RGBA8 colour per pixel (red in the low byte).
+    /// The render pipeline's RGBA8 colour per pixel (red in the low byte), where the call
+    /// returns it.
     pub colours: Option<Vec<u32>>,
     /// The render pipeline's input face per pixel (`u32::MAX` where none).
     pub faces: Option<Vec<u32>>,

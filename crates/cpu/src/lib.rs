@@ -37,11 +37,17 @@ pub struct Workspace {
 }
 
 impl Workspace {
-    /// Keep these layers (of a raster the caller is done with) for the next call, and the
-    /// owner layer the last call kept here where they have none.
+    /// Keep these layers (of a raster the caller is done with) for the next call, and those
+    /// the last call kept here (layers its raster did not return) where they have none.
     pub fn recycle(&mut self, layers: Layers) {
-        let owner = layers.owner.or_else(|| self.layers.owner.take());
-        self.layers = Layers { owner, ..layers };
+        let kept = std::mem::take(&mut self.layers);
+        self.layers = Layers {
+            values: layers.values.or(kept.values),
+            owner: layers.owner.or(kept.owner),
+            coverage: layers.coverage.or(kept.coverage),
+            colours: layers.colours.or(kept.colours),
+            faces: layers.faces.or(kept.faces),
+        };
     }
 }
 
@@ -161,12 +167,15 @@ fn rasterise_planned_with(
         }
     }
     raster.stats = plan.stats(&counters);
-    // An owner layer the call does not return (the render pipeline's) stays in the workspace.
-    if !prepared.params.outputs.owner {
-        let owner = raster.owner.take();
-        if let Some(w) = workspace {
-            w.layers.owner = owner;
-        }
+    // The layers the stages wrote that the call does not return stay in the workspace.
+    let unreturned = Layers {
+        values: (!prepared.returns_values()).then(|| std::mem::take(&mut raster.values)),
+        owner: raster.owner.take_if(|_| !prepared.params.outputs.owner),
+        colours: raster.colours.take_if(|_| !prepared.returns_colours()),
+        ..Layers::default()
+    };
+    if let Some(w) = workspace {
+        w.recycle(unreturned);
     }
     Ok(raster)
 }

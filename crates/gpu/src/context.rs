@@ -842,7 +842,10 @@ impl GpuContext {
         let shaded_bytes = if scene.pipeline.renders() { pixels * 4 } else { 0 };
         let colours = b.colours.get(device, shaded_bytes);
         let faces = b.faces.get(device, shaded_bytes);
-        let readback = b.readback.get(device, stats_bytes + pixels * 4 + owner_read + coverage_bytes + 2 * shaded_bytes + tile_bytes);
+        // A frame's colour and depth only where the call returns them.
+        let colour_read = if raster.colours.is_some() { shaded_bytes } else { 0 };
+        let value_read = if raster.values.is_empty() { 0 } else { pixels * 4 };
+        let readback = b.readback.get(device, stats_bytes + value_read + owner_read + coverage_bytes + colour_read + shaded_bytes + tile_bytes);
 
         let mut counters = [0u32; Counter::COUNT];
         let mut owner_out_of_range = false;
@@ -884,14 +887,14 @@ impl GpuContext {
         };
         self.encode_stages(&mut encoder, scene.pipeline, scene.rows, Scope::Window, &frame, groups, &buffers)?;
         encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
-        encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, pixels * 4);
-        encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + pixels * 4, owner_read);
-        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + pixels * 4 + owner_read, coverage_bytes);
-        let shaded_at = stats_bytes + pixels * 4 + owner_read + coverage_bytes;
-        encoder.copy_buffer_to_buffer(&colours, 0, &readback, shaded_at, shaded_bytes);
-        encoder.copy_buffer_to_buffer(&faces, 0, &readback, shaded_at + shaded_bytes, shaded_bytes);
-        encoder.copy_buffer_to_buffer(&tile_stats, 0, &readback, shaded_at + 2 * shaded_bytes, tile_bytes);
-        let total = shaded_at + 2 * shaded_bytes + tile_bytes;
+        encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, value_read);
+        encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + value_read, owner_read);
+        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + value_read + owner_read, coverage_bytes);
+        let shaded_at = stats_bytes + value_read + owner_read + coverage_bytes;
+        encoder.copy_buffer_to_buffer(&colours, 0, &readback, shaded_at, colour_read);
+        encoder.copy_buffer_to_buffer(&faces, 0, &readback, shaded_at + colour_read, shaded_bytes);
+        encoder.copy_buffer_to_buffer(&tile_stats, 0, &readback, shaded_at + colour_read + shaded_bytes, tile_bytes);
+        let total = shaded_at + colour_read + shaded_bytes + tile_bytes;
         self.recorder.window();
         self.recorder.submit();
         self.recorder.wait(total);
@@ -903,13 +906,15 @@ impl GpuContext {
                 let words: &[u32] = bytemuck::cast_slice(bytes);
                 let (stat_words, words) = words.split_at(Counter::COUNT);
                 counters.copy_from_slice(stat_words);
-                let (value_words, rest) = words.split_at(pixels as usize);
+                let (value_words, rest) = words.split_at((value_read / 4) as usize);
                 let (owner_words, rest) = rest.split_at((owner_read / 4) as usize);
                 let (coverage_words, rest) = rest.split_at((coverage_bytes / 4) as usize);
-                let (colour_words, rest) = rest.split_at((shaded_bytes / 4) as usize);
+                let (colour_words, rest) = rest.split_at((colour_read / 4) as usize);
                 let (face_words, tile_words) = rest.split_at((shaded_bytes / 4) as usize);
                 let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
-                copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
+                if value_read > 0 {
+                    copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
+                }
                 if let Some(owner) = raster.owner.as_mut() {
                     match owner_slots {
                         Some(slots) => {
@@ -926,8 +931,10 @@ impl GpuContext {
                 if let Some(coverage) = raster.coverage.as_mut() {
                     copy_rows(coverage_words, &frame, width, x0, y0, coverage);
                 }
-                if let (Some(colours), Some(faces)) = (raster.colours.as_mut(), raster.faces.as_mut()) {
+                if let Some(colours) = raster.colours.as_mut() {
                     copy_rows(colour_words, &frame, width, x0, y0, colours);
+                }
+                if let Some(faces) = raster.faces.as_mut() {
                     copy_rows(face_words, &frame, width, x0, y0, faces);
                 }
                 if let Some(layer) = raster.tiles.as_mut() {

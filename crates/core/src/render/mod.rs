@@ -180,6 +180,13 @@ pub struct RenderParams {
     /// Count per `TILE × TILE` tile the triangles that reach it and those its depth bound hid
     /// (the frame's `tiles`, for heat maps). Off by default.
     pub count_tiles: bool,
+    /// Return the colour layer (on by default). Off, the frame's `colour` is empty and the GPU
+    /// backend leaves it on the device: an id or depth view reads back less.
+    pub return_colour: bool,
+    /// Return the depth layer (on by default). Off, the frame's `depth` is empty and the GPU
+    /// backend leaves it on the device. The face ids are always returned: the frame's
+    /// statistics count them.
+    pub return_depth: bool,
     /// Every texture filtered so (`None`: as each texture says).
     pub texture_filter: Option<Filter>,
     /// Every texture addressed so in `u` and `v` (`None`: as each texture says).
@@ -233,6 +240,8 @@ impl RenderParams {
             shininess: 32,
             count_fragments: true,
             count_tiles: false,
+            return_colour: true,
+            return_depth: true,
             texture_filter: None,
             texture_address: None,
             faces: true,
@@ -731,6 +740,8 @@ pub(crate) fn prepare_instances_in(
             textures: texture_infos,
             texels,
             fragment: params.fragment,
+            returns_colour: params.return_colour,
+            returns_depth: params.return_depth,
         }),
     };
     Ok((prepared, counts))

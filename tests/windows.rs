@@ -228,3 +228,22 @@ fn gpu_tile_beyond_its_binding_is_an_error() {
         other => panic!("expected RasterTooLarge, got {:?}", other.map(|f| f.stats)),
     }
 }
+
+/// A raster more than 65,535 tiles high (the most workgroups a dispatch may have along a
+/// dimension, and the per-tile stages dispatch one per tile) is cut into windows the device
+/// can dispatch: the CPU's bits.
+#[test]
+fn gpu_rasters_taller_than_a_dispatch_equal_the_cpu() {
+    if !common::gpu_or_skip("gpu_rasters_taller_than_a_dispatch_equal_the_cpu") {
+        return;
+    }
+    let height = 65_535 * 16 + 40;
+    let scene = scenes::terrain(0.0, 0.0, 24.0, height as f64, 3, 2_000, 11);
+    let grid = Grid::new(0.0, 24.0, 0.0, height as f64, 5, height);
+    let params = Params::new(grid).with_outputs(Outputs { owner: true, coverage: true, tiles: false });
+    let cpu = rasterise(&scene, &params, Backend::Cpu).unwrap();
+    let gpu = rasterise(&scene, &params, Backend::Gpu).unwrap_or_else(|e| panic!("{height} rows on the GPU: {e}"));
+    let (count, first) = cpu.compare_bits(&gpu, 5);
+    assert_eq!(count, 0, "{first:?}");
+    assert_eq!(cpu.stats, gpu.stats);
+}

@@ -66,6 +66,11 @@ impl Window {
 /// A scene made ready for the kernels on one grid: snapped, culled, oriented, with planes, and
 /// analysed for overlaps. It serves any window of the grid ([`Prepared::plan`]); `window` is
 /// the one it was prepared for, the default.
+///
+/// The backends trust what preparation proved about it (the rows free of overlaps, the
+/// render pipeline's `ShadeParams::small_edges`): its fields are open for reading and for the
+/// outputs it asks for (`params.outputs`), and a preparation edited otherwise is outside the
+/// numeric contract.
 #[derive(Debug, Clone)]
 pub struct Prepared {
     pub params: Params,

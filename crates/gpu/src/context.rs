@@ -18,6 +18,10 @@ use tileraster_kernels::stages::scan::QUEUE_HEAD;
 use tileraster_kernels::stages::{bin, fine};
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE, TRIANGLE_GROUP};
 
+/// Workgroups a dispatch may have along each dimension: Vulkan's least
+/// `maxComputeWorkGroupCount`, wgpu's default limit.
+const MAX_GROUPS: u32 = 65_535;
+
 /// Largest window the backend rasterises at once, in pixels, whatever the device allows:
 /// big enough to keep a GPU busy, small enough to bound the per-window buffers.
 static WINDOW_LIMIT: AtomicU64 = AtomicU64::new(4096 * 4096);
@@ -534,10 +538,11 @@ impl GpuContext {
         buf
     }
 
-    /// Workgroups for `items` invocations of a per-triangle stage, in 2D past 65,535.
+    /// Workgroups for `items` invocations of a per-triangle stage, in 2D past
+    /// [`MAX_GROUPS`].
     fn dispatch_triangles(frame: &mut FrameParams, items: u32) -> (u32, u32) {
         let groups = items.div_ceil(TRIANGLE_GROUP).max(1);
-        let x = groups.min(65_535);
+        let x = groups.min(MAX_GROUPS);
         let y = groups.div_ceil(x);
         frame.dispatch_width = x * TRIANGLE_GROUP;
         (x, y)
@@ -670,9 +675,10 @@ impl GpuContext {
                     Dispatch::PerTile => (frame.tiles_x, frame.tiles_y),
                     Dispatch::PerSmallTriangle => {
                         let groups = frame.small_triangles.div_ceil(TRIANGLE_GROUP).max(1);
-                        (groups.min(65_535), groups.div_ceil(65_535))
+                        (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS))
                     }
-                    // The counts are on the device: `bin_scan` wrote them.
+                    // The counts are on the device: `bin_scan` wrote them, at most the
+                    // window's tile rows (`windows` bounds those).
                     Dispatch::Queued => (0, 0),
                 };
                 let timestamp_writes = queries.map(|query_set| wgpu::ComputePassTimestampWrites {
@@ -1145,13 +1151,14 @@ fn split(pending: &mut Vec<Window>, window: Window, why: impl FnOnce() -> String
 }
 
 /// Cut `area` into tile-aligned bands of full width (or tile-aligned blocks when one row of
-/// the area is already too wide), each at most `max_pixels`.
+/// the area is already too wide), each at most `max_pixels`, and at most [`MAX_GROUPS`]
+/// tiles high (the per-tile stages dispatch a workgroup per tile).
 fn windows(area: &Window, max_pixels: u64) -> Vec<Window> {
     let max_pixels = max_pixels.max((TILE * TILE) as u64);
     // At most `BIN_PART_TILES` tiles a row, so that one band of tile rows is short enough.
     let widest = (max_pixels / TILE as u64 / TILE as u64 * TILE as u64).clamp(TILE as u64, (BIN_PART_TILES * TILE) as u64);
     let width = (area.width as u64).min(widest) as u32;
-    let height = ((max_pixels / width as u64) / TILE as u64 * TILE as u64).max(TILE as u64).min(area.height as u64) as u32;
+    let height = ((max_pixels / width as u64) / TILE as u64 * TILE as u64).clamp(TILE as u64, (MAX_GROUPS * TILE) as u64).min(area.height as u64) as u32;
     let mut out = Vec::new();
     let mut y = 0;
     while y < area.height {

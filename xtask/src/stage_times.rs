@@ -71,7 +71,9 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     cases.push(("render: fill rate, 8 full-frame layers, 1920×1080, ids".into(), Case::Render(meshes::fill_layers(8), Box::new(fill.clone()))));
     // What the render pipeline computes: no fragment counts, so the hidden layers get no tests.
     let uncounted = RenderParams { count_fragments: false, ..fill };
-    cases.push(("render: fill rate, 8 layers, ids, fragments not counted".into(), Case::Render(meshes::fill_layers(8), Box::new(uncounted))));
+    cases.push(("render: fill rate, 8 layers, ids, fragments not counted".into(), Case::Render(meshes::fill_layers(8), Box::new(uncounted.clone()))));
+    // The same frame's visible work alone: what the seven hidden layers cost beside it.
+    cases.push(("render: fill rate, 1 layer, ids, fragments not counted".into(), Case::Render(meshes::fill_layers(1), Box::new(uncounted))));
     cases.extend(report_cases(&mesh, &base)?);
     Ok(cases)
 }

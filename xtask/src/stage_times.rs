@@ -72,6 +72,9 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     // What the render pipeline computes: no fragment counts, so the hidden layers get no tests.
     let uncounted = RenderParams { count_fragments: false, ..fill };
     cases.push(("render: fill rate, 8 layers, ids, fragments not counted".into(), Case::Render(meshes::fill_layers(8), Box::new(uncounted.clone()))));
+    // As the render pipeline it is measured against reads it back: the ids alone.
+    let ids_alone = RenderParams { return_colour: false, return_depth: false, ..uncounted.clone() };
+    cases.push(("render: fill rate, 8 layers, the ids alone".into(), Case::Render(meshes::fill_layers(8), Box::new(ids_alone))));
     // The same frame's visible work alone: what the seven hidden layers cost beside it.
     cases.push(("render: fill rate, 1 layer, ids, fragments not counted".into(), Case::Render(meshes::fill_layers(1), Box::new(uncounted))));
     cases.extend(report_cases(&mesh, &base)?);

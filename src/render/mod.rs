@@ -189,7 +189,8 @@ pub struct PreparedMesh {
 #[derive(Default)]
 struct FrameMemory {
     geometry: GeometryMemory,
-    /// The CPU's setups and the layers the frame does not return (the owner layer).
+    /// The CPU's setups and the layers its stages wrote that the frame does not return (the
+    /// owner layer, and the colour or depth where not asked for).
     cpu: tileraster_cpu::Workspace,
 }
 

@@ -50,7 +50,8 @@ fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
 }
 
 /// The GPU backend's median for `params` beside the CPU's frame `cpu`, and whether its frame
-/// has the same bits (colour, ids, depth); or no adapter.
+/// has the same bits (the ids, and the colour and depth where `params` returns them; the tests
+/// compare every layer); or no adapter.
 fn gpu_cell(gpu: bool, runs: usize, mesh: &Mesh, params: &RenderParams, cpu: &Frame) -> Result<(String, &'static str), String> {
     if !gpu {
         return Ok(("no adapter".into(), "–"));
@@ -88,7 +89,7 @@ pub fn run(quick: bool) -> Result<String, String> {
         "Medians of {runs} whole calls after a warm-up. tileraster draws triangle ids (`--shading ids`, the same fragment work as the \
          peer; no per-pixel fragment counts, which the peer does not make either) and, in its own columns, Phong shading; \"prepared\" is `PreparedMesh::render_into`, which keeps the frames' memory and \
          output layers between calls as the peer keeps its render target and buffers (on either backend); the render pipeline is wgpu's on {adapter} with a Depth32Float buffer and the `Less` \
-         test, writing R32Uint triangle ids. Both read the ids back to the host, and nothing else (tileraster's ids frames turn          `return_colour` and `return_depth` off; its Phong frames return all three layers). \"ids agree\" is the share of pixels where \
+         test, writing R32Uint triangle ids. Both read the ids back to the host, and nothing else (tileraster's ids frames turn `return_colour` and `return_depth` off; its Phong frames return all three layers). \"ids agree\" is the share of pixels where \
          tileraster's CPU frame and the render pipeline name the same triangle.\n"
     );
     let _ = writeln!(

@@ -123,7 +123,8 @@ fn advise_huge_pages(ptr: *mut u8, bytes: usize) {
 fn advise_huge_pages(_ptr: *mut u8, _bytes: usize) {}
 
 impl Raster {
-    /// The value at window pixel `(i, j)`.
+    /// The value at window pixel `(i, j)` (of a raster that returns its values: not a frame's
+    /// without its depth layer).
     pub fn value(&self, i: u32, j: u32) -> f32 {
         self.values[j as usize * self.window.width as usize + i as usize]
     }

@@ -406,6 +406,24 @@ fn bad_input_is_a_typed_error() {
     assert!(matches!(err(&mesh, &RenderParams::new(64, 64, ortho)), Error::SingularCamera { .. }));
     let frame = cpu(&mesh, &RenderParams { eye: Some([0.0, 0.0, -10.0]), ..RenderParams::new(64, 64, ortho) });
     assert!(frame.stats.pixels_covered > 0);
+    // Each camera error names its own cause: a field of view of 0 (which frames the mesh from
+    // infinitely far), an extent f64 cannot hold.
+    let reason = |camera: Camera| match camera.view_projection(64, 48) {
+        Err(Error::SingularCamera { reason }) => reason,
+        other => panic!("a singular camera expected, not {other:?}"),
+    };
+    assert!(reason(Camera::framing(&mesh, 4.0 / 3.0, 0.0)).contains("field of view"));
+    let triangle = |s: f64| Mesh { positions: vec![[0.0, 0.0, 0.0], [s, 0.0, 0.0], [0.0, s, 0.0]], triangles: vec![[0, 1, 2]], ..Default::default() };
+    let mut beyond = triangle(1.7e308);
+    beyond.positions[0][0] = -1.7e308;
+    assert!(reason(Camera::framing(&beyond, 4.0 / 3.0, 45.0)).contains("not finite"));
+    // Coordinates whose squares overflow f64 still frame, as the same triangle at unit scale.
+    let covered = |mesh: &Mesh| {
+        let view = Camera::framing(mesh, 4.0 / 3.0, 45.0).view_projection(64, 48).unwrap_or_else(|e| panic!("{e}"));
+        cpu(mesh, &RenderParams { cull: Cull::None, ..RenderParams::new(64, 48, view) }).stats.pixels_covered
+    };
+    let unit = covered(&triangle(1.0));
+    assert!(unit > 100 && covered(&triangle(1e200)) == unit && covered(&triangle(1e300)) == unit, "the framed triangle covers {unit} pixels at unit scale");
 }
 
 /// Blending: both backends give the same bits for every depth function, with and without

@@ -75,6 +75,20 @@ impl Camera {
             return Err(Error::ZeroSizedRaster { width: width as u64, height: height as u64 });
         }
         let singular = |reason: &str| Err(Error::SingularCamera { reason: reason.into() });
+        // The checks run from what the caller chose (the field of view) to what follows from
+        // it, so that each names its own cause: a field of view of 0 frames a mesh from
+        // infinitely far, which would otherwise read as a degenerate up vector.
+        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            return singular("the field of view must lie strictly between 0 and 180 degrees");
+        }
+        if !self.eye.iter().chain(&self.target).chain(&self.up).all(|c| c.is_finite()) {
+            return Err(Error::SingularCamera {
+                reason: format!(
+                    "the eye {:?}, target {:?} or up {:?} is not finite (framing a mesh whose extent f64 cannot hold gives that: scale the mesh down)",
+                    self.eye, self.target, self.up
+                ),
+            });
+        }
         let forward = sub(self.target, self.eye);
         if norm(forward).is_nan() || norm(forward) <= 0.0 {
             return singular("the eye and the target are the same point; move the eye");
@@ -83,9 +97,6 @@ impl Camera {
         let side = cross(f, self.up);
         if norm(side).is_nan() || norm(side) <= 1e-12 * norm(self.up) {
             return singular("the up vector is parallel to the viewing direction (or zero); choose another up");
-        }
-        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            return singular("the field of view must lie strictly between 0 and 180 degrees");
         }
         if !(self.near > 0.0 && self.far > self.near) || !self.far.is_finite() {
             return singular("the near and far planes must satisfy 0 < near < far");
@@ -146,6 +157,14 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
+/// The Euclidean length; scaled by the largest component where the plain sum of squares
+/// overflows or underflows (a mesh with coordinates near 1e200), the plain result elsewhere.
 fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+    let plain = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let largest = a[0].abs().max(a[1].abs()).max(a[2].abs());
+    if plain.is_finite() && (plain > 0.0 || largest == 0.0) || !largest.is_finite() {
+        return plain;
+    }
+    let s = [a[0] / largest, a[1] / largest, a[2] / largest];
+    largest * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
 }

@@ -561,7 +561,7 @@ fn demo(dir: &Path, size: u32, cells: u32) -> Result<ExitCode, String> {
 /// The demo's terrain in perspective: Phong-shaded, heights exaggerated four times and coloured
 /// by a ramp, on both backends, compared bit for bit (colour, depth and ids).
 fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
-    use tileraster::render::{Camera, Mesh, RenderParams, Shading, render};
+    use tileraster::render::{Camera, Mesh, Projection, RenderParams, Shading, Up, render};
     const RUNS: usize = 5;
     let (w, h) = (1280, 720);
     let (lo, hi) = scene.vertices.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v[2]), hi.max(v[2])));
@@ -580,7 +580,7 @@ fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
         colours: Some(scene.vertices.iter().map(|v| ramp((v[2] - lo) / (hi - lo).max(1e-9))).collect()),
         ..Default::default()
     };
-    let camera = Camera::framing(&mesh, w as f64 / h as f64, 40.0);
+    let camera = Camera::framing(&mesh, w as f64 / h as f64, Projection::Perspective { fov_deg: 40.0 }, Up::Z);
     let params = RenderParams {
         shading: Shading::Phong,
         background: [30, 34, 42, 255],
@@ -603,7 +603,7 @@ fn demo_render(scene: &tileraster::Scene, dir: &Path) -> Result<bool, String> {
     let png = dir.join("demo-3d.png");
     let obj = dir.join("terrain.obj");
     tileraster_io::write_obj(scene, &obj).map_err(|e| e.to_string())?;
-    println!("  wrote {} (the TIN, for `tileraster render`)", obj.display());
+    println!("  wrote {} (the TIN, +Z up: `tileraster render {0} --up z`)", obj.display());
     // The TIN again with the DEM's preview draped over it as a texture (north at the top row).
     let ([x0, y0], [x1, y1]) = scene
         .vertices

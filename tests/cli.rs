@@ -521,7 +521,7 @@ fn the_tin_written_is_the_one_rasterised_and_owners_index_its_faces() {
 /// the layers the library's frame gives.
 #[test]
 fn render_writes_the_heat_map_and_checksums() {
-    use tileraster::render::{Camera, Mesh, RenderParams, render};
+    use tileraster::render::{Camera, Eye, Mesh, Projection, RenderParams, render};
     let dir = scratch("render-diagnostics");
     let sphere = tileraster_testkit::meshes::sphere([0.0, 0.0, 0.0], 1.0, 10, 16);
     let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
@@ -536,8 +536,9 @@ fn render_writes_the_heat_map_and_checksums() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     let mesh = Mesh { positions: scene.vertices.clone(), triangles: scene.triangles.clone(), ..Default::default() };
-    let camera = Camera::look_at([3.0, -3.0, 2.0], [0.0; 3], [0.0, 0.0, 1.0], 45.0, &mesh);
-    let params = RenderParams { eye: Some([3.0, -3.0, 2.0]), count_tiles: true, ..RenderParams::new(70, 50, camera.view_projection(70, 50).unwrap()) };
+    let camera = Camera::look_at([3.0, -3.0, 2.0], [0.0; 3], [0.0, 0.0, 1.0], Projection::Perspective { fov_deg: 45.0 }, &mesh);
+    let params =
+        RenderParams { eye: Some(Eye::Point([3.0, -3.0, 2.0])), count_tiles: true, ..RenderParams::new(70, 50, camera.view_projection(70, 50).unwrap()) };
     let frame = render(&mesh, &params, Backend::Cpu).unwrap();
     let (w, h, rgba) = frame.heat_map().unwrap();
     let decoded = image::open(&heat).unwrap().to_rgba8();
@@ -555,7 +556,7 @@ fn render_writes_the_heat_map_and_checksums() {
 /// that names it.
 #[test]
 fn render_draws_instances_from_a_file_of_transforms() {
-    use tileraster::render::{Camera, RenderParams, World, render_world};
+    use tileraster::render::{Camera, Eye, Projection, RenderParams, World, render_world};
     let dir = scratch("render-instances");
     let sphere = tileraster_testkit::meshes::sphere([0.0, 0.0, 0.0], 0.5, 8, 12);
     let scene = Scene::new(sphere.positions.clone(), sphere.triangles.clone());
@@ -583,8 +584,8 @@ fn render_draws_instances_from_a_file_of_transforms() {
     let [lo, hi] = world.bounds().unwrap();
     let corners: Vec<[f64; 3]> = (0..8).map(|k: usize| std::array::from_fn(|a| if k >> a & 1 == 0 { lo[a] } else { hi[a] })).collect();
     let proxy = tileraster::render::Mesh { positions: corners, triangles: vec![[0, 1, 2]], ..Default::default() };
-    let camera = Camera::look_at([0.7, -4.0, 3.0], [0.7, 0.7, 0.0], [0.0, 0.0, 1.0], 45.0, &proxy);
-    let params = RenderParams { eye: Some([0.7, -4.0, 3.0]), ..RenderParams::new(80, 60, camera.view_projection(80, 60).unwrap()) };
+    let camera = Camera::look_at([0.7, -4.0, 3.0], [0.7, 0.7, 0.0], [0.0, 0.0, 1.0], Projection::Perspective { fov_deg: 45.0 }, &proxy);
+    let params = RenderParams { eye: Some(Eye::Point([0.7, -4.0, 3.0])), ..RenderParams::new(80, 60, camera.view_projection(80, 60).unwrap()) };
     let frame = render_world(&world, &params, Backend::Cpu).unwrap();
     assert_eq!(image::open(&png).unwrap().to_rgba8().as_raw(), &frame.rgba8(), "the PNG is the library's frame");
 
@@ -618,9 +619,15 @@ fn render_writes_the_frame_the_library_renders() {
     assert!(stderr.trim().starts_with("{\"instances_drawn\":1,") && stderr.contains("\"fragments\":"), "--stats: {stderr}");
 
     let mesh = Mesh { positions: scene.vertices.clone(), triangles: scene.triangles.clone(), ..Default::default() };
-    let camera = tileraster::render::Camera::look_at([5.0, -4.0, 6.0], [1.0, 2.0, 3.0], [0.0, 0.0, 1.0], 40.0, &mesh);
+    let camera = tileraster::render::Camera::look_at(
+        [5.0, -4.0, 6.0],
+        [1.0, 2.0, 3.0],
+        [0.0, 0.0, 1.0],
+        tileraster::render::Projection::Perspective { fov_deg: 40.0 },
+        &mesh,
+    );
     let mut params = RenderParams::new(96, 64, camera.view_projection(96, 64).unwrap());
-    (params.shading, params.cull, params.eye) = (Shading::Ids, tileraster::render::Cull::None, Some([5.0, -4.0, 6.0]));
+    (params.shading, params.cull, params.eye) = (Shading::Ids, tileraster::render::Cull::None, Some(tileraster::render::Eye::Point([5.0, -4.0, 6.0])));
     let frame = render(&mesh, &params, Backend::Cpu).unwrap();
     let decoded = image::open(&png).unwrap().to_rgba8();
     assert_eq!(decoded.dimensions(), (96, 64));
@@ -896,4 +903,125 @@ fn the_linear_algorithms_radius_fills_cells_outside_the_tin() {
         assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains(expected), "{}", String::from_utf8_lossy(&out.stderr));
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A glTF file with a square of side 2 about the origin in the plane z = 0 facing +z, and two
+/// cameras 5 units up looking down at it: node 1 "Top", orthographic, 8 × 4 units (xmag 4,
+/// ymag 2), and node 2 "Lens", perspective with an aspect ratio of 1.5.
+fn gltf_with_cameras(dir: &Path) -> PathBuf {
+    let positions: [[f32; 3]; 4] = [[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]];
+    let indices: [u16; 6] = [0, 1, 2, 0, 2, 3];
+    let mut buffer: Vec<u8> = positions.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+    buffer.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    std::fs::write(dir.join("square.bin"), &buffer).unwrap();
+    let json = r#"{
+  "asset": {"version": "2.0"},
+  "scene": 0,
+  "scenes": [{"nodes": [0, 1, 2]}],
+  "nodes": [
+    {"mesh": 0},
+    {"name": "Top", "camera": 0, "translation": [0, 0, 5]},
+    {"name": "Lens", "camera": 1, "translation": [0, 0, 5]}
+  ],
+  "cameras": [
+    {"type": "orthographic", "orthographic": {"xmag": 4, "ymag": 2, "znear": 0.1, "zfar": 20}},
+    {"name": "lens camera", "type": "perspective", "perspective": {"yfov": 0.8, "aspectRatio": 1.5, "znear": 0.1}}
+  ],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+  "buffers": [{"uri": "square.bin", "byteLength": 60}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+  "accessors": [
+    {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+    {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}
+  ]
+}"#;
+    let path = dir.join("square.gltf");
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+/// `tileraster render` with `args`; the PNG's size and the pixels drawn (alpha not 0).
+fn rendered(input: &Path, png: &Path, args: &[&str]) -> Result<((u32, u32), usize), String> {
+    let out = bin().args(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap(), "--backend", "cpu", "--quiet"]).args(args).output().unwrap();
+    if !out.status.success() {
+        return Err(String::from_utf8_lossy(&out.stderr).into_owned());
+    }
+    let image = image::open(png).unwrap().to_rgba8();
+    Ok((image.dimensions(), image.pixels().filter(|p| p[3] != 0).count()))
+}
+
+/// `--camera-node`: the file's cameras by node index, node name or camera name; the frame as
+/// high as the camera's aspect ratio makes it unless `--size` says otherwise, the vertical
+/// extent kept; an unknown name lists the cameras there are.
+#[test]
+fn render_views_through_a_gltf_files_cameras() {
+    let dir = scratch("render-camera-node");
+    let gltf = gltf_with_cameras(&dir);
+    let png = dir.join("frame.png");
+    // 1280 px across 8 units: the square is 320 × 320 pixels.
+    assert_eq!(rendered(&gltf, &png, &["--camera-node", "Top"]).unwrap(), ((1280, 640), 320 * 320));
+    let by_name = std::fs::read(&png).unwrap();
+    assert_eq!(rendered(&gltf, &png, &["--camera-node", "1"]).unwrap(), ((1280, 640), 320 * 320));
+    assert_eq!(std::fs::read(&png).unwrap(), by_name, "by index and by name: the same frame");
+    // A square frame keeps the 4 units of height: 160 px a unit.
+    assert_eq!(rendered(&gltf, &png, &["--camera-node", "Top", "--size", "640", "640"]).unwrap(), ((640, 640), 320 * 320));
+    // The perspective camera, by its camera's name: 1280 × 853; the square at distance 5 in a
+    // vertical field of 0.8 rad spans 2 / (2 · 5 · tan 0.4) of the height.
+    let ((w, h), drawn) = rendered(&gltf, &png, &["--camera-node", "lens camera"]).unwrap();
+    assert_eq!((w, h), (1280, 853));
+    let side = 853.0 * 2.0 / (10.0 * 0.4f64.tan());
+    assert!((drawn as f64 - side * side).abs() < 4.0 * side, "{drawn} pixels drawn, about {:.0} expected", side * side);
+    let e = rendered(&gltf, &png, &["--camera-node", "Nope"]).unwrap_err();
+    assert!(e.contains("Nope") && e.contains("\"Top\"") && e.contains("\"lens camera\""), "{e}");
+    let obj = dir.join("square.obj");
+    std::fs::write(&obj, "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+    let e = rendered(&obj, &png, &["--camera-node", "0"]).unwrap_err();
+    assert!(e.contains("--camera-node"), "{e}");
+}
+
+/// `--ortho`: a width in the mesh's units, or fitted to the mesh; `--up` and the formats'
+/// up axes: a box tall along +y stands upright in the default view of an OBJ file (y up),
+/// and `--up z` views it otherwise.
+#[test]
+fn render_projects_orthographically_and_knows_which_way_is_up() {
+    let dir = scratch("render-ortho-up");
+    let gltf = gltf_with_cameras(&dir);
+    let png = dir.join("frame.png");
+    // Looking down from +z, y up on the screen, 4 units across 640 px: 320 × 320 pixels.
+    let camera = ["--camera", "0,0,5,0,0,0,0,1,0", "--size", "640", "480"];
+    assert_eq!(rendered(&gltf, &png, &[&camera[..], &["--ortho", "4"]].concat()).unwrap(), ((640, 480), 320 * 320));
+    // Fitted: the square fills 90 % of the height.
+    let ((_, _), drawn) = rendered(&gltf, &png, &[&camera[..], &["--ortho"]].concat()).unwrap();
+    assert!((drawn as f64 - (0.9f64 * 480.0).powi(2)).abs() < 4.0 * 432.0, "{drawn} pixels");
+    for width in ["0", "-3"] {
+        let e = rendered(&gltf, &png, &["--ortho", width]).unwrap_err();
+        assert!(e.contains("positive"), "{e}");
+    }
+    // An orthographic matrix as it is, lit from its viewing direction: looking down −z from
+    // z = 5 (depth 0.5 at z = 0), 4 units across 640 px.
+    let mvp = "0.5,0,0,0,0,-0.5,0,0,0,0,-0.125,0.5,0,0,0,1";
+    assert_eq!(rendered(&gltf, &png, &["--mvp", mvp, "--size", "640", "640", "--shading", "phong"]).unwrap(), ((640, 640), 320 * 320));
+    let e = rendered(&gltf, &png, &["--ortho", "2", "--fov", "30"]).unwrap_err();
+    assert!(e.contains("--fov") && e.contains("--ortho"), "{e}");
+
+    let mut text = String::new();
+    for k in 0..8 {
+        text += &format!("v {} {} {}\n", if k & 1 == 0 { -0.5 } else { 0.5 }, if k & 2 == 0 { -2.0 } else { 2.0 }, if k & 4 == 0 { -0.5 } else { 0.5 });
+    }
+    // Faces outward: -x, +x, -y, +y, -z, +z.
+    text += "f 1 5 7\nf 1 7 3\nf 2 4 8\nf 2 8 6\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\n";
+    let obj = dir.join("tall.obj");
+    std::fs::write(&obj, text).unwrap();
+    let extent = |args: &[&str]| {
+        rendered(&obj, &png, args).unwrap();
+        let image = image::open(&png).unwrap().to_rgba8();
+        let drawn: Vec<(u32, u32)> = image.enumerate_pixels().filter(|p| p.2[3] != 0).map(|p| (p.0, p.1)).collect();
+        let span = |f: fn(&(u32, u32)) -> u32| drawn.iter().map(f).max().unwrap() - drawn.iter().map(f).min().unwrap();
+        (span(|p| p.0), span(|p| p.1), std::fs::read(&png).unwrap())
+    };
+    let (w, h, default) = extent(&[]);
+    assert!(h > 2 * w, "an OBJ's y axis is up: the tall box spans {w} × {h} pixels");
+    assert_eq!(extent(&["--up", "y"]).2, default, "y is the OBJ default");
+    let (w, h, _) = extent(&["--up", "z"]);
+    assert!(h < 2 * w, "with z up the box lies along the view: {w} × {h} pixels");
 }

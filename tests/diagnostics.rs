@@ -4,7 +4,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{Camera, Cull, Frame, Mesh, NO_FACE, RenderParams, Shading, render};
+use tileraster::render::{Camera, Cull, Eye, Frame, Mesh, NO_FACE, Projection, RenderParams, Shading, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 
@@ -24,7 +24,8 @@ fn crc32_reference(bytes: &[u8]) -> u32 {
 fn scene() -> (Mesh, RenderParams) {
     let mut mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 16, 24);
     mesh.triangles.extend(meshes::fill_layers(3).triangles.iter().map(|t| t.map(|v| v % 4)));
-    let camera = Camera { eye: [2.0, -2.5, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
+    let camera =
+        Camera { eye: [2.0, -2.5, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 50.0 }, near: 0.5, far: 9.0 };
     let params =
         RenderParams { cull: Cull::None, shading: Shading::Phong, count_tiles: true, ..RenderParams::new(133, 97, camera.view_projection(133, 97).unwrap()) };
     (mesh, params)
@@ -41,7 +42,7 @@ fn frame(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Frame {
 fn tile_counts_are_the_same_on_both_backends_and_add_up() {
     let layers = meshes::fill_layers(6);
     let (sphere, params) = scene();
-    let flat = RenderParams { eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(150, 100, tileraster::render::IDENTITY) };
+    let flat = RenderParams { eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(150, 100, tileraster::render::IDENTITY) };
     for (name, mesh, params) in [("sphere", &sphere, params.clone()), ("layers", &layers, RenderParams { count_tiles: true, cull: Cull::None, ..flat })] {
         let cpu = frame(mesh, &params, Backend::Cpu);
         let tiles = cpu.tiles.as_ref().expect("tile counts asked for");

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{assert_frame_parity, assert_parity};
-use tileraster::render::{Camera, Cull, DepthFunc, RenderParams, Shading};
+use tileraster::render::{Camera, Cull, DepthFunc, Eye, Projection, RenderParams, Shading};
 use tileraster::{FineWalk, Grid, Mode, Outputs, Params, Skips, set_gpu_fine_walk};
 use tileraster_testkit::{meshes, scenes};
 
@@ -39,9 +39,16 @@ fn both_ways_through_the_bins_give_the_cpu_bits() {
                 for (count_fragments, hidden_triangles) in [(true, true), (false, true), (true, false)] {
                     let clear_depth = if depth_func == DepthFunc::GreaterEqual { 0.0 } else { 1.0 };
                     let mvp = if name.starts_with("terrain") {
-                        Camera { eye: [1.0, -1.5, 2.0], target: [1.0, 1.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.1, far: 10.0 }
-                            .view_projection(181, 133)
-                            .unwrap()
+                        Camera {
+                            eye: [1.0, -1.5, 2.0],
+                            target: [1.0, 1.0, 0.0],
+                            up: [0.0, 0.0, 1.0],
+                            projection: Projection::Perspective { fov_deg: 50.0 },
+                            near: 0.1,
+                            far: 10.0,
+                        }
+                        .view_projection(181, 133)
+                        .unwrap()
                     } else {
                         tileraster::render::IDENTITY
                     };
@@ -52,7 +59,7 @@ fn both_ways_through_the_bins_give_the_cpu_bits() {
                         count_fragments,
                         count_tiles: true,
                         skips: Skips { hidden_triangles, ..Skips::ALL },
-                        eye: Some([0.0, 0.0, -1.0]),
+                        eye: Some(Eye::Point([0.0, 0.0, -1.0])),
                         ..RenderParams::new(181, 133, mvp)
                     };
                     let what = format!("{name}, {}, fragments {count_fragments}, hidden rejected {hidden_triangles}, {walk:?}", depth_func.name());

@@ -5,7 +5,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{Camera, Cull, Frame, GeometryCounts, Instance, Mesh, RenderParams, Shading, World, render, render_world};
+use tileraster::render::{Camera, Cull, Frame, GeometryCounts, Instance, Mesh, Projection, RenderParams, Shading, Up, World, render, render_world};
 use tileraster::{Backend, Error, Skips};
 use tileraster_testkit::meshes;
 
@@ -69,10 +69,17 @@ fn a_world_renders_as_its_flattened_mesh() {
     let world = mixed_world();
     let flat = world.flattened().unwrap();
     let gpu = gpu_or_skip("a_world_renders_as_its_flattened_mesh");
-    let camera = Camera { eye: [3.0, -5.0, 3.5], target: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 20.0 };
+    let camera = Camera {
+        eye: [3.0, -5.0, 3.5],
+        target: [0.0, 0.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 50.0 },
+        near: 0.5,
+        far: 20.0,
+    };
     let (w, h) = (171, 133);
     for shading in [Shading::Phong, Shading::Flat, Shading::Smooth, Shading::Ids] {
-        let params = RenderParams { shading, eye: Some(camera.eye), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
+        let params = RenderParams { shading, eye: Some(camera.viewer()), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
         let instanced = frame(&world, &params, Backend::Cpu);
         let flattened = render(&flat, &params, Backend::Cpu).unwrap();
         let what = shading.name().to_string();
@@ -108,11 +115,18 @@ fn culling_instances_changes_no_bit() {
     let sphere = meshes::sphere([0.0, 0.0, 0.0], 0.4, 6, 10);
     let transforms: Vec<[[f64; 4]; 4]> = (0..900).map(|k| translate((k % 30) as f64, (k / 30) as f64, 0.0)).collect();
     let world = World::instanced(sphere, &transforms);
-    let camera = Camera { eye: [2.0, -3.0, 2.5], target: [4.0, 3.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 45.0, near: 0.3, far: 7.0 };
+    let camera = Camera {
+        eye: [2.0, -3.0, 2.5],
+        target: [4.0, 3.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 45.0 },
+        near: 0.3,
+        far: 7.0,
+    };
     let (w, h) = (160, 120);
     let gpu = gpu_or_skip("culling_instances_changes_no_bit");
     for cull in [Cull::Back, Cull::None] {
-        let on = RenderParams { cull, shading: Shading::Phong, eye: Some(camera.eye), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
+        let on = RenderParams { cull, shading: Shading::Phong, eye: Some(camera.viewer()), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
         let off = RenderParams { skips: Skips { cull_instances: false, ..Skips::ALL }, ..on.clone() };
         let (a, b) = (frame(&world, &on, Backend::Cpu), frame(&world, &off, Backend::Cpu));
         assert_same_layers(&format!("{cull:?}: culling on vs off"), &a, &b);
@@ -132,7 +146,7 @@ fn culling_instances_changes_no_bit() {
 #[test]
 fn bad_instances_are_typed_errors() {
     let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 4, 6);
-    let params = RenderParams::new(32, 32, Camera::framing(&mesh, 1.0, 45.0).view_projection(32, 32).unwrap());
+    let params = RenderParams::new(32, 32, Camera::framing(&mesh, 1.0, Projection::Perspective { fov_deg: 45.0 }, Up::Y).view_projection(32, 32).unwrap());
     let with = |instances: Vec<Instance>| render_world(&World { meshes: vec![mesh.clone()], instances }, &params, Backend::Cpu).map(|_| ());
     assert!(matches!(with(vec![]), Err(Error::EmptyScene { what: "instances" })));
     let e = with(vec![Instance::of(0), Instance::of(3)]).unwrap_err();

@@ -9,7 +9,7 @@ mod common;
 
 use std::collections::HashSet;
 use tileraster::Backend;
-use tileraster::render::{Cull, IDENTITY, LineRule, Mesh, NO_FACE, RenderParams, Shading, Wireframe, render};
+use tileraster::render::{Cull, Eye, IDENTITY, LineRule, Mesh, NO_FACE, RenderParams, Shading, Wireframe, render};
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::scenes::Rng;
 
@@ -71,7 +71,7 @@ fn compare(rule: LineRule, peer: &mut MeshPipeline) -> Comparison {
             shading: Shading::Ids,
             faces: false,
             wireframe: Some(Wireframe { rule, colour: None }),
-            eye: Some([0.0, 0.0, -1.0]),
+            eye: Some(Eye::Point([0.0, 0.0, -1.0])),
             ..RenderParams::new(W, W, IDENTITY)
         };
         let ours = lit_pixels(&render(&mesh, &params, Backend::Cpu).expect("render").ids, 3);
@@ -161,7 +161,7 @@ fn points_match_the_render_pipeline() {
         shading: Shading::Ids,
         faces: false,
         points: Some(1.0),
-        eye: Some([0.0, 0.0, -1.0]),
+        eye: Some(Eye::Point([0.0, 0.0, -1.0])),
         ..RenderParams::new(size, size, IDENTITY)
     };
     let ours = render(&mesh, &params, Backend::Cpu).expect("render").ids;

@@ -8,7 +8,7 @@ mod common;
 
 use common::{assert_frame_parity as assert_parity, render_frame as frame};
 use std::collections::HashSet;
-use tileraster::render::{Camera, Cull, IDENTITY, Interpolation, LineRule, Mesh, NO_FACE, RenderParams, Shading, Wireframe, render};
+use tileraster::render::{Camera, Cull, Eye, IDENTITY, Interpolation, LineRule, Mesh, NO_FACE, Projection, RenderParams, Shading, Up, Wireframe, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 use tileraster_testkit::scenes::Rng;
@@ -27,7 +27,8 @@ fn edge_count(mesh: &Mesh) -> u64 {
 fn lines_are_the_same_bits_on_both_backends() {
     let sphere = meshes::sphere([0.0, 0.0, 0.0], 1.0, 10, 16);
     let edges = edge_count(&sphere);
-    let camera = Camera { eye: [0.3, -1.6, 0.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 70.0, near: 0.8, far: 5.0 };
+    let camera =
+        Camera { eye: [0.3, -1.6, 0.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 70.0 }, near: 0.8, far: 5.0 };
     let (w, h) = (120, 90);
     let first_line = (sphere.triangles.len() + sphere.positions.len()) as u32;
     for rule in [LineRule::DiamondExit, LineRule::Bresenham, LineRule::Rectangle] {
@@ -45,7 +46,7 @@ fn lines_are_the_same_bits_on_both_backends() {
                     interpolation,
                     faces,
                     wireframe: Some(Wireframe { rule, colour }),
-                    eye: Some(camera.eye),
+                    eye: Some(camera.viewer()),
                     ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap())
                 };
                 let what = format!("{rule:?}, faces {faces}, {shading:?}, colour {colour:?}, {interpolation:?}");
@@ -179,7 +180,7 @@ fn line_params(rule: LineRule) -> RenderParams {
         shading: Shading::Ids,
         faces: false,
         wireframe: Some(Wireframe { rule, colour: None }),
-        eye: Some([0.0, 0.0, -1.0]),
+        eye: Some(Eye::Point([0.0, 0.0, -1.0])),
         ..RenderParams::new(W, W, IDENTITY)
     }
 }
@@ -244,7 +245,7 @@ fn many_segments_are_the_same_bits_on_both_backends() {
 #[test]
 fn bad_wire_colours_are_typed_errors() {
     let mesh = meshes::sphere([0.0; 3], 1.0, 4, 6);
-    let base = RenderParams::new(16, 16, Camera::framing(&mesh, 1.0, 45.0).view_projection(16, 16).unwrap());
+    let base = RenderParams::new(16, 16, Camera::framing(&mesh, 1.0, Projection::Perspective { fov_deg: 45.0 }, Up::Y).view_projection(16, 16).unwrap());
     for colour in [[1.5, 0.0, 0.0, 1.0], [f32::NAN, 0.0, 0.0, 1.0], [0.0, 0.0, -0.1, 1.0]] {
         let params = RenderParams { wireframe: Some(Wireframe { rule: LineRule::DiamondExit, colour: Some(colour) }), ..base.clone() };
         let e = render(&mesh, &params, Backend::Cpu).map(|_| ()).unwrap_err();

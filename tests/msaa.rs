@@ -4,7 +4,7 @@
 mod common;
 
 use common::{assert_frame_parity, render_frame};
-use tileraster::render::{Camera, Cull, IDENTITY, LineRule, Mesh, NO_FACE, RenderParams, Shading, Wireframe, render};
+use tileraster::render::{Camera, Cull, Eye, IDENTITY, LineRule, Mesh, NO_FACE, Projection, RenderParams, Shading, Up, Wireframe, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 
@@ -19,7 +19,8 @@ fn a_mesh_is_watertight_at_every_sample() {
     }
     mesh.colours = Some(vec![[1.0; 4]; mesh.positions.len()]);
     for samples in [4, 8] {
-        let params = RenderParams { cull: Cull::None, shading: Shading::Unlit, samples, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(97, 61, IDENTITY) };
+        let params =
+            RenderParams { cull: Cull::None, shading: Shading::Unlit, samples, eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(97, 61, IDENTITY) };
         let f = assert_frame_parity(&format!("{samples} samples"), &mesh, &params);
         let grey: Vec<(usize, u32)> = f.colour.iter().copied().enumerate().filter(|&(_, c)| c != 0xffff_ffff).collect();
         let at: Vec<(usize, usize, u32)> = grey.iter().map(|&(k, c)| (k % 97, k / 97, c >> 24)).collect();
@@ -42,7 +43,8 @@ fn the_resolve_is_the_mean_of_the_samples() {
         ..Default::default()
     };
     for samples in [4, 8] {
-        let params = RenderParams { cull: Cull::None, shading: Shading::Unlit, samples, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, IDENTITY) };
+        let params =
+            RenderParams { cull: Cull::None, shading: Shading::Unlit, samples, eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(w, h, IDENTITY) };
         let f = assert_frame_parity(&format!("{samples} samples"), &mesh, &params);
         for j in 0..h as usize {
             let row = &f.colour[j * w as usize..(j + 1) * w as usize];
@@ -62,10 +64,11 @@ fn multisampled_frames_are_the_same_bits_on_both_backends() {
     sphere.uvs = Some(sphere.positions.iter().map(|p| [(p[0] * 2.0) as f32, (p[2] * 2.0) as f32]).collect());
     let texels: Vec<u8> = (0..32 * 32).flat_map(|k| if (k % 32 / 4 + k / 32 / 4) % 2 == 0 { [230, 200, 40, 255] } else { [30, 60, 200, 255] }).collect();
     sphere.textures = vec![tileraster::render::Texture::srgb(32, 32, texels)];
-    let camera = Camera { eye: [0.3, -1.6, 0.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 70.0, near: 0.8, far: 5.0 };
+    let camera =
+        Camera { eye: [0.3, -1.6, 0.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 70.0 }, near: 0.8, far: 5.0 };
     let (w, h) = (150, 110);
     for samples in [4, 8] {
-        let base = RenderParams { samples, cull: Cull::None, eye: Some(camera.eye), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
+        let base = RenderParams { samples, cull: Cull::None, eye: Some(camera.viewer()), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
         for (what, params) in [
             ("phong", RenderParams { shading: Shading::Phong, ..base.clone() }),
             (
@@ -94,7 +97,7 @@ fn multisampled_frames_are_the_same_bits_on_both_backends() {
 #[test]
 fn bad_sample_counts_are_typed_errors() {
     let mesh = meshes::sphere([0.0; 3], 1.0, 4, 6);
-    let base = RenderParams::new(16, 16, Camera::framing(&mesh, 1.0, 45.0).view_projection(16, 16).unwrap());
+    let base = RenderParams::new(16, 16, Camera::framing(&mesh, 1.0, Projection::Perspective { fov_deg: 45.0 }, Up::Y).view_projection(16, 16).unwrap());
     for (samples, blend, layer_sample) in [(0, false, 0), (2, false, 0), (16, false, 0), (4, true, 0), (4, false, 4), (1, false, 1)] {
         let params = RenderParams { samples, blend, layer_sample, ..base.clone() };
         let e = render(&mesh, &params, Backend::Cpu).map(|_| ()).unwrap_err();
@@ -143,7 +146,7 @@ fn every_sample_matches_the_render_pipeline() {
                 shading: Shading::Ids,
                 samples: PEER_SAMPLES,
                 layer_sample: s,
-                eye: Some([0.0, 0.0, -1.0]),
+                eye: Some(Eye::Point([0.0, 0.0, -1.0])),
                 ..RenderParams::new(SIZE, SIZE, IDENTITY)
             };
             let ours = render_frame(&mesh, &params, Backend::Cpu);

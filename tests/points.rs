@@ -6,7 +6,7 @@
 mod common;
 
 use common::assert_frame_parity as assert_parity;
-use tileraster::render::{Camera, Cull, IDENTITY, Mesh, NO_FACE, RenderParams, Shading, render};
+use tileraster::render::{Camera, Cull, Eye, IDENTITY, Mesh, NO_FACE, Projection, RenderParams, Shading, Up, render};
 use tileraster::{Backend, Error};
 use tileraster_testkit::meshes;
 
@@ -18,7 +18,8 @@ fn points_are_the_same_bits_on_both_backends() {
     let sphere = meshes::sphere([0.0, 0.0, 0.0], 1.0, 12, 20);
     let n = sphere.positions.len() as u64;
     // Close enough that the near plane and the frame's edges cut the sphere.
-    let camera = Camera { eye: [0.3, -1.6, 0.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 70.0, near: 0.8, far: 5.0 };
+    let camera =
+        Camera { eye: [0.3, -1.6, 0.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 70.0 }, near: 0.8, far: 5.0 };
     let (w, h) = (120, 90);
     for size in [1.0, 2.5, 4.0, 9.0] {
         for faces in [false, true] {
@@ -27,7 +28,7 @@ fn points_are_the_same_bits_on_both_backends() {
                 shading: Shading::Smooth,
                 points: Some(size),
                 faces,
-                eye: Some(camera.eye),
+                eye: Some(camera.viewer()),
                 ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap())
             };
             let what = format!("size {size}, faces {faces}");
@@ -64,7 +65,7 @@ fn a_point_of_whole_width_covers_its_square_of_pixels() {
                 shading: Shading::Ids,
                 points: Some(size),
                 faces: false,
-                eye: Some([0.0, 0.0, -1.0]),
+                eye: Some(Eye::Point([0.0, 0.0, -1.0])),
                 ..RenderParams::new(w, h, IDENTITY)
             };
             let f = assert_parity(&format!("size {size}, offset {off:.3}"), &mesh, &params);
@@ -78,7 +79,7 @@ fn a_point_of_whole_width_covers_its_square_of_pixels() {
 #[test]
 fn bad_point_sizes_are_typed_errors() {
     let mesh = meshes::sphere([0.0; 3], 1.0, 4, 6);
-    let base = RenderParams::new(16, 16, Camera::framing(&mesh, 1.0, 45.0).view_projection(16, 16).unwrap());
+    let base = RenderParams::new(16, 16, Camera::framing(&mesh, 1.0, Projection::Perspective { fov_deg: 45.0 }, Up::Y).view_projection(16, 16).unwrap());
     for size in [0.0, -1.0, f32::NAN, 2000.0] {
         let e = render(&mesh, &RenderParams { points: Some(size), ..base.clone() }, Backend::Cpu).map(|_| ()).unwrap_err();
         assert!(matches!(e, Error::InvalidPointSize { .. }), "{size}: {e}");

@@ -5,7 +5,9 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{Camera, Cull, DepthFunc, Frame, FrontFace, Interpolation, Mesh, NO_FACE, RenderParams, Shading, prepare_render, render};
+use tileraster::render::{
+    Camera, Cull, DepthFunc, Eye, Frame, FrontFace, Interpolation, Mesh, NO_FACE, Projection, RenderParams, Shading, Up, prepare_render, render,
+};
 use tileraster::{Backend, Error, Skips};
 use tileraster_cpu::FinePath;
 use tileraster_kernels::abi::ShadeParams;
@@ -17,7 +19,9 @@ use tileraster_testkit::meshes;
 
 /// A camera looking at the origin from `distance` along a fixed direction.
 fn view(width: u32, height: u32, eye: [f64; 3], near: f64, far: f64) -> [[f64; 4]; 4] {
-    Camera { eye, target: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near, far }.view_projection(width, height).unwrap()
+    Camera { eye, target: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 50.0 }, near, far }
+        .view_projection(width, height)
+        .unwrap()
 }
 
 fn cpu(mesh: &Mesh, params: &RenderParams) -> Frame {
@@ -140,7 +144,7 @@ fn hidden_triangles_are_rejected_the_same_way_on_both_backends() {
                 cull: Cull::None,
                 depth_func,
                 clear_depth,
-                eye: Some([0.0, 0.0, -1.0]),
+                eye: Some(Eye::Point([0.0, 0.0, -1.0])),
                 ..RenderParams::new(181, 133, tileraster::render::IDENTITY)
             };
             let name = format!("8 layers {order}, {}", depth_func.name());
@@ -195,10 +199,12 @@ fn clipping_and_culling_are_the_same_bits_on_both_backends() {
     // behind the camera.
     let mesh = meshes::terrain(40, 100.0, 12.0);
     let eye = [50.0, 50.0, 3.0];
-    let inside = Camera { eye, target: [90.0, 70.0, -2.0], up: [0.0, 0.0, 1.0], fov_deg: 70.0, near: 0.3, far: 60.0 }.view_projection(240, 160).unwrap();
+    let inside = Camera { eye, target: [90.0, 70.0, -2.0], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 70.0 }, near: 0.3, far: 60.0 }
+        .view_projection(240, 160)
+        .unwrap();
     for cull in [Cull::None, Cull::Back, Cull::Front] {
         for front_face in [FrontFace::CounterClockwise, FrontFace::Clockwise] {
-            let params = RenderParams { cull, front_face, shading: Shading::Phong, eye: Some(eye), ..RenderParams::new(240, 160, inside) };
+            let params = RenderParams { cull, front_face, shading: Shading::Phong, eye: Some(Eye::Point(eye)), ..RenderParams::new(240, 160, inside) };
             let frame = assert_render_parity(&format!("terrain from inside, {cull:?}, {front_face:?}"), &mesh, &params);
             let g = frame.stats.geometry;
             assert!(g.clipped > 0 && g.culled_frustum > 0, "{cull:?}: {g:?}");
@@ -236,7 +242,7 @@ fn screen_linear_interpolation_and_window_edges_are_the_same_bits_on_both_backen
         cull: Cull::None,
         shading: Shading::Unlit,
         interpolation: Interpolation::Flat,
-        eye: Some([0.0, 0.0, -1.0]),
+        eye: Some(Eye::Point([0.0, 0.0, -1.0])),
         ..RenderParams::new(16, 16, tileraster::render::IDENTITY)
     };
     let frame = assert_render_parity("flat quad", &quad, &params);
@@ -397,29 +403,44 @@ fn bad_input_is_a_typed_error() {
     assert!(matches!(err(&short, &ok), Error::AttributeLength { .. }));
     assert!(matches!(err(&mesh, &RenderParams { width: 0, ..ok.clone() }), Error::ZeroSizedRaster { .. }));
     assert!(matches!(err(&Mesh::default(), &ok), Error::EmptyScene { .. }));
-    let flat_camera = Camera { eye: [1.0, 1.0, 1.0], target: [1.0, 1.0, 1.0], up: [0.0, 0.0, 1.0], fov_deg: 45.0, near: 0.1, far: 10.0 };
-    assert!(matches!(flat_camera.view_projection(64, 64), Err(Error::SingularCamera { .. })));
-    let parallel_up = Camera { eye: [0.0, 0.0, 5.0], target: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 45.0, near: 0.1, far: 10.0 };
-    assert!(matches!(parallel_up.view_projection(64, 64), Err(Error::SingularCamera { .. })));
-    // An orthographic matrix has no centre of projection: the eye must be given.
-    let ortho = [[0.5, 0.0, 0.0, 0.0], [0.0, -0.5, 0.0, 0.0], [0.0, 0.0, 0.1, 0.5], [0.0, 0.0, 0.0, 1.0]];
-    assert!(matches!(err(&mesh, &RenderParams::new(64, 64, ortho)), Error::SingularCamera { .. }));
-    let frame = cpu(&mesh, &RenderParams { eye: Some([0.0, 0.0, -10.0]), ..RenderParams::new(64, 64, ortho) });
-    assert!(frame.stats.pixels_covered > 0);
-    // Each camera error names its own cause: a field of view of 0 (which frames the mesh from
-    // infinitely far), an extent f64 cannot hold.
     let reason = |camera: Camera| match camera.view_projection(64, 48) {
         Err(Error::SingularCamera { reason }) => reason,
         other => panic!("a singular camera expected, not {other:?}"),
     };
-    assert!(reason(Camera::framing(&mesh, 4.0 / 3.0, 0.0)).contains("field of view"));
+    let looking_down = Camera {
+        eye: [0.0, 0.0, 5.0],
+        target: [0.0, 0.0, 0.0],
+        up: [0.0, 1.0, 0.0],
+        projection: Projection::Perspective { fov_deg: 45.0 },
+        near: 0.1,
+        far: 10.0,
+    };
+    assert!(reason(Camera { eye: [1.0; 3], target: [1.0; 3], ..looking_down }).contains("same point"));
+    assert!(reason(Camera { up: [0.0, 0.0, 1.0], ..looking_down }).contains("up vector"));
+    // A matrix that sees neither a centre of projection nor a single viewing direction (its x
+    // and y rows parallel) needs its eye given.
+    let flat = [[0.5, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.1, 0.5], [0.0, 0.0, 0.0, 1.0]];
+    assert!(matches!(err(&mesh, &RenderParams::new(64, 64, flat)), Error::SingularCamera { .. }));
+    for (projection, cause) in [
+        (Projection::Orthographic { width: 0.0 }, "orthographic width"),
+        (Projection::Orthographic { width: f64::INFINITY }, "orthographic width"),
+        (Projection::Perspective { fov_deg: 180.0 }, "field of view"),
+    ] {
+        let camera = Camera { projection, ..looking_down };
+        assert!(reason(camera).contains(cause), "{projection:?}: {}", reason(camera));
+    }
+    let inverted = Camera { projection: Projection::Orthographic { width: 2.0 }, near: 3.0, far: 2.0, ..looking_down };
+    assert!(reason(inverted).contains("near < far"), "{}", reason(inverted));
+    // Each camera error names its own cause: a field of view of 0 (which frames the mesh from
+    // infinitely far), an extent f64 cannot hold.
+    assert!(reason(Camera::framing(&mesh, 4.0 / 3.0, Projection::Perspective { fov_deg: 0.0 }, Up::Z)).contains("field of view"));
     let triangle = |s: f64| Mesh { positions: vec![[0.0, 0.0, 0.0], [s, 0.0, 0.0], [0.0, s, 0.0]], triangles: vec![[0, 1, 2]], ..Default::default() };
     let mut beyond = triangle(1.7e308);
     beyond.positions[0][0] = -1.7e308;
-    assert!(reason(Camera::framing(&beyond, 4.0 / 3.0, 45.0)).contains("not finite"));
+    assert!(reason(Camera::framing(&beyond, 4.0 / 3.0, Projection::Perspective { fov_deg: 45.0 }, Up::Z)).contains("not finite"));
     // Coordinates whose squares overflow f64 still frame, as the same triangle at unit scale.
     let covered = |mesh: &Mesh| {
-        let view = Camera::framing(mesh, 4.0 / 3.0, 45.0).view_projection(64, 48).unwrap_or_else(|e| panic!("{e}"));
+        let view = Camera::framing(mesh, 4.0 / 3.0, Projection::Perspective { fov_deg: 45.0 }, Up::Z).view_projection(64, 48).unwrap_or_else(|e| panic!("{e}"));
         cpu(mesh, &RenderParams { cull: Cull::None, ..RenderParams::new(64, 48, view) }).stats.pixels_covered
     };
     let unit = covered(&triangle(1.0));
@@ -491,7 +512,7 @@ fn blending_is_in_submission_order_on_both_backends() {
         blend: true,
         shading: Shading::Unlit,
         background: [0, 0, 255, 255],
-        eye: Some([0.0, 0.0, -1.0]),
+        eye: Some(Eye::Point([0.0, 0.0, -1.0])),
         ..RenderParams::new(8, 8, tileraster::render::IDENTITY)
     };
     let frame = assert_render_parity("half-transparent quad", &quad, &params);
@@ -590,7 +611,14 @@ fn a_prepared_mesh_renders_what_render_does() {
 #[test]
 fn a_mesh_behind_the_camera_draws_nothing() {
     let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 8, 12);
-    let behind = Camera { eye: [5.0, 0.0, 0.0], target: [10.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 60.0, near: 0.1, far: 20.0 };
+    let behind = Camera {
+        eye: [5.0, 0.0, 0.0],
+        target: [10.0, 0.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 60.0 },
+        near: 0.1,
+        far: 20.0,
+    };
     let params = RenderParams { background: [1, 2, 3, 4], ..RenderParams::new(48, 40, behind.view_projection(48, 40).unwrap()) };
     let frame = assert_render_parity("behind the camera", &mesh, &params);
     assert_eq!(frame.stats.geometry.rasterised, 0);
@@ -629,4 +657,84 @@ fn frames_return_the_layers_asked_for() {
             }
         }
     }
+}
+
+/// A square of side 2 facing an orthographic camera 4 units wide in a 64 × 64 frame: exactly
+/// the 32 × 32 pixels whose centres it holds, wherever the eye stands along the view.
+fn square_facing_the_viewer() -> Mesh {
+    Mesh {
+        positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        normals: Some(vec![[0.0, 0.0, 1.0]; 4]),
+        ..Default::default()
+    }
+}
+
+/// Orthographic cameras: the matrix maps world units to pixels as the width says, the frame
+/// is the same bits on both backends for every shading, and the viewer lies at infinity (a
+/// plane facing the camera takes one colour under Phong shading, as it does not in
+/// perspective).
+#[test]
+fn orthographic_cameras_frame_and_light_as_parallel_projections() {
+    let square = square_facing_the_viewer();
+    let ortho =
+        |eye: [f64; 3]| Camera { eye, target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Orthographic { width: 4.0 }, near: 1.0, far: 20.0 };
+    let lit = |camera: Camera, shading| RenderParams {
+        shading,
+        eye: Some(camera.viewer()),
+        lights: vec![tileraster::render::Light { direction: [0.3, 0.2, 1.0], colour: [0.5, 0.5, 0.5] }],
+        specular: [0.3, 0.3, 0.3],
+        shininess: 8,
+        ..RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap())
+    };
+    for distance in [3.0, 10.0] {
+        let frame = cpu(&square, &lit(ortho([0.0, 0.0, distance]), Shading::Phong));
+        assert_eq!(frame.stats.pixels_covered, 32 * 32, "the square seen from {distance}");
+        let covered: Vec<u32> = (0..frame.ids.len()).filter(|&k| frame.ids[k] != NO_FACE).map(|k| frame.colour[k]).collect();
+        assert!(covered.iter().all(|&c| c == covered[0]), "Phong shading varies across a plane seen orthographically");
+    }
+    let perspective = Camera { projection: Projection::Perspective { fov_deg: 60.0 }, ..ortho([0.0, 0.0, 3.0]) };
+    let frame = cpu(&square, &lit(perspective, Shading::Phong));
+    let colours: std::collections::HashSet<u32> = (0..frame.ids.len()).filter(|&k| frame.ids[k] != NO_FACE).map(|k| frame.colour[k]).collect();
+    assert!(colours.len() > 10, "in perspective the highlight moves across the plane: {} colours", colours.len());
+
+    // A sphere seen orthographically from an oblique eye, every shading, both backends.
+    let sphere = meshes::sphere([0.2, -0.1, 0.3], 1.0, 12, 18);
+    let oblique = Camera { eye: [2.5, -2.0, 1.5], up: [0.0, 0.0, 1.0], ..ortho([0.0; 3]) }.fit_orthographic(&sphere, 4.0 / 3.0);
+    assert!(matches!(oblique.projection, Projection::Orthographic { width } if width > 2.0 && width < 5.0), "{:?}", oblique.projection);
+    for shading in Shading::ALL {
+        let params = RenderParams { cull: Cull::Back, ..lit(oblique, shading) };
+        let params = RenderParams { width: 96, height: 72, view_projection: oblique.view_projection(96, 72).unwrap(), ..params };
+        let frame = assert_render_parity(&format!("orthographic sphere, {}", shading.name()), &sphere, &params);
+        assert!(frame.stats.pixels_covered > 1000, "{}: {} pixels", shading.name(), frame.stats.pixels_covered);
+    }
+}
+
+/// The viewer of a matrix given as it is: a perspective matrix's centre of projection, an
+/// orthographic matrix's direction towards which the depth decreases (increases for a
+/// reversed depth test), the same frame as the camera's own viewer gives.
+#[test]
+fn a_matrix_names_its_viewer() {
+    let camera =
+        Camera { eye: [2.0, -3.0, 1.0], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Orthographic { width: 3.0 }, near: 0.5, far: 9.0 };
+    let m = camera.view_projection(80, 60).unwrap();
+    let towards = [2.0, -3.0, 1.0].map(|c: f64| c / 14f64.sqrt());
+    let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|c| (a[c] - b[c]).abs() < 1e-12);
+    match Eye::of(&m, DepthFunc::Less) {
+        Some(Eye::Direction(d)) => assert!(close(d, towards), "{d:?}"),
+        other => panic!("an orthographic matrix's viewer: {other:?}"),
+    }
+    match Eye::of(&m, DepthFunc::Greater) {
+        Some(Eye::Direction(d)) => assert!(close(d, towards.map(|c| -c)), "reversed depth: {d:?}"),
+        other => panic!("an orthographic matrix's viewer, reversed depth: {other:?}"),
+    }
+    let perspective = Camera { projection: Projection::Perspective { fov_deg: 50.0 }, ..camera };
+    match Eye::of(&perspective.view_projection(80, 60).unwrap(), DepthFunc::Less) {
+        Some(Eye::Point(p)) => assert!((0..3).all(|c| (p[c] - camera.eye[c]).abs() < 1e-9), "{p:?}"),
+        other => panic!("a perspective matrix's viewer: {other:?}"),
+    }
+    let sphere = meshes::sphere([0.0; 3], 1.0, 10, 14);
+    let given = RenderParams { shading: Shading::Phong, eye: Some(camera.viewer()), ..RenderParams::new(80, 60, m) };
+    let derived = RenderParams { eye: None, ..given.clone() };
+    assert_same_frame("orthographic matrix: derived viewer vs the camera's", &cpu(&sphere, &given), &cpu(&sphere, &derived));
 }

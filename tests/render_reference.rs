@@ -10,7 +10,7 @@
 mod common;
 
 use tileraster::Backend;
-use tileraster::render::{Cull, DepthFunc, Mesh, RenderParams, Shading, render};
+use tileraster::render::{Cull, DepthFunc, Eye, Mesh, RenderParams, Shading, render};
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::meshes::Rng;
 
@@ -68,7 +68,7 @@ fn compare(lo: f64, hi: f64, seed: u64) -> Comparison {
             cull: Cull::None,
             shading: Shading::Ids,
             depth_func: DepthFunc::Always,
-            eye: Some([0.0, 0.0, -1.0]),
+            eye: Some(Eye::Point([0.0, 0.0, -1.0])),
             ..RenderParams::new(SIZE, SIZE, identity)
         };
         let ours = render(&mesh, &params, Backend::Cpu).expect("tileraster");

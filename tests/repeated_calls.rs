@@ -7,7 +7,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{Camera, RenderParams};
+use tileraster::render::{Camera, Projection, RenderParams, Up};
 use tileraster::{Backend, Grid, Mode, Params, Scene, rasterise};
 use tileraster_testkit::{meshes, scenes};
 
@@ -28,8 +28,8 @@ fn small_frames_after_large_ones_give_the_cpu_bits_every_time() {
     let large_grid = Grid::new(0.0, 1000.0, 0.0, 1000.0, 2048, 2048);
     let large = scenes::delaunay_terrain(0.0, 0.0, 1000.0, 1000.0, 200, 200, 9);
     let mesh = meshes::terrain(120, 1000.0, 60.0);
-    let camera = Camera::framing(&mesh, 1.5, 45.0);
-    let render_params = RenderParams { eye: Some(camera.eye), ..RenderParams::new(480, 320, camera.view_projection(480, 320).unwrap()) };
+    let camera = Camera::framing(&mesh, 1.5, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
+    let render_params = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(480, 320, camera.view_projection(480, 320).unwrap()) };
     for round in 0..12 {
         if round % 4 == 0 {
             let p = Params::new(large_grid).with_nodata(-9999.0);

@@ -200,10 +200,11 @@ fn a_sparse_scene_rasterises_only_the_tiles_it_covers() {
 /// runs only where they are, and turning the skip off bins them all with the same bits.
 #[test]
 fn small_triangles_skip_binning_and_are_counted_apart() {
-    use tileraster::render::{Camera, Cull, DepthFunc, NO_FACE, RenderParams, render};
+    use tileraster::render::{Camera, Cull, DepthFunc, NO_FACE, Projection, RenderParams, render};
     // Large triangles at the equator, small ones towards the poles.
     let mesh = tileraster_testkit::meshes::sphere([0.0; 3], 1.0, 16, 32);
-    let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
+    let camera =
+        Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 50.0 }, near: 0.5, far: 9.0 };
     let on = RenderParams { cull: Cull::None, count_fragments: true, ..RenderParams::new(640, 480, camera.view_projection(640, 480).unwrap()) };
     let off = RenderParams { skips: on.skips.without(Skip::SmallTriangles), ..on.clone() };
     for backend in backends("small_triangles_skip_binning_and_are_counted_apart") {

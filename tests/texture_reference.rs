@@ -8,7 +8,7 @@
 mod common;
 
 use tileraster::Backend;
-use tileraster::render::{Address, Camera, Cull, Filter, IDENTITY, Mesh, RenderParams, Shading, Texture, render};
+use tileraster::render::{Address, Camera, Cull, Eye, Filter, IDENTITY, Mesh, Projection, RenderParams, Shading, Texture, render};
 use tileraster_peers::TexturedPipeline;
 
 /// A texture with gradients, a fine checker and varying alpha.
@@ -47,7 +47,7 @@ fn compare(mesh: &Mesh, matrix: [[f64; 4]; 4], eye: [f64; 3], filter: Filter, ad
     let params = RenderParams {
         cull: Cull::None,
         shading: Shading::Unlit,
-        eye: Some(eye),
+        eye: Some(Eye::Point(eye)),
         texture_filter: Some(filter),
         texture_address: Some(address),
         ..RenderParams::new(w, h, matrix)
@@ -99,7 +99,14 @@ fn textured_frames_match_the_render_pipeline() {
         use std::io::Write;
         let _ = writeln!(std::io::stderr(), "NOTE: the render pipeline runs on {adapter}, not lavapipe: its differences are printed, not bounded");
     }
-    let camera = Camera { eye: [0.0, -1.2, 0.6], target: [0.0, 3.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 60.0, near: 0.1, far: 40.0 };
+    let camera = Camera {
+        eye: [0.0, -1.2, 0.6],
+        target: [0.0, 3.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 60.0 },
+        near: 0.1,
+        far: 40.0,
+    };
     for srgb in [true, false] {
         let flat = quad([[-1.0, -1.0, 0.5], [1.0, -1.0, 0.5], [1.0, 1.0, 0.5], [-1.0, 1.0, 0.5]], [0.0, 0.0], [1.0, 1.0], srgb);
         let ground = quad([[-3.0, -1.0, 0.0], [3.0, -1.0, 0.0], [3.0, 30.0, 0.0], [-3.0, 30.0, 0.0]], [-1.3, -2.2], [6.7, 12.8], srgb);

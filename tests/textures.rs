@@ -6,7 +6,9 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{Address, Camera, Cull, Filter, Frame, IDENTITY, MAX_TEXTURE_DIM, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, render};
+use tileraster::render::{
+    Address, Camera, Cull, Eye, Filter, Frame, IDENTITY, MAX_TEXTURE_DIM, Mesh, NO_TEXTURE, Projection, RenderParams, Shading, Texture, render,
+};
 use tileraster::{Backend, Error};
 
 /// A texture whose every texel differs from its neighbours: smooth gradients and a checker.
@@ -40,7 +42,7 @@ fn screen_quad(uv0: [f32; 2], uv1: [f32; 2], texture: Texture) -> Mesh {
 }
 
 fn unlit(w: u32, h: u32) -> RenderParams {
-    RenderParams { cull: Cull::None, shading: Shading::Unlit, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(w, h, IDENTITY) }
+    RenderParams { cull: Cull::None, shading: Shading::Unlit, eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(w, h, IDENTITY) }
 }
 
 fn cpu(mesh: &Mesh, params: &RenderParams) -> Frame {
@@ -67,7 +69,14 @@ fn assert_parity(what: &str, mesh: &Mesh, params: &RenderParams) -> Frame {
 /// linear, power-of-two and odd sizes, lit and unlit: CPU = GPU.
 #[test]
 fn every_filter_and_address_mode_is_the_same_bits_on_both_backends() {
-    let camera = Camera { eye: [0.0, -1.2, 0.6], target: [0.0, 3.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 60.0, near: 0.1, far: 40.0 };
+    let camera = Camera {
+        eye: [0.0, -1.2, 0.6],
+        target: [0.0, 3.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 60.0 },
+        near: 0.1,
+        far: 40.0,
+    };
     let (w, h) = (96, 64);
     let view = camera.view_projection(w, h).unwrap();
     for (tw, th, srgb) in [(64, 64, true), (37, 23, false)] {
@@ -78,7 +87,7 @@ fn every_filter_and_address_mode_is_the_same_bits_on_both_backends() {
                 let mut ground = screen_quad([-1.3, -2.2], [6.7, 12.8], texture);
                 ground.positions = vec![[-3.0, -1.0, 0.0], [3.0, -1.0, 0.0], [3.0, 30.0, 0.0], [-3.0, 30.0, 0.0]];
                 for shading in [Shading::Unlit, Shading::Phong] {
-                    let params = RenderParams { cull: Cull::None, shading, eye: Some(camera.eye), ..RenderParams::new(w, h, view) };
+                    let params = RenderParams { cull: Cull::None, shading, eye: Some(camera.viewer()), ..RenderParams::new(w, h, view) };
                     let what = format!("{tw}×{th} srgb {srgb}, {filter:?}, {address:?}, {}", shading.name());
                     let frame = assert_parity(&what, &ground, &params);
                     let distinct: std::collections::HashSet<u32> = frame.colour.iter().copied().collect();

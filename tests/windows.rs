@@ -72,7 +72,7 @@ fn gpu_results_do_not_depend_on_its_windowing() {
 /// included): the same frame as the CPU's at every window size.
 #[test]
 fn gpu_frames_do_not_depend_on_its_windowing() {
-    use tileraster::render::{Camera, Cull, RenderParams, Shading, render};
+    use tileraster::render::{Camera, Cull, Projection, RenderParams, Shading, render};
     if !common::gpu_or_skip("gpu_frames_do_not_depend_on_its_windowing") {
         return;
     }
@@ -81,7 +81,8 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
     for (k, c) in mesh.colours.as_mut().unwrap().iter_mut().enumerate() {
         c[3] = if k % 3 == 0 { 0.5 } else { 1.0 };
     }
-    let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
+    let camera =
+        Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 50.0 }, near: 0.5, far: 9.0 };
     // Without blending or tile counts, the small triangles skip binning (`fine_small`), in
     // each window.
     for (blend, count_tiles) in [(false, true), (true, true), (false, false)] {
@@ -117,7 +118,7 @@ fn gpu_frames_do_not_depend_on_its_windowing() {
 /// could set a scene up in parts.
 #[test]
 fn gpu_scenes_in_parts_equal_the_cpu() {
-    use tileraster::render::{Camera, Cull, RenderParams, Shading, prepare_render, render};
+    use tileraster::render::{Camera, Cull, Projection, RenderParams, Shading, prepare_render, render};
     use tileraster::{Prepared, rasterise_prepared};
     use tileraster_kernels::abi::{TriangleSetup, TriangleShading};
     if !common::gpu_or_skip("gpu_scenes_in_parts_equal_the_cpu") {
@@ -152,7 +153,8 @@ fn gpu_scenes_in_parts_equal_the_cpu() {
         c[3] = if k % 2 == 0 { 0.5 } else { 1.0 };
     }
     let shading = std::mem::size_of::<TriangleShading>() as u64;
-    let camera = Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 9.0 };
+    let camera =
+        Camera { eye: [2.5, -2.0, 1.5], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 50.0 }, near: 0.5, far: 9.0 };
     for (name, mesh, limit) in [("sphere", &sphere, 64u64 << 10), ("soup", &soup, 12 << 10)] {
         assert!(mesh.triangles.len() as u64 * shading > limit, "{name}: the limit must split the scene");
         // Without blending or tile counts, the small triangles skip binning (`fine_small`),
@@ -219,7 +221,7 @@ fn gpu_tile_beyond_its_binding_is_an_error() {
     // 64 copies of one triangle over the whole frame: every tile is reached by all of them.
     let positions = vec![[-4.0, -4.0, 0.5], [4.0, -4.0, 0.5], [0.0, 6.0, 0.5]];
     let mesh = Mesh { positions, triangles: vec![[0, 1, 2]; 64], normals: None, colours: None, uvs: None, ..Default::default() };
-    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(40, 40, IDENTITY) };
+    let params = RenderParams { cull: Cull::None, eye: Some(tileraster::render::Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(40, 40, IDENTITY) };
     tileraster::set_gpu_binding_limit(4 << 10);
     let result = render(&mesh, &params, Backend::Gpu);
     tileraster::set_gpu_binding_limit(u64::MAX);

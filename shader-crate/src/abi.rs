@@ -554,7 +554,9 @@ pub struct ShadeParams {
     pub ambient: [f32; 4],
     /// Specular colour, RGB.
     pub specular: [f32; 4],
-    /// The camera's position in the world, xyz.
+    /// The viewer, homogeneous: a perspective camera's position `[x, y, z, 1]`, or for an
+    /// orthographic camera the unit direction towards it `[x, y, z, 0]`
+    /// ([`ShadeParams::towards_viewer`]).
     pub eye: [f32; 4],
     /// Unit direction towards each light, xyz.
     pub light_dir: [[f32; 4]; MAX_LIGHTS],
@@ -570,6 +572,14 @@ pub struct ShadeParams {
 pub const FRAGMENT_CONSTANTS: usize = 8;
 
 impl ShadeParams {
+    /// From the point `p` in the world towards the viewer (not normalised): `eye − p` for a
+    /// perspective camera, the camera's direction for an orthographic one.
+    #[inline]
+    pub fn towards_viewer(&self, p: [f32; 3]) -> [f32; 3] {
+        let e = &self.eye;
+        [e[0] - p[0] * e[3], e[1] - p[1] * e[3], e[2] - p[2] * e[3]]
+    }
+
     #[inline]
     pub fn mode(&self) -> ShadeMode {
         ShadeMode::from_code(self.shading)

@@ -5,8 +5,10 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
+use tileraster::dem::InputKind;
 use tileraster::render::{
-    Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, Mesh, RenderParams, Shading, Wireframe, World, read_mesh, read_world, render_world,
+    Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Projection, RenderParams, Shading, Up, Wireframe, World, format_up,
+    read_mesh, read_world, render_world,
 };
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
@@ -21,17 +23,32 @@ pub struct RenderArgs {
     /// The PNG to write (RGBA).
     #[arg(short, long)]
     output: PathBuf,
-    /// Frame width and height in pixels.
-    #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"], default_values_t = [1280, 720])]
-    size: Vec<u32>,
+    /// Frame width and height in pixels (default 1280 × 720; with --camera-node, 1280 wide and
+    /// as high as the camera's aspect ratio makes it, 16:9 where it names none).
+    #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"])]
+    size: Option<Vec<u32>>,
     /// A look-at camera: eye, target and up vector, in the mesh's coordinates.
-    #[arg(long, value_name = "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ", value_parser = numbers::<9>, allow_hyphen_values = true, conflicts_with = "mvp")]
+    #[arg(long, value_name = "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ", value_parser = numbers::<9>, allow_hyphen_values = true, conflicts_with_all = ["mvp", "camera_node"])]
     camera: Option<[f64; 9]>,
     /// Vertical field of view of --camera (and of the default camera), degrees.
-    #[arg(long, default_value_t = 45.0)]
+    #[arg(long, default_value_t = 45.0, conflicts_with_all = ["ortho", "camera_node", "mvp"])]
     fov: f64,
+    /// Project orthographically (parallel, the viewer at infinity: lighting takes the viewing
+    /// direction) instead of in perspective, seeing WIDTH in the mesh's units across the frame;
+    /// without WIDTH, as wide as frames the whole mesh. With --camera or the default camera.
+    #[arg(long, value_name = "WIDTH", num_args = 0..=1, value_parser = ortho_width, allow_negative_numbers = true, conflicts_with_all = ["mvp", "camera_node"])]
+    ortho: Option<Option<f64>>,
+    /// Which axis of the mesh points up for the default camera, which looks at the model's
+    /// front (from +Z with +Y up, from −Y with +Z up), a little from the right and above.
+    /// Default: the format's convention, y for glTF, OBJ, PLY and STL, z for points.
+    #[arg(long, value_enum, conflicts_with_all = ["camera", "camera_node", "mvp"])]
+    up: Option<UpArg>,
+    /// View through a glTF file's camera: the node's index, or its name (or its camera's).
+    #[arg(long, value_name = "NAME|INDEX", conflicts_with = "mvp")]
+    camera_node: Option<String>,
     /// The 16 entries of a 4×4 matrix, row-major, mapping the mesh's coordinates to clip
-    /// space (Vulkan: depth 0..1, NDC y down the image).
+    /// space (Vulkan: depth 0..1, NDC y down the image): a perspective or an orthographic
+    /// projection (lit from its viewing direction, towards which depth decreases).
     #[arg(long, value_name = "M00,M01,...,M33", value_parser = numbers::<16>, allow_hyphen_values = true)]
     mvp: Option<[f64; 16]>,
     /// Draw the mesh once per transform in this file (instances): 16 numbers per line, a 4×4
@@ -135,6 +152,12 @@ enum AddressArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum UpArg {
+    Y,
+    Z,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum CullArg {
     Back,
     Front,
@@ -185,6 +208,43 @@ fn read_transforms(path: &std::path::Path) -> Result<Vec<[[f64; 4]; 4]>, String>
     Ok(out)
 }
 
+/// `--ortho`'s width: a positive number.
+fn ortho_width(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(w) if w > 0.0 && w.is_finite() => Ok(w),
+        Ok(w) => Err(format!("{w}: the orthographic width must be positive and finite")),
+        Err(e) => Err(format!("'{s}': {e} (a path after a bare --ortho reads as its width: put the input first, or write --ortho=WIDTH)")),
+    }
+}
+
+/// The camera of `input` that `wanted` names: a node index, a node's name or a camera's name.
+fn gltf_camera(input: &std::path::Path, wanted: &str) -> Result<tileraster_io::GltfCamera, String> {
+    if !matches!(InputKind::of(input), Ok(InputKind::Gltf)) {
+        return Err(format!("--camera-node: {} is not a glTF file (.gltf, .glb); only glTF files hold cameras", input.display()));
+    }
+    let cameras = tileraster_io::read_gltf_cameras(input).map_err(|e| format!("--camera-node: {e}"))?;
+    // A node's index first, then a node's name, then a camera's (so a node named "2" is found).
+    let found = wanted
+        .parse::<usize>()
+        .ok()
+        .and_then(|node| cameras.iter().find(|c| c.node == node))
+        .or_else(|| cameras.iter().find(|c| c.node_name.as_deref() == Some(wanted)))
+        .or_else(|| cameras.iter().find(|c| c.name.as_deref() == Some(wanted)));
+    found.cloned().ok_or_else(|| {
+        let listed: Vec<String> = cameras
+            .iter()
+            .map(|c| {
+                let named = |what: &str, name: &Option<String>| name.as_ref().map(|n| format!(" {what}{n:?}")).unwrap_or_default();
+                format!("node {}{}{}", c.node, named("", &c.node_name), named("camera ", &c.name))
+            })
+            .collect();
+        match listed.is_empty() {
+            true => format!("--camera-node {wanted}: {} places no camera in its scene", input.display()),
+            false => format!("--camera-node {wanted}: no such camera node; the scene's cameras: {}", listed.join(", ")),
+        }
+    })
+}
+
 /// `N` comma-separated numbers.
 fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     let values: Vec<f64> = s.split(',').map(|v| v.trim().parse::<f64>().map_err(|e| format!("'{v}': {e}"))).collect::<Result<_, _>>()?;
@@ -198,6 +258,9 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         size,
         camera,
         fov,
+        ortho,
+        up,
+        camera_node,
         mvp,
         instances,
         z_scale,
@@ -225,7 +288,24 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
     }
     set_quiet(quiet);
-    let (width, height) = (size[0], size[1]);
+    let node_camera = match &camera_node {
+        Some(wanted) => Some(gltf_camera(&input, wanted)?),
+        None => None,
+    };
+    let (width, height) = match (size, &node_camera) {
+        (Some(size), _) => (size[0], size[1]),
+        (None, Some(c)) => {
+            let aspect = match c.projection {
+                tileraster_io::GltfProjection::Perspective { aspect_ratio, .. } => aspect_ratio.unwrap_or(16.0 / 9.0),
+                tileraster_io::GltfProjection::Orthographic { xmag, ymag, .. } => (xmag / ymag).abs(),
+            };
+            match aspect.is_finite() && aspect > 0.0 {
+                true => (1280, ((1280.0 / aspect).round() as u32).clamp(1, MAX_RENDER_DIM)),
+                false => (1280, 720),
+            }
+        }
+        (None, None) => (1280, 720),
+    };
     let world = match &instances {
         Some(file) => World::instanced(read_mesh(&input).map_err(|e| e.to_string())?, &read_transforms(file)?),
         None => read_world(&input).map_err(|e| e.to_string())?,
@@ -251,12 +331,36 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
             (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, scaled(if k & 4 == 0 { lo[2] } else { hi[2] })]);
         &Mesh { positions: corners.collect(), triangles: vec![[0, 1, 2]], ..Default::default() }
     };
-    let view_projection = match (mvp, camera) {
-        (Some(m), _) => std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c])),
-        (None, Some(c)) => Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], fov, mesh)
-            .view_projection(width, height)
-            .map_err(|e| format!("--camera: {e}"))?,
-        (None, None) => Camera::framing(mesh, width as f64 / height.max(1) as f64, fov).view_projection(width, height).map_err(|e| e.to_string())?,
+    let aspect = width as f64 / height.max(1) as f64;
+    let projection = match ortho {
+        Some(width) => Projection::Orthographic { width: width.unwrap_or(1.0) },
+        None => Projection::Perspective { fov_deg: fov },
+    };
+    let up = match up {
+        Some(UpArg::Y) => Up::Y,
+        Some(UpArg::Z) => Up::Z,
+        None => format_up(&input).map_err(|e| e.to_string())?,
+    };
+    // The matrix, and the viewer the lighting takes where a camera names it (the default
+    // perspective camera's is its matrix's centre of projection, and an `--mvp`'s too).
+    let named = |camera: Camera, flag: &str| match camera.view_projection(width, height) {
+        Ok(m) => Ok((m, Some(camera.viewer()))),
+        Err(e) => Err(format!("{flag}: {e}")),
+    };
+    let (view_projection, viewer) = match (mvp, &node_camera, camera) {
+        (Some(m), ..) => (std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c])), None),
+        (None, Some(c), _) => named(Camera::of_gltf(c, mesh, aspect), "--camera-node")?,
+        (None, None, Some(c)) => {
+            let look = Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], projection, mesh);
+            named(if ortho == Some(None) { look.fit_orthographic(mesh, aspect) } else { look }, "--camera")?
+        }
+        (None, None, None) => {
+            let mut framed = Camera::framing(mesh, aspect, projection, up);
+            if let Some(Some(seen)) = ortho {
+                framed.projection = Projection::Orthographic { width: seen };
+            }
+            (framed.view_projection(width, height).map_err(|e| e.to_string())?, ortho.map(|_| framed.viewer()))
+        }
     };
     for (flag, colour) in [("--background", Some(background)), ("--wire-colour", wire_colour)] {
         if let Some(c) = colour.iter().flatten().find(|c| !(0.0..=255.0).contains(*c) || c.fract() != 0.0) {
@@ -316,9 +420,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         ShadingArg::Normals => Shading::Normals,
         ShadingArg::Ids => Shading::Ids,
     };
-    if let Some(c) = camera {
-        params.eye = Some([c[0], c[1], c[2]]);
-    }
+    params.eye = viewer;
     let (backend, chosen) = crate::choose_backend(backend, width as u64 * height as u64);
     let start = Instant::now();
     let frame = render_world(&world, &params, backend).map_err(|e| e.to_string())?;

@@ -2,14 +2,14 @@
 //! triangle ids out, the same bits on both backends.
 //!
 //! ```no_run
-//! use tileraster::render::{render, Camera, Mesh, RenderParams};
+//! use tileraster::render::{render, Camera, Mesh, Projection, RenderParams, Up};
 //! use tileraster::Backend;
 //! let mesh = Mesh {
 //!     positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
 //!     triangles: vec![[0, 1, 2]],
 //!     ..Default::default()
 //! };
-//! let camera = Camera::framing(&mesh, 1.0, 45.0);
+//! let camera = Camera::framing(&mesh, 1.0, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
 //! let params = RenderParams::new(640, 480, camera.view_projection(640, 480)?);
 //! let frame = render(&mesh, &params, Backend::Cpu)?;
 //! assert_eq!(frame.colour.len(), 640 * 480);
@@ -22,13 +22,13 @@
 mod camera;
 mod diagnostics;
 
-pub use camera::Camera;
+pub use camera::{Camera, Projection, Up};
 pub use diagnostics::{Checksums, TileCounts};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    Address, Cull, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, IDENTITY, Instance, Light, LineRule, MAX_POINT_SIZE,
-    MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World, edges, face_normals, prepare_render,
-    prepare_world, validate_mesh,
+    Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, IDENTITY, Instance, Light, LineRule,
+    MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World, edges, face_normals,
+    prepare_render, prepare_world, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};
@@ -50,6 +50,13 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
     }
     let input = crate::dem::read_scene(path, &Default::default(), &())?;
     Ok(Mesh { positions: input.scene.vertices, triangles: input.scene.triangles, ..Default::default() })
+}
+
+/// The up axis of the mesh in `path` by its format's convention: `+Z` for points (terrain and
+/// point clouds), `+Y` for glTF (its specification's) and for OBJ, PLY and STL (the usual
+/// exports').
+pub fn format_up(path: &Path) -> Result<Up, DemError> {
+    Ok(if InputKind::of(path)?.is_points() { Up::Z } else { Up::Y })
 }
 
 /// The meshes in `path` and their placements: a glTF file's meshes with one instance per node
@@ -167,7 +174,7 @@ pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> R
 /// of a frame too.
 ///
 /// ```no_run
-/// # use tileraster::render::{Camera, Frame, Mesh, PreparedMesh, RenderParams};
+/// # use tileraster::render::{Camera, Frame, Mesh, PreparedMesh, Projection, RenderParams};
 /// # use tileraster::Backend;
 /// # let mesh = Mesh::default();
 /// let mut prepared = PreparedMesh::new(mesh)?;
@@ -175,7 +182,7 @@ pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> R
 /// for k in 0..36 {
 ///     let angle = (k as f64 * 10.0).to_radians();
 ///     let eye = [5.0 * angle.cos(), 5.0 * angle.sin(), 2.0];
-///     let camera = Camera::look_at(eye, [0.0; 3], [0.0, 0.0, 1.0], 45.0, prepared.mesh());
+///     let camera = Camera::look_at(eye, [0.0; 3], [0.0, 0.0, 1.0], Projection::Perspective { fov_deg: 45.0 }, prepared.mesh());
 ///     prepared.render_into(&RenderParams::new(640, 480, camera.view_projection(640, 480)?), Backend::Cpu, &mut frame)?;
 /// }
 /// # Ok::<(), tileraster::Error>(())

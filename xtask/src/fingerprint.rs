@@ -8,7 +8,7 @@
 //! so a change to the shade stage that keeps these changes no bit on any device.
 
 use std::time::Instant;
-use tileraster::render::{Address, Camera, Cull, Filter, Interpolation, LineRule, Mesh, RenderParams, Shading, Texture, Wireframe, render};
+use tileraster::render::{Address, Camera, Cull, Filter, Interpolation, LineRule, Mesh, Projection, RenderParams, Shading, Texture, Up, Wireframe, render};
 use tileraster::{Backend, Grid, Mode, Params, Scene, prepare, rasterise};
 use tileraster_testkit::{meshes, scenes};
 
@@ -84,9 +84,9 @@ fn frames() -> Result<Vec<(String, Mesh, RenderParams)>, String> {
     let (w, h) = (320, 180);
     let mut sphere = meshes::sphere([0.0, 0.0, 0.0], 1.0, 24, 32);
     sphere.colours = Some((0..sphere.positions.len()).map(|k| [(k % 7) as f32 / 6.0, (k % 5) as f32 / 4.0, 0.6, if k % 3 == 0 { 0.5 } else { 1.0 }]).collect());
-    let camera = Camera::framing(&sphere, w as f64 / h as f64, 45.0);
+    let camera = Camera::framing(&sphere, w as f64 / h as f64, Projection::Perspective { fov_deg: 45.0 }, Up::Y);
     let view = camera.view_projection(w, h).map_err(|e| e.to_string())?;
-    let lit = RenderParams { eye: Some(camera.eye), ..RenderParams::new(w, h, view) };
+    let lit = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(w, h, view) };
     let mut frames = Vec::new();
     for shading in Shading::ALL {
         for interpolation in [Interpolation::Perspective, Interpolation::Screen, Interpolation::Flat] {
@@ -114,9 +114,16 @@ fn frames() -> Result<Vec<(String, Mesh, RenderParams)>, String> {
     plane.uvs = Some(plane.positions.iter().map(|p| [(p[0] / 100.0 * 6.0 - 3.0) as f32, (p[1] / 100.0 * 6.0 - 1.5) as f32]).collect());
     plane.colours = Some(vec![[1.0, 0.9, 0.8, 1.0]; plane.positions.len()]);
     plane.textures = vec![Texture::srgb(size, size, rgba)];
-    let camera = Camera { eye: [50.0, -8.0, 6.0], target: [50.0, 40.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 60.0, near: 0.5, far: 200.0 };
+    let camera = Camera {
+        eye: [50.0, -8.0, 6.0],
+        target: [50.0, 40.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 60.0 },
+        near: 0.5,
+        far: 200.0,
+    };
     let view = camera.view_projection(w, h).map_err(|e| e.to_string())?;
-    let ground = RenderParams { cull: Cull::None, eye: Some(camera.eye), ..RenderParams::new(w, h, view) };
+    let ground = RenderParams { cull: Cull::None, eye: Some(camera.viewer()), ..RenderParams::new(w, h, view) };
     for filter in Filter::ALL {
         for address in Address::ALL {
             for shading in [Shading::Unlit, Shading::Phong] {

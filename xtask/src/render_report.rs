@@ -13,7 +13,7 @@ use crate::Timing;
 use crate::bench_report::timed;
 use std::fmt::Write as _;
 use tileraster::Backend;
-use tileraster::render::{Camera, Cull, Frame, IDENTITY, Mesh, NO_FACE, PreparedMesh, RenderParams, Shading, World, render, render_world};
+use tileraster::render::{Camera, Cull, Eye, Frame, IDENTITY, Mesh, NO_FACE, PreparedMesh, Projection, RenderParams, Shading, Up, World, render, render_world};
 use tileraster_peers::{MeshPipeline, NO_ID};
 use tileraster_testkit::meshes;
 
@@ -26,9 +26,9 @@ struct Scene {
 fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
     let mut out = Vec::new();
     let perspective = |mesh: &Mesh, w: u32, h: u32| -> Result<RenderParams, String> {
-        let camera = Camera::framing(mesh, w as f64 / h as f64, 45.0);
+        let camera = Camera::framing(mesh, w as f64 / h as f64, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
         let mut params = RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?);
-        params.eye = Some(camera.eye);
+        params.eye = Some(camera.viewer());
         // The peer's outputs: colour (or ids) and depth, no per-pixel fragment counts.
         params.count_fragments = false;
         Ok(params)
@@ -44,7 +44,7 @@ fn scenes(quick: bool) -> Result<Vec<Scene>, String> {
     // passes the depth test in the hardware pipeline): overdraw 8.
     let (w, h) = if quick { (320, 180) } else { (1920, 1080) };
     let mesh = meshes::fill_layers(8);
-    let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), count_fragments: false, ..RenderParams::new(w, h, IDENTITY) };
+    let params = RenderParams { cull: Cull::None, eye: Some(Eye::Point([0.0, 0.0, -1.0])), count_fragments: false, ..RenderParams::new(w, h, IDENTITY) };
     out.push(Scene { name: format!("fill rate: 8 full-frame layers (16 triangles), back to front, {w}×{h}"), mesh, params });
     Ok(out)
 }
@@ -68,7 +68,7 @@ type Framed = (Mesh, Camera, [[f64; 4]; 4], u32, u32);
 fn framed_terrain(quick: bool) -> Result<Framed, String> {
     let (n, w, h) = if quick { (40, 320, 180) } else { (224, 1920, 1080) };
     let mesh = meshes::terrain(n, 1000.0, 60.0);
-    let camera = Camera::framing(&mesh, w as f64 / h as f64, 45.0);
+    let camera = Camera::framing(&mesh, w as f64 / h as f64, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
     let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
     Ok((mesh, camera, matrix, w, h))
 }
@@ -250,7 +250,7 @@ fn msaa_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
     let _ = writeln!(s, "| ---: | ---: | ---: | ---: | ---: | --- |");
     let mut single = None;
     for samples in [1, 4, 8] {
-        let params = RenderParams { shading: Shading::Phong, samples, eye: Some(camera.eye), ..RenderParams::new(w, h, matrix) };
+        let params = RenderParams { shading: Shading::Phong, samples, eye: Some(camera.viewer()), ..RenderParams::new(w, h, matrix) };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         let base = *single.get_or_insert(cpu_time.median);
@@ -292,7 +292,7 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
             shading: Shading::Ids,
             faces: false,
             wireframe: Some(Wireframe { rule, colour: None }),
-            eye: Some(camera.eye),
+            eye: Some(camera.viewer()),
             count_fragments: false,
             return_colour: false,
             return_depth: false,
@@ -316,7 +316,7 @@ fn line_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String> {
         shading: Shading::Ids,
         faces: false,
         points: Some(1.0),
-        eye: Some(camera.eye),
+        eye: Some(camera.viewer()),
         count_fragments: false,
         return_colour: false,
         return_depth: false,
@@ -367,7 +367,7 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
     let size = 1024u32;
     let mesh = meshes::textured_plane(64, size);
     let [eye, target, up] = meshes::TEXTURED_PLANE_EYE;
-    let camera = Camera { eye, target, up, fov_deg: 60.0, near: 0.5, far: 200.0 };
+    let camera = Camera { eye, target, up, projection: Projection::Perspective { fov_deg: 60.0 }, near: 0.5, far: 200.0 };
     let matrix = camera.view_projection(w, h).map_err(|e| e.to_string())?;
     let mut peer = tileraster_peers::TexturedPipeline::new()?;
     let mut s = String::new();
@@ -388,7 +388,7 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
         let params = RenderParams {
             shading: Shading::Unlit,
             cull: Cull::None,
-            eye: Some(camera.eye),
+            eye: Some(camera.viewer()),
             count_fragments: false,
             return_depth: false,
             texture_filter: Some(filter),
@@ -424,10 +424,17 @@ fn instance_section(quick: bool, runs: usize, gpu: bool) -> Result<String, Strin
     // Looking along the field's diagonal from one corner, with the far plane a third of the
     // way across: about a tenth of the instances lie in the view.
     let d = side as f64;
-    let camera = Camera { eye: [-2.0, -2.0, 3.0], target: [d / 2.0, d / 2.0, 0.0], up: [0.0, 0.0, 1.0], fov_deg: 50.0, near: 0.5, far: 0.42 * d };
+    let camera = Camera {
+        eye: [-2.0, -2.0, 3.0],
+        target: [d / 2.0, d / 2.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 50.0 },
+        near: 0.5,
+        far: 0.42 * d,
+    };
     let on = RenderParams {
         shading: Shading::Phong,
-        eye: Some(camera.eye),
+        eye: Some(camera.viewer()),
         count_fragments: false,
         ..RenderParams::new(w, h, camera.view_projection(w, h).map_err(|e| e.to_string())?)
     };
@@ -501,7 +508,7 @@ fn hidden_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String>
                 cull: Cull::None,
                 shading: Shading::Ids,
                 count_fragments: false,
-                eye: Some([0.0, 0.0, -1.0]),
+                eye: Some(Eye::Point([0.0, 0.0, -1.0])),
                 ..RenderParams::new(w, h, IDENTITY)
             };
             let off = RenderParams { skips: tileraster::Skips { hidden_triangles: false, ..on.skips }, ..on.clone() };

@@ -15,7 +15,7 @@
 
 use std::fmt::Write;
 use std::time::Instant;
-use tileraster::render::{Camera, Cull, IDENTITY, Mesh, RenderParams, Shading, prepare_render};
+use tileraster::render::{Camera, Cull, Eye, IDENTITY, Mesh, Projection, RenderParams, Shading, Up, prepare_render};
 use tileraster::{Grid, Params, Prepared, Scene};
 use tileraster_core::kernels::pipeline::{Pipeline, stages};
 use tileraster_testkit::{meshes, scenes};
@@ -55,8 +55,8 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     let tin = scenes::delaunay_terrain(x0, y0, 10_000.0, 10_000.0, 315, 315, 2026);
     cases.push(("terrain TIN, 99856 points, 4096²".into(), Case::Height(tin, Grid::new(x0, x0 + 10_000.0, y0, y0 + 10_000.0, 4096, 4096))));
     let mesh = meshes::terrain(224, 1000.0, 60.0);
-    let camera = Camera::framing(&mesh, 1920.0 / 1080.0, 45.0);
-    let base = RenderParams { eye: Some(camera.eye), ..RenderParams::new(1920, 1080, camera.view_projection(1920, 1080).map_err(|e| e.to_string())?) };
+    let camera = Camera::framing(&mesh, 1920.0 / 1080.0, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
+    let base = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(1920, 1080, camera.view_projection(1920, 1080).map_err(|e| e.to_string())?) };
     for shading in [Shading::Ids, Shading::Phong] {
         cases.push((
             format!("render: terrain mesh, 100352 triangles, 1920×1080, {}", shading.name()),
@@ -67,7 +67,7 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
         "render: terrain mesh, ids, fragments not counted".into(),
         Case::Render(mesh.clone(), Box::new(RenderParams { shading: Shading::Ids, count_fragments: false, ..base.clone() })),
     ));
-    let fill = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), shading: Shading::Ids, ..RenderParams::new(1920, 1080, IDENTITY) };
+    let fill = RenderParams { cull: Cull::None, eye: Some(Eye::Point([0.0, 0.0, -1.0])), shading: Shading::Ids, ..RenderParams::new(1920, 1080, IDENTITY) };
     cases.push(("render: fill rate, 8 full-frame layers, 1920×1080, ids".into(), Case::Render(meshes::fill_layers(8), Box::new(fill.clone()))));
     // What the render pipeline computes: no fragment counts, so the hidden layers get no tests.
     let uncounted = RenderParams { count_fragments: false, ..fill };
@@ -88,11 +88,11 @@ fn report_cases(terrain: &Mesh, base: &RenderParams) -> Result<Vec<(String, Case
     let mut cases = Vec::new();
     let plane = meshes::textured_plane(64, 1024);
     let [eye, target, up] = meshes::TEXTURED_PLANE_EYE;
-    let camera = Camera { eye, target, up, fov_deg: 60.0, near: 0.5, far: 200.0 };
+    let camera = Camera { eye, target, up, projection: Projection::Perspective { fov_deg: 60.0 }, near: 0.5, far: 200.0 };
     let textured = RenderParams {
         shading: Shading::Unlit,
         cull: Cull::None,
-        eye: Some(eye),
+        eye: Some(Eye::Point(eye)),
         count_fragments: false,
         texture_filter: Some(Filter::Trilinear),
         texture_address: Some(Address::Repeat),

@@ -63,6 +63,62 @@ pub fn read_gltf_world(path: &Path) -> Result<World, IoError> {
     Ok(world)
 }
 
+/// A camera that a glTF file's scene places on a node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GltfCamera {
+    /// The node's index and name.
+    pub node: usize,
+    pub node_name: Option<String>,
+    /// The camera's own name.
+    pub name: Option<String>,
+    /// The node's world transform, row-major: the camera sits at its origin and looks down its
+    /// `−Z`, `+Y` up (glTF's convention).
+    pub to_world: [[f64; 4]; 4],
+    pub projection: GltfProjection,
+}
+
+/// A glTF camera's projection, as the file gives it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GltfProjection {
+    /// Vertical field of view in radians; `zfar` absent: an infinite projection.
+    Perspective { yfov: f64, aspect_ratio: Option<f64>, znear: f64, zfar: Option<f64> },
+    /// Half the view's width and height.
+    Orthographic { xmag: f64, ymag: f64, znear: f64, zfar: f64 },
+}
+
+/// The cameras of a glTF file's scene, nodes depth first in document order (as
+/// [`read_gltf_world`] walks them).
+pub fn read_gltf_cameras(path: &Path) -> Result<Vec<GltfCamera>, IoError> {
+    let format = |message: String| IoError::Format { path: path.to_owned(), message };
+    let gltf = gltf::Gltf::open(path).map_err(|e| format(format!("not a readable glTF 2.0 file: {e}")))?;
+    let mut cameras = Vec::new();
+    walk(&gltf.document, &mut |node, transform| {
+        if let Some(camera) = node.camera() {
+            let projection = match camera.projection() {
+                gltf::camera::Projection::Perspective(p) => GltfProjection::Perspective {
+                    yfov: p.yfov() as f64,
+                    aspect_ratio: p.aspect_ratio().map(f64::from),
+                    znear: p.znear() as f64,
+                    zfar: p.zfar().map(f64::from),
+                },
+                gltf::camera::Projection::Orthographic(o) => {
+                    GltfProjection::Orthographic { xmag: o.xmag() as f64, ymag: o.ymag() as f64, znear: o.znear() as f64, zfar: o.zfar() as f64 }
+                }
+            };
+            cameras.push(GltfCamera {
+                node: node.index(),
+                node_name: node.name().map(str::to_owned),
+                name: camera.name().map(str::to_owned),
+                to_world: *transform,
+                projection,
+            });
+        }
+        Ok(())
+    })
+    .map_err(format)?;
+    Ok(cameras)
+}
+
 /// The document and its buffers, with required extensions refused.
 fn open(path: &Path) -> Result<(gltf::Gltf, Vec<gltf::buffer::Data>), IoError> {
     let format = |message: String| IoError::Format { path: path.to_owned(), message };
@@ -508,5 +564,38 @@ mod tests {
         assert!(read_gltf(&dir.join("broken.glb")).unwrap_err().to_string().contains("not a readable glTF"));
         let missing = read_gltf(&dir.join("none.gltf")).unwrap_err().to_string();
         assert!(missing.contains("none.gltf"), "{missing}");
+    }
+
+    /// A camera's world transform is its node's, parents included; cameras outside the scene
+    /// are not listed; the projections are the file's.
+    #[test]
+    fn cameras_are_placed_by_their_nodes() {
+        let dir = scratch("cameras");
+        let json = r#"{
+  "asset": {"version": "2.0"},
+  "scene": 0,
+  "scenes": [{"nodes": [0]}],
+  "nodes": [
+    {"name": "rig", "translation": [1, 2, 3], "rotation": [0, 0.7071067811865476, 0, 0.7071067811865476], "children": [1]},
+    {"name": "eye", "camera": 0, "translation": [0, 0, 4]},
+    {"name": "unplaced", "camera": 1}
+  ],
+  "cameras": [
+    {"name": "wide", "type": "perspective", "perspective": {"yfov": 1.2, "znear": 0.5}},
+    {"type": "orthographic", "orthographic": {"xmag": 3, "ymag": 2, "znear": 0, "zfar": 9}}
+  ]
+}"#;
+        std::fs::write(dir.join("cameras.gltf"), json).unwrap();
+        let cameras = read_gltf_cameras(&dir.join("cameras.gltf")).unwrap();
+        assert_eq!(cameras.len(), 1, "the scene's cameras only");
+        let c = &cameras[0];
+        assert_eq!((c.node, c.node_name.as_deref(), c.name.as_deref()), (1, Some("eye"), Some("wide")));
+        assert_eq!(c.projection, GltfProjection::Perspective { yfov: 1.2f32 as f64, aspect_ratio: None, znear: 0.5, zfar: None });
+        // 4 along +z, turned 90° about y (z → x), then moved by (1, 2, 3): at (5, 2, 3),
+        // looking down −x.
+        let column = |k: usize| [c.to_world[0][k], c.to_world[1][k], c.to_world[2][k]];
+        assert!(close(column(3), [5.0, 2.0, 3.0]), "{:?}", column(3));
+        assert!(close(column(2), [1.0, 0.0, 0.0]), "the camera's +z (it looks down −z): {:?}", column(2));
+        assert!(close(column(1), [0.0, 1.0, 0.0]), "up: {:?}", column(1));
     }
 }

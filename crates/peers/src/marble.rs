@@ -6,7 +6,7 @@
 //! the shader's repeated squaring) and any fusing of products and sums.
 
 use crate::device::{self, Gpu};
-use tileraster_core::render::{Mesh, RenderParams};
+use tileraster_core::render::{Eye, Mesh, RenderParams};
 
 /// The marble and the Blinn-Phong lighting of `procedural-shader` and `programs::shade`,
 /// step for step, in the hardware's arithmetic.
@@ -105,7 +105,7 @@ fn fs_main(v: Varyings) -> @location(0) vec4<f32> {
     let stone = (light_stone + (vec3<f32>(0.22, 0.25, 0.32) - light_stone) * vein) * v.colour.rgb;
     // Blinn-Phong, as programs::shade::phong.
     let n = normalize(v.normal);
-    let view = normalize(u.eye.xyz - v.world);
+    let view = normalize(u.eye.xyz - v.world * u.eye.w);
     var diffuse = u.ambient.rgb;
     var specular = vec3<f32>(0.0);
     for (var k = 0; k < i32(u.constants.z); k++) {
@@ -204,7 +204,11 @@ impl MarblePipeline {
         let lights = &params.lights[..params.lights.len().min(2)];
         let mut uniforms = Uniforms {
             m: std::array::from_fn(|k| params.view_projection[k % 4][k / 4] as f32),
-            eye: f4(eye, 0.0),
+            // Homogeneous, as the kernels take it: a point, or a direction at infinity.
+            eye: match eye {
+                Eye::Point(p) => f4(p, 1.0),
+                Eye::Direction(d) => f4(unit(d), 0.0),
+            },
             ambient: f4(params.ambient, 0.0),
             specular: f4(params.specular, params.shininess as f32),
             constants: [

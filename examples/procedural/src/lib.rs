@@ -3,7 +3,7 @@
 //! [`FragmentStage`] that both backends run with the same bits.
 
 use tileraster::Error;
-use tileraster::render::{Camera, FragmentStage, Light, Mesh, RenderParams, Shading};
+use tileraster::render::{Camera, FragmentStage, Light, Mesh, Projection, RenderParams, Shading};
 
 /// The marble shader on both backends.
 pub static MARBLE: FragmentStage = tileraster::fragment_stage!(procedural_shader);
@@ -36,9 +36,9 @@ pub fn scene() -> Mesh {
 /// A `width` × `height` frame of [`scene`] with the marble shader, from the front-right and
 /// above, lit by a key light and a fill light.
 pub fn params(mesh: &Mesh, width: u32, height: u32) -> Result<RenderParams, Error> {
-    let camera = Camera::look_at([3.4, -4.2, 2.8], [0.0, 0.0, 0.7], [0.0, 0.0, 1.0], 40.0, mesh);
+    let camera = Camera::look_at([3.4, -4.2, 2.8], [0.0, 0.0, 0.7], [0.0, 0.0, 1.0], Projection::Perspective { fov_deg: 40.0 }, mesh);
     let mut params = RenderParams::new(width, height, camera.view_projection(width, height)?);
-    params.eye = Some(camera.eye);
+    params.eye = Some(camera.viewer());
     params.shading = Shading::Phong;
     params.background = [24, 26, 32, 255];
     params.lights = vec![Light { direction: [0.5, -0.4, 0.8], colour: [0.8, 0.78, 0.72] }, Light { direction: [-0.6, -0.2, 0.3], colour: [0.2, 0.22, 0.28] }];

@@ -185,8 +185,7 @@ pub fn id_colour(id: u32) -> u32 {
 /// own colour with it.
 #[inline]
 pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
-    let eye = [params.eye[0] - p[0], params.eye[1] - p[1], params.eye[2] - p[2]];
-    let v = normalise(eye);
+    let v = normalise(params.towards_viewer(p));
     let mut diffuse = [params.ambient[0], params.ambient[1], params.ambient[2]];
     let mut specular = [0.0f32; 3];
     let mut k = 0;

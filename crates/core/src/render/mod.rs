@@ -144,6 +144,63 @@ pub struct Light {
     pub colour: [f64; 3],
 }
 
+/// Where the viewer is, for specular highlights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Eye {
+    /// A perspective camera's position, in world coordinates.
+    Point([f64; 3]),
+    /// Towards an orthographic camera, in world coordinates: its centre of projection lies at
+    /// infinity, so every point sees the viewer in this one direction (normalised when used).
+    Direction([f64; 3]),
+}
+
+impl Eye {
+    /// The viewer of `view_projection`: the point it maps to `x = y = w = 0` (a perspective
+    /// camera's eye), or where no such point exists (an orthographic or other parallel
+    /// projection, whose rows `x`, `y` and `w` leave a direction `d` with `w = 0`) the direction
+    /// `±d` towards which the depth decreases for `depth_func` (`Less` and the like: depth 0 is
+    /// nearest), or increases for `Greater` and `GreaterEqual` (reversed depth). `None` where the
+    /// matrix sees no single direction either (`x`, `y` and `w` of rank below 3, or a depth
+    /// constant along `d`).
+    pub fn of(view_projection: &[[f64; 4]; 4], depth_func: DepthFunc) -> Option<Eye> {
+        if let Some(point) = centre_of_projection(view_projection) {
+            return Some(Eye::Point(point));
+        }
+        let m = view_projection;
+        let norm = |v: [f64; 3]| dot(v, v).sqrt();
+        // The null direction of the 3 × 4 rows x, y, w with its w component 0: a direction
+        // whose clip x, y and w do not change, so `w` must not vary along it either.
+        let [x, y, w] = [m[0], m[1], m[3]].map(|r| [r[0], r[1], r[2]]);
+        let d = cross(x, y);
+        let scale = norm(x) * norm(y);
+        // (Written so that NaN fails every test.)
+        let independent = norm(d) > 1e-12 * scale;
+        if !independent || dot(w, d).abs() > 1e-12 * norm(w) * norm(d) {
+            return None;
+        }
+        let depth_slope = dot([m[2][0], m[2][1], m[2][2]], d);
+        let depth_varies = depth_slope.abs() > 1e-12 * norm([m[2][0], m[2][1], m[2][2]]) * norm(d);
+        if !depth_varies {
+            return None;
+        }
+        let reversed = matches!(depth_func, DepthFunc::Greater | DepthFunc::GreaterEqual);
+        let towards_viewer = if (depth_slope < 0.0) != reversed { d } else { d.map(|c| -c) };
+        Some(Eye::Direction(unit(towards_viewer)))
+    }
+
+    /// As the kernels take it: `[x, y, z, 1]` for a point, `[x, y, z, 0]` for a unit direction,
+    /// so that `xyz − p · w` points from `p` towards the viewer either way.
+    fn homogeneous(self) -> [f64; 4] {
+        match self {
+            Eye::Point(p) => [p[0], p[1], p[2], 1.0],
+            Eye::Direction(d) => {
+                let d = unit(d);
+                [d[0], d[1], d[2], 0.0]
+            }
+        }
+    }
+}
+
 /// Everything a frame needs besides its mesh.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderParams {
@@ -154,9 +211,10 @@ pub struct RenderParams {
     pub model: [[f64; 4]; 4],
     /// World to clip space, row-major: `clip = M · (x, y, z, 1)`.
     pub view_projection: [[f64; 4]; 4],
-    /// The camera's position, for specular highlights; `None`: the view-projection's centre of
-    /// projection.
-    pub eye: Option<[f64; 3]>,
+    /// Where the viewer is, for specular highlights; `None`: where the view-projection says
+    /// ([`Eye::of`]: its centre of projection, or for an orthographic matrix its viewing
+    /// direction).
+    pub eye: Option<Eye>,
     pub cull: Cull,
     pub front_face: FrontFace,
     pub shading: Shading,
@@ -433,9 +491,9 @@ pub(crate) fn prepare_instances_in(
     let (w, h) = (params.width, params.height);
     let m = &params.view_projection;
     let eye = match params.eye {
-        Some(e) => e,
-        None => centre_of_projection(m).ok_or_else(|| Error::SingularCamera {
-            reason: "the view-projection matrix has no centre of projection (x = y = w = 0 has no single solution); give the eye position".into(),
+        Some(e) => e.homogeneous(),
+        None => Eye::of(m, params.depth_func).map(Eye::homogeneous).ok_or_else(|| Error::SingularCamera {
+            reason: "the view-projection matrix has neither a centre of projection (x = y = w = 0 has no single solution) nor a single viewing direction; give the eye".into(),
         })?,
     };
     let lights: Vec<Light> = params.lights.iter().take(MAX_LIGHTS).map(|l| Light { direction: unit(l.direction), colour: l.colour }).collect();
@@ -748,7 +806,7 @@ pub(crate) fn prepare_instances_in(
 }
 
 /// The kernels' shade parameters for a frame.
-fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, far): (f64, f64)) -> ShadeParams {
+fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4], (near, far): (f64, f64)) -> ShadeParams {
     let mode = match params.shading {
         Shading::Unlit | Shading::Flat | Shading::Smooth => ShadeMode::Colour,
         Shading::Phong => ShadeMode::Phong,
@@ -767,7 +825,7 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 3], (near, f
         depth_test: DepthTest::new(params.depth_func, params.depth_write),
         ambient: f4(params.ambient),
         specular: f4(params.specular),
-        eye: f4(eye),
+        eye: eye.map(|c| c as f32),
         depth_view: [near as f32, (1.0 / (far - near).max(1e-6)) as f32, 0.0, 0.0],
         samples: params.samples,
         layer_sample: params.layer_sample,
@@ -1112,8 +1170,8 @@ fn cut(a: &ClipVertex, b: &ClipVertex, da: f64, db: f64, k: usize) -> ClipVertex
 
 /// Lambert + Blinn-Phong in `f64` (flat and Gouraud shading; the kernels' per-pixel version is
 /// `programs::shade`).
-fn blinn_phong(params: &RenderParams, lights: &[Light], eye: [f64; 3], base: [f64; 4], n: [f64; 3], p: [f64; 3]) -> [f64; 4] {
-    let v = unit(sub(eye, p));
+fn blinn_phong(params: &RenderParams, lights: &[Light], eye: [f64; 4], base: [f64; 4], n: [f64; 3], p: [f64; 3]) -> [f64; 4] {
+    let v = unit(std::array::from_fn(|c| eye[c] - p[c] * eye[3]));
     let mut diffuse = params.ambient;
     let mut specular = [0.0; 3];
     for l in lights {

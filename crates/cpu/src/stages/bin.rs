@@ -39,14 +39,14 @@ fn invocations<'a>(frame: &'a FrameParams, listed: &'a [u32]) -> impl ParallelIt
 mod tests {
     use super::*;
     use crate::stages::{bin_scan, setup};
-    use tileraster_core::render::{Cull, IDENTITY, RenderParams, prepare_render};
+    use tileraster_core::render::{Cull, Eye, IDENTITY, RenderParams, prepare_render};
     use tileraster_testkit::meshes;
 
     /// A frame of a few full-frame triangles is binned in bands of one tile row, and every
     /// tile's bin holds what binning each triangle in one band gives, in some order.
     #[test]
     fn bands_change_no_bin() {
-        let params = RenderParams { cull: Cull::None, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(1920, 1080, IDENTITY) };
+        let params = RenderParams { cull: Cull::None, eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(1920, 1080, IDENTITY) };
         let (prepared, _) = prepare_render(&meshes::fill_layers(8), &params).unwrap();
         let plan = prepared.plan(prepared.window, false).unwrap();
         let banded = plan.frame(&prepared, plan.active.unwrap());

@@ -2,7 +2,7 @@
 //! hides loses every pixel of its tile. (That it changes no bit is checked on whole frames by
 //! the render parity tests and `tests/skips.rs`.)
 
-use tileraster_core::render::{Cull, IDENTITY, RenderParams, prepare_render};
+use tileraster_core::render::{Cull, Eye, IDENTITY, RenderParams, prepare_render};
 use tileraster_kernels::FULL_TILE_BIT;
 use tileraster_kernels::abi::{DepthFunc, TriangleSetup};
 use tileraster_kernels::math::edge::Side;
@@ -20,7 +20,8 @@ fn hidden_triangles_lose_every_pixel_of_their_tile() {
     let mesh = meshes::fill_layers(6);
     for func in DepthFunc::ALL {
         let clear_depth = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
-        let params = RenderParams { cull: Cull::None, depth_func: func, clear_depth, eye: Some([0.0, 0.0, -1.0]), ..RenderParams::new(400, 300, IDENTITY) };
+        let params =
+            RenderParams { cull: Cull::None, depth_func: func, clear_depth, eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(400, 300, IDENTITY) };
         let (prepared, _) = prepare_render(&mesh, &params).unwrap();
         let plan = prepared.plan(prepared.window, false).unwrap();
         let frame = plan.frame(&prepared, plan.active.unwrap());

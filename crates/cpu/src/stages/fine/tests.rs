@@ -149,7 +149,7 @@ fn row_masks_are_the_stages_side_of_every_pixel() {
 /// twin does not.
 #[test]
 fn depth_test_in_lanes_changes_no_bit() {
-    use tileraster_core::render::{Cull, IDENTITY, RenderParams, prepare_render};
+    use tileraster_core::render::{Cull, Eye, IDENTITY, RenderParams, prepare_render};
     use tileraster_testkit::meshes;
     let mut ways = vec![Way::Centres, Way::Lanes];
     if wide_vectors() {
@@ -185,7 +185,7 @@ fn depth_test_in_lanes_changes_no_bit() {
                         depth_func: func,
                         depth_write: write,
                         clear_depth,
-                        eye: Some([0.0, 0.0, -1.0]),
+                        eye: Some(Eye::Point([0.0, 0.0, -1.0])),
                         count_fragments,
                         skips,
                         ..RenderParams::new(203, 157, IDENTITY)

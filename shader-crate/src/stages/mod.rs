@@ -6,3 +6,5 @@ pub mod fine;
 pub mod scan;
 pub mod setup;
 pub mod small;
+pub mod vertex;
+pub mod viewport;

@@ -1025,3 +1025,58 @@ fn render_projects_orthographically_and_knows_which_way_is_up() {
     let (w, h, _) = extent(&["--up", "z"]);
     assert!(h < 2 * w, "with z up the box lies along the view: {w} × {h} pixels");
 }
+
+/// `tileraster render dem.tif`: a GeoTIFF DEM as terrain, +Z up, its nodata cells left as holes.
+/// The frame is the one of the mesh the definition gives (a vertex at every cell centre with a
+/// height, every 2 × 2 block of them as two triangles split north-west to south-east), built
+/// here from the file's own samples and written as an OBJ: the same PNG, bit for bit.
+#[test]
+fn render_draws_a_geotiff_dem_as_terrain() {
+    let dir = scratch("render-dem");
+    let scene = scenes::terrain(500_000.0, 5_000_000.0, 600.0, 400.0, 20, 14, 4);
+    let (obj, tif) = (dir.join("tin.obj"), dir.join("dem.tif"));
+    write_obj(&scene, &obj);
+    // The grid reaches beyond the TIN: nodata at its edges.
+    let out = rasterise_cli(&obj, &tif, &["--nodata", "-32768", "--txe", "499990", "500590", "--tye", "4999980", "5000410", "--outsize", "60", "43"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    let heights = read_tif_values(&tif);
+    let (w, h, dx, dy) = (60usize, 43usize, 10.0, 10.0);
+    let mut text = String::new();
+    let mut index = vec![None; w * h];
+    let mut vertices = 0;
+    for (k, &z) in heights.iter().enumerate() {
+        if z != -32768.0 {
+            let (i, j) = ((k % w) as f64, (k / w) as f64);
+            text += &format!("v {:?} {:?} {:?}\n", 499_990.0 + (i + 0.5) * dx, 5_000_410.0 - (j + 0.5) * dy, z as f64);
+            vertices += 1;
+            index[k] = Some(vertices);
+        }
+    }
+    let mut faces = 0;
+    for j in 0..h - 1 {
+        for i in 0..w - 1 {
+            let at = |i: usize, j: usize| index[j * w + i];
+            if let (Some(nw), Some(ne), Some(sw), Some(se)) = (at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)) {
+                text += &format!("f {nw} {sw} {se}\nf {nw} {se} {ne}\n");
+                faces += 2;
+            }
+        }
+    }
+    assert!(faces > 1000 && faces < 2 * (w - 1) * (h - 1), "{faces} faces: the TIN should cover most of the grid, not all");
+    let expected = dir.join("expected.obj");
+    std::fs::write(&expected, text).unwrap();
+
+    let args = ["--size", "320", "240", "--shading", "phong", "--stats"];
+    let (from_dem, from_obj) = (dir.join("dem.png"), dir.join("obj.png"));
+    let run = |input: &Path, png: &Path, extra: &[&str]| {
+        let out = bin().args(["render", input.to_str().unwrap(), "-o", png.to_str().unwrap(), "--backend", "cpu"]).args(args).args(extra).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let dem_stats = run(&tif, &from_dem, &[]);
+    run(&expected, &from_obj, &["--up", "z"]);
+    assert_eq!(std::fs::read(&from_dem).unwrap(), std::fs::read(&from_obj).unwrap(), "the DEM's frame and its mesh's");
+    assert!(dem_stats.contains(&format!("{faces} triangles")), "{dem_stats}");
+    assert!(rendered(&tif, &from_dem, &[]).unwrap().1 > 10_000, "the terrain fills the frame");
+}

@@ -18,7 +18,8 @@ pub struct RenderArgs {
     /// The mesh: `.gltf` or `.glb` (node transforms applied; normals, vertex colours and the
     /// base colour used), `.obj` (normals, materials' diffuse colours), `.ply` (vertex normals
     /// and colours), `.stl`, or points (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`,
-    /// `.pts`) rendered as their Delaunay TIN.
+    /// `.pts`) rendered as their Delaunay TIN, or a GeoTIFF DEM (`.tif`: a vertex at every cell
+    /// centre with a height, nodata cells left as holes), +Z up.
     input: PathBuf,
     /// The PNG to write (RGBA).
     #[arg(short, long)]

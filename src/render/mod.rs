@@ -21,9 +21,11 @@
 
 mod camera;
 mod diagnostics;
+mod terrain;
 
 pub use camera::{Camera, Projection, Up};
 pub use diagnostics::{Checksums, TileCounts};
+pub use terrain::dem_mesh;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
     Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, IDENTITY, Instance, Light, LineRule,
@@ -39,9 +41,13 @@ use tileraster_core::{Layers, Raster};
 
 /// The mesh in `path`: glTF 2.0 (`.gltf`, `.glb`) with its normals, colours and texture
 /// coordinates in world coordinates; PLY with its vertex normals and colours; OBJ with its normals,
-/// texture coordinates and materials' diffuse colours; any other input `tileraster rasterise` takes (OBJ, PLY,
-/// STL, or points as their Delaunay TIN) as positions and faces.
+/// texture coordinates and materials' diffuse colours; a GeoTIFF DEM (`.tif`, `.tiff`) as its
+/// terrain ([`dem_mesh`]); any other input `tileraster rasterise` takes (STL, or points as
+/// their Delaunay TIN) as positions and faces.
 pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
+    if is_geotiff(path) {
+        return Ok(dem_mesh(&tileraster_io::read_dem(path)?));
+    }
     match InputKind::of(path)? {
         InputKind::Gltf => return Ok(tileraster_io::read_gltf(path)?),
         InputKind::Ply => return Ok(tileraster_io::read_ply_mesh(path)?),
@@ -52,19 +58,24 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
     Ok(Mesh { positions: input.scene.vertices, triangles: input.scene.triangles, ..Default::default() })
 }
 
-/// The up axis of the mesh in `path` by its format's convention: `+Z` for points (terrain and
-/// point clouds), `+Y` for glTF (its specification's) and for OBJ, PLY and STL (the usual
+/// The up axis of the mesh in `path` by its format's convention: `+Z` for points and DEMs
+/// (terrain and point clouds), `+Y` for glTF (its specification's) and for OBJ, PLY and STL (the usual
 /// exports').
 pub fn format_up(path: &Path) -> Result<Up, DemError> {
-    Ok(if InputKind::of(path)?.is_points() { Up::Z } else { Up::Y })
+    Ok(if is_geotiff(path) || InputKind::of(path)?.is_points() { Up::Z } else { Up::Y })
+}
+
+/// Whether `path` names a GeoTIFF (`.tif`, `.tiff`): a DEM that [`read_mesh`] reads as terrain.
+fn is_geotiff(path: &Path) -> bool {
+    path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
 }
 
 /// The meshes in `path` and their placements: a glTF file's meshes with one instance per node
 /// that places one (nodes sharing a mesh share it); any other input [`read_mesh`] reads, once.
 pub fn read_world(path: &Path) -> Result<World, DemError> {
-    match InputKind::of(path)? {
-        InputKind::Gltf => Ok(tileraster_io::read_gltf_world(path)?),
-        _ => Ok(World::single(read_mesh(path)?)),
+    match is_geotiff(path) || InputKind::of(path)? != InputKind::Gltf {
+        true => Ok(World::single(read_mesh(path)?)),
+        false => Ok(tileraster_io::read_gltf_world(path)?),
     }
 }
 

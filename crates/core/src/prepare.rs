@@ -102,7 +102,7 @@ pub struct RenderInputs {
     pub textures: Vec<TextureInfo>,
     pub texels: Vec<u64>,
     /// The frame's fragment shader; `None`: the built-in shadings.
-    pub fragment: Option<crate::render::FragmentStage>,
+    pub fragment: Option<crate::render::fragment::FragmentStage>,
     /// Whether the call returns the colour layer, and the depth layer (the values): the stages
     /// write both in any case.
     pub returns_colour: bool,

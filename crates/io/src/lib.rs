@@ -1,4 +1,5 @@
-//! File formats: meshes (OBJ, PLY, STL, glTF 2.0) and point sets (CSV and XYZ text, LAS and LAZ) in;
+//! File formats: meshes (OBJ, PLY, STL, glTF 2.0), point sets (CSV and XYZ text, LAS and LAZ)
+//! and GeoTIFF DEMs in;
 //! OBJ meshes (a point set's TIN),
 //! single-band GeoTIFFs and COGs (streamed band by band), VRT mosaics of them, and PNG hillshade
 //! previews out.
@@ -6,6 +7,7 @@
 //! so a failed run never leaves a partial file behind.
 
 mod cog;
+mod dem;
 mod geotiff;
 mod gltf_mesh;
 mod las;
@@ -16,6 +18,7 @@ mod preview;
 mod stl;
 mod vrt;
 
+pub use dem::{Dem, read_dem};
 pub use geotiff::{
     BigTiff, Compression, GeoTiffOptionError, GeoTiffOptions, GeoTiffWriter, Predictor, Sample, TILE, parse_epsg, write_geotiff, write_geotiff_with,
 };

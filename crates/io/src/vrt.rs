@@ -50,14 +50,7 @@ fn part_from<R: std::io::Read + std::io::Seek>(reader: R, path: &Path) -> Result
     let fail = |message: String| IoError::Format { path: path.to_owned(), message };
     let mut d = Decoder::new(reader).map_err(|e| fail(format!("not a readable TIFF: {e}")))?;
     let (width, height) = d.dimensions().map_err(|e| fail(e.to_string()))?;
-    let scale = d.get_tag_f64_vec(Tag::ModelPixelScaleTag).map_err(|_| fail("no ModelPixelScale tag: not georeferenced".into()))?;
-    let tie = d.get_tag_f64_vec(Tag::ModelTiepointTag).map_err(|_| fail("no ModelTiepoint tag: not georeferenced".into()))?;
-    if scale.len() < 2 || tie.len() < 6 || tie[0] != 0.0 || tie[1] != 0.0 {
-        return Err(fail("georeferenced other than by one tie point at pixel (0, 0) and a pixel scale".into()));
-    }
-    if !(scale[0].is_finite() && scale[1].is_finite() && scale[0] > 0.0 && scale[1] > 0.0 && tie[3].is_finite() && tie[4].is_finite()) {
-        return Err(fail(format!("cell size {} × {} at corner ({}, {}): not a north-up grid of positive, finite cells", scale[0], scale[1], tie[3], tie[4])));
-    }
+    let (x0, y0, dx, dy) = crate::dem::north_up_grid(&mut d, path)?;
     let bits = d.get_tag_u32(Tag::BitsPerSample).map_err(|e| fail(e.to_string()))?;
     let format = d.find_tag(Tag::SampleFormat).ok().flatten().and_then(|v| v.into_u32().ok()).unwrap_or(1);
     let data_type = match (format, bits) {
@@ -69,7 +62,7 @@ fn part_from<R: std::io::Read + std::io::Seek>(reader: R, path: &Path) -> Result
     let keys = d.get_tag_u16_vec(Tag::GeoKeyDirectoryTag).unwrap_or_default();
     // GeographicTypeGeoKey (2048) or ProjectedCSTypeGeoKey (3072), stored in the directory.
     let epsg = keys.chunks(4).skip(1).find(|k| k.len() == 4 && (k[0] == 2048 || k[0] == 3072) && k[1] == 0).map(|k| k[3]);
-    Ok(Part { path: path.to_owned(), width, height, x0: tie[3], y0: tie[4], dx: scale[0], dy: scale[1], nodata, data_type, epsg })
+    Ok(Part { path: path.to_owned(), width, height, x0, y0, dx, dy, nodata, data_type, epsg })
 }
 
 /// Write `parts`, windows of one grid, as a VRT at `output`. Refused unless they share the

@@ -9,8 +9,10 @@
 //! no bit of a frame; it only saves the vertex work, and `GeometryCounts::instances_culled`
 //! counts it.
 
-use super::{IDENTITY, Mesh, NO_TEXTURE, multiply};
+use super::params::{IDENTITY, Mesh};
+use super::vector::multiply;
 use crate::Error;
+use tileraster_kernels::abi::NO_TEXTURE;
 
 /// One placement of a mesh. A mirroring placement (a transform of negative determinant) keeps
 /// the mesh's front faces in front: its faces are taken with their last two corners swapped,
@@ -53,7 +55,7 @@ impl World {
 
     /// Which instances the object culling keeps for a frame of `params`: those whose bounding
     /// box does not lie wholly outside the view frustum.
-    pub fn in_view(&self, params: &super::RenderParams) -> Result<Vec<bool>, Error> {
+    pub fn in_view(&self, params: &super::params::RenderParams) -> Result<Vec<bool>, Error> {
         validate_world(&self.meshes, &self.instances)?;
         let boxes: Vec<[[f64; 3]; 2]> = self.meshes.iter().map(bounding_box).collect();
         Ok(self.instances.iter().map(|i| !outside_frustum(&boxes[i.mesh as usize], &instance_to_world(&params.model, i), &params.view_projection)).collect())
@@ -116,18 +118,18 @@ impl World {
             let normals = match &mesh.normals {
                 Some(v) => v,
                 None => {
-                    computed = super::face_normals(mesh);
+                    computed = super::params::face_normals(mesh);
                     &computed
                 }
             };
             if instance.transform == IDENTITY {
                 n.extend_from_slice(normals);
             } else {
-                let m = super::normal_matrix(&instance.transform);
-                n.extend(normals.iter().map(|&x| super::transform_normal(&m, x)));
+                let m = super::vector::normal_matrix(&instance.transform);
+                n.extend(normals.iter().map(|&x| super::vector::transform_normal(&m, x)));
             }
             if colours {
-                c.extend(mesh.colours.clone().unwrap_or_else(|| vec![super::GREY; count]));
+                c.extend(mesh.colours.clone().unwrap_or_else(|| vec![super::params::GREY; count]));
             }
             if uvs {
                 t.extend(mesh.uvs.clone().unwrap_or_else(|| vec![[0.0; 2]; count]));
@@ -198,7 +200,7 @@ pub(super) fn validate_world(meshes: &[Mesh], instances: &[Instance]) -> Result<
         return Err(Error::EmptyScene { what: "instances" });
     }
     for mesh in meshes {
-        super::validate_mesh(mesh)?;
+        super::validate::validate_mesh(mesh)?;
     }
     let mut faces = 0u64;
     for (k, instance) in instances.iter().enumerate() {
@@ -219,4 +221,26 @@ pub(super) fn validate_world(meshes: &[Mesh], instances: &[Instance]) -> Result<
         return Err(Error::TooManyFaces { faces });
     }
     Ok(())
+}
+
+/// A visible instance as the geometry stages take it.
+pub(super) struct Placement<'a> {
+    /// Its mesh, and where the world lists it.
+    pub(super) mesh: &'a Mesh,
+    pub(super) mesh_index: usize,
+    pub(super) to_world: [[f64; 4]; 4],
+    /// Whether the instance's own transform mirrors (its faces are taken the other way round).
+    pub(super) mirrored: bool,
+    /// Its first vertex in the frame's vertex arrays.
+    pub(super) first_vertex: usize,
+    /// The id of its first face.
+    pub(super) first_face: u32,
+    /// Its mesh's first texture in the frame's textures.
+    pub(super) first_texture: u32,
+    /// The id of its first vertex's point: after every instance's faces, vertices numbered
+    /// over every instance in order.
+    pub(super) first_point: u32,
+    /// The id of its first edge's line: after every instance's points, edges numbered over
+    /// every instance in order.
+    pub(super) first_line: u32,
 }

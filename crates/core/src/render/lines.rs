@@ -12,30 +12,17 @@
 //! columns. The rectangle rule is Vulkan's strict line: the rectangle one pixel wide around
 //! the segment.
 
-use super::{ClipVertex, Emit, GUARD_PX, GeometryCounts, Projected, RENDER_SNAP_BITS, Target, Viewport, distance};
+use super::clip::cut;
+use super::emit::Emit;
+use super::params::{GUARD_PX, GeometryCounts, RENDER_SNAP_BITS};
+use super::params::{LineRule, Wireframe};
+use super::vertex::{ClipVertex, Projected};
+use super::viewport::distance;
+use super::viewport::{Target, Viewport};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::EXTENT_LIMIT_BITS;
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTRIBUTES, FloatCoeffs, NO_TEXTURE, SHADING_UNLIT, TriangleInput, TriangleShading};
-
-/// Which pixels a line lights.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub enum LineRule {
-    /// Direct3D's rule, which Vulkan's Bresenham lines follow: a pixel is lit where the segment
-    /// passes through its diamond (`|x − cx| + |y − cy| < ½`) and leaves it, so a line ending
-    /// inside a diamond does not light it and two lines joined end to end light their shared
-    /// pixel once.
-    #[default]
-    DiamondExit,
-    /// The classic algorithm: both endpoints move to their pixels' centres, and every column
-    /// from the first to the last, both included, lights the pixel nearest the line between
-    /// them.
-    Bresenham,
-    /// Vulkan's strict lines (what most Vulkan devices draw by default, lavapipe among them):
-    /// the rectangle one pixel wide centred on the segment, filled as a polygon. A diagonal
-    /// line is up to √2 pixels thick in its columns.
-    Rectangle,
-}
 
 impl LineRule {
     pub fn name(self) -> &'static str {
@@ -45,15 +32,6 @@ impl LineRule {
             LineRule::Rectangle => "rectangle",
         }
     }
-}
-
-/// The wireframe view: every face's edges as lines.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Wireframe {
-    pub rule: LineRule,
-    /// The lines' linear RGBA in `[0, 1]`; `None`: their vertices' colours, interpolated along
-    /// them. Lines are neither lit nor textured.
-    pub colour: Option<[f32; 4]>,
 }
 
 /// How far beyond the viewport, in pixels, a line may reach before it is clipped: a quarter of
@@ -185,8 +163,8 @@ fn clip_segment(a: &ClipVertex, b: &ClipVertex, planes: &[[f64; 4]; 7]) -> Optio
         match (da >= 0.0, db >= 0.0) {
             (true, true) => {}
             (false, false) => return None,
-            (true, false) => b = super::cut(&a, &b, da, db, k),
-            (false, true) => a = super::cut(&b, &a, db, da, k),
+            (true, false) => b = cut(&a, &b, da, db, k),
+            (false, true) => a = cut(&b, &a, db, da, k),
         }
     }
     Some([a, b])

@@ -1,0 +1,88 @@
+//! Clipping in homogeneous space: faces wholly outside one frustum plane are dropped, faces
+//! across a clipping plane cut (Sutherland–Hodgman) into a convex polygon, the rest pass whole.
+
+use super::cull::triangles;
+use super::emit::{Emit, FaceTag};
+use super::params::{GeometryCounts, RenderParams};
+use super::vertex::{ClipVertex, Projected};
+use super::viewport::{Target, Viewport, distance};
+use tileraster_kernels::abi::ATTRIBUTES;
+
+/// Clip, cull, snap one face and push what reaches the rasteriser.
+pub(super) fn geometry(
+    corners: [&ClipVertex; 3],
+    face: FaceTag,
+    params: &RenderParams,
+    viewport: &Viewport,
+    target: &Target<'_>,
+    out: &mut Emit<'_>,
+    counts: &mut GeometryCounts,
+) {
+    // Wholly outside one plane of the view frustum: nothing to clip.
+    let c = corners.map(|v| v.clip);
+    let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
+    if frustum.iter().any(|outside| c.iter().all(outside)) {
+        counts.culled_frustum += 1;
+        return;
+    }
+    if corners.iter().all(|v| v.outside == 0) {
+        return triangles(&corners.map(|v| v.projected), face, params, target, out, counts);
+    }
+    let polygon = clip_polygon(&corners.map(|v| *v), &viewport.planes());
+    if polygon.len() < 3 {
+        counts.culled_frustum += 1;
+        return;
+    }
+    counts.clipped += 1;
+    let projected: Vec<Projected> = polygon.iter().map(|v| v.project(viewport)).collect();
+    triangles(&projected, face, params, target, out, counts);
+}
+
+/// Sutherland–Hodgman in homogeneous space against every plane. An edge crossing a plane is cut
+/// at the point interpolated from its inside end, so a face's neighbour cuts the shared edge
+/// at the same point.
+pub(super) fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) -> Vec<ClipVertex> {
+    let mut polygon = corners.to_vec();
+    for k in 0..planes.len() {
+        if polygon.is_empty() {
+            break;
+        }
+        let d: Vec<f64> = polygon.iter().map(|v| distance(planes, k, &v.clip)).collect();
+        if d.iter().all(|&d| d >= 0.0) {
+            continue;
+        }
+        let mut next = Vec::with_capacity(polygon.len() + 1);
+        for i in 0..polygon.len() {
+            let j = (i + 1) % polygon.len();
+            if d[i] >= 0.0 {
+                next.push(polygon[i]);
+            }
+            if (d[i] >= 0.0) != (d[j] >= 0.0) {
+                let (a, b, da, db) = if d[i] >= 0.0 { (&polygon[i], &polygon[j], d[i], d[j]) } else { (&polygon[j], &polygon[i], d[j], d[i]) };
+                next.push(cut(a, b, da, db, k));
+            }
+        }
+        polygon = next;
+    }
+    polygon
+}
+
+/// The point where the edge from `a` (inside plane `k`, at distance `da`) to `b` (outside, at
+/// `db`) crosses the plane, interpolated from the inside end.
+pub(super) fn cut(a: &ClipVertex, b: &ClipVertex, da: f64, db: f64, k: usize) -> ClipVertex {
+    let t = da / (da - db);
+    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() };
+    for n in 0..4 {
+        v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
+    }
+    for n in 0..ATTRIBUTES {
+        v.attributes[n] = a.attributes[n] + t * (b.attributes[n] - a.attributes[n]);
+    }
+    // On the near and far planes exactly, so that depths stay within [0, 1].
+    match k {
+        0 => v.clip[2] = 0.0,
+        1 => v.clip[2] = v.clip[3],
+        _ => {}
+    }
+    v
+}

@@ -1,0 +1,155 @@
+//! The vertex stage: positions to clip space, normals to the world, and what each vertex
+//! carries to the stages after it.
+
+use super::instances::{self, Placement};
+use super::lighting::Lighting;
+use super::params::{GREY, IDENTITY, Shading, face_normals};
+use super::vector::{normal_matrix, transform_normal, unit};
+use super::viewport::{Viewport, distance};
+use crate::Error;
+use rayon::prelude::*;
+use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES};
+
+/// A vertex through the vertex stage: clip-space position and attributes.
+#[derive(Clone, Copy, Default)]
+pub(super) struct ClipVertex {
+    pub(super) clip: [f64; 4],
+    pub(super) attributes: [f64; ATTRIBUTES],
+    /// Bit `k`: outside clipping plane `k` (`Viewport::planes`).
+    pub(super) outside: u8,
+    /// What the kernels take of it, when inside every clipping plane (computed once for every
+    /// face that shares it).
+    pub(super) projected: Projected,
+}
+
+impl ClipVertex {
+    pub(super) fn new(clip: [f64; 4], attributes: [f64; ATTRIBUTES], viewport: &Viewport) -> Self {
+        let planes = viewport.planes();
+        let outside = (0..planes.len()).fold(0u8, |m, k| m | u8::from(distance(&planes, k, &clip) < 0.0) << k);
+        let mut v = ClipVertex { clip, attributes, outside, projected: Projected::default() };
+        if outside == 0 {
+            v.projected = v.project(viewport);
+        }
+        v
+    }
+
+    /// Its snapped screen position, depth, `1/w` and attributes in `f32`.
+    pub(super) fn project(&self, viewport: &Viewport) -> Projected {
+        let c = &self.clip;
+        Projected {
+            screen: viewport.snap(c),
+            depth: (c[2] / c[3]).clamp(0.0, 1.0) as f32,
+            inv_w: (1.0 / c[3]) as f32,
+            attributes: self.attributes.map(|a| a as f32),
+        }
+    }
+}
+
+/// A vertex inside every clipping plane as the kernels take it.
+#[derive(Clone, Copy, Default)]
+pub(super) struct Projected {
+    /// Snapped, in `2^-RENDER_SNAP_BITS` px, `y` down.
+    pub(super) screen: (i64, i64),
+    /// `z/w`, in [0, 1].
+    pub(super) depth: f32,
+    pub(super) inv_w: f32,
+    pub(super) attributes: [f32; ATTRIBUTES],
+}
+
+/// The mesh's normals in the world: its own, or (where it has none) [`face_normals`], turned by
+/// the model matrix's inverse transpose (its cofactors, with the determinant's sign) and
+/// normalised.
+pub(super) fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32; 3]> {
+    if *model == IDENTITY {
+        return n.to_vec();
+    }
+    let normal_matrix = normal_matrix(model);
+    n.par_iter().map(|&v| transform_normal(&normal_matrix, v)).collect()
+}
+
+/// The vertex stage over the visible instances (`placements`, `count` vertices in all): each
+/// instance's transform, then the view-projection, into the arrays `world` (positions) and
+/// `vertices` (clip-space vertices with their attributes (colour, normal, world position, texture
+/// coordinates; lit per vertex for Gouraud shading)), kept between frames, on all cores. `mesh_count`: how many
+/// meshes the placements index.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn transform_vertices(
+    mesh_count: usize,
+    placements: &[Placement],
+    count: usize,
+    m: &[[f64; 4]; 4],
+    shading: Shading,
+    lighting: &Lighting,
+    viewport: &Viewport,
+    world: &mut Vec<[f64; 3]>,
+    vertices: &mut Vec<ClipVertex>,
+) -> Result<(), Error> {
+    world.clear();
+    vertices.clear();
+    // Many instances of a large mesh can ask for more than the machine has: a typed error.
+    let bytes = count as u128 * (std::mem::size_of::<[f64; 3]>() + std::mem::size_of::<ClipVertex>()) as u128;
+    let reserved = world.try_reserve_exact(count).and_then(|()| vertices.try_reserve_exact(count));
+    reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{count} vertices, {bytes} bytes ({e})") })?;
+    // Filled on all cores (`resize` writes them on one).
+    world.par_extend(rayon::iter::repeat_n([0.0; 3], count));
+    vertices.par_extend(rayon::iter::repeat_n(ClipVertex::default(), count));
+    // The depth and id views read no attribute: they carry zeros, and no normal is computed.
+    let attributes_used = shading.reads_attributes();
+    let mut base_normals: Vec<Option<Vec<[f32; 3]>>> = vec![None; mesh_count];
+    if attributes_used {
+        for p in placements {
+            let k = p.mesh_index;
+            if base_normals[k].is_none() {
+                base_normals[k] = Some(match &p.mesh.normals {
+                    Some(n) => n.clone(),
+                    None => face_normals(p.mesh),
+                });
+            }
+        }
+    }
+    let mut pieces = Vec::with_capacity(placements.len());
+    let (mut rest_w, mut rest_v) = (&mut world[..], &mut vertices[..]);
+    for p in placements {
+        let n = p.mesh.positions.len();
+        let (w, tail_w) = rest_w.split_at_mut(n);
+        let (v, tail_v) = rest_v.split_at_mut(n);
+        pieces.push((p, w, v));
+        (rest_w, rest_v) = (tail_w, tail_v);
+    }
+    pieces.into_par_iter().for_each(|(p, world, vertices)| {
+        let (mesh, model) = (p.mesh, &p.to_world);
+        mesh.positions.par_iter().zip(world.par_iter_mut()).for_each(|(v, out)| *out = instances::transform_point(model, v));
+        let world = &*world;
+        let normals =
+            if attributes_used { vertex_normals(base_normals[p.mesh_index].as_ref().expect("normals of every placed mesh"), model) } else { Vec::new() };
+        vertices.par_iter_mut().enumerate().for_each(|(v, out)| {
+            let p = world[v];
+            let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
+            if !attributes_used {
+                *out = ClipVertex::new(clip, [0.0; ATTRIBUTES], viewport);
+                return;
+            }
+            let n = normals[v].map(f64::from);
+            let mut colour = mesh.colours.as_ref().map_or(GREY, |c| c[v]).map(f64::from);
+            if shading == Shading::Smooth {
+                colour = lighting.lit(colour, unit(n), p);
+            }
+            let uv = mesh.uvs.as_ref().map_or([0.0; 2], |t| t[v]).map(f64::from);
+            let mut attributes = [0.0; ATTRIBUTES];
+            attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
+            attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+            attributes[ATTR_POSITION..ATTR_POSITION + 3].copy_from_slice(&p);
+            attributes[ATTR_UV..ATTR_UV + 2].copy_from_slice(&uv);
+            *out = ClipVertex::new(clip, attributes, viewport);
+        });
+    });
+    Ok(())
+}
+
+/// The depths of the visible vertices, lowest and highest (the depth view's range).
+pub(super) fn depth_range(vertices: &[ClipVertex]) -> (f64, f64) {
+    let inside = |c: &[f64; 4]| c[3] > 0.0 && c[2] >= 0.0 && c[2] <= c[3] && c[0].abs() <= c[3] && c[1].abs() <= c[3];
+    let visible = vertices.par_iter().filter(|v| inside(&v.clip)).map(|v| v.clip[2] / v.clip[3]);
+    let (lo, hi) = visible.fold(|| (1.0f64, 0.0f64), |(lo, hi), d| (lo.min(d), hi.max(d))).reduce(|| (1.0, 0.0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    if lo < hi { (lo, hi) } else { (0.0, 1.0) }
+}

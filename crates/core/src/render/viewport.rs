@@ -1,0 +1,78 @@
+//! Clip space to pixels: the clipping planes with their guard band, snapping to 8 sub-pixel
+//! bits, and the pixels a snapped triangle may cover.
+
+use super::params::{GUARD_PX, RENDER_SNAP_BITS};
+use crate::Grid;
+use crate::prepare::{pixel_rect, round_to_i64};
+use tileraster_kernels::abi::PixelRect;
+
+/// Clip space to pixels.
+pub(super) struct Viewport {
+    pub(super) half: [f64; 2],
+    /// Guard-band factor per axis: `|x| ≤ g·w` keeps a vertex within `GUARD_PX` of the viewport.
+    pub(super) guard: [f64; 2],
+}
+
+impl Viewport {
+    pub(super) fn new(w: u32, h: u32) -> Self {
+        Viewport::with_guard(w, h, GUARD_PX)
+    }
+
+    /// With a guard band `guard_px` pixels wide.
+    pub(super) fn with_guard(w: u32, h: u32, guard_px: f64) -> Self {
+        let (w, h) = (w as f64, h as f64);
+        Viewport { half: [w / 2.0, h / 2.0], guard: [1.0 + 2.0 * guard_px / w, 1.0 + 2.0 * guard_px / h] }
+    }
+
+    /// The clipping planes, as coefficients of `(x, y, z, w)`: inside where the dot product is
+    /// at least zero (the `w` plane: at least `W_MIN`).
+    pub(super) fn planes(&self) -> [[f64; 4]; 7] {
+        let [gx, gy] = self.guard;
+        [
+            [0.0, 0.0, 1.0, 0.0],  // near: z ≥ 0
+            [0.0, 0.0, -1.0, 1.0], // far: z ≤ w
+            [0.0, 0.0, 0.0, 1.0],  // w ≥ W_MIN
+            [1.0, 0.0, 0.0, gx],   // guard band
+            [-1.0, 0.0, 0.0, gx],
+            [0.0, 1.0, 0.0, gy],
+            [0.0, -1.0, 0.0, gy],
+        ]
+    }
+
+    /// A clip-space position in snapped pixel units (`2^-RENDER_SNAP_BITS` px), `y` down.
+    pub(super) fn snap(&self, c: &[f64; 4]) -> (i64, i64) {
+        let unit = (1u64 << RENDER_SNAP_BITS) as f64;
+        let px = (c[0] / c[3] + 1.0) * self.half[0];
+        let py = (c[1] / c[3] + 1.0) * self.half[1];
+        (round_to_i64(px * unit), round_to_i64(py * unit))
+    }
+}
+
+/// The frame the geometry stages emit triangles for: its pixels and samples per pixel.
+#[derive(Clone, Copy)]
+pub(super) struct Target<'a> {
+    pub(super) grid: &'a Grid,
+    pub(super) samples: u32,
+}
+
+impl Target<'_> {
+    /// The pixels a triangle with snapped vertices `x`, `y` may cover: those whose centre lies
+    /// in its box or, with several samples, whose samples may (the standard positions lie
+    /// within 7/16 px of the centre).
+    pub(super) fn rect(&self, x: &[i64; 3], y: &[i64; 3]) -> PixelRect {
+        let reach = if self.samples > 1 { 7 << (RENDER_SNAP_BITS - 4) } else { 0 };
+        let (x0, x1) = (x[0].min(x[1]).min(x[2]) - reach, x[0].max(x[1]).max(x[2]) + reach);
+        let (y0, y1) = (y[0].min(y[1]).min(y[2]) - reach, y[0].max(y[1]).max(y[2]) + reach);
+        pixel_rect(&[x0, x1, x1], &[y0, y1, y1], RENDER_SNAP_BITS, self.grid)
+    }
+}
+
+/// The smallest `w` that reaches the rasteriser.
+pub(super) const W_MIN: f64 = 1e-30;
+
+/// Signed distance of `c` inside plane `k` of [`Viewport::planes`].
+pub(super) fn distance(planes: &[[f64; 4]; 7], k: usize, c: &[f64; 4]) -> f64 {
+    let p = &planes[k];
+    let d = p[0] * c[0] + p[1] * c[1] + p[2] * c[2] + p[3] * c[3];
+    if k == 2 { d - W_MIN } else { d }
+}

@@ -1078,5 +1078,10 @@ fn render_draws_a_geotiff_dem_as_terrain() {
     run(&expected, &from_obj, &["--up", "z"]);
     assert_eq!(std::fs::read(&from_dem).unwrap(), std::fs::read(&from_obj).unwrap(), "the DEM's frame and its mesh's");
     assert!(dem_stats.contains(&format!("{faces} triangles")), "{dem_stats}");
+    // Back faces culled (the default) and the terrain still fills the frame: its faces turn
+    // counter-clockwise seen from above.
     assert!(rendered(&tif, &from_dem, &[]).unwrap().1 > 10_000, "the terrain fills the frame");
+    let out = rasterise_cli(&tif, &dir.join("again.tif"), &["--tr", "1", "1"]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && e.contains("a raster already") && e.contains("tileraster render"), "{e}");
 }

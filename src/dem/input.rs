@@ -32,6 +32,7 @@ impl InputKind {
             "gltf" | "glb" => InputKind::Gltf,
             "las" | "laz" => InputKind::Las,
             "csv" | "xyz" | "txt" | "pts" => InputKind::Text,
+            "tif" | "tiff" => return Err(DemError::RasterInput { path: path.to_owned() }),
             _ => return Err(DemError::UnsupportedInput { path: path.to_owned(), extension }),
         })
     }

@@ -56,6 +56,9 @@ pub enum DemError {
         path.display()
     )]
     UnsupportedInput { path: PathBuf, extension: String },
+    /// A GeoTIFF given where a mesh or points are read.
+    #[error("{}: a GeoTIFF is a raster already; `tileraster rasterise` takes a mesh or points (`tileraster render` draws a DEM as terrain)", path.display())]
+    RasterInput { path: PathBuf },
     /// A cell size is not a positive number.
     #[error("the {axis} cell size is {res}; it must be a positive number")]
     CellSize { axis: char, res: f64 },

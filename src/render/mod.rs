@@ -46,7 +46,13 @@ use tileraster_core::{Layers, Raster};
 /// their Delaunay TIN) as positions and faces.
 pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
     if is_geotiff(path) {
-        return Ok(dem_mesh(&tileraster_io::read_dem(path)?));
+        let dem = tileraster_io::read_dem(path)?;
+        let fail = |message: String| DemError::Io(tileraster_io::IoError::Format { path: path.to_owned(), message });
+        let mesh = dem_mesh(&dem).map_err(|e| fail(e.to_string()))?;
+        if mesh.triangles.is_empty() {
+            return Err(fail(format!("the {} × {} DEM has no 2 × 2 block of cells that all have a height: nothing to draw", dem.width, dem.height)));
+        }
+        return Ok(mesh);
     }
     match InputKind::of(path)? {
         InputKind::Gltf => return Ok(tileraster_io::read_gltf(path)?),

@@ -2,9 +2,13 @@
 //! sample type, stripped or tiled, compressed as the `tiff` crate reads) with its cell size,
 //! corner and GDAL's nodata value.
 
+/// The most cells a DEM may have (8192 × 8192): rendered, every cell is a vertex of some 200
+/// bytes through the geometry stages.
+pub const MAX_DEM_CELLS: u64 = 1 << 26;
+
 use crate::IoError;
 use std::path::Path;
-use tiff::decoder::{Decoder, DecodingResult};
+use tiff::decoder::{Decoder, DecodingResult, Limits};
 use tiff::tags::Tag;
 
 /// A DEM: `heights` row by row from the north, `nodata` (and NaN) where the grid has no value.
@@ -57,7 +61,18 @@ pub fn read_dem(path: &Path) -> Result<Dem, IoError> {
     let file = std::fs::File::open(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
     let mut d = Decoder::new(std::io::BufReader::new(file)).map_err(|e| fail(format!("not a readable TIFF: {e}")))?;
     let (width, height) = d.dimensions().map_err(|e| fail(e.to_string()))?;
-    let (x0, y0, dx, dy) = north_up_grid(&mut d, path)?;
+    let (mut x0, mut y0, dx, dy) = north_up_grid(&mut d, path)?;
+    // GTRasterTypeGeoKey (1025) 2, PixelIsPoint: the tie point is the first cell's centre.
+    let keys = d.get_tag_u16_vec(Tag::GeoKeyDirectoryTag).unwrap_or_default();
+    if keys.chunks(4).skip(1).any(|k| k.len() == 4 && k[0] == 1025 && k[1] == 0 && k[3] == 2) {
+        (x0, y0) = (x0 - dx / 2.0, y0 + dy / 2.0);
+    }
+    let cells = width as u64 * height as u64;
+    if cells > MAX_DEM_CELLS {
+        return Err(fail(format!(
+            "{width} × {height} cells, more than the {MAX_DEM_CELLS} a DEM may have here: resample it first (e.g. gdal_translate -outsize 25% 25% -r average)"
+        )));
+    }
     let bands = d.find_tag(Tag::SamplesPerPixel).ok().flatten().and_then(|v| v.into_u32().ok()).unwrap_or(1);
     if bands != 1 {
         return Err(fail(format!("{bands} bands: a DEM has one (extract it first, e.g. gdal_translate -b 1)")));
@@ -69,7 +84,15 @@ pub fn read_dem(path: &Path) -> Result<Dem, IoError> {
         }
         Err(_) => None,
     };
+    // Up to the cap above, whatever the sample type (the crate's default stops at 256 MiB).
+    let mut limits = Limits::default();
+    limits.decoding_buffer_size = limits.decoding_buffer_size.max(cells as usize * 8);
+    let mut d = d.with_limits(limits);
     let image = d.read_image().map_err(|e| fail(format!("reading its samples: {e}")))?;
+    // The nodata value as the samples hold it: a Float32 band stores the text's value rounded
+    // to `f32` (GDAL and this crate's writer print it in fewer digits than an exact `f64`).
+    let narrow = matches!(image, DecodingResult::F32(_));
+    let nodata = nodata.map(|v| if narrow { v as f32 as f64 } else { v });
     let heights: Vec<f64> = match image {
         DecodingResult::U8(v) => v.into_iter().map(f64::from).collect(),
         DecodingResult::U16(v) => v.into_iter().map(f64::from).collect(),
@@ -79,9 +102,9 @@ pub fn read_dem(path: &Path) -> Result<Dem, IoError> {
         DecodingResult::I16(v) => v.into_iter().map(f64::from).collect(),
         DecodingResult::I32(v) => v.into_iter().map(f64::from).collect(),
         DecodingResult::I64(v) => v.into_iter().map(|h| h as f64).collect(),
+        DecodingResult::F16(v) => v.into_iter().map(f64::from).collect(),
         DecodingResult::F32(v) => v.into_iter().map(f64::from).collect(),
         DecodingResult::F64(v) => v,
-        other => return Err(fail(format!("samples of an unsupported type ({:?})", std::mem::discriminant(&other)))),
     };
     if heights.len() != width as usize * height as usize {
         return Err(fail(format!("{} samples for a {width} × {height} grid", heights.len())));
@@ -97,8 +120,9 @@ mod tests {
     use super::*;
     use tiff::encoder::{TiffEncoder, colortype};
 
-    /// A 3 × 2 Int16 GeoTIFF with 2 × 3 m cells from (100, 200) and nodata −9999, written by
-    /// the `tiff` crate (not by this crate's writer).
+    /// A 3 × 2 Int16 GeoTIFF with 2 × 3 m cells, the first centred on (100, 200)
+    /// (PixelIsPoint), and nodata −9999, written by the `tiff` crate (not by this crate's
+    /// writer).
     fn int16_dem(path: &Path) {
         let mut file = std::fs::File::create(path).unwrap();
         let mut tiff = TiffEncoder::new(&mut file).unwrap();
@@ -106,6 +130,8 @@ mod tests {
         image.encoder().write_tag(Tag::ModelPixelScaleTag, &[2.0f64, 3.0, 0.0][..]).unwrap();
         image.encoder().write_tag(Tag::ModelTiepointTag, &[0.0f64, 0.0, 0.0, 100.0, 200.0, 0.0][..]).unwrap();
         image.encoder().write_tag(Tag::GdalNodata, "-9999").unwrap();
+        // PixelIsPoint: the tie point names the first cell's centre.
+        image.encoder().write_tag(Tag::GeoKeyDirectoryTag, &[1u16, 1, 0, 1, 1025, 0, 1, 2][..]).unwrap();
         image.write_data(&[10i16, 20, -9999, 40, 50, 60]).unwrap();
     }
 
@@ -116,10 +142,32 @@ mod tests {
         let path = dir.join("int16.tif");
         int16_dem(&path);
         let dem = read_dem(&path).unwrap();
-        assert_eq!((dem.width, dem.height, dem.x0, dem.y0, dem.dx, dem.dy, dem.nodata), (3, 2, 100.0, 200.0, 2.0, 3.0, Some(-9999.0)));
+        assert_eq!((dem.width, dem.height, dem.x0, dem.y0, dem.dx, dem.dy, dem.nodata), (3, 2, 99.0, 201.5, 2.0, 3.0, Some(-9999.0)));
         assert_eq!(dem.heights, vec![10.0, 20.0, -9999.0, 40.0, 50.0, 60.0]);
         assert!(dem.has_value(1, 0) && !dem.has_value(2, 0));
-        assert_eq!(dem.centre(1, 1), [103.0, 195.5, 50.0]);
+        assert_eq!(dem.centre(1, 1), [102.0, 197.0, 50.0]);
+        // A Float32 band whose nodata text is shorter than an exact f64 (as GDAL and this
+        // crate's writer print it) still matches its cells.
+        for nodata in [f32::MIN, -9999.9f32] {
+            let grid = tileraster_core::Grid::new(0.0, 2.0, 0.0, 1.0, 2, 1);
+            let raster = tileraster_core::Raster {
+                grid,
+                window: tileraster_core::Window::whole(&grid),
+                nodata,
+                values: vec![nodata, 7.5],
+                owner: None,
+                coverage: None,
+                colours: None,
+                faces: None,
+                tiles: None,
+                snap_bits: 16,
+                stats: Default::default(),
+            };
+            let path = dir.join("float.tif");
+            crate::write_geotiff(&raster, &path).unwrap();
+            let dem = read_dem(&path).unwrap();
+            assert!(!dem.has_value(0, 0) && dem.has_value(1, 0), "nodata {nodata} read as {:?}", dem.nodata);
+        }
         // Not a DEM: a file that is no TIFF, a TIFF without georeferencing.
         std::fs::write(dir.join("text.tif"), "not a tiff").unwrap();
         assert!(read_dem(&dir.join("text.tif")).unwrap_err().to_string().contains("not a readable TIFF"));

@@ -5,16 +5,20 @@
 //! Why: most GPUs have no `f64` worth using, and a vertex of UTM terrain (5,000,000 m) or a
 //! camera close to it needs more than `f32`'s 24 bits to snap where the `f64` pipeline snaps.
 //!
-//! Every operation here is built from `f32` additions, subtractions and multiplications, which
-//! IEEE 754 and Vulkan round correctly (round to nearest even), and from [`super::float::div`],
-//! correctly rounded on every device. No fused multiply-add is used (Vulkan does not promise
-//! one, and the build marks every product `NoContraction`): products are split by Veltkamp's
-//! constant `2^12 + 1` instead. So every device computes the same bits, as the CPU does.
+//! Every operation here is built from `f32` additions, subtractions and multiplications,
+//! correctly rounded to nearest even (IEEE 754; on a Vulkan device where it declares
+//! `RoundingModeRTE`, which the float-controls check asks for), and from
+//! [`super::float::div`], correctly rounded on every device. No fused multiply-add is used
+//! (Vulkan does not promise one, and the build marks every product `NoContraction`): products
+//! are split by Veltkamp's constant `2^12 + 1` instead. So the operations are designed to give
+//! every device the CPU's bits; the tests hold them to exact `f64` arithmetic natively, and
+//! the vertex kernel stage will hold the devices to the CPU.
 //!
-//! Domain: finite values whose products stay below `2^115` (Veltkamp's split overflows above
-//! it) and whose low parts stay above the subnormal range (parts near `2^-126` lose bits where
-//! a device flushes subnormals to zero). The render pipeline's values lie far inside: clip
-//! coordinates of a frame at most `2^16` pixels wide with a guard band of `2^19`.
+//! Domain: finite operands below `2^115` in magnitude (Veltkamp's split overflows above it)
+//! whose low parts stay above the subnormal range (parts near `2^-126` lose bits where a device
+//! flushes subnormals to zero); a division's divisor normal and positive. The render pipeline's
+//! values lie far inside: clip coordinates of a frame at most `2^16` pixels wide with a guard
+//! band of `2^19`, `w` at least `10^−30`.
 
 use super::float::div;
 
@@ -76,7 +80,8 @@ impl Double {
         Double { hi, lo: (v - hi as f64) as f32 }
     }
 
-    /// The exact value of the pair, in `f64` (which holds any two `f32`s' sum of this kind).
+    /// The pair's value in `f64` (exact wherever `lo` lies within 29 binades of `hi`, as a
+    /// normalised pair's does unless `lo` is far below `hi`'s last bit).
     #[cfg(not(target_arch = "spirv"))]
     pub fn to_f64(self) -> f64 {
         self.hi as f64 + self.lo as f64
@@ -98,9 +103,22 @@ impl Double {
         fast_two_sum(q, signed_div(remainder.hi, d.hi))
     }
 
-    /// The nearest integer, halves away from zero (as `f64::round`), for `|self| < 2^30`.
+    /// The nearest integer, halves away from zero (as `f64::round`), for `|self| < 2^30`;
+    /// outside it (or NaN) `±2^30` (0 for NaN), the same on every device (a conversion of an
+    /// `f32` beyond `i32` is undefined in SPIR-V).
     #[inline]
     pub fn round_to_i32(self) -> i32 {
+        const LIMIT: f32 = (1u32 << 30) as f32;
+        let in_range = self.hi > -LIMIT && self.hi < LIMIT;
+        if !in_range {
+            return if self.hi >= LIMIT {
+                1 << 30
+            } else if self.hi <= -LIMIT {
+                -(1 << 30)
+            } else {
+                0
+            };
+        }
         // `hi` to an integer and a fraction (exact: `t` is `hi` with its fraction cut off),
         // then that fraction and `lo` together, which reach a few units where `hi` is large.
         let t = self.hi as i32;
@@ -164,12 +182,13 @@ impl core::ops::Mul for Double {
     }
 }
 
-/// `a / b` correctly rounded for a positive normal `b` and any `a` (zero gives zero).
+/// `a / b` correctly rounded for a positive normal `b` and any `a` (zero and subnormal `a`
+/// give zero: `float::div` takes normal operands, and a device may flush them anyway).
 #[inline]
 fn signed_div(a: f32, b: f32) -> f32 {
-    if a > 0.0 {
+    if a >= f32::MIN_POSITIVE {
         div(a, b)
-    } else if a < 0.0 {
+    } else if a <= -f32::MIN_POSITIVE {
         -div(-a, b)
     } else {
         0.0
@@ -238,6 +257,9 @@ mod tests {
                 cases.push(k + f);
                 cases.push(-(k + f));
             }
+        }
+        for (v, expected) in [(2e9, 1 << 30), (-2e9, -(1 << 30)), (f64::NAN, 0)] {
+            assert_eq!(Double::from_f64(v).round_to_i32(), expected, "{v} beyond the domain");
         }
         for v in cases {
             let d = Double::from_f64(v);

@@ -1,5 +1,7 @@
 //! The `tileraster` command line, end to end: OBJ in, GeoTIFF out, as gdal_grid would write it.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use tiff::decoder::{Decoder, DecodingResult};
@@ -1084,4 +1086,41 @@ fn render_draws_a_geotiff_dem_as_terrain() {
     let out = rasterise_cli(&tif, &dir.join("again.tif"), &["--tr", "1", "1"]);
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && e.contains("a raster already") && e.contains("tileraster render"), "{e}");
+}
+
+/// `--time`: an animated glTF file posed by its skin and morph target (`common::skinned_gltf`),
+/// seen from +z, 4 units across 640 px (160 px a unit, the squares' edges on pixel edges).
+/// At rest and at 0 s, both squares: 320 × 160 pixels. At 1 s the right square is edge-on and
+/// the morph has widened the left one to 1.5 units: 240 × 160. Before the first keyframe and
+/// after the last the channels hold their ends. Halfway, the left square is 1.25 units wide and
+/// the right one, turned by 45°, cos 45° = 0.7071 units (113.1 px): 313 columns. A time for a
+/// file without animation, or for an OBJ file, and a time that is not finite are refused.
+#[test]
+fn render_poses_an_animated_gltf_file_at_a_time() {
+    let dir = scratch("render-time");
+    let gltf = common::skinned_gltf(&dir);
+    let png = dir.join("frame.png");
+    let view = ["--camera", "1,0.5,5,1,0.5,0,0,1,0", "--ortho", "4", "--size", "640", "640", "--cull", "none"];
+    let at = |time: Option<&str>| {
+        let time: Vec<&str> = time.map(|t| vec!["--time", t]).unwrap_or_default();
+        rendered(&gltf, &png, &[&view[..], &time].concat()).map(|(_, drawn)| drawn)
+    };
+    assert_eq!(at(None).unwrap(), 320 * 160);
+    assert_eq!(at(Some("0")).unwrap(), 320 * 160);
+    assert_eq!(at(Some("-2")).unwrap(), 320 * 160);
+    assert_eq!(at(Some("1")).unwrap(), 240 * 160);
+    assert_eq!(at(Some("30")).unwrap(), 240 * 160);
+    assert_eq!(at(Some("0.5")).unwrap(), 313 * 160);
+    for bad in ["inf", "NaN"] {
+        let e = at(Some(bad)).unwrap_err();
+        assert!(e.contains("finite"), "{e}");
+    }
+    let still = gltf_with_cameras(&dir);
+    let e = rendered(&still, &png, &["--time", "1"]).unwrap_err();
+    assert!(e.contains("no animation") && e.contains("square.gltf"), "{e}");
+    let obj = dir.join("square.obj");
+    std::fs::write(&obj, "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+    let e = rendered(&obj, &png, &["--time", "1"]).unwrap_err();
+    assert!(e.contains("glTF") && e.contains("square.obj"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
 }

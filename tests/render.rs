@@ -738,3 +738,34 @@ fn a_matrix_names_its_viewer() {
     let derived = RenderParams { eye: None, ..given.clone() };
     assert_same_frame("orthographic matrix: derived viewer vs the camera's", &cpu(&sphere, &given), &cpu(&sphere, &derived));
 }
+
+/// A glTF file posed by its animation (`common::skinned_gltf`: a skin and a morph target) at
+/// several times, in perspective with every shading: the same bits on both backends, and each
+/// time its own frame.
+#[test]
+fn a_posed_skinned_and_morphing_gltf_file_is_the_same_bits_on_both_backends() {
+    let dir = std::env::temp_dir().join(format!("tileraster-render-posed-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = common::skinned_gltf(&dir);
+    let camera = Camera {
+        eye: [1.5, 1.5, 3.0],
+        target: [1.0, 0.5, 0.0],
+        up: [0.0, 1.0, 0.0],
+        projection: Projection::Perspective { fov_deg: 50.0 },
+        near: 0.5,
+        far: 20.0,
+    };
+    let mut seen = std::collections::HashSet::new();
+    for time in [None, Some(0.25), Some(0.5), Some(0.9)] {
+        let mesh = tileraster::render::read_world_at(&path, time).unwrap().flattened().unwrap();
+        for shading in [Shading::Smooth, Shading::Phong] {
+            let params =
+                RenderParams { shading, cull: Cull::None, eye: Some(camera.viewer()), ..RenderParams::new(96, 72, camera.view_projection(96, 72).unwrap()) };
+            let frame = assert_render_parity(&format!("skinned glTF at {time:?} s, {}", shading.name()), &mesh, &params);
+            assert!(frame.stats.pixels_covered > 500, "{time:?} s: {} pixels", frame.stats.pixels_covered);
+            seen.insert(frame.colour);
+        }
+    }
+    assert_eq!(seen.len(), 8, "every time and shading gives its own frame");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -8,15 +8,15 @@ use std::time::Instant;
 use tileraster::dem::InputKind;
 use tileraster::render::{
     Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Projection, RenderParams, Shading, Up, Wireframe, World, format_up,
-    read_mesh, read_world, render_world,
+    read_mesh_at, read_world_at, render_world,
 };
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// The mesh: `.gltf` or `.glb` (node transforms applied; normals, vertex colours and the
-    /// base colour used), `.obj` (normals, materials' diffuse colours), `.ply` (vertex normals
+    /// The mesh: `.gltf` or `.glb` (node transforms applied, skins and morph targets posed;
+    /// normals, vertex colours and the base colour used), `.obj` (normals, materials' diffuse colours), `.ply` (vertex normals
     /// and colours), `.stl`, or points (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`,
     /// `.pts`) rendered as their Delaunay TIN, or a GeoTIFF DEM (`.tif`: a vertex at every cell
     /// centre with a height, nodata cells left as holes), +Z up.
@@ -47,6 +47,12 @@ pub struct RenderArgs {
     /// View through a glTF file's camera: the node's index, or its name (or its camera's).
     #[arg(long, value_name = "NAME|INDEX", conflicts_with = "mvp")]
     camera_node: Option<String>,
+    /// Pose an animated glTF file this many seconds into its first animation: its nodes
+    /// (cameras included), skins and morph weights, each channel held at its first or last
+    /// keyframe outside their span. Without it, the file's rest pose and default weights. The
+    /// default camera frames the posed mesh: give --camera for a sequence of frames.
+    #[arg(long, value_name = "SECONDS", value_parser = seconds, allow_negative_numbers = true)]
+    time: Option<f64>,
     /// The 16 entries of a 4×4 matrix, row-major, mapping the mesh's coordinates to clip
     /// space (Vulkan: depth 0..1, NDC y down the image): a perspective or an orthographic
     /// projection (lit from its viewing direction, towards which depth decreases).
@@ -218,12 +224,22 @@ fn ortho_width(s: &str) -> Result<f64, String> {
     }
 }
 
-/// The camera of `input` that `wanted` names: a node index, a node's name or a camera's name.
-fn gltf_camera(input: &std::path::Path, wanted: &str) -> Result<tileraster_io::GltfCamera, String> {
+/// `--time`: a finite number of seconds.
+fn seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() => Ok(t),
+        Ok(t) => Err(format!("{t}: give a finite number of seconds")),
+        Err(e) => Err(format!("'{s}': {e}")),
+    }
+}
+
+/// The camera of `input` that `wanted` names (in the pose at `time`): a node index, a node's
+/// name or a camera's name.
+fn gltf_camera(input: &std::path::Path, wanted: &str, time: Option<f64>) -> Result<tileraster_io::GltfCamera, String> {
     if !matches!(InputKind::of(input), Ok(InputKind::Gltf)) {
         return Err(format!("--camera-node: {} is not a glTF file (.gltf, .glb); only glTF files hold cameras", input.display()));
     }
-    let cameras = tileraster_io::read_gltf_cameras(input).map_err(|e| format!("--camera-node: {e}"))?;
+    let cameras = tileraster_io::read_gltf_cameras(input, time).map_err(|e| format!("--camera-node: {e}"))?;
     // A node's index first, then a node's name, then a camera's (so a node named "2" is found).
     let found = wanted
         .parse::<usize>()
@@ -262,6 +278,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         ortho,
         up,
         camera_node,
+        time,
         mvp,
         instances,
         z_scale,
@@ -290,7 +307,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     }
     set_quiet(quiet);
     let node_camera = match &camera_node {
-        Some(wanted) => Some(gltf_camera(&input, wanted)?),
+        Some(wanted) => Some(gltf_camera(&input, wanted, time)?),
         None => None,
     };
     let (width, height) = match (size, &node_camera) {
@@ -308,8 +325,8 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         (None, None) => (1280, 720),
     };
     let world = match &instances {
-        Some(file) => World::instanced(read_mesh(&input).map_err(|e| e.to_string())?, &read_transforms(file)?),
-        None => read_world(&input).map_err(|e| e.to_string())?,
+        Some(file) => World::instanced(read_mesh_at(&input, time).map_err(|e| e.to_string())?, &read_transforms(file)?),
+        None => read_world_at(&input, time).map_err(|e| e.to_string())?,
     };
     // A single mesh is scaled and framed as it is; instances by the box holding them all.
     let single = world.instances.len() == 1 && world.instances[0].transform == IDENTITY;

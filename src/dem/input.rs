@@ -108,7 +108,7 @@ fn read(path: &Path, kind: InputKind, options: &ReadOptions, progress: &dyn Prog
         InputKind::Ply => mesh(tileraster_io::read_ply(path)?),
         InputKind::Stl => mesh(tileraster_io::read_stl(path)?),
         InputKind::Gltf => {
-            let m = tileraster_io::read_gltf(path)?;
+            let m = tileraster_io::read_gltf(path, None)?;
             mesh(Scene::new(m.positions, m.triangles))
         }
         InputKind::Las | InputKind::Text => {

@@ -45,6 +45,14 @@ use tileraster_core::{Layers, Raster};
 /// terrain ([`dem_mesh`]); any other input `tileraster rasterise` takes (STL, or points as
 /// their Delaunay TIN) as positions and faces.
 pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
+    read_mesh_at(path, None)
+}
+
+/// [`read_mesh`], a glTF file posed `time` seconds into its first animation (its nodes, skins
+/// and morph weights; at rest without a time). A time for a file of another format, which
+/// holds no animation, is an error.
+pub fn read_mesh_at(path: &Path, time: Option<f64>) -> Result<Mesh, DemError> {
+    refuse_time_without_animation(path, time)?;
     if is_geotiff(path) {
         let dem = tileraster_io::read_dem(path)?;
         let fail = |message: String| DemError::Io(tileraster_io::IoError::Format { path: path.to_owned(), message });
@@ -55,7 +63,7 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, DemError> {
         return Ok(mesh);
     }
     match InputKind::of(path)? {
-        InputKind::Gltf => return Ok(tileraster_io::read_gltf(path)?),
+        InputKind::Gltf => return Ok(tileraster_io::read_gltf(path, time)?),
         InputKind::Ply => return Ok(tileraster_io::read_ply_mesh(path)?),
         InputKind::Obj => return Ok(tileraster_io::read_obj_mesh(path)?),
         _ => {}
@@ -79,9 +87,25 @@ fn is_geotiff(path: &Path) -> bool {
 /// The meshes in `path` and their placements: a glTF file's meshes with one instance per node
 /// that places one (nodes sharing a mesh share it); any other input [`read_mesh`] reads, once.
 pub fn read_world(path: &Path) -> Result<World, DemError> {
+    read_world_at(path, None)
+}
+
+/// [`read_world`], a glTF file posed as [`read_mesh_at`] poses it.
+pub fn read_world_at(path: &Path, time: Option<f64>) -> Result<World, DemError> {
     match is_geotiff(path) || InputKind::of(path)? != InputKind::Gltf {
-        true => Ok(World::single(read_mesh(path)?)),
-        false => Ok(tileraster_io::read_gltf_world(path)?),
+        true => Ok(World::single(read_mesh_at(path, time)?)),
+        false => Ok(tileraster_io::read_gltf_world(path, time)?),
+    }
+}
+
+/// A time is for a glTF file's animation: any other format's mesh has no pose to take.
+fn refuse_time_without_animation(path: &Path, time: Option<f64>) -> Result<(), DemError> {
+    match time {
+        Some(time) if is_geotiff(path) || InputKind::of(path)? != InputKind::Gltf => Err(DemError::Io(tileraster_io::IoError::Format {
+            path: path.to_owned(),
+            message: format!("a time ({time} s) poses a glTF file's animation, and this format holds none: leave the time out"),
+        })),
+        _ => Ok(()),
     }
 }
 

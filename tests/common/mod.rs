@@ -108,3 +108,80 @@ pub fn assert_frame_parity(what: &str, mesh: &tileraster::render::Mesh, params: 
     }
     cpu
 }
+
+/// A glTF file (with its `.bin`) animated by a skin and a morph target: two unit squares side
+/// by side in the plane z = 0, x from 0 to 2 and y from 0 to 1, normals +z. The vertices at
+/// x = 0 and x = 1 follow joint 0 (node 1, at the origin), those at x = 2 joint 1 (node 2, at
+/// x = 1), which the animation turns about +y from no turn at 0 s to 90° at 1 s (`LINEAR`):
+/// the right square turns edge-on to a viewer on the z axis. One morph target moves the
+/// vertices at x = 0 by −½ in x, its weight animated from 0 at 0 s to 1 at 1 s. At rest, the
+/// squares as given.
+pub fn skinned_gltf(dir: &std::path::Path) -> std::path::PathBuf {
+    let positions: [[f32; 3]; 6] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [2.0, 1.0, 0.0]];
+    let normals = [[0.0f32, 0.0, 1.0]; 6];
+    let offsets: [[f32; 3]; 6] = [[-0.5, 0.0, 0.0], [0.0; 3], [0.0; 3], [-0.5, 0.0, 0.0], [0.0; 3], [0.0; 3]];
+    let joints: [[u16; 4]; 6] = [[0; 4], [0; 4], [1, 0, 0, 0], [0; 4], [0; 4], [1, 0, 0, 0]];
+    let weights = [[1.0f32, 0.0, 0.0, 0.0]; 6];
+    // Column-major: the identity, and a move by −1 in x (joint 1's inverse bind).
+    let binds: [[f32; 16]; 2] = [
+        [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 1.0],
+    ];
+    let times = [0.0f32, 1.0];
+    let half = std::f32::consts::FRAC_1_SQRT_2;
+    let turns = [[0.0f32, 0.0, 0.0, 1.0], [0.0, half, 0.0, half]];
+    let morph = [0.0f32, 1.0];
+    let indices: [u16; 12] = [0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4];
+    let mut buffer = Vec::new();
+    let mut views = Vec::new();
+    let mut add = |bytes: Vec<u8>| {
+        views.push(format!(r#"{{"buffer": 0, "byteOffset": {}, "byteLength": {}}}"#, buffer.len(), bytes.len()));
+        buffer.extend(bytes);
+    };
+    let floats = |v: &[f32]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
+    let shorts = |v: &[u16]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
+    add(floats(positions.as_flattened()));
+    add(floats(normals.as_flattened()));
+    add(floats(offsets.as_flattened()));
+    add(shorts(joints.as_flattened()));
+    add(floats(weights.as_flattened()));
+    add(floats(binds.as_flattened()));
+    add(floats(&times));
+    add(floats(turns.as_flattened()));
+    add(floats(&morph));
+    add(shorts(&indices));
+    std::fs::write(dir.join("skinned.bin"), &buffer).unwrap();
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0, 1]}}],
+  "nodes": [{{"mesh": 0, "skin": 0}}, {{"children": [2]}}, {{"translation": [1, 0, 0]}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "JOINTS_0": 3, "WEIGHTS_0": 4}}, "targets": [{{"POSITION": 2}}], "indices": 9}}]}}],
+  "skins": [{{"inverseBindMatrices": 5, "joints": [1, 2]}}],
+  "animations": [{{
+    "channels": [{{"sampler": 0, "target": {{"node": 2, "path": "rotation"}}}}, {{"sampler": 1, "target": {{"node": 0, "path": "weights"}}}}],
+    "samplers": [{{"input": 6, "output": 7, "interpolation": "LINEAR"}}, {{"input": 6, "output": 8, "interpolation": "LINEAR"}}]
+  }}],
+  "buffers": [{{"uri": "skinned.bin", "byteLength": {}}}],
+  "bufferViews": [{}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 6, "type": "VEC3", "min": [0, 0, 0], "max": [2, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 6, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5126, "count": 6, "type": "VEC3", "min": [-0.5, 0, 0], "max": [0, 0, 0]}},
+    {{"bufferView": 3, "componentType": 5123, "count": 6, "type": "VEC4"}},
+    {{"bufferView": 4, "componentType": 5126, "count": 6, "type": "VEC4"}},
+    {{"bufferView": 5, "componentType": 5126, "count": 2, "type": "MAT4"}},
+    {{"bufferView": 6, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]}},
+    {{"bufferView": 7, "componentType": 5126, "count": 2, "type": "VEC4"}},
+    {{"bufferView": 8, "componentType": 5126, "count": 2, "type": "SCALAR"}},
+    {{"bufferView": 9, "componentType": 5123, "count": 12, "type": "SCALAR"}}
+  ]
+}}"#,
+        buffer.len(),
+        views.join(", ")
+    );
+    let path = dir.join("skinned.gltf");
+    std::fs::write(&path, json).unwrap();
+    path
+}

@@ -4,21 +4,32 @@
 //! (transformed by the inverse transpose and normalised), `COLOR_0` times the material's base
 //! colour factor, and `TEXCOORD_0`. Faces count the triangles in that order: nodes depth first
 //! in document order, primitives in order, triangles in index order (strips and fans unrolled).
-//! Points, lines, required extensions this reader does not implement, and skins or morph
-//! targets are refused with an error that names them.
+//!
+//! The nodes stand in a pose (`gltf_pose`): at rest, or at a time of the file's first
+//! animation. Morph targets add their weighted offsets to positions and normals; a skinned
+//! node's vertices go to world coordinates by the weighted sum of up to four joint matrices
+//! (`JOINTS_0`, `WEIGHTS_0`). Points, lines, more joints per vertex and required extensions
+//! this reader does not implement are refused with an error that names them.
 
 use crate::IoError;
+use crate::gltf_pose::{IDENTITY, Matrix, Pose};
 use std::path::Path;
 use tileraster_core::render::{Address, Filter, Instance, Mesh, NO_TEXTURE, Texture, World, normal_matrix, transform_normal};
 
-/// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates.
-pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
+/// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates, posed `time`
+/// seconds into its first animation (at rest without a time).
+pub fn read_gltf(path: &Path, time: Option<f64>) -> Result<Mesh, IoError> {
     let format = |message: String| IoError::Format { path: path.to_owned(), message };
     let (gltf, buffers) = open(path)?;
+    let pose = posed(&gltf.document, &buffers, time).map_err(format)?;
+    let sources = Sources { base: path.parent(), buffers: &buffers };
     let mut out = Parts::default();
-    walk(&gltf.document, &mut |node, world| match node.mesh() {
+    pose.walk(&gltf.document, &mut |node, world| match node.mesh() {
         Some(mesh) => {
-            mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &Sources { base: path.parent(), buffers: &buffers }, &mut out))
+            let deform = Deform::of(&pose, node, &mesh, &buffers)?;
+            // A skinned mesh's joints take it to world coordinates.
+            let world = if deform.joints.is_some() { &IDENTITY } else { world };
+            mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &deform, &sources, &mut out))
         }
         None => Ok(()),
     })
@@ -26,33 +37,45 @@ pub fn read_gltf(path: &Path) -> Result<Mesh, IoError> {
     out.into_mesh().ok_or_else(|| format("the file has no triangles in its scene".into()))
 }
 
-/// Read a glTF 2.0 file as a [`World`]: each mesh once, in its own coordinates, and one
-/// instance per node that places a mesh, with the node's world transform. Nodes that share a
-/// mesh share it here too (instances). Rendered, it gives the faces in [`read_gltf`]'s order.
-pub fn read_gltf_world(path: &Path) -> Result<World, IoError> {
+/// Read a glTF 2.0 file as a [`World`], posed as [`read_gltf`] poses it: each mesh once, in its
+/// own coordinates, and one instance per node that places a mesh, with the node's world
+/// transform. Nodes that share a mesh share it here too (instances), where the pose deforms it
+/// alike (no skin, the same morph weights); a skinned node's mesh is in world coordinates.
+/// Rendered, it gives the faces in [`read_gltf`]'s order.
+pub fn read_gltf_world(path: &Path, time: Option<f64>) -> Result<World, IoError> {
     let format = |message: String| IoError::Format { path: path.to_owned(), message };
     let (gltf, buffers) = open(path)?;
+    let pose = posed(&gltf.document, &buffers, time).map_err(format)?;
+    let sources = Sources { base: path.parent(), buffers: &buffers };
     let mut world = World::default();
-    // glTF mesh index → the world's mesh index (a mesh without triangles is left out).
-    let mut built: std::collections::HashMap<usize, Option<u32>> = std::collections::HashMap::new();
-    walk(&gltf.document, &mut |node, transform| {
+    // (glTF mesh, skinned node, morph weights' bits) → the world's mesh index (a mesh without
+    // triangles is left out).
+    let mut built: std::collections::HashMap<(usize, Option<usize>, Vec<u64>), Option<u32>> = std::collections::HashMap::new();
+    pose.walk(&gltf.document, &mut |node, transform| {
         let Some(mesh) = node.mesh() else { return Ok(()) };
-        let index = match built.get(&mesh.index()) {
+        let deform = Deform::of(&pose, node, &mesh, &buffers)?;
+        let skinned = deform.joints.is_some().then_some(node.index());
+        let weights = match deform.weights.iter().all(|&w| w == 0.0) {
+            true => Vec::new(),
+            false => deform.weights.iter().map(|w| w.to_bits()).collect(),
+        };
+        let key = (mesh.index(), skinned, weights);
+        let index = match built.get(&key) {
             Some(&index) => index,
             None => {
                 let mut parts = Parts::default();
-                mesh.primitives()
-                    .try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &Sources { base: path.parent(), buffers: &buffers }, &mut parts))?;
+                mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &deform, &sources, &mut parts))?;
                 let index = parts.into_mesh().map(|m| {
                     world.meshes.push(m);
                     world.meshes.len() as u32 - 1
                 });
-                built.insert(mesh.index(), index);
+                built.insert(key, index);
                 index
             }
         };
         if let Some(mesh) = index {
-            world.instances.push(Instance { mesh, transform: *transform });
+            let transform = if skinned.is_some() { IDENTITY } else { *transform };
+            world.instances.push(Instance { mesh, transform });
         }
         Ok(())
     })
@@ -61,6 +84,31 @@ pub fn read_gltf_world(path: &Path) -> Result<World, IoError> {
         return Err(format("the file has no triangles in its scene".into()));
     }
     Ok(world)
+}
+
+/// The file's pose at `time`, or at rest.
+fn posed(document: &gltf::Document, buffers: &[gltf::buffer::Data], time: Option<f64>) -> Result<Pose, String> {
+    match time {
+        Some(time) => Pose::at(document, buffers, time),
+        None => Pose::rest(document),
+    }
+}
+
+/// What a pose does to a node's primitives: its morph weights and its skin's joint matrices.
+struct Deform {
+    weights: Vec<f64>,
+    joints: Option<Vec<Matrix>>,
+}
+
+impl Deform {
+    fn of(pose: &Pose, node: &gltf::Node, mesh: &gltf::Mesh, buffers: &[gltf::buffer::Data]) -> Result<Deform, String> {
+        let targets = mesh.primitives().next().map_or(0, |p| p.morph_targets().count());
+        let joints = match node.skin() {
+            Some(skin) => Some(pose.joint_matrices(&skin, buffers)?),
+            None => None,
+        };
+        Ok(Deform { weights: pose.weights(node, mesh, targets)?, joints })
+    }
 }
 
 /// A camera that a glTF file's scene places on a node.
@@ -87,12 +135,22 @@ pub enum GltfProjection {
 }
 
 /// The cameras of a glTF file's scene, nodes depth first in document order (as
-/// [`read_gltf_world`] walks them).
-pub fn read_gltf_cameras(path: &Path) -> Result<Vec<GltfCamera>, IoError> {
+/// [`read_gltf_world`] walks them), placed as the file's pose at `time` places them (at rest
+/// without a time).
+pub fn read_gltf_cameras(path: &Path, time: Option<f64>) -> Result<Vec<GltfCamera>, IoError> {
     let format = |message: String| IoError::Format { path: path.to_owned(), message };
     let gltf = gltf::Gltf::open(path).map_err(|e| format(format!("not a readable glTF 2.0 file: {e}")))?;
+    let pose = match time {
+        // Only an animation's keyframes need the buffers.
+        Some(time) => {
+            let buffers = gltf::import_buffers(&gltf.document, path.parent(), gltf.blob.clone()).map_err(|e| format(format!("reading its buffers: {e}")))?;
+            Pose::at(&gltf.document, &buffers, time)
+        }
+        None => Pose::rest(&gltf.document),
+    }
+    .map_err(format)?;
     let mut cameras = Vec::new();
-    walk(&gltf.document, &mut |node, transform| {
+    pose.walk(&gltf.document, &mut |node, transform| {
         if let Some(camera) = node.camera() {
             let projection = match camera.projection() {
                 gltf::camera::Projection::Perspective(p) => GltfProjection::Perspective {
@@ -129,23 +187,6 @@ fn open(path: &Path) -> Result<(gltf::Gltf, Vec<gltf::buffer::Data>), IoError> {
     let buffers = gltf::import_buffers(&gltf.document, path.parent(), gltf.blob.clone()).map_err(|e| format(format!("reading its buffers: {e}")))?;
     Ok((gltf, buffers))
 }
-
-/// Calls `f` with every node of the default scene (or, without scenes, of every root node)
-/// and its world transform, depth first in document order.
-fn walk(document: &gltf::Document, f: &mut dyn FnMut(&gltf::Node, &Matrix) -> Result<(), String>) -> Result<(), String> {
-    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
-        Some(scene) => scene.nodes().collect(),
-        None => {
-            // No scene: every node that is nobody's child.
-            let children: std::collections::HashSet<usize> = document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-            document.nodes().filter(|n| !children.contains(&n.index())).collect()
-        }
-    };
-    roots.iter().try_for_each(|node| visit(node, IDENTITY, f, 0))
-}
-
-type Matrix = [[f64; 4]; 4];
-const IDENTITY: Matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
 
 /// What the primitives read so far add up to.
 #[derive(Default)]
@@ -244,43 +285,25 @@ impl Parts {
     }
 }
 
-/// glTF's column-major matrix as rows.
-fn rows(m: [[f32; 4]; 4]) -> Matrix {
-    std::array::from_fn(|r| std::array::from_fn(|c| m[c][r] as f64))
-}
-
-fn multiply(a: &Matrix, b: &Matrix) -> Matrix {
-    std::array::from_fn(|r| std::array::from_fn(|c| (0..4).map(|k| a[r][k] * b[k][c]).sum()))
-}
-
-/// Node hierarchies deeper than this are refused (a cycle, or a hostile file).
-const MAX_DEPTH: usize = 256;
-
-fn visit(node: &gltf::Node, parent: Matrix, f: &mut dyn FnMut(&gltf::Node, &Matrix) -> Result<(), String>, depth: usize) -> Result<(), String> {
-    if depth > MAX_DEPTH {
-        return Err(format!("node {} is nested more than {MAX_DEPTH} deep (a cycle?)", node.index()));
-    }
-    let world = multiply(&parent, &rows(node.transform().matrix()));
-    if node.skin().is_some() {
-        return Err(format!("unsupported glTF feature: node {} is skinned", node.index()));
-    }
-    f(node, &world)?;
-    for child in node.children() {
-        visit(&child, world, f, depth + 1)?;
-    }
-    Ok(())
-}
-
-fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix, sources: &Sources, out: &mut Parts) -> Result<(), String> {
+/// Adds `primitive`'s triangles and vertices to `out`: its positions morphed by `deform`'s
+/// weights, then skinned by its joints or else placed by `world`.
+fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix, deform: &Deform, sources: &Sources, out: &mut Parts) -> Result<(), String> {
     let buffers = sources.buffers;
     use gltf::mesh::Mode;
     let name = || format!("mesh {}{} primitive {}", mesh.index(), mesh.name().map(|n| format!(" ('{n}')")).unwrap_or_default(), primitive.index());
-    if primitive.morph_targets().next().is_some() {
-        return Err(format!("unsupported glTF feature: {} has morph targets", name()));
-    }
     let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-    let positions: Vec<[f32; 3]> = reader.read_positions().ok_or_else(|| format!("{} has no POSITION attribute", name()))?.collect();
+    let mut positions: Vec<[f64; 3]> =
+        reader.read_positions().ok_or_else(|| format!("{} has no POSITION attribute", name()))?.map(|p| p.map(f64::from)).collect();
     let n = positions.len();
+    let mut normals: Option<Vec<[f64; 3]>> = reader.read_normals().map(|normals| normals.map(|v| v.map(f64::from)).collect());
+    if normals.as_ref().is_some_and(|v| v.len() != n) {
+        return Err(format!("{} has {} normals for {n} positions", name(), normals.map_or(0, |v| v.len())));
+    }
+    morph(&reader, &deform.weights, &mut positions, &mut normals).map_err(|e| format!("{}: {e}", name()))?;
+    let skinned = match &deform.joints {
+        Some(joints) => Some(skin_matrices(&reader, joints, n).map_err(|e| format!("{}: {e}", name()))?),
+        None => None,
+    };
     let base = out.positions.len();
     let indices: Vec<u32> = match reader.read_indices() {
         Some(i) => i.into_u32().collect(),
@@ -307,10 +330,11 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     let linear_det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     let triangles: Vec<[u32; 3]> = if linear_det < 0.0 { triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect() } else { triangles };
-    out.positions.extend(positions.iter().map(|p| {
-        let p = p.map(f64::from);
-        std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
-    }));
+    let place = |m: &Matrix, p: &[f64; 3]| -> [f64; 3] { std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]) };
+    match &skinned {
+        Some(skin) => out.positions.extend(positions.iter().zip(skin).map(|(p, s)| place(s, p))),
+        None => out.positions.extend(positions.iter().map(|p| place(m, p))),
+    }
     let material = primitive.material();
     let texture = match material.pbr_metallic_roughness().base_color_texture() {
         Some(info) if info.tex_coord() != 0 => {
@@ -333,13 +357,17 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     out.face_textures.extend(std::iter::repeat_n(texture, triangles.len()));
     out.triangles.extend(triangles);
     out.primitives += 1;
-    let normal_matrix = normal_matrix(m);
-    match reader.read_normals() {
-        Some(normals) => {
+    match (normals, &skinned) {
+        (Some(normals), Some(skin)) => {
             out.with_normals += 1;
-            out.normals.extend(normals.map(|v| transform_normal(&normal_matrix, v)));
+            out.normals.extend(normals.iter().zip(skin).map(|(v, s)| transform_normal(&normal_matrix(s), v.map(|c| c as f32))));
         }
-        None => out.normals.extend(std::iter::repeat_n([0.0; 3], n)),
+        (Some(normals), None) => {
+            out.with_normals += 1;
+            let normal_matrix = normal_matrix(m);
+            out.normals.extend(normals.iter().map(|v| transform_normal(&normal_matrix, v.map(|c| c as f32))));
+        }
+        (None, _) => out.normals.extend(std::iter::repeat_n([0.0; 3], n)),
     }
     let factor = primitive.material().pbr_metallic_roughness().base_color_factor();
     out.coloured_materials += usize::from(factor != [1.0; 4]);
@@ -359,8 +387,83 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     Ok(())
 }
 
+/// Adds the morph targets' offsets, each times its weight, to `positions` and `normals`.
+fn morph<'a, 's, F>(
+    reader: &gltf::mesh::Reader<'a, 's, F>,
+    weights: &[f64],
+    positions: &mut [[f64; 3]],
+    normals: &mut Option<Vec<[f64; 3]>>,
+) -> Result<(), String>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    let targets: Vec<_> = reader.read_morph_targets().collect();
+    if targets.len() != weights.len() {
+        return Err(format!("{} morph targets where its mesh's first primitive has {}", targets.len(), weights.len()));
+    }
+    for (k, (target_positions, target_normals, _)) in targets.into_iter().enumerate() {
+        let weight = weights[k];
+        if weight == 0.0 {
+            continue;
+        }
+        let add = |offsets: Option<gltf::accessor::Iter<'s, [f32; 3]>>, to: &mut [[f64; 3]], what: &str| {
+            let Some(offsets) = offsets else { return Ok(()) };
+            if offsets.len() != to.len() {
+                return Err(format!("morph target {k} has {} {what} offsets for {} vertices", offsets.len(), to.len()));
+            }
+            for (v, d) in to.iter_mut().zip(offsets) {
+                *v = std::array::from_fn(|c| v[c] + weight * d[c] as f64);
+            }
+            Ok(())
+        };
+        add(target_positions, positions, "position")?;
+        if let Some(normals) = normals {
+            add(target_normals, normals, "normal")?;
+        }
+    }
+    Ok(())
+}
+
+/// Each vertex's skin matrix: the sum of its (up to four) joints' matrices, each times its weight.
+fn skin_matrices<'a, 's, F>(reader: &gltf::mesh::Reader<'a, 's, F>, joints: &[Matrix], n: usize) -> Result<Vec<Matrix>, String>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    if reader.read_joints(1).is_some() || reader.read_weights(1).is_some() {
+        return Err("unsupported glTF feature: more than four joints per vertex (JOINTS_1, WEIGHTS_1); up to four are supported".into());
+    }
+    let (Some(indices), Some(weights)) = (reader.read_joints(0), reader.read_weights(0)) else {
+        return Err("its node has a skin but it has no JOINTS_0 and WEIGHTS_0 attributes".into());
+    };
+    let (indices, weights): (Vec<[u16; 4]>, Vec<[f32; 4]>) = (indices.into_u16().collect(), weights.into_f32().collect());
+    if indices.len() != n || weights.len() != n {
+        return Err(format!("{} joints and {} weights for {n} vertices", indices.len(), weights.len()));
+    }
+    indices
+        .iter()
+        .zip(&weights)
+        .enumerate()
+        .map(|(v, (indices, weights))| {
+            let mut sum = [[0.0; 4]; 4];
+            for (&joint, &weight) in indices.iter().zip(weights) {
+                if weight == 0.0 {
+                    continue;
+                }
+                let Some(m) = joints.get(joint as usize) else {
+                    return Err(format!("vertex {v} names joint {joint} of a skin with {}", joints.len()));
+                };
+                let weight = weight as f64;
+                for (row, m) in sum.iter_mut().zip(m) {
+                    *row = std::array::from_fn(|c| row[c] + weight * m[c]);
+                }
+            }
+            Ok(sum)
+        })
+        .collect()
+}
+
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A quad (two triangles, normals +z, colours) and its buffer, little-endian.
@@ -414,14 +517,14 @@ mod tests {
         )
     }
 
-    fn scratch(name: &str) -> std::path::PathBuf {
+    pub(crate) fn scratch(name: &str) -> std::path::PathBuf {
         let dir = std::env::temp_dir().join(format!("tileraster-gltf-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         dir
     }
 
     /// A `.glb`: the JSON chunk and the binary chunk, each padded to four bytes.
-    fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    pub(crate) fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
         let mut json = json.as_bytes().to_vec();
         json.resize(json.len().next_multiple_of(4), b' ');
         let mut bin = bin.to_vec();
@@ -464,10 +567,10 @@ mod tests {
         let dir = scratch("both");
         std::fs::write(dir.join("quad.bin"), quad_buffer()).unwrap();
         std::fs::write(dir.join("quad.gltf"), document(Some("quad.bin"), 4, "")).unwrap();
-        let from_gltf = read_gltf(&dir.join("quad.gltf")).unwrap();
+        let from_gltf = read_gltf(&dir.join("quad.gltf"), None).unwrap();
         check(&from_gltf);
         std::fs::write(dir.join("quad.glb"), glb(&document(None, 4, ""), &quad_buffer())).unwrap();
-        assert_eq!(read_gltf(&dir.join("quad.glb")).unwrap(), from_gltf);
+        assert_eq!(read_gltf(&dir.join("quad.glb"), None).unwrap(), from_gltf);
     }
 
     /// As a world, each mesh is read once in its own coordinates and each node places one:
@@ -477,15 +580,15 @@ mod tests {
     fn nodes_become_instances_of_their_meshes() {
         let dir = scratch("world");
         std::fs::write(dir.join("quad.glb"), glb(&document(None, 4, ""), &quad_buffer())).unwrap();
-        let world = read_gltf_world(&dir.join("quad.glb")).unwrap();
+        let world = read_gltf_world(&dir.join("quad.glb"), None).unwrap();
         assert_eq!((world.meshes.len(), world.instances.len()), (2, 2));
         assert_eq!(world.instances.iter().map(|i| i.mesh).collect::<Vec<_>>(), vec![0, 1]);
-        let (flat, mesh) = (world.flattened().unwrap(), read_gltf(&dir.join("quad.glb")).unwrap());
+        let (flat, mesh) = (world.flattened().unwrap(), read_gltf(&dir.join("quad.glb"), None).unwrap());
         assert_eq!(flat.triangles, mesh.triangles);
         assert!(flat.positions.iter().zip(&mesh.positions).all(|(a, b)| close(*a, *b)));
         let shared = document(None, 4, "").replace(r#"{"mesh": 1, "rotation""#, r#"{"mesh": 0, "rotation""#);
         std::fs::write(dir.join("shared.glb"), glb(&shared, &quad_buffer())).unwrap();
-        let world = read_gltf_world(&dir.join("shared.glb")).unwrap();
+        let world = read_gltf_world(&dir.join("shared.glb"), None).unwrap();
         assert_eq!((world.meshes.len(), world.instances.len()), (1, 2));
         assert_eq!(world.meshes[0].positions[2], [1.0, 1.0, 0.0], "the mesh in its own coordinates");
         assert!(close(world.flattened().unwrap().positions[6], [8.0, 2.0, 0.0]), "the second node's placement");
@@ -534,7 +637,7 @@ mod tests {
         std::fs::write(dir.join("file.glb"), glb(&document(r#"{"uri": "tex.png"}"#), &bin)).unwrap();
         std::fs::write(dir.join("embedded.glb"), glb(&document(r#"{"bufferView": 3, "mimeType": "image/png"}"#), &bin)).unwrap();
         for name in ["file.glb", "embedded.glb"] {
-            let mesh = read_gltf(&dir.join(name)).unwrap();
+            let mesh = read_gltf(&dir.join(name), None).unwrap();
             let t = &mesh.textures[0];
             assert_eq!((mesh.textures.len(), t.width, t.height, &t.rgba), (1, 3, 2, &texels), "{name}");
             assert_eq!((t.srgb, t.filter, t.address_u, t.address_v), (true, Filter::Nearest, Address::ClampToEdge, Address::MirroredRepeat), "{name}");
@@ -542,7 +645,7 @@ mod tests {
             assert_eq!(mesh.uvs.as_ref().unwrap()[1], [1.0, 1.0], "{name}");
         }
         std::fs::remove_file(dir.join("tex.png")).unwrap();
-        let e = read_gltf(&dir.join("file.glb")).unwrap_err().to_string();
+        let e = read_gltf(&dir.join("file.glb"), None).unwrap_err().to_string();
         assert!(e.contains("image 0 of texture 0") && e.contains("file.glb"), "{e}");
     }
 
@@ -551,18 +654,18 @@ mod tests {
         let dir = scratch("features");
         // A strip of indices 0 1 2 0 2 3: four triangles, every other one's last two swapped.
         std::fs::write(dir.join("strip.glb"), glb(&document(None, 5, ""), &quad_buffer())).unwrap();
-        let strip = read_gltf(&dir.join("strip.glb")).unwrap();
+        let strip = read_gltf(&dir.join("strip.glb"), None).unwrap();
         assert_eq!(&strip.triangles[2..], &[[4, 5, 6], [5, 4, 6], [6, 4, 6], [4, 7, 6]]);
         std::fs::write(dir.join("points.glb"), glb(&document(None, 0, ""), &quad_buffer())).unwrap();
-        let e = read_gltf(&dir.join("points.glb")).unwrap_err().to_string();
+        let e = read_gltf(&dir.join("points.glb"), None).unwrap_err().to_string();
         assert!(e.contains("unsupported glTF feature") && e.contains("Points") && e.contains("mesh 1"), "{e}");
         let draco = r#""extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"],"#;
         std::fs::write(dir.join("draco.glb"), glb(&document(None, 4, draco), &quad_buffer())).unwrap();
-        let e = read_gltf(&dir.join("draco.glb")).unwrap_err().to_string();
+        let e = read_gltf(&dir.join("draco.glb"), None).unwrap_err().to_string();
         assert!(e.contains("KHR_draco_mesh_compression") && e.contains("draco.glb"), "{e}");
         std::fs::write(dir.join("broken.glb"), b"glTF\x02\0\0\0garbage").unwrap();
-        assert!(read_gltf(&dir.join("broken.glb")).unwrap_err().to_string().contains("not a readable glTF"));
-        let missing = read_gltf(&dir.join("none.gltf")).unwrap_err().to_string();
+        assert!(read_gltf(&dir.join("broken.glb"), None).unwrap_err().to_string().contains("not a readable glTF"));
+        let missing = read_gltf(&dir.join("none.gltf"), None).unwrap_err().to_string();
         assert!(missing.contains("none.gltf"), "{missing}");
     }
 
@@ -586,7 +689,7 @@ mod tests {
   ]
 }"#;
         std::fs::write(dir.join("cameras.gltf"), json).unwrap();
-        let cameras = read_gltf_cameras(&dir.join("cameras.gltf")).unwrap();
+        let cameras = read_gltf_cameras(&dir.join("cameras.gltf"), None).unwrap();
         assert_eq!(cameras.len(), 1, "the scene's cameras only");
         let c = &cameras[0];
         assert_eq!((c.node, c.node_name.as_deref(), c.name.as_deref()), (1, Some("eye"), Some("wide")));

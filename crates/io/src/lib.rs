@@ -10,6 +10,7 @@ mod cog;
 mod dem;
 mod geotiff;
 mod gltf_mesh;
+mod gltf_pose;
 mod las;
 mod obj;
 mod ply;

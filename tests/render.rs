@@ -769,3 +769,29 @@ fn a_posed_skinned_and_morphing_gltf_file_is_the_same_bits_on_both_backends() {
     assert_eq!(seen.len(), 8, "every time and shading gives its own frame");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `Stats::bytes_uploaded` of a frame, worked out by hand: its triangles' inputs and shading
+/// records, the slots listed for the window (one word each) and the shade parameters (no
+/// textures here). On the GPU the call writes exactly that and one `FrameParams` uniform per
+/// dispatch (the setup's and the window's), measured where it writes them.
+#[test]
+fn a_frames_upload_is_counted_whole() {
+    use tileraster_kernels::abi::{FrameParams, TriangleInput, TriangleShading};
+    let square = square_facing_the_viewer();
+    let camera =
+        Camera { eye: [0.0, 0.0, 3.0], target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 1.0, far: 20.0 };
+    let params = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap()) };
+    assert_eq!(std::mem::size_of::<FrameParams>(), 72, "the README's figure");
+    let per_triangle = std::mem::size_of::<TriangleInput>() + std::mem::size_of::<TriangleShading>() + 4;
+    let expected = (2 * per_triangle + std::mem::size_of::<ShadeParams>()) as u64;
+    let frame = cpu(&square, &params);
+    assert_eq!(frame.stats.raster.bytes_uploaded, expected);
+    if gpu_or_skip("a_frames_upload_is_counted_whole") {
+        let g = render(&square, &params, Backend::Gpu).unwrap();
+        assert_eq!(g.stats.raster.bytes_uploaded, expected);
+        let (prepared, _) = prepare_render(&square, &params).unwrap();
+        let plan = prepared.plan(prepared.window, false).unwrap();
+        let (_, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, false).unwrap();
+        assert_eq!(profile.bytes_up, expected + 2 * std::mem::size_of::<FrameParams>() as u64, "{profile:?}");
+    }
+}

@@ -7,7 +7,7 @@ use crate::raster::{Layers, reuse_cells};
 use crate::{Error, Prepared, Raster, Window};
 use rayon::prelude::*;
 use tileraster_kernels::abi::DepthTest;
-use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect};
+use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect, ShadeParams};
 use tileraster_kernels::pipeline::{Pipeline, Stage, window_stages};
 use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::stages::small::is_small;
@@ -100,8 +100,13 @@ pub struct Stats {
     pub overlap_free: bool,
     /// The passes that ran, in order (see [`Plan`]).
     pub passes: Vec<Pass>,
-    /// Bytes of scene data moved to the backend for this call: the prepared triangles the first
-    /// time a prepared scene is rasterised, and the list of the window's triangles.
+    /// Bytes of scene and frame data the call hands the device: the prepared triangles (and a
+    /// render's shading records) the first time a prepared scene is rasterised, and on every
+    /// call the lists of the window's triangles and a render's shade parameters, textures and
+    /// texels. The GPU backend writes these and, besides, one `FrameParams` uniform per
+    /// dispatch window (one more where it sets the scene up), and a scene too large for one
+    /// binding again for each window it is cut into; the CPU backend reads them where they
+    /// are, and reports the same figure.
     pub bytes_uploaded: u64,
 }
 
@@ -231,6 +236,7 @@ impl Prepared {
         if active.is_some() && !resident {
             passes.extend([Pass::Upload, Stage::Setup.into()]);
             bytes_uploaded += std::mem::size_of_val(self.triangles.as_slice()) as u64;
+            bytes_uploaded += self.render.as_ref().map_or(0, |r| std::mem::size_of_val(r.triangles.as_slice()) as u64);
         }
         if skips.cull_window {
             passes.push(Pass::Cull);
@@ -244,6 +250,9 @@ impl Prepared {
                 passes.push(Pass::Ownership);
             }
             bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64 + std::mem::size_of_val(small.as_slice()) as u64;
+            bytes_uploaded += self.render.as_ref().map_or(0, |r| {
+                (std::mem::size_of::<ShadeParams>() + std::mem::size_of_val(r.textures.as_slice()) + std::mem::size_of_val(r.texels.as_slice())) as u64
+            });
         }
         if self.params.outputs.owner {
             passes.push(Pass::WriteOwner);

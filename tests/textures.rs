@@ -224,3 +224,36 @@ fn bad_textures_are_typed_errors() {
     mesh.face_textures = Some(vec![0]);
     assert!(matches!(render(&mesh, &params, Backend::Cpu).map(|_| ()).unwrap_err(), Error::AttributeLength { .. }));
 }
+
+/// A prepared mesh lays its textures out once and hands their texels to a backend once:
+/// its later frames (another camera) count no texel bytes, on each backend, until a frame
+/// overrides the filter (laid out again, handed over again); every frame is the one-shot
+/// `render`'s bits, whose count includes the texels.
+#[test]
+fn a_prepared_meshs_texels_are_handed_over_once() {
+    use tileraster::render::PreparedMesh;
+    let mesh = screen_quad([0.0, 0.0], [3.0, 2.0], pattern(64, 48, true));
+    let mut prepared = PreparedMesh::new(mesh.clone()).unwrap();
+    let texel_bytes = |params: &RenderParams| {
+        let (p, _) = tileraster::render::prepare_render(&mesh, params).unwrap();
+        8 * p.render.unwrap().texels.len() as u64
+    };
+    let mut backends = vec![Backend::Cpu];
+    if gpu_or_skip("a_prepared_meshs_texels_are_handed_over_once") {
+        backends.push(Backend::Gpu);
+    }
+    let filters = [None, None, Some(Filter::Nearest), Some(Filter::Nearest), None];
+    for backend in backends {
+        for (k, filter) in filters.into_iter().enumerate() {
+            // Each frame a little smaller: another view of the same textures.
+            let params = RenderParams { texture_filter: filter, ..unlit(64 - k as u32, 40) };
+            let frame = prepared.render(&params, backend).unwrap();
+            let once = render(&mesh, &params, backend).unwrap();
+            assert_eq!(frame.colour, once.colour, "{backend:?}, frame {k}");
+            let first = k == 0 || filter != filters[k - 1];
+            let handed = once.stats.raster.bytes_uploaded - frame.stats.raster.bytes_uploaded;
+            assert_eq!(handed, if first { 0 } else { texel_bytes(&params) }, "{backend:?}, frame {k}: bytes not handed over again");
+            assert!(texel_bytes(&params) > 0);
+        }
+    }
+}

@@ -28,9 +28,9 @@ pub use diagnostics::{Checksums, TileCounts};
 pub use terrain::dem_mesh;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, IDENTITY, Instance, Light, LineRule,
-    MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World, edges, face_normals,
-    prepare_render, prepare_world, validate_mesh,
+    Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, IDENTITY, Instance, LaidOutTextures, Light,
+    LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World, edges,
+    face_normals, prepare_render, prepare_world, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};
@@ -210,8 +210,10 @@ pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> R
 
 /// A mesh checked once, with its normals computed once where it has none, and the memory its
 /// frames work in: each frame of it (any camera, model matrix, shading or size) costs only the
-/// per-frame stages (its textures are laid out again each frame), reuses the last frame's memory instead of faulting fresh pages in, and is
-/// bit for bit what [`render`] gives. [`PreparedMesh::render_into`] reuses the output layers
+/// per-frame stages, reuses the last frame's memory instead of faulting fresh pages in, and is
+/// bit for bit what [`render`] gives. Its textures are laid out (decoded, their mip chains
+/// built) once for as long as the frames' `texture_filter` and `texture_address` stay the same,
+/// and the GPU keeps their texels on the device between its frames. [`PreparedMesh::render_into`] reuses the output layers
 /// of a frame too.
 ///
 /// ```no_run
@@ -237,6 +239,11 @@ pub struct PreparedMesh {
 #[derive(Default)]
 struct FrameMemory {
     geometry: GeometryMemory,
+    /// The mesh's textures as the last frame laid them out, and the texels each backend was
+    /// handed last (the GPU keeps them on the device).
+    textures: Option<LaidOutTextures>,
+    cpu_texels: Option<std::sync::Arc<Vec<u64>>>,
+    gpu_texels: Option<tileraster_gpu::ResidentTexels>,
     /// The CPU's setups and the layers its stages wrote that the frame does not return (the
     /// owner layer, and the colour or depth where not asked for).
     cpu: tileraster_cpu::Workspace,
@@ -268,7 +275,17 @@ impl PreparedMesh {
     pub fn render_into(&mut self, params: &RenderParams, backend: Backend, frame: &mut Frame) -> Result<(), Error> {
         let memory = &mut self.memory;
         let spare = std::mem::take(frame);
-        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(&self.mesh, params, &mut memory.geometry)?;
+        let (mut prepared, geometry) = tileraster_core::render::prepare_mesh_frame(&self.mesh, params, &mut memory.geometry, &mut memory.textures)?;
+        // Texels the backend was handed by the last frame are not handed over again.
+        if let Some(render) = prepared.render.as_mut() {
+            render.texels_resident = match backend {
+                Backend::Cpu => memory.cpu_texels.as_ref().is_some_and(|t| std::sync::Arc::ptr_eq(t, &render.texels)),
+                Backend::Gpu => memory.gpu_texels.as_ref().is_some_and(|t| t.holds(&render.texels)),
+            };
+            if backend == Backend::Cpu {
+                memory.cpu_texels = Some(render.texels.clone());
+            }
+        }
         // An empty layer (one the last frame did not return) leaves the workspace its own.
         let layers = Layers {
             values: reusable(spare.depth),
@@ -282,7 +299,7 @@ impl PreparedMesh {
                 memory.cpu.recycle(layers);
                 tileraster_cpu::rasterise_in(&prepared, &mut memory.cpu)
             }
-            Backend::Gpu => tileraster_gpu::rasterise_into(&prepared, layers),
+            Backend::Gpu => tileraster_gpu::rasterise_keeping_texels(&prepared, layers, &mut memory.gpu_texels),
         };
         memory.geometry.recycle(prepared);
         *frame = frame_of(raster?, geometry, params);

@@ -17,10 +17,11 @@
 //!   larger than its address-space limit streamed to disk (default 100,000 points, 32768², 1536 MiB).
 //! - `cargo xtask fingerprint`: a hash per scene × mode of what `prepare` made and of the CPU
 //!   raster, to show that a change (speed work, say) changed no bit: run it before and after.
-//! - `cargo xtask render-report [--quick]`: the render pipeline against wgpu's render pipeline
-//!   on the same adapter (a 100k-triangle mesh at 1920×1080, a 1M-triangle mesh at 4096², a
+//! - `cargo xtask render-report [--quick | --fragment | --textures]`: the render pipeline
+//!   against wgpu's render pipeline on the same adapter (a 100k-triangle mesh at 1920×1080, a 1M-triangle mesh at 4096², a
 //!   fill-rate scene of overdraw 8), printed as markdown; also a section of `bench-report`.
-//!   `--fragment`: only its programmable fragment stage section.
+//!   `--fragment`: only its programmable fragment stage section; `--textures`: only its
+//!   textures section.
 //! - `cargo xtask skip-report [--quick]`: only the skips section (each skip on and off, prepare
 //!   once, a sparse scene), printed as markdown.
 //! - `cargo xtask stage-times [--walk always|never|auto] [--runs N] [--cpu | --gpu] [NAME_PART]`: a
@@ -50,7 +51,7 @@ const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--walk always|never|auto] [--runs N] [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
+        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment | --textures]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--walk always|never|auto] [--runs N] [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
     );
     ExitCode::from(2)
 }
@@ -189,6 +190,7 @@ fn main() -> ExitCode {
             [] => print_markdown("render-report", render_report::run(false)),
             ["--quick"] => print_markdown("render-report", render_report::run(true)),
             ["--fragment"] => print_markdown("render-report", render_report::fragment_only()),
+            ["--textures"] => print_markdown("render-report", render_report::textures_only()),
             _ => usage(),
         },
         ["skip-report", rest @ ..] => match rest {

@@ -183,6 +183,11 @@ pub fn fragment_only() -> Result<String, String> {
     fragment_section(false, 5, tileraster::gpu_adapter().is_ok())
 }
 
+/// `render-report --textures`: the textures section alone.
+pub fn textures_only() -> Result<String, String> {
+    texture_section(false, 5, tileraster::gpu_adapter().is_ok())
+}
+
 /// The programmable fragment stage: the procedural marble of `examples/procedural` against the
 /// built-in Phong shading of the same frame, and against the same shader written in WGSL for
 /// the render pipeline (`MarblePipeline`), timed side by side, with the colours compared.
@@ -377,13 +382,18 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
          A ground plane of {} triangles seen towards the horizon, its {size}² sRGB texture repeating 16 times across it (magnified near the \
          camera, minified far away), unlit, {w}×{h}, medians of {runs} whole calls. The render pipeline is wgpu's on {} with the same \
          texture (`Rgba8UnormSrgb`, a mip chain of linear 2×2 means for trilinear, built once and uploaded with the texture on every call) \
-         and sampler; tileraster decodes the texture and builds its chain on every call, and returns colour and ids, not depth. \"differ\" is the share of covered pixels \
+         and sampler; tileraster decodes the texture and builds its chain on every call, and returns colour and ids, not depth; its \
+         \"prepared\" columns are `PreparedMesh::render_into`, which lays the texture out once and (on the GPU) keeps its texels on the \
+         device between frames. \"differ\" is the share of covered pixels \
          whose colour differs from the CPU frame's by more than one unit in a channel ([docs/textures.md](textures.md) explains why).\n",
         mesh.triangles.len(),
         peer.adapter_name()
     );
-    let _ = writeln!(s, "| filter | tileraster cpu | tileraster gpu | render pipeline | cpu vs render pipeline | cpu = gpu | differ |");
-    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | --- | ---: |");
+    let _ = writeln!(
+        s,
+        "| filter | tileraster cpu | cpu, prepared | tileraster gpu | gpu, prepared | render pipeline | cpu vs render pipeline (prepared) | cpu = gpu | differ |"
+    );
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |");
     for filter in Filter::ALL {
         let params = RenderParams {
             shading: Shading::Unlit,
@@ -397,14 +407,27 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
         };
         let (cpu_time, cpu) = timed(runs, || render(&mesh, &params, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
+        // The prepared form, one mesh per backend: its texture laid out by the warm-up frame.
+        let prepared_cell = |backend: Backend| -> Result<(String, Timing), String> {
+            let mut prepared = PreparedMesh::new(mesh.clone()).map_err(|e| e.to_string())?;
+            let mut frame = Frame::default();
+            let (time, ()) = timed(runs, || prepared.render_into(&params, backend, &mut frame).map_err(|e| e.to_string()))?;
+            if frame.colour != cpu.colour {
+                return Err(format!("textures, {filter:?}: the prepared {backend:?} frame differs from render's"));
+            }
+            Ok((ms(&time), time))
+        };
+        let (cpu_prepared, cpu_prepared_time) = prepared_cell(Backend::Cpu)?;
+        let gpu_prepared = if gpu { prepared_cell(Backend::Gpu)?.0 } else { "no adapter".into() };
         let (peer_time, theirs) = timed(runs, || peer.draw(&mesh, &matrix, w, h, filter, Address::Repeat))?;
         let (differ, _) = colour_difference(&cpu, &theirs);
         let _ = writeln!(
             s,
-            "| {filter:?} | {} | {gpu_cell} | {} | {:.2}× | {same} | {:.2} % |",
+            "| {filter:?} | {} | {cpu_prepared} | {gpu_cell} | {gpu_prepared} | {} | {:.2}× ({:.2}×) | {same} | {:.2} % |",
             ms(&cpu_time),
             ms(&peer_time),
             peer_time.median / cpu_time.median,
+            peer_time.median / cpu_prepared_time.median,
             100.0 * differ
         );
         eprintln!("render-report: textures, {filter:?} done");

@@ -103,7 +103,7 @@ pub struct Stats {
     /// Bytes of scene and frame data the call hands the device: the prepared triangles (and a
     /// render's shading records) the first time a prepared scene is rasterised, and on every
     /// call the lists of the window's triangles and a render's shade parameters, textures and
-    /// texels. The GPU backend writes these and, besides, one `FrameParams` uniform per
+    /// texels (those a prepared mesh's earlier frame left on the backend excepted). The GPU backend writes these and, besides, one `FrameParams` uniform per
     /// dispatch window (one more where it sets the scene up), and a scene too large for one
     /// binding again for each window it is cut into; the CPU backend reads them where they
     /// are, and reports the same figure.
@@ -251,7 +251,8 @@ impl Prepared {
             }
             bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64 + std::mem::size_of_val(small.as_slice()) as u64;
             bytes_uploaded += self.render.as_ref().map_or(0, |r| {
-                (std::mem::size_of::<ShadeParams>() + std::mem::size_of_val(r.textures.as_slice()) + std::mem::size_of_val(r.texels.as_slice())) as u64
+                let texels = if r.texels_resident { 0 } else { std::mem::size_of_val(r.texels.as_slice()) };
+                (std::mem::size_of::<ShadeParams>() + std::mem::size_of_val(r.textures.as_slice()) + texels) as u64
             });
         }
         if self.params.outputs.owner {

@@ -98,9 +98,13 @@ pub struct RenderInputs {
     pub triangles: Vec<TriangleShading>,
     pub params: ShadeParams,
     pub depth_test: DepthTest,
-    /// The frame's textures and their texels (`programs::texture`).
+    /// The frame's textures and their texels (`programs::texture`), the texels shared with
+    /// the other frames of a prepared mesh that lay its textures out alike.
     pub textures: Vec<TextureInfo>,
-    pub texels: Vec<u64>,
+    pub texels: std::sync::Arc<Vec<u64>>,
+    /// Whether the backend holds these texels from an earlier frame (a prepared mesh's): the
+    /// call hands it none of them (`Stats::bytes_uploaded`).
+    pub texels_resident: bool,
     /// The frame's fragment shader; `None`: the built-in shadings.
     pub fragment: Option<crate::render::fragment::FragmentStage>,
     /// Whether the call returns the colour layer, and the depth layer (the values): the stages

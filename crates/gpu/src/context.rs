@@ -4,7 +4,7 @@ use crate::pipeline_cache::DiskPipelineCache;
 use crate::profile::{CallProfile, Recorder};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 use tileraster_core::render::FragmentStage;
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
@@ -113,6 +113,23 @@ pub struct Resident {
     shading: Option<wgpu::Buffer>,
 }
 
+/// A prepared mesh's texels on the device, kept for its later frames: a frame that lays its
+/// textures out alike (the same shared texels) uploads none of them again. Dropping it frees
+/// the device memory.
+pub struct ResidentTexels {
+    /// What the buffer holds (shared with the frames that lay them out so: held here, the
+    /// allocation cannot be reused by other texels while this names it).
+    texels: Arc<Vec<u64>>,
+    buffer: wgpu::Buffer,
+}
+
+impl ResidentTexels {
+    /// Whether these are `texels` (the same shared allocation).
+    pub fn holds(&self, texels: &Arc<Vec<u64>>) -> bool {
+        Arc::ptr_eq(&self.texels, texels)
+    }
+}
+
 /// Rasterise a prepared scene on the GPU, over the preparation's window.
 pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
     rasterise_planned(prepared, &prepared.plan(prepared.window, false)?, &mut None)
@@ -123,6 +140,18 @@ pub fn rasterise(prepared: &Prepared) -> Result<Raster, Error> {
 pub fn rasterise_into(prepared: &Prepared, spare: Layers) -> Result<Raster, Error> {
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     ctx.rasterise(prepared, &prepared.plan(prepared.window, false)?, &mut None, spare)
+}
+
+/// [`rasterise_into`] for a frame of a prepared mesh: its texels from `texels` where it holds
+/// them (the frame's `texels_resident` says so), else uploaded into a buffer of their own and
+/// kept there for the next frame.
+pub fn rasterise_keeping_texels(prepared: &Prepared, spare: Layers, texels: &mut Option<ResidentTexels>) -> Result<Raster, Error> {
+    let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+    let plan = prepared.plan(prepared.window, false)?;
+    ctx.kept_texels = Some(texels.take());
+    let raster = ctx.rasterise(prepared, &plan, &mut None, spare);
+    *texels = ctx.kept_texels.take().flatten();
+    raster
 }
 
 /// Run `plan`, uploading and setting the scene up first unless `resident` already holds it.
@@ -217,6 +246,9 @@ struct GpuContext {
     buffers: Buffers,
     /// The dispatches, transfers and (in profiled calls) stage times of the call in progress.
     recorder: Recorder,
+    /// During a prepared mesh's frame, the texels it keeps on the device (`Some`: it keeps
+    /// them; inside, what it held before the call and holds after it).
+    kept_texels: Option<Option<ResidentTexels>>,
     /// Whether the device writes timestamps (`TIMESTAMP_QUERY`).
     timestamps: bool,
 }
@@ -336,6 +368,7 @@ impl GpuContext {
             pipeline_cache,
             buffers,
             recorder: Recorder::default(),
+            kept_texels: None,
             timestamps,
         })
     }
@@ -463,8 +496,35 @@ impl GpuContext {
                     .textures
                     .get(&self.gpu.device, (std::mem::size_of_val(s.textures.as_slice()) as u64).max(std::mem::size_of::<TextureInfo>() as u64));
                 self.recorder.upload(&self.gpu.queue, &infos, bytemuck::cast_slice(&s.textures));
-                let texels = self.buffers.texels.get(&self.gpu.device, texel_bytes);
-                self.recorder.upload(&self.gpu.queue, &texels, bytemuck::cast_slice(&s.texels));
+                let held = self.kept_texels.as_ref().and_then(Option::as_ref).filter(|r| r.holds(&s.texels)).map(|r| r.buffer.clone());
+                if held.is_some() != s.texels_resident {
+                    // The plan counted what the call uploads by the caller's word.
+                    return Err(Error::Gpu(format!(
+                        "the frame says its texels are resident ({}), the device holds them: {}",
+                        s.texels_resident,
+                        held.is_some()
+                    )));
+                }
+                let texels = match held {
+                    Some(buffer) => buffer,
+                    // A prepared mesh's frame: a buffer of their own, kept for the next frame.
+                    None if self.kept_texels.is_some() => {
+                        let buffer = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                            label: Some("resident texels"),
+                            size: texel_bytes,
+                            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                            mapped_at_creation: false,
+                        });
+                        self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(&s.texels));
+                        self.kept_texels = Some(Some(ResidentTexels { texels: s.texels.clone(), buffer: buffer.clone() }));
+                        buffer
+                    }
+                    None => {
+                        let texels = self.buffers.texels.get(&self.gpu.device, texel_bytes);
+                        self.recorder.upload(&self.gpu.queue, &texels, bytemuck::cast_slice(&s.texels));
+                        texels
+                    }
+                };
                 Some((infos, texels))
             }
             None => None,

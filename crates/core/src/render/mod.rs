@@ -54,7 +54,7 @@ pub use params::{
     RenderParams, Shading, Wireframe, centre_of_projection, face_normals,
 };
 use points::{point, surface_bias};
-pub use texture::{MAX_TEXTURE_DIM, Texture};
+pub use texture::{LaidOutTextures, MAX_TEXTURE_DIM, Texture};
 pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 pub use validate::validate_mesh;
 use validate::validate_params;
@@ -108,21 +108,36 @@ impl GeometryMemory {
 
 /// [`prepare_checked_mesh`] in `memory`.
 pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
-    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory)
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, None)
+}
+
+/// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left its textures
+/// laid out in `textures`: taken as they are where this frame's filter and address overrides
+/// are theirs (else laid out again and kept). `textures` must hold only this mesh's (a
+/// `PreparedMesh` keeps both together).
+pub fn prepare_mesh_frame(
+    mesh: &Mesh,
+    params: &RenderParams,
+    memory: &mut GeometryMemory,
+    textures: &mut Option<LaidOutTextures>,
+) -> Result<(Prepared, GeometryCounts), Error> {
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(textures))
 }
 
 /// Runs the geometry stages over every instance of `world`.
 pub fn prepare_world(world: &World, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
     validate_world(&world.meshes, &world.instances)?;
-    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default())
+    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default(), None)
 }
 
-/// The geometry stages over instances of checked meshes (`validate_world`).
+/// The geometry stages over instances of checked meshes (`validate_world`); the textures
+/// kept from an earlier frame of the same meshes where `kept_textures` is given.
 pub(crate) fn prepare_instances_in(
     meshes: &[Mesh],
     instances: &[Instance],
     params: &RenderParams,
     memory: &mut GeometryMemory,
+    kept_textures: Option<&mut Option<LaidOutTextures>>,
 ) -> Result<(Prepared, GeometryCounts), Error> {
     validate_params(params)?;
     let (w, h) = (params.width, params.height);
@@ -149,7 +164,11 @@ pub(crate) fn prepare_instances_in(
         first_textures[k] = textures.len() as u32;
         textures.extend(mesh.textures.iter());
     }
-    let (texture_infos, texels) = texture::lay_out(&textures, params.texture_filter, params.texture_address)?;
+    let laid_out = LaidOutTextures::of(&textures, params.texture_filter, params.texture_address, kept_textures.as_deref().and_then(Option::as_ref))?;
+    if let Some(kept) = kept_textures {
+        *kept = Some(laid_out.clone());
+    }
+    let LaidOutTextures { infos: texture_infos, texels, .. } = laid_out;
     let mut placements = Vec::with_capacity(instances.len());
     let (mut first_vertex, mut first_face) = (0, 0u32);
     let all_faces: u64 = instances.iter().map(|i| meshes[i.mesh as usize].triangles.len() as u64).sum();
@@ -375,6 +394,7 @@ pub(crate) fn prepare_instances_in(
             depth_test: DepthTest::new(params.depth_func, params.depth_write),
             textures: texture_infos,
             texels,
+            texels_resident: false,
             fragment: params.fragment,
             returns_colour: params.return_colour,
             returns_depth: params.return_depth,

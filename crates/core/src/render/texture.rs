@@ -6,6 +6,7 @@
 
 use crate::Error;
 use rayon::prelude::*;
+use std::sync::Arc;
 use tileraster_kernels::abi::{Address, Filter, MAX_MIP_LEVELS, TextureInfo};
 
 /// Largest width or height of a texture (Vulkan's required `maxImageDimension2D` is 4096;
@@ -61,8 +62,33 @@ fn srgb_table() -> [u16; 256] {
     })
 }
 
+/// A mesh's textures laid out for the kernels, kept for its later frames: they take them as
+/// they are where their filter and address overrides are the same (the texels shared, so a
+/// backend that holds them from the last frame is handed none again).
+#[derive(Clone)]
+pub struct LaidOutTextures {
+    filter: Option<Filter>,
+    address: Option<Address>,
+    pub(super) infos: Vec<TextureInfo>,
+    pub(super) texels: Arc<Vec<u64>>,
+}
+
+impl LaidOutTextures {
+    /// `textures` laid out with the overrides, or `kept` where it was laid out with the same
+    /// ones (the caller's promise: of the same textures).
+    pub(super) fn of(textures: &[&Texture], filter: Option<Filter>, address: Option<Address>, kept: Option<&LaidOutTextures>) -> Result<Self, Error> {
+        match kept {
+            Some(k) if k.filter == filter && k.address == address => Ok(k.clone()),
+            _ => {
+                let (infos, texels) = lay_out(textures, filter, address)?;
+                Ok(LaidOutTextures { filter, address, infos, texels: Arc::new(texels) })
+            }
+        }
+    }
+}
+
 /// The textures as the kernels take them: their descriptions and their texels.
-pub(super) fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Option<Address>) -> Result<(Vec<TextureInfo>, Vec<u64>), Error> {
+fn lay_out(textures: &[&Texture], filter: Option<Filter>, address: Option<Address>) -> Result<(Vec<TextureInfo>, Vec<u64>), Error> {
     let table = srgb_table();
     let mut infos = Vec::with_capacity(textures.len());
     let mut texels: Vec<u64> = Vec::new();

@@ -103,10 +103,12 @@ pub struct Stats {
     /// Bytes of scene and frame data the call hands the device: the prepared triangles (and a
     /// render's shading records) the first time a prepared scene is rasterised, and on every
     /// call the lists of the window's triangles and a render's shade parameters, textures and
-    /// texels (those a prepared mesh's earlier frame left on the backend excepted). The GPU backend writes these and, besides, one `FrameParams` uniform per
-    /// dispatch window (one more where it sets the scene up), and a scene too large for one
-    /// binding again for each window it is cut into; the CPU backend reads them where they
-    /// are, and reports the same figure.
+    /// texels (those a prepared mesh's earlier frame left on the backend excepted). The GPU
+    /// backend writes these and, besides, one `FrameParams` uniform per dispatch window (one
+    /// more where it sets the scene up); a scene too large for one binding goes up part by
+    /// part, each window's triangles with its own lists, and a call in an `f32` mode first
+    /// checks the adapter on probe scenes of its own, neither in this figure. The CPU backend
+    /// reads everything where it is, and reports the same figure.
     pub bytes_uploaded: u64,
 }
 

@@ -150,7 +150,9 @@ pub fn rasterise_keeping_texels(prepared: &Prepared, spare: Layers, texels: &mut
     let plan = prepared.plan(prepared.window, false)?;
     ctx.kept_texels = Some(texels.take());
     let raster = ctx.rasterise(prepared, &plan, &mut None, spare);
-    *texels = ctx.kept_texels.take().flatten();
+    let kept = ctx.kept_texels.take().flatten();
+    // A failed call may have left its new buffer unwritten: the next frame uploads afresh.
+    *texels = if raster.is_ok() { kept } else { None };
     raster
 }
 

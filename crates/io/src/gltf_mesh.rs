@@ -13,6 +13,7 @@
 
 use crate::IoError;
 use crate::gltf_pose::{IDENTITY, Matrix, Pose};
+use gltf::accessor::{DataType, Dimensions};
 use std::path::Path;
 use tileraster_core::render::{Address, Filter, Instance, Mesh, NO_TEXTURE, Texture, World, normal_matrix, transform_normal};
 
@@ -291,6 +292,7 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     let buffers = sources.buffers;
     use gltf::mesh::Mode;
     let name = || format!("mesh {}{} primitive {}", mesh.index(), mesh.name().map(|n| format!(" ('{n}')")).unwrap_or_default(), primitive.index());
+    check_primitive(primitive).map_err(|e| format!("{}: {e}", name()))?;
     let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
     let mut positions: Vec<[f64; 3]> =
         reader.read_positions().ok_or_else(|| format!("{} has no POSITION attribute", name()))?.map(|p| p.map(f64::from)).collect();
@@ -299,9 +301,9 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     if normals.as_ref().is_some_and(|v| v.len() != n) {
         return Err(format!("{} has {} normals for {n} positions", name(), normals.map_or(0, |v| v.len())));
     }
-    morph(&reader, &deform.weights, &mut positions, &mut normals).map_err(|e| format!("{}: {e}", name()))?;
+    morph(primitive, &reader, &deform.weights, &mut positions, &mut normals).map_err(|e| format!("{}: {e}", name()))?;
     let skinned = match &deform.joints {
-        Some(joints) => Some(skin_matrices(&reader, joints, n).map_err(|e| format!("{}: {e}", name()))?),
+        Some(joints) => Some(skin_matrices(primitive, &reader, joints, n).map_err(|e| format!("{}: {e}", name()))?),
         None => None,
     };
     let base = out.positions.len();
@@ -327,9 +329,13 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     let m = world;
     // A mirroring transform (negative determinant) turns counter-clockwise faces clockwise:
     // glTF then defines the winding the other way round, so swap two corners back.
-    let linear_det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-    let triangles: Vec<[u32; 3]> = if linear_det < 0.0 { triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect() } else { triangles };
+    let linear_det = determinant(m);
+    // A skinned vertex's matrix is its own: a face whose first corner's mirrors turns the same way.
+    let mirrored = |[a, _, _]: &[u32; 3]| match &skinned {
+        Some(skin) => determinant(&skin[(a - base as u32) as usize]) < 0.0,
+        None => linear_det < 0.0,
+    };
+    let triangles: Vec<[u32; 3]> = triangles.into_iter().map(|t| if mirrored(&t) { [t[0], t[2], t[1]] } else { t }).collect();
     let place = |m: &Matrix, p: &[f64; 3]| -> [f64; 3] { std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]) };
     match &skinned {
         Some(skin) => out.positions.extend(positions.iter().zip(skin).map(|(p, s)| place(s, p))),
@@ -387,8 +393,61 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     Ok(())
 }
 
+/// The determinant of `m`'s linear part.
+fn determinant(m: &Matrix) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+/// Refuses an accessor the `gltf` crate's readers cannot take (they panic on a component type
+/// or a shape they do not expect): `what` it holds, the types and shapes allowed.
+pub(crate) fn check_accessor(accessor: &gltf::Accessor, what: &str, types: &[DataType], shapes: &[Dimensions]) -> Result<(), String> {
+    if types.contains(&accessor.data_type()) && shapes.contains(&accessor.dimensions()) && accessor.count() > 0 {
+        return Ok(());
+    }
+    Err(format!(
+        "accessor {} ({what}) holds {} {:?} {:?} elements; {what} takes {:?} of {:?}",
+        accessor.index(),
+        accessor.count(),
+        accessor.data_type(),
+        accessor.dimensions(),
+        shapes,
+        types
+    ))
+}
+
+/// Every accessor of `primitive` this reader reads, checked ([`check_accessor`]); attributes it
+/// does not read are left alone.
+fn check_primitive(primitive: &gltf::Primitive) -> Result<(), String> {
+    use gltf::Semantic;
+    let floats: &[DataType] = &[DataType::F32];
+    let normalised: &[DataType] = &[DataType::U8, DataType::U16, DataType::F32];
+    for (semantic, accessor) in primitive.attributes() {
+        let (types, shapes): (&[DataType], &[Dimensions]) = match semantic {
+            Semantic::Positions | Semantic::Normals => (floats, &[Dimensions::Vec3]),
+            Semantic::Colors(_) => (normalised, &[Dimensions::Vec3, Dimensions::Vec4]),
+            Semantic::TexCoords(_) => (normalised, &[Dimensions::Vec2]),
+            Semantic::Joints(_) => (&[DataType::U8, DataType::U16], &[Dimensions::Vec4]),
+            Semantic::Weights(_) => (normalised, &[Dimensions::Vec4]),
+            _ => continue,
+        };
+        check_accessor(&accessor, &format!("{semantic:?}"), types, shapes)?;
+    }
+    if let Some(indices) = primitive.indices() {
+        check_accessor(&indices, "indices", &[DataType::U8, DataType::U16, DataType::U32], &[Dimensions::Scalar])?;
+    }
+    for target in primitive.morph_targets() {
+        for (accessor, what) in [(target.positions(), "morph target positions"), (target.normals(), "morph target normals")] {
+            if let Some(accessor) = accessor {
+                check_accessor(&accessor, what, floats, &[Dimensions::Vec3])?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Adds the morph targets' offsets, each times its weight, to `positions` and `normals`.
 fn morph<'a, 's, F>(
+    primitive: &gltf::Primitive,
     reader: &gltf::mesh::Reader<'a, 's, F>,
     weights: &[f64],
     positions: &mut [[f64; 3]],
@@ -401,7 +460,10 @@ where
     if targets.len() != weights.len() {
         return Err(format!("{} morph targets where its mesh's first primitive has {}", targets.len(), weights.len()));
     }
-    for (k, (target_positions, target_normals, _)) in targets.into_iter().enumerate() {
+    for (k, (target, (target_positions, target_normals, _))) in primitive.morph_targets().zip(targets).enumerate() {
+        if target.positions().is_some() != target_positions.is_some() || target.normals().is_some() != target_normals.is_some() {
+            return Err(format!("morph target {k}'s data lies outside its buffers"));
+        }
         let weight = weights[k];
         if weight == 0.0 {
             continue;
@@ -425,11 +487,11 @@ where
 }
 
 /// Each vertex's skin matrix: the sum of its (up to four) joints' matrices, each times its weight.
-fn skin_matrices<'a, 's, F>(reader: &gltf::mesh::Reader<'a, 's, F>, joints: &[Matrix], n: usize) -> Result<Vec<Matrix>, String>
+fn skin_matrices<'a, 's, F>(primitive: &gltf::Primitive, reader: &gltf::mesh::Reader<'a, 's, F>, joints: &[Matrix], n: usize) -> Result<Vec<Matrix>, String>
 where
     F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
-    if reader.read_joints(1).is_some() || reader.read_weights(1).is_some() {
+    if primitive.get(&gltf::Semantic::Joints(1)).is_some() || primitive.get(&gltf::Semantic::Weights(1)).is_some() {
         return Err("unsupported glTF feature: more than four joints per vertex (JOINTS_1, WEIGHTS_1); up to four are supported".into());
     }
     let (Some(indices), Some(weights)) = (reader.read_joints(0), reader.read_weights(0)) else {

@@ -7,6 +7,8 @@
 //! What the pose does to vertices (morph targets, then skinning) is `gltf_mesh::add_primitive`'s:
 //! the host's reference for the kernels' vertex programs.
 
+use crate::gltf_mesh::check_accessor;
+use gltf::accessor::{DataType, Dimensions};
 use gltf::animation::util::ReadOutputs;
 use gltf::animation::{Interpolation, Property};
 
@@ -49,9 +51,22 @@ impl Pose {
         // leaves one alone.
         let mut trs: Vec<Option<Trs>> = vec![None; n];
         let mut weights: Vec<Option<Vec<f64>>> = vec![None; n];
+        // Whether a channel moves the node (not its weights alone).
+        let mut moves = vec![false; n];
         for channel in animation.channels() {
             let at = || format!("animation 0 channel {}", channel.index());
             let node = channel.target().node();
+            let property = channel.target().property();
+            let (sampler, floats) = (channel.sampler(), &[DataType::F32][..]);
+            let normalised = &[DataType::F32, DataType::I8, DataType::U8, DataType::I16, DataType::U16][..];
+            check_accessor(&sampler.input(), "keyframe times", floats, &[Dimensions::Scalar]).map_err(|e| format!("{}: {e}", at()))?;
+            let (types, shape) = match property {
+                Property::Translation | Property::Scale => (floats, Dimensions::Vec3),
+                Property::Rotation => (normalised, Dimensions::Vec4),
+                Property::MorphTargetWeights => (normalised, Dimensions::Scalar),
+            };
+            check_accessor(&sampler.output(), "keyframe values", types, &[shape]).map_err(|e| format!("{}: {e}", at()))?;
+            moves[node.index()] |= property != Property::MorphTargetWeights;
             let reader = channel.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
             let inputs: Vec<f64> = reader.read_inputs().ok_or_else(|| format!("{}: its sampler has no input times", at()))?.map(f64::from).collect();
             let (width, outputs): (usize, Vec<f64>) = match reader.read_outputs().ok_or_else(|| format!("{}: its sampler has no outputs", at()))? {
@@ -66,9 +81,9 @@ impl Pose {
             };
             let track = Track { inputs: &inputs, outputs: &outputs, width, interpolation: channel.sampler().interpolation() };
             track.check().map_err(|e| format!("{}: {e}", at()))?;
-            let value = track.sample(time, channel.target().property() == Property::Rotation);
+            let value = track.sample(time, property == Property::Rotation);
             let node_trs = trs[node.index()].get_or_insert_with(|| Trs::of(&node));
-            match channel.target().property() {
+            match property {
                 Property::Translation => node_trs.translation = [value[0], value[1], value[2]],
                 Property::Rotation => node_trs.rotation = [value[0], value[1], value[2], value[3]],
                 Property::Scale => node_trs.scale = [value[0], value[1], value[2]],
@@ -76,14 +91,7 @@ impl Pose {
             }
         }
         // A node whose weights alone are animated keeps the file's own transform.
-        let animated = document
-            .nodes()
-            .map(|node| {
-                let channels = animation.channels().filter(|c| c.target().node().index() == node.index());
-                let moves = channels.clone().any(|c| c.target().property() != Property::MorphTargetWeights);
-                trs[node.index()].filter(|_| moves).map(|t| t.matrix())
-            })
-            .collect();
+        let animated = trs.iter().zip(&moves).map(|(trs, &moves)| trs.filter(|_| moves).map(|t| t.matrix())).collect();
         Pose { animated, weights, world: vec![None; n] }.with_worlds(document)
     }
 
@@ -151,8 +159,13 @@ impl Pose {
     /// node's own transform plays no part, as the specification says).
     pub(crate) fn joint_matrices(&self, skin: &gltf::Skin, buffers: &[gltf::buffer::Data]) -> Result<Vec<Matrix>, String> {
         let joints: Vec<gltf::Node> = skin.joints().collect();
-        let inverse_binds: Vec<Matrix> = match skin.reader(|b| buffers.get(b.index()).map(|d| &d.0[..])).read_inverse_bind_matrices() {
-            Some(m) => m.map(rows).collect(),
+        let inverse_binds: Vec<Matrix> = match skin.inverse_bind_matrices() {
+            Some(accessor) => {
+                let at = || format!("skin {}'s inverse bind matrices", skin.index());
+                check_accessor(&accessor, "inverse bind matrices", &[DataType::F32], &[Dimensions::Mat4]).map_err(|e| format!("{}: {e}", at()))?;
+                let read = skin.reader(|b| buffers.get(b.index()).map(|d| &d.0[..])).read_inverse_bind_matrices();
+                read.ok_or_else(|| format!("{} lie outside their buffers", at()))?.map(rows).collect()
+            }
             None => vec![IDENTITY; joints.len()],
         };
         if inverse_binds.len() < joints.len() {
@@ -178,7 +191,8 @@ struct Trs {
 }
 
 impl Trs {
-    /// The node's own, as the file gives them (a matrix decomposed).
+    /// The node's own, as the file gives them (a matrix decomposed: the specification gives an
+    /// animated node translation, rotation and scale, but a matrix that is one reads alike).
     fn of(node: &gltf::Node) -> Trs {
         let (t, r, s) = node.transform().decomposed();
         Trs { translation: t.map(f64::from), rotation: r.map(f64::from), scale: s.map(f64::from) }
@@ -456,6 +470,15 @@ mod tests {
             let world = read_gltf_world(&path, time).unwrap();
             assert_eq!(world.flattened().unwrap().positions, mesh.positions);
         }
+        // A skeleton mirrored in x (its root scaled by −1) mirrors every skin matrix: each face
+        // takes two corners the other way round, so that it still faces the viewer it faced.
+        let plain = read_gltf(&path, None).unwrap();
+        let (bin, body) = skinned_strip_parts("LINEAR");
+        std::fs::write(&path, bin.file(&body.replace(r#"{"children": [2]}"#, r#"{"children": [2], "scale": [-1, 1, 1]}"#))).unwrap();
+        let mirrored = read_gltf(&path, None).unwrap();
+        assert_eq!(mirrored.triangles, plain.triangles.iter().map(|t| [t[0], t[2], t[1]]).collect::<Vec<_>>());
+        assert!(near(mirrored.positions[1], [-0.5, 0.0, 0.0]));
+
         // A step holds the first keyframe's value until the second's time.
         std::fs::write(&path, skinned_strip("STEP")).unwrap();
         assert_eq!(read_gltf(&path, Some(0.999)).unwrap().positions, read_gltf(&path, None).unwrap().positions);
@@ -533,6 +556,18 @@ mod tests {
         std::fs::write(&strip, patched(r#""WEIGHTS_0""#, r#""WEIGHTS_1""#)).unwrap();
         let e = read_gltf(&strip, None).unwrap_err().to_string();
         assert!(e.contains("more than four joints per vertex"), "{e}");
+
+        // Accessors the readers cannot take are refused, not read: rotations as 32-bit
+        // integers, joints as floats, inverse bind matrices beyond their buffer.
+        for (accessor, from, to, expected) in
+            [(7, "5126", "5125", "keyframe values"), (2, "5123", "5126", "Joints(0)"), (5, r#""count": 2"#, r#""count": 3"#, "inverse bind matrices")]
+        {
+            let (mut bin, body) = skinned_strip_parts("LINEAR");
+            bin.accessors[accessor] = bin.accessors[accessor].replace(from, to);
+            std::fs::write(&strip, bin.file(&body)).unwrap();
+            let e = read_gltf(&strip, Some(0.5)).unwrap_err().to_string();
+            assert!(e.contains(expected), "{e}");
+        }
 
         // A camera one unit right of node 2 (joint 1) turns with it about (0, 1).
         let camera = body

@@ -69,19 +69,24 @@ fn srgb_table() -> [u16; 256] {
 pub struct LaidOutTextures {
     filter: Option<Filter>,
     address: Option<Address>,
+    /// Which textures they are: each one's texels' address and length and its size (a guard
+    /// against a caller's mix-up; the caller keeps them for one mesh's frames).
+    sources: Vec<(usize, usize, u32, u32)>,
     pub(super) infos: Vec<TextureInfo>,
     pub(super) texels: Arc<Vec<u64>>,
 }
 
 impl LaidOutTextures {
     /// `textures` laid out with the overrides, or `kept` where it was laid out with the same
-    /// ones (the caller's promise: of the same textures).
+    /// ones from the same textures (the caller's promise, which the texels' addresses and the
+    /// sizes back up).
     pub(super) fn of(textures: &[&Texture], filter: Option<Filter>, address: Option<Address>, kept: Option<&LaidOutTextures>) -> Result<Self, Error> {
+        let sources: Vec<(usize, usize, u32, u32)> = textures.iter().map(|t| (t.rgba.as_ptr() as usize, t.rgba.len(), t.width, t.height)).collect();
         match kept {
-            Some(k) if k.filter == filter && k.address == address => Ok(k.clone()),
+            Some(k) if k.filter == filter && k.address == address && k.sources == sources => Ok(k.clone()),
             _ => {
                 let (infos, texels) = lay_out(textures, filter, address)?;
-                Ok(LaidOutTextures { filter, address, infos, texels: Arc::new(texels) })
+                Ok(LaidOutTextures { filter, address, sources, infos, texels: Arc::new(texels) })
             }
         }
     }

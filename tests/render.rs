@@ -795,3 +795,20 @@ fn a_frames_upload_is_counted_whole() {
         assert_eq!(profile.bytes_up, expected + 2 * std::mem::size_of::<FrameParams>() as u64, "{profile:?}");
     }
 }
+
+/// `prepare_render_observed` reports the geometry stages' passes once each, in order, and
+/// prepares what `prepare_render` prepares.
+#[test]
+fn the_geometry_passes_are_reported_in_order() {
+    use tileraster::render::{GeometryPass, prepare_render_observed};
+    let square = square_facing_the_viewer();
+    let camera =
+        Camera { eye: [0.0, 0.0, 3.0], target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 1.0, far: 20.0 };
+    let params = RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap());
+    let mut passes = Vec::new();
+    let (observed, counts) = prepare_render_observed(&square, &params, &mut |pass| passes.push(pass)).unwrap();
+    assert_eq!(passes, GeometryPass::ALL);
+    let (plain, plain_counts) = prepare_render(&square, &params).unwrap();
+    assert_eq!((observed.triangles, observed.render), (plain.triangles, plain.render));
+    assert_eq!(counts, plain_counts);
+}

@@ -28,9 +28,9 @@ pub use diagnostics::{Checksums, TileCounts};
 pub use terrain::dem_mesh;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, IDENTITY, Instance, LaidOutTextures, Light,
-    LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World, edges,
-    face_normals, prepare_render, prepare_world, validate_mesh,
+    Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, GeometryPass, IDENTITY, Instance, LaidOutTextures,
+    Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World,
+    edges, face_normals, prepare_render, prepare_render_observed, prepare_world, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};

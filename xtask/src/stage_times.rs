@@ -15,7 +15,7 @@
 
 use std::fmt::Write;
 use std::time::Instant;
-use tileraster::render::{Camera, Cull, Eye, IDENTITY, Mesh, Projection, RenderParams, Shading, Up, prepare_render};
+use tileraster::render::{Camera, Cull, Eye, GeometryPass, IDENTITY, Mesh, Projection, RenderParams, Shading, Up, prepare_render, prepare_render_observed};
 use tileraster::{Grid, Params, Prepared, Scene};
 use tileraster_core::kernels::pipeline::{Pipeline, stages};
 use tileraster_testkit::{meshes, scenes};
@@ -31,6 +31,15 @@ impl Case {
         match self {
             Case::Height(scene, grid) => tileraster::prepare(scene, &Params::new(*grid), None).map_err(|e| e.to_string()),
             Case::Render(mesh, params) => prepare_render(mesh, params).map(|(p, _)| p).map_err(|e| e.to_string()),
+        }
+    }
+
+    /// The columns of the host's preparation: the geometry stages' passes for a mesh, one for a
+    /// heightfield.
+    fn preparation(&self) -> Vec<&'static str> {
+        match self {
+            Case::Height(..) => vec!["prepare"],
+            Case::Render(..) => GeometryPass::ALL.iter().map(|p| p.name()).collect(),
         }
     }
 
@@ -120,8 +129,9 @@ fn report_cases(terrain: &Mesh, base: &RenderParams) -> Result<Vec<(String, Case
     Ok(cases)
 }
 
-/// Milliseconds of one call: preparation, plan, each stage of the pipeline in order (0 for a
-/// stage the frame does not run, such as `fine_small` without small triangles), total.
+/// Milliseconds of one call: preparation (a mesh's by the geometry stages' passes), plan, each
+/// stage of the pipeline in order (0 for a stage the frame does not run, such as `fine_small`
+/// without small triangles), total.
 fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     let text = |e: tileraster::Error| e.to_string();
     let rows: Vec<_> = stages(case.pipeline()).map(|info| info.stage).collect();
@@ -131,8 +141,15 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
         clock = Instant::now();
         ms
     };
-    let prepared = case.prepare()?;
-    let mut laps = vec![lap()];
+    let mut laps = Vec::new();
+    let prepared = match case {
+        Case::Render(mesh, params) => prepare_render_observed(mesh, params, &mut |_| laps.push(lap())).map(|(p, _)| p).map_err(text)?,
+        Case::Height(..) => {
+            let prepared = case.prepare()?;
+            laps.push(lap());
+            prepared
+        }
+    };
     let plan = prepared.plan(prepared.window, false).map_err(text)?;
     laps.push(lap());
     let mut stage_ms = vec![0.0; rows.len()];
@@ -205,7 +222,7 @@ fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let mut s = format!("CPU backend ({threads} threads; heightfields in exact mode); median ms per pass of {runs} calls after a warm-up.\n");
     let mut header = None;
     for (name, case) in cases {
-        let names: Vec<&str> = ["prepare", "plan"].into_iter().chain(stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
+        let names: Vec<&str> = case.preparation().into_iter().chain(["plan"]).chain(stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
         table_header(&mut s, &mut header, &names);
         one_call(case)?;
         let calls = (0..runs).map(|_| one_call(case)).collect::<Result<Vec<_>, _>>()?;

@@ -108,7 +108,7 @@ impl GeometryMemory {
 
 /// [`prepare_checked_mesh`] in `memory`.
 pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
-    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, None)
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, None, &mut |_| {})
 }
 
 /// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left its textures
@@ -121,13 +121,53 @@ pub fn prepare_mesh_frame(
     memory: &mut GeometryMemory,
     textures: &mut Option<LaidOutTextures>,
 ) -> Result<(Prepared, GeometryCounts), Error> {
-    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(textures))
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(textures), &mut |_| {})
 }
 
 /// Runs the geometry stages over every instance of `world`.
 pub fn prepare_world(world: &World, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
     validate_world(&world.meshes, &world.instances)?;
-    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default(), None)
+    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default(), None, &mut |_| {})
+}
+
+/// The geometry stages' passes, in the order they run, as [`prepare_render_observed`] reports
+/// them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum GeometryPass {
+    /// The frame's parameters checked, the instances culled and placed, the textures laid out,
+    /// the wireframe's edges found.
+    Frame,
+    /// `vertex`: every placed vertex to clip space, lit where shading is per vertex.
+    Vertex,
+    /// `clip`, `cull` and `viewport` over every face (and line and point), counting what each
+    /// chunk puts out.
+    AssembleCount,
+    /// The same, writing the triangles into their places.
+    AssembleFill,
+    /// The frame's shade parameters and the kernels' 32-bit check.
+    Finish,
+}
+
+impl GeometryPass {
+    pub const ALL: [GeometryPass; 5] =
+        [GeometryPass::Frame, GeometryPass::Vertex, GeometryPass::AssembleCount, GeometryPass::AssembleFill, GeometryPass::Finish];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            GeometryPass::Frame => "frame",
+            GeometryPass::Vertex => "vertex",
+            GeometryPass::AssembleCount => "assemble (count)",
+            GeometryPass::AssembleFill => "assemble (fill)",
+            GeometryPass::Finish => "finish",
+        }
+    }
+}
+
+/// [`prepare_render`], calling `observe` as each of its passes ends (a caller that times them
+/// reads its clock there), in the order of [`GeometryPass::ALL`].
+pub fn prepare_render_observed(mesh: &Mesh, params: &RenderParams, observe: &mut dyn FnMut(GeometryPass)) -> Result<(Prepared, GeometryCounts), Error> {
+    validate_mesh(mesh)?;
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, &mut GeometryMemory::default(), None, observe)
 }
 
 /// The geometry stages over instances of checked meshes (`validate_world`); the textures
@@ -138,6 +178,7 @@ pub(crate) fn prepare_instances_in(
     params: &RenderParams,
     memory: &mut GeometryMemory,
     kept_textures: Option<&mut Option<LaidOutTextures>>,
+    observe: &mut dyn FnMut(GeometryPass),
 ) -> Result<(Prepared, GeometryCounts), Error> {
     validate_params(params)?;
     let (w, h) = (params.width, params.height);
@@ -220,6 +261,7 @@ pub(crate) fn prepare_instances_in(
 
     // A fragment shader takes the vertex attributes as they are (no lighting on the host).
     let shading = if params.fragment.is_some() { Shading::Unlit } else { params.shading };
+    observe(GeometryPass::Frame);
     vertex::transform_vertices(
         meshes.len(),
         &placements,
@@ -232,6 +274,7 @@ pub(crate) fn prepare_instances_in(
         &mut memory.vertices,
     )?;
     let (world, vertices) = (&memory.world[..], &memory.vertices[..]);
+    observe(GeometryPass::Vertex);
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
     let target = Target { grid: &grid, samples: params.samples };
@@ -336,6 +379,7 @@ pub(crate) fn prepare_instances_in(
             (emit.count(), counts)
         })
         .collect();
+    observe(GeometryPass::AssembleCount);
     let counts = counted.iter().fold(counts, |sum, p| sum.add(p.1));
     let total: usize = counted.iter().map(|p| p.0).sum();
     if total >= u32::MAX as usize {
@@ -360,6 +404,7 @@ pub(crate) fn prepare_instances_in(
         chunk(piece, &mut emit, &mut GeometryCounts::default());
         debug_assert_eq!(emit.count(), counted[c].0, "the filling pass puts what the counting pass counted");
     });
+    observe(GeometryPass::AssembleFill);
     let mut counts = counts;
     counts.rasterised = total as u64;
     let mut shade = lighting.shade_params(depth_range(vertices));
@@ -400,6 +445,7 @@ pub(crate) fn prepare_instances_in(
             returns_depth: params.return_depth,
         }),
     };
+    observe(GeometryPass::Finish);
     Ok((prepared, counts))
 }
 

@@ -770,6 +770,11 @@ fn a_posed_skinned_and_morphing_gltf_file_is_the_same_bits_on_both_backends() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A camera 3 units in front of `square_facing_the_viewer`, looking at it.
+fn camera_facing_the_square() -> Camera {
+    Camera { eye: [0.0, 0.0, 3.0], target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 1.0, far: 20.0 }
+}
+
 /// `Stats::bytes_uploaded` of a frame, worked out by hand: its triangles' inputs and shading
 /// records, the slots listed for the window (one word each) and the shade parameters (no
 /// textures here). On the GPU the call writes exactly that and one `FrameParams` uniform per
@@ -778,8 +783,7 @@ fn a_posed_skinned_and_morphing_gltf_file_is_the_same_bits_on_both_backends() {
 fn a_frames_upload_is_counted_whole() {
     use tileraster_kernels::abi::{FrameParams, TriangleInput, TriangleShading};
     let square = square_facing_the_viewer();
-    let camera =
-        Camera { eye: [0.0, 0.0, 3.0], target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 1.0, far: 20.0 };
+    let camera = camera_facing_the_square();
     let params = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap()) };
     assert_eq!(std::mem::size_of::<FrameParams>(), 72, "the README's figure");
     let per_triangle = std::mem::size_of::<TriangleInput>() + std::mem::size_of::<TriangleShading>() + 4;
@@ -802,8 +806,7 @@ fn a_frames_upload_is_counted_whole() {
 fn the_geometry_passes_are_reported_in_order() {
     use tileraster::render::{GeometryPass, prepare_render_observed};
     let square = square_facing_the_viewer();
-    let camera =
-        Camera { eye: [0.0, 0.0, 3.0], target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 1.0, far: 20.0 };
+    let camera = camera_facing_the_square();
     let params = RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap());
     let mut passes = Vec::new();
     let (observed, counts) = prepare_render_observed(&square, &params, &mut |pass| passes.push(pass)).unwrap();

@@ -51,8 +51,6 @@ impl Pose {
         // leaves one alone.
         let mut trs: Vec<Option<Trs>> = vec![None; n];
         let mut weights: Vec<Option<Vec<f64>>> = vec![None; n];
-        // Whether a channel moves the node (not its weights alone).
-        let mut moves = vec![false; n];
         for channel in animation.channels() {
             let at = || format!("animation 0 channel {}", channel.index());
             let node = channel.target().node();
@@ -66,7 +64,6 @@ impl Pose {
                 Property::MorphTargetWeights => (normalised, Dimensions::Scalar),
             };
             check_accessor(&sampler.output(), "keyframe values", types, &[shape]).map_err(|e| format!("{}: {e}", at()))?;
-            moves[node.index()] |= property != Property::MorphTargetWeights;
             let reader = channel.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
             let inputs: Vec<f64> = reader.read_inputs().ok_or_else(|| format!("{}: its sampler has no input times", at()))?.map(f64::from).collect();
             let (width, outputs): (usize, Vec<f64>) = match reader.read_outputs().ok_or_else(|| format!("{}: its sampler has no outputs", at()))? {
@@ -82,16 +79,19 @@ impl Pose {
             let track = Track { inputs: &inputs, outputs: &outputs, width, interpolation: channel.sampler().interpolation() };
             track.check().map_err(|e| format!("{}: {e}", at()))?;
             let value = track.sample(time, property == Property::Rotation);
+            // A node whose weights alone are animated keeps the file's own transform.
+            if property == Property::MorphTargetWeights {
+                weights[node.index()] = Some(value);
+                continue;
+            }
             let node_trs = trs[node.index()].get_or_insert_with(|| Trs::of(&node));
             match property {
                 Property::Translation => node_trs.translation = [value[0], value[1], value[2]],
                 Property::Rotation => node_trs.rotation = [value[0], value[1], value[2], value[3]],
-                Property::Scale => node_trs.scale = [value[0], value[1], value[2]],
-                Property::MorphTargetWeights => weights[node.index()] = Some(value),
+                _ => node_trs.scale = [value[0], value[1], value[2]],
             }
         }
-        // A node whose weights alone are animated keeps the file's own transform.
-        let animated = trs.iter().zip(&moves).map(|(trs, &moves)| trs.filter(|_| moves).map(|t| t.matrix())).collect();
+        let animated = trs.iter().map(|t| t.map(|t| t.matrix())).collect();
         Pose { animated, weights, world: vec![None; n] }.with_worlds(document)
     }
 

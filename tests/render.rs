@@ -781,18 +781,23 @@ fn camera_facing_the_square() -> Camera {
 /// dispatch (the setup's and the window's), measured where it writes them.
 #[test]
 fn a_frames_upload_is_counted_whole() {
-    use tileraster_kernels::abi::{FrameParams, TriangleInput, TriangleShading};
+    use tileraster_kernels::abi::{FrameParams, RelativePosition, TriangleInput, TriangleShading, VertexParams};
     let square = square_facing_the_viewer();
     let camera = camera_facing_the_square();
     let params = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap()) };
     assert_eq!(std::mem::size_of::<FrameParams>(), 72, "the README's figure");
     let per_triangle = std::mem::size_of::<TriangleInput>() + std::mem::size_of::<TriangleShading>() + 4;
-    let expected = (2 * per_triangle + std::mem::size_of::<ShadeParams>()) as u64;
+    let raster = (2 * per_triangle + std::mem::size_of::<ShadeParams>()) as u64;
+    // The vertex stage's: its parameters and the square's four positions.
+    let geometry = (std::mem::size_of::<VertexParams>() + 4 * std::mem::size_of::<RelativePosition>()) as u64;
+    assert_eq!(square.positions.len(), 4);
     let frame = cpu(&square, &params);
-    assert_eq!(frame.stats.raster.bytes_uploaded, expected);
+    assert_eq!(frame.stats.geometry.bytes_uploaded, geometry);
+    assert_eq!(frame.stats.raster.bytes_uploaded, raster + geometry);
+    let expected = raster;
     if gpu_or_skip("a_frames_upload_is_counted_whole") {
         let g = render(&square, &params, Backend::Gpu).unwrap();
-        assert_eq!(g.stats.raster.bytes_uploaded, expected);
+        assert_eq!(g.stats.raster.bytes_uploaded, raster + geometry);
         let (prepared, _) = prepare_render(&square, &params).unwrap();
         let plan = prepared.plan(prepared.window, false).unwrap();
         let (_, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, false).unwrap();
@@ -809,7 +814,7 @@ fn the_geometry_passes_are_reported_in_order() {
     let camera = camera_facing_the_square();
     let params = RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap());
     let mut passes = Vec::new();
-    let (observed, counts) = prepare_render_observed(&square, &params, &mut |pass| passes.push(pass)).unwrap();
+    let (observed, counts) = prepare_render_observed(&square, &params, Backend::Cpu, &mut |pass| passes.push(pass)).unwrap();
     assert_eq!(passes, GeometryPass::ALL);
     let (plain, plain_counts) = prepare_render(&square, &params).unwrap();
     assert_eq!((observed.triangles, observed.render), (plain.triangles, plain.render));

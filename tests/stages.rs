@@ -93,3 +93,65 @@ fn a_differing_stage_buffer_is_named() {
     caught(&|b| b.counts[5] += 1, "counts");
     caught(&|b| *b.bins.last_mut().unwrap() ^= 1, "bin of tile");
 }
+
+/// What the host's preparation hands the vertex stage, kept, the stage run as its CPU twin.
+#[derive(Default)]
+struct Recorded {
+    params: Option<tileraster_kernels::abi::VertexParams>,
+    positions: Vec<tileraster_kernels::abi::RelativePosition>,
+}
+
+impl tileraster::render::GeometryKernels for Recorded {
+    fn vertex(
+        &mut self,
+        params: &tileraster_kernels::abi::VertexParams,
+        positions: &[tileraster_kernels::abi::RelativePosition],
+        projected: &mut Vec<tileraster_kernels::abi::ProjectedVertex>,
+    ) -> Result<(), tileraster::Error> {
+        self.params = Some(*params);
+        self.positions = positions.to_vec();
+        tileraster_cpu::vertex(params, positions, projected);
+        Ok(())
+    }
+}
+
+/// The vertex stage on the device writes the CPU twin's bytes, on what the host hands it for
+/// terrain in UTM coordinates seen from within (vertices behind the camera and beyond the guard
+/// band among them), and on positions outside the stage's domain.
+#[test]
+fn the_vertex_stage_is_the_same_bits_on_both_backends() {
+    use tileraster::render::{Camera, GeometryKernels, Projection, RenderParams};
+    use tileraster_kernels::abi::{ProjectedVertex, RelativePosition};
+    if !common::gpu_or_skip("the_vertex_stage_is_the_same_bits_on_both_backends") {
+        return;
+    }
+    let mut mesh = tileraster_testkit::meshes::terrain(300, 10_000.0, 400.0);
+    mesh.positions.iter_mut().for_each(|p| *p = [p[0] + 500_000.0, p[1] + 5_000_000.0, p[2]]);
+    let eye = [504_000.0, 5_004_000.0, 450.0];
+    let camera = Camera::look_at(eye, [506_000.0, 5_005_000.0, 200.0], [0.0, 0.0, 1.0], Projection::Perspective { fov_deg: 60.0 }, &mesh);
+    let params = RenderParams::new(1280, 720, camera.view_projection(1280, 720).unwrap());
+    let mut recorded = Recorded::default();
+    tileraster_core::render::prepare_render(&mesh, &params, &mut recorded).unwrap();
+    let stage = recorded.params.expect("the preparation ran the vertex stage");
+    let mut positions = recorded.positions;
+    assert_eq!(positions.len(), mesh.positions.len());
+    // Far out but inside the domain; then outside it: too large for the pairs, a NaN, an
+    // infinity, and the smallest subnormal.
+    let far = |v: f32| RelativePosition { hi: [v, v, v], lo: [0.0; 3] };
+    positions.extend([far(1e30), far(-1e30), far(1e36), far(3e38), far(f32::NAN), far(f32::INFINITY)]);
+    positions.push(RelativePosition { hi: [0.0; 3], lo: [f32::from_bits(1); 3] });
+    let stage = tileraster_kernels::abi::VertexParams { vertices: positions.len() as u32, ..stage };
+    let (mut cpu, mut gpu) = (Vec::new(), Vec::new());
+    tileraster_cpu::vertex(&stage, &positions, &mut cpu);
+    tileraster_gpu::GeometryDevice.vertex(&stage, &positions, &mut gpu).unwrap();
+    let projected = cpu.iter().filter(|p| p.is_projected()).count();
+    let refused = cpu.len() - projected;
+    println!("{} vertices: {projected} projected, {refused} outside the stage's domain", cpu.len());
+    assert!(projected > positions.len() / 4 && refused > positions.len() / 10, "{projected} projected, {refused} not");
+    assert!(cpu[cpu.len() - 5..cpu.len() - 1].iter().all(|p| *p == ProjectedVertex::NONE), "{:?}", &cpu[cpu.len() - 7..]);
+    let bytes = |v: &[ProjectedVertex]| -> Vec<u8> { bytemuck::cast_slice(v).to_vec() };
+    if let Some(diff) = first_difference(&bytes(&cpu), &bytes(&gpu)) {
+        let k = cpu.iter().zip(&gpu).position(|(a, b)| bytemuck::bytes_of(a) != bytemuck::bytes_of(b));
+        panic!("the vertex stage differs between the backends: {diff}; vertex {k:?}: CPU {:?}, GPU {:?}", k.map(|k| cpu[k]), k.map(|k| gpu[k]));
+    }
+}

@@ -841,3 +841,60 @@ impl TextureInfo {
         filter as u32 | (u as u32) << 2 | (v as u32) << 4
     }
 }
+
+/// The vertex stage's uniform (`stages::vertex`): the frame's matrix from positions relative to
+/// its origin to clip space (`M · T(o)`, row-major), each entry as the double-`f32` pair
+/// `hi + lo` (`math::double`), and the viewport.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct VertexParams {
+    pub matrix_hi: [[f32; 4]; 4],
+    pub matrix_lo: [[f32; 4]; 4],
+    /// Half the frame's size in snapped units (`2^snap_bits` per pixel), per axis: exact in
+    /// `f32` for frames up to `2^16` px.
+    pub half_units: [f32; 2],
+    /// How far beyond `±w` a vertex may lie in `x` and `y` and still be projected: twice the
+    /// guard band's factor, so that every vertex inside the clipping planes is.
+    pub reach: [f32; 2],
+    /// Positions of the frame.
+    pub vertices: u32,
+    /// Invocations per row of the 2D dispatch that stands for a 1D one.
+    pub dispatch_width: u32,
+    pub _pad: [u32; 2],
+}
+
+/// A vertex's position relative to the frame's origin, each coordinate as the double-`f32`
+/// pair `hi + lo`.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct RelativePosition {
+    pub hi: [f32; 3],
+    pub lo: [f32; 3],
+}
+
+/// A vertex through the vertex stage, as the rasteriser takes it.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct ProjectedVertex {
+    /// Snapped, in `2^-snap_bits` px, `y` down.
+    pub screen: [i32; 2],
+    /// `z/w` rounded to `f32` and clamped to `[0, 1]`; [`ProjectedVertex::NONE`]'s `-1` where
+    /// the vertex lies outside the stage's domain (behind the camera, far beyond the guard band,
+    /// or too large for the pairs), which the host's clipping stage then projects.
+    pub depth: f32,
+    /// `1/w` rounded to `f32`.
+    pub inverse_w: f32,
+}
+
+impl ProjectedVertex {
+    /// What the stage writes for a vertex it does not project: the same bits on every device.
+    pub const NONE: ProjectedVertex = ProjectedVertex { screen: [0, 0], depth: -1.0, inverse_w: 0.0 };
+
+    #[inline]
+    pub fn is_projected(&self) -> bool {
+        self.depth >= 0.0
+    }
+}

@@ -7,7 +7,10 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::abi::{Counter, Coverage, FrameParams, OutputSet, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput, TriangleSetup};
+use crate::abi::{
+    Counter, Coverage, FrameParams, OutputSet, ProjectedVertex, RelativePosition, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput,
+    TriangleSetup, VertexParams,
+};
 use crate::memory::{LaneValue, Lanes};
 use crate::programs::depth::DepthProgram;
 use crate::programs::fragment::FragmentProgram;
@@ -30,6 +33,20 @@ const _: () = assert!(HeightProgram::MODE_SPEC_ID == 1 && HeightProgram::GENERIC
 /// Per-triangle stages are dispatched in 2D when there are more than 65,535 workgroups.
 fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
     gid.y * frame.dispatch_width + gid.x
+}
+
+#[cfg(feature = "entry-points")]
+#[spirv(compute(threads(64)))]
+pub fn vertex(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &VertexParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] positions: &[RelativePosition],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] projected: &mut [ProjectedVertex],
+) {
+    let v = gid.y * params.dispatch_width + gid.x;
+    if v < params.vertices {
+        projected[v as usize] = crate::stages::vertex::vertex(params, &positions[v as usize]);
+    }
 }
 
 #[cfg(feature = "entry-points")]

@@ -17,6 +17,8 @@
 //! in the same stage (a pixel's samples never leave its invocation).
 //!
 //! ```text
+//!  frame:   vertex params, positions ─▶ vertex ─▶ projected (read back: the host clips and
+//!           assembles the frame's triangles)
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins, bin keys (cursors: its atomics)
@@ -35,6 +37,7 @@ use crate::{SCAN_GROUP, SHADE_PASSES, TILE, TRIANGLE_GROUP};
 #[repr(u32)]
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
+    Vertex,
     Setup,
     BinCount,
     BinScan,
@@ -70,6 +73,13 @@ impl Pipeline {
 /// A buffer the stages share, by role. Every binding of every stage is one of these.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Buffer {
+    /// `VertexParams` of the frame (`stages::vertex`).
+    VertexParams,
+    /// `RelativePosition` per vertex of the frame.
+    Positions,
+    /// `ProjectedVertex` per vertex of the frame, read back by the host's clipping and
+    /// assembly.
+    Projected,
     /// `FrameParams` of the dispatch.
     Frame,
     /// `TriangleInput` per prepared triangle (uploaded once per scene).
@@ -150,6 +160,9 @@ pub struct Binding {
 /// How many invocations a stage runs.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Dispatch {
+    /// One per vertex of the frame, `TRIANGLE_GROUP` a workgroup, in 2D past 65,535 workgroups
+    /// (`VertexParams::dispatch_width`).
+    PerVertex,
     /// One per prepared triangle, `TRIANGLE_GROUP` a workgroup, in 2D past 65,535 workgroups
     /// (`FrameParams::dispatch_width`).
     PerTriangle,
@@ -170,6 +183,8 @@ pub enum Dispatch {
 /// How often a stage runs.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Scope {
+    /// Once per frame, before the host assembles its triangles (the geometry stages).
+    Frame,
     /// Once per prepared scene; its outputs stay with the scene.
     Scene,
     /// Once per rasterised window.
@@ -256,7 +271,17 @@ const fn appended<const N: usize, const M: usize>(bindings: [Binding; N], last: 
 }
 
 /// The stages in the order they run.
-pub const STAGES: [StageInfo; 9] = [
+pub const STAGES: [StageInfo; 10] = [
+    StageInfo {
+        stage: Stage::Vertex,
+        name: "vertex",
+        entry_point: "entry::vertex",
+        scope: Scope::Frame,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerVertex,
+        bindings: &[read(Buffer::VertexParams), read(Buffer::Positions), write(Buffer::Projected)],
+        pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
+    },
     StageInfo {
         stage: Stage::Setup,
         name: "setup",
@@ -391,7 +416,8 @@ pub const STAGES: [StageInfo; 9] = [
 ];
 
 impl Stage {
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
+        Stage::Vertex,
         Stage::Setup,
         Stage::BinCount,
         Stage::BinScan,
@@ -423,6 +449,12 @@ impl Stage {
 /// The stages of `pipeline`, in order.
 pub fn stages(pipeline: Pipeline) -> impl Iterator<Item = &'static StageInfo> {
     STAGES.iter().filter(move |s| s.runs_in(pipeline))
+}
+
+/// The stages of `pipeline` that rasterise a prepared scene (all but the geometry stages, which
+/// run as the host prepares a frame), in order.
+pub fn raster_stages(pipeline: Pipeline) -> impl Iterator<Item = &'static StageInfo> {
+    stages(pipeline).filter(|s| s.scope != Scope::Frame)
 }
 
 /// The stages of `pipeline` that run once per window, in order.

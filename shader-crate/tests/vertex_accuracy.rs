@@ -1,5 +1,5 @@
-//! The kernels' vertex and viewport arithmetic (double-`f32`, a local origin subtracted on the
-//! host) against the `f64` pipeline, vertex by vertex, on terrain where users have it: UTM
+//! The kernels' vertex stage (`stages::vertex`: double-`f32`, a local origin subtracted on the
+//! host, as `tileraster_core::render` does) against the `f64` pipeline, vertex by vertex, on terrain where users have it: UTM
 //! coordinates near 500,000 m east and 5,000,000 m north, seen whole, close up and at a grazing
 //! angle. The contract (`docs/numeric-contract.md`, "Geometry in the kernels"): the snapped
 //! position equals the `f64` pipeline's for at least 99.99 % of the vertices and is never more
@@ -8,8 +8,9 @@
 //! they miss the target, which is why the kernels carry 48 bits (and without the local origin
 //! they break the one-step bound everywhere).
 
+use tileraster_kernels::abi::{RelativePosition, VertexParams};
 use tileraster_kernels::math::double::Double;
-use tileraster_kernels::stages::{vertex, viewport};
+use tileraster_kernels::stages::vertex;
 
 type Matrix = [[f64; 4]; 4];
 
@@ -106,21 +107,33 @@ struct Agreement {
 }
 
 fn measure(points: &[[f64; 3]], m: &Matrix, width: u32, height: u32) -> Agreement {
-    // The host: the origin at the points' first corner rounded to a metre (any nearby point
-    // does), the matrix composed with the translation back in `f64`, both to double-`f32`.
-    let origin = points[0].map(f64::round);
+    // The host: the origin at the centre of the points' box, the matrix composed with the
+    // translation back in `f64`, both to double-`f32`.
+    let lo = points.iter().fold([f64::INFINITY; 3], |lo, p| std::array::from_fn(|k| lo[k].min(p[k])));
+    let hi = points.iter().fold([f64::NEG_INFINITY; 3], |hi, p| std::array::from_fn(|k| hi[k].max(p[k])));
+    let origin: [f64; 3] = std::array::from_fn(|k| lo[k] / 2.0 + hi[k] / 2.0);
     let translate = [[1.0, 0.0, 0.0, origin[0]], [0.0, 1.0, 0.0, origin[1]], [0.0, 0.0, 1.0, origin[2]], [0.0, 0.0, 0.0, 1.0]];
     let composed = multiply(m, &translate);
-    let kernel_matrix = composed.map(|row| row.map(Double::from_f64));
-    let half_units = [width, height].map(|n| (n << SNAP_BITS) as f32 / 2.0);
+    let pairs = composed.map(|row| row.map(Double::from_f64));
+    let params = VertexParams {
+        matrix_hi: pairs.map(|row| row.map(|d| d.hi)),
+        matrix_lo: pairs.map(|row| row.map(|d| d.lo)),
+        half_units: [width, height].map(|n| (n << SNAP_BITS) as f32 / 2.0),
+        // The render pipeline's guard band, 2^19 px, twice.
+        reach: [width, height].map(|n| (2.0 * (1.0 + 2.0 * (1u32 << 19) as f64 / n as f64)) as f32),
+        vertices: points.len() as u32,
+        ..VertexParams::default()
+    };
     let mut a = Agreement::default();
     for &p in points {
         let Some((snapped, depth, inverse_w)) = reference(m, p, width, height) else { continue };
         a.vertices += 1;
         let r = sub(p, origin);
-        let clip = vertex::to_clip(&kernel_matrix, &r.map(Double::from_f64));
-        let kernel = viewport::snap(&clip, half_units).map(i64::from);
-        let (kernel_depth, kernel_inverse_w) = viewport::depth_and_inverse_w(&clip);
+        let pairs = r.map(Double::from_f64);
+        let projected = vertex::vertex(&params, &RelativePosition { hi: pairs.map(|d| d.hi), lo: pairs.map(|d| d.lo) });
+        assert!(projected.is_projected(), "a vertex in view is projected: {p:?}");
+        let kernel = projected.screen.map(i64::from);
+        let (kernel_depth, kernel_inverse_w) = (projected.depth, projected.inverse_w);
         let off = (kernel[0] - snapped[0]).abs().max((kernel[1] - snapped[1]).abs());
         a.snapped_equal += usize::from(off == 0);
         a.snapped_worst = a.snapped_worst.max(off);

@@ -28,9 +28,9 @@ pub use diagnostics::{Checksums, TileCounts};
 pub use terrain::dem_mesh;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryMemory, GeometryPass, IDENTITY, Instance, LaidOutTextures,
-    Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture, Wireframe, World,
-    edges, face_normals, prepare_render, prepare_render_observed, prepare_world, validate_mesh,
+    Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryKernels, GeometryMemory, GeometryPass, IDENTITY, Instance,
+    LaidOutTextures, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture,
+    Wireframe, World, edges, face_normals, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};
@@ -191,9 +191,44 @@ impl Frame {
     }
 }
 
+/// The geometry stages' kernels as `backend` runs them.
+fn geometry_kernels(backend: Backend) -> Box<dyn GeometryKernels> {
+    match backend {
+        Backend::Cpu => Box::new(tileraster_cpu::GeometryTwins),
+        Backend::Gpu => Box::new(tileraster_gpu::GeometryDevice),
+    }
+}
+
+/// The geometry stages over `mesh`: the prepared scene the kernels rasterise, and what the
+/// stages did. The kernels' geometry stages run as their CPU twins, which give every
+/// backend's bits.
+pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(tileraster_core::Prepared, GeometryCounts), Error> {
+    prepare_render_on(mesh, params, Backend::Cpu)
+}
+
+/// [`prepare_render`], the kernels' geometry stages run on `backend`.
+pub fn prepare_render_on(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<(tileraster_core::Prepared, GeometryCounts), Error> {
+    tileraster_core::render::prepare_render(mesh, params, geometry_kernels(backend).as_mut())
+}
+
+/// [`prepare_render`], calling `observe` as each of its passes ends.
+pub fn prepare_render_observed(
+    mesh: &Mesh,
+    params: &RenderParams,
+    backend: Backend,
+    observe: &mut dyn FnMut(GeometryPass),
+) -> Result<(tileraster_core::Prepared, GeometryCounts), Error> {
+    tileraster_core::render::prepare_render_observed(mesh, params, geometry_kernels(backend).as_mut(), observe)
+}
+
+/// The geometry stages over every instance of `world` (see [`prepare_render`]).
+pub fn prepare_world(world: &World, params: &RenderParams) -> Result<(tileraster_core::Prepared, GeometryCounts), Error> {
+    tileraster_core::render::prepare_world(world, params, &mut tileraster_cpu::GeometryTwins)
+}
+
 /// Render `mesh` as `params` say on `backend`.
 pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-    let (prepared, geometry) = prepare_render(mesh, params)?;
+    let (prepared, geometry) = prepare_render_on(mesh, params, backend)?;
     let raster = crate::rasterise_prepared(&prepared, backend)?;
     Ok(frame_of(raster, geometry, params))
 }
@@ -203,7 +238,7 @@ pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Fr
 /// face ids number the instances' faces in order, as if they were one mesh
 /// ([`World::flattened`] gives that mesh, and the same frame).
 pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-    let (prepared, geometry) = prepare_world(world, params)?;
+    let (prepared, geometry) = tileraster_core::render::prepare_world(world, params, geometry_kernels(backend).as_mut())?;
     let raster = crate::rasterise_prepared(&prepared, backend)?;
     Ok(frame_of(raster, geometry, params))
 }
@@ -275,7 +310,8 @@ impl PreparedMesh {
     pub fn render_into(&mut self, params: &RenderParams, backend: Backend, frame: &mut Frame) -> Result<(), Error> {
         let memory = &mut self.memory;
         let spare = std::mem::take(frame);
-        let (mut prepared, geometry) = tileraster_core::render::prepare_mesh_frame(&self.mesh, params, &mut memory.geometry, &mut memory.textures)?;
+        let (mut prepared, geometry) =
+            tileraster_core::render::prepare_mesh_frame(&self.mesh, params, &mut memory.geometry, &mut memory.textures, geometry_kernels(backend).as_mut())?;
         // Texels the backend was handed by the last frame are not handed over again.
         if let Some(render) = prepared.render.as_mut() {
             render.texels_resident = match backend {
@@ -313,7 +349,9 @@ fn reusable<T>(layer: Vec<T>) -> Option<Vec<T>> {
 }
 
 /// The frame a rasterised and shaded raster holds, with its statistics.
-fn frame_of(raster: Raster, geometry: GeometryCounts, params: &RenderParams) -> Frame {
+fn frame_of(mut raster: Raster, geometry: GeometryCounts, params: &RenderParams) -> Frame {
+    // The frame's whole upload: the geometry stages' and the rasteriser's.
+    raster.stats.bytes_uploaded += geometry.bytes_uploaded;
     let ids = raster.faces.expect("the render pipeline writes faces");
     let per_pixel = raster.coverage.unwrap_or_default();
     let covered = ids.par_iter().filter(|&&f| f != NO_FACE).count() as u64;

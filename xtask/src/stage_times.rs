@@ -15,9 +15,9 @@
 
 use std::fmt::Write;
 use std::time::Instant;
-use tileraster::render::{Camera, Cull, Eye, GeometryPass, IDENTITY, Mesh, Projection, RenderParams, Shading, Up, prepare_render, prepare_render_observed};
-use tileraster::{Grid, Params, Prepared, Scene};
-use tileraster_core::kernels::pipeline::{Pipeline, stages};
+use tileraster::render::{Camera, Cull, Eye, GeometryPass, IDENTITY, Mesh, Projection, RenderParams, Shading, Up, prepare_render_observed, prepare_render_on};
+use tileraster::{Backend, Grid, Params, Prepared, Scene};
+use tileraster_core::kernels::pipeline::{Pipeline, raster_stages};
 use tileraster_testkit::{meshes, scenes};
 
 /// A scene to time: a heightfield onto a grid, or a mesh in perspective.
@@ -27,10 +27,11 @@ enum Case {
 }
 
 impl Case {
-    fn prepare(&self) -> Result<Prepared, String> {
+    /// The prepared scene, a mesh's geometry stages run on `backend`.
+    fn prepare(&self, backend: Backend) -> Result<Prepared, String> {
         match self {
             Case::Height(scene, grid) => tileraster::prepare(scene, &Params::new(*grid), None).map_err(|e| e.to_string()),
-            Case::Render(mesh, params) => prepare_render(mesh, params).map(|(p, _)| p).map_err(|e| e.to_string()),
+            Case::Render(mesh, params) => prepare_render_on(mesh, params, backend).map(|(p, _)| p).map_err(|e| e.to_string()),
         }
     }
 
@@ -134,7 +135,7 @@ fn report_cases(terrain: &Mesh, base: &RenderParams) -> Result<Vec<(String, Case
 /// without small triangles), total.
 fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     let text = |e: tileraster::Error| e.to_string();
-    let rows: Vec<_> = stages(case.pipeline()).map(|info| info.stage).collect();
+    let rows: Vec<_> = raster_stages(case.pipeline()).map(|info| info.stage).collect();
     let mut clock = Instant::now();
     let mut lap = || {
         let ms = clock.elapsed().as_secs_f64() * 1e3;
@@ -143,9 +144,9 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     };
     let mut laps = Vec::new();
     let prepared = match case {
-        Case::Render(mesh, params) => prepare_render_observed(mesh, params, &mut |_| laps.push(lap())).map(|(p, _)| p).map_err(text)?,
+        Case::Render(mesh, params) => prepare_render_observed(mesh, params, Backend::Cpu, &mut |_| laps.push(lap())).map(|(p, _)| p).map_err(text)?,
         Case::Height(..) => {
-            let prepared = case.prepare()?;
+            let prepared = case.prepare(Backend::Cpu)?;
             laps.push(lap());
             prepared
         }
@@ -171,7 +172,7 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
 /// One GPU call: its profile, the host's preparation and the call's wall time (ms).
 fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, f64, f64), String> {
     let start = Instant::now();
-    let prepared = case.prepare()?;
+    let prepared = case.prepare(Backend::Gpu)?;
     let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
     let plan = prepared.plan(prepared.window, false).map_err(|e| e.to_string())?;
     let start = Instant::now();
@@ -222,7 +223,8 @@ fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let mut s = format!("CPU backend ({threads} threads; heightfields in exact mode); median ms per pass of {runs} calls after a warm-up.\n");
     let mut header = None;
     for (name, case) in cases {
-        let names: Vec<&str> = case.preparation().into_iter().chain(["plan"]).chain(stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
+        let names: Vec<&str> =
+            case.preparation().into_iter().chain(["plan"]).chain(raster_stages(case.pipeline()).map(|info| info.name)).chain(["total"]).collect();
         table_header(&mut s, &mut header, &names);
         one_call(case)?;
         let calls = (0..runs).map(|_| one_call(case)).collect::<Result<Vec<_>, _>>()?;
@@ -240,7 +242,7 @@ fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     );
     let mut header = None;
     for (name, case) in cases {
-        let rows: Vec<_> = stages(case.pipeline()).collect();
+        let rows: Vec<_> = raster_stages(case.pipeline()).collect();
         let names: Vec<&str> = ["prepare"]
             .into_iter()
             .chain(rows.iter().map(|info| info.name))

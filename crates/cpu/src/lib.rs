@@ -8,13 +8,13 @@ mod stages;
 
 pub use stages::{
     FinePath, SmallBins, SmallSeeds, SmallTriangles, bin_count, bin_fill, bin_scan, fine_depth, fine_raster, fine_samples, fine_small, fine_small_for, setup,
-    setup_into, shade,
+    setup_into, shade, vertex,
 };
 pub use tileraster_kernels::pipeline::StageBuffers;
 
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
-use tileraster_kernels::abi::{Counter, TriangleSetup};
-use tileraster_kernels::pipeline::{Stage, stages};
+use tileraster_kernels::abi::{Counter, ProjectedVertex, RelativePosition, TriangleSetup, VertexParams};
+use tileraster_kernels::pipeline::{Stage, raster_stages};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
 /// twin of the GPU backend's resident buffers).
@@ -101,6 +101,18 @@ struct WindowBuffers {
     small: SmallTriangles,
 }
 
+/// The geometry stages' twins, which the host's preparation of a frame runs
+/// (`tileraster_core::render::GeometryKernels`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GeometryTwins;
+
+impl tileraster_core::render::GeometryKernels for GeometryTwins {
+    fn vertex(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
+        vertex(params, positions, projected);
+        Ok(())
+    }
+}
+
 /// The stages of `plan` in the table's order. With a `workspace`, the raster takes its layers
 /// and the setup stage its memory (`resident` must then start empty).
 fn rasterise_planned_with(
@@ -128,9 +140,10 @@ fn rasterise_planned_with(
         let mut b = WindowBuffers { small: SmallTriangles::empty_for(path.bins_small(&frame)), ..WindowBuffers::default() };
         // The stage table's order, the pipeline's rows; each stage's twin. The scene stage runs
         // once per scene.
-        for info in stages(prepared.pipeline()).filter(|s| s.runs_for(frame.flags)) {
+        for info in raster_stages(prepared.pipeline()).filter(|s| s.runs_for(frame.flags)) {
             let setups = resident.as_ref().map(|r| r.setups.as_slice()).unwrap_or_default();
             match info.stage {
+                Stage::Vertex => unreachable!("the geometry stages run as the host prepares the frame"),
                 Stage::Setup => {
                     if resident.is_none() {
                         let mut setups = workspace.as_mut().map(|w| std::mem::take(&mut w.setups)).unwrap_or_default();

@@ -6,10 +6,11 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
-use tileraster_core::render::FragmentStage;
+use tileraster_core::render::{FragmentStage, GeometryKernels};
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
-    Counter, FrameFlags, FrameParams, OutputSet, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading,
+    Counter, FrameFlags, FrameParams, OutputSet, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup,
+    TriangleShading, VertexParams,
 };
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
@@ -172,6 +173,22 @@ pub fn rasterise_profiled(prepared: &Prepared, plan: &Plan, resident: &mut Optio
     let raster = ctx.rasterise(prepared, plan, resident, Layers::default());
     let profile = ctx.recorder.finish(&ctx.gpu.device, ctx.gpu.queue.get_timestamp_period()).map_err(Error::Gpu)?;
     Ok((raster?, profile))
+}
+
+/// The kernels' geometry stages on the device, as the host prepares a frame
+/// (`tileraster_core::render::GeometryKernels`): each stage's output is read back for the host's
+/// clipping and assembly.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GeometryDevice;
+
+impl GeometryKernels for GeometryDevice {
+    fn vertex(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
+        let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+        // The stage's pairs rest on what the `f32` modes rest on: correctly rounded `f32`
+        // arithmetic, no contraction, subnormals kept.
+        ctx.check_float_modes(Mode::Barycentric)?;
+        ctx.vertex_unchecked(params, positions, projected)
+    }
 }
 
 /// The buffers the stages before fine raster leave for the preparation's window (see
@@ -434,15 +451,96 @@ impl GpuContext {
     fn rasterise(&mut self, prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, spare: Layers) -> Result<Raster, Error> {
         let mode = prepared.params.mode;
         if mode != Mode::Exact {
-            if self.float_modes.is_none() {
-                let checked = float_controls::check(|probe| self.rasterise_unchecked(probe, &probe.plan(probe.window, false)?, &mut None, Layers::default()));
-                self.float_modes = Some(checked);
-            }
-            if let Some(Err(reason)) = &self.float_modes {
-                return Err(Error::ModeInexactOnAdapter { mode: mode.name(), adapter: self.gpu.info.name.clone(), reason: reason.clone() });
-            }
+            self.check_float_modes(mode)?;
         }
         self.rasterise_unchecked(prepared, plan, resident, spare)
+    }
+
+    /// Whether the `f32` modes give the CPU backend's bits here (checked on first use), as an
+    /// error naming `mode` where they do not.
+    fn check_float_modes(&mut self, mode: Mode) -> Result<(), Error> {
+        if self.float_modes.is_none() {
+            let checked = float_controls::check(|probe| self.rasterise_unchecked(probe, &probe.plan(probe.window, false)?, &mut None, Layers::default()));
+            self.float_modes = Some(checked);
+        }
+        match &self.float_modes {
+            Some(Err(reason)) => Err(Error::ModeInexactOnAdapter { mode: mode.name(), adapter: self.gpu.info.name.clone(), reason: reason.clone() }),
+            _ => Ok(()),
+        }
+    }
+
+    /// The vertex stage over `positions` into `projected`, without the check of its arithmetic.
+    /// Its pipeline is built on first use; the buffers are the frame's own.
+    fn vertex_unchecked(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
+        projected.clear();
+        let n = positions.len() as u64;
+        if n == 0 {
+            return Ok(());
+        }
+        let limit = self.max_binding();
+        let out_bytes = n * std::mem::size_of::<ProjectedVertex>() as u64;
+        let in_bytes = std::mem::size_of_val(positions) as u64;
+        if in_bytes > limit {
+            return Err(Error::RasterTooLarge {
+                width: n,
+                height: 1,
+                reason: format!("{n} vertices take {in_bytes} bytes, more than the {limit} bytes the device binds at once"),
+            });
+        }
+        let row = STAGES.iter().position(|s| s.stage == Stage::Vertex).expect("the stage table has the vertex stage");
+        let build = Build { row, fragment: None, spec: [None; 2] };
+        let scope = self.gpu.error_scope();
+        let index = match self.pipelines.iter().position(|(b, _)| *b == build) {
+            Some(k) => k,
+            None => {
+                let info = &STAGES[row];
+                let module = passthrough_module(&self.gpu.device, "tileraster kernels, vertex", self.kernels, &build.spec, |other| other.stage == info.stage);
+                let cache = self.pipeline_cache.as_ref().map(|c| &c.cache);
+                self.pipelines.push((build, stage_pipeline(&self.gpu.device, &module, info, cache)));
+                if let Some(cache) = &self.pipeline_cache {
+                    cache.save();
+                }
+                self.pipelines.len() - 1
+            }
+        };
+        let mut rows = vec![None; STAGES.len()];
+        rows[row] = Some(index);
+        let groups = (n as u32).div_ceil(TRIANGLE_GROUP).max(1);
+        let (x, y) = (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS));
+        let params = VertexParams { vertices: n as u32, dispatch_width: x * TRIANGLE_GROUP, ..*params };
+        let device = &self.gpu.device;
+        let storage = |label, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let params_buf = storage("vertex parameters", std::mem::size_of::<VertexParams>() as u64);
+        let positions_buf = storage("relative positions", in_bytes);
+        let projected_buf = storage("projected vertices", out_bytes);
+        self.recorder.upload(&self.gpu.queue, &params_buf, bytemuck::bytes_of(&params));
+        self.recorder.upload(&self.gpu.queue, &positions_buf, bytemuck::cast_slice(positions));
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let buffers = |buffer| match buffer {
+            Buffer::VertexParams => Some(params_buf.clone()),
+            Buffer::Positions => Some(positions_buf.clone()),
+            Buffer::Projected => Some(projected_buf.clone()),
+            _ => None,
+        };
+        let frame = FrameParams::default();
+        let encoded = self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &frame, (x, y), &buffers);
+        self.recorder.submit();
+        self.gpu.queue.submit([encoder.finish()]);
+        let raised = scope.finish();
+        encoded?;
+        if let Some(e) = raised {
+            return Err(Error::Gpu(format!("the vertex stage: {e}")));
+        }
+        let bytes = self.read_buffer(&projected_buf, out_bytes)?;
+        projected.extend_from_slice(bytemuck::cast_slice(&bytes));
+        Ok(())
     }
 
     /// [`Self::rasterise`] without the check of the `f32` modes.
@@ -732,7 +830,7 @@ impl GpuContext {
                     bound.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
                 let bind = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(info.name), layout: &stage.layout, entries: &entries });
                 let (x, y) = match info.dispatch {
-                    Dispatch::PerTriangle | Dispatch::PerTrianglePart => triangle_groups,
+                    Dispatch::PerTriangle | Dispatch::PerTrianglePart | Dispatch::PerVertex => triangle_groups,
                     Dispatch::Single => (1, 1),
                     Dispatch::PerTile => (frame.tiles_x, frame.tiles_y),
                     Dispatch::PerSmallTriangle => {
@@ -929,7 +1027,7 @@ impl GpuContext {
         let buffers = |buffer| {
             Some(match buffer {
                 Buffer::Frame => frame_buf.clone(),
-                Buffer::Inputs => return None,
+                Buffer::Inputs | Buffer::VertexParams | Buffer::Positions | Buffer::Projected => return None,
                 Buffer::Setups | Buffer::SetupWords => scene.setups.clone(),
                 Buffer::Listed => listed.clone(),
                 Buffer::SmallListed => small_listed.clone(),

@@ -1,4 +1,5 @@
-//! The vertex stage's transform: a position to clip space in double-`f32`.
+//! The vertex stage: a position to clip space and on to the rasteriser's snapped pixels, depth
+//! and `1/w`, in double-`f32`.
 //!
 //! The host subtracts a local origin `o` from every position once (in `f64`, where the
 //! difference of two nearby coordinates is exact or nearly so) and composes the frame's matrix
@@ -7,7 +8,9 @@
 //! `f32` has 24, so a vertex of UTM terrain at 5,000,000 m snaps where the `f64` pipeline snaps
 //! it (`docs/numeric-contract.md`, "Geometry in the kernels").
 
+use crate::abi::{ProjectedVertex, RelativePosition, VertexParams};
 use crate::math::double::Double;
+use crate::stages::viewport;
 
 /// `m · (r, 1)`: a position relative to the frame's origin to clip space, `m` row-major with
 /// the origin composed in.
@@ -21,4 +24,48 @@ pub fn to_clip(m: &[[Double; 4]; 4], r: &[Double; 3]) -> [Double; 4] {
         row += 1;
     }
     clip
+}
+
+/// The smallest `w` the stage projects: its pairs' low parts stay far above the subnormals.
+const W_LOWEST: f32 = 1.0 / (1u64 << 60) as f32;
+/// The largest: `x / w` and the products before it stay far below `f32`'s overflow.
+const W_HIGHEST: f32 = (1u128 << 100) as f32;
+
+/// One vertex through the stage: projected where it lies in front of the camera, within
+/// `params.reach` of the view in `x` and `y` and within `[-w, 2w]` in `z` (every vertex inside
+/// the clipping planes does), else [`ProjectedVertex::NONE`]. Every comparison fails on a NaN,
+/// so a position too large for the pairs is not projected either.
+#[inline]
+// Plain comparisons, as the CPU twin's `f64` path mirrors them.
+#[allow(clippy::manual_range_contains)]
+pub fn vertex(params: &VertexParams, position: &RelativePosition) -> ProjectedVertex {
+    let mut m = [[Double::ZERO; 4]; 4];
+    let mut row = 0;
+    while row < 4 {
+        let mut col = 0;
+        while col < 4 {
+            m[row][col] = Double { hi: params.matrix_hi[row][col], lo: params.matrix_lo[row][col] };
+            col += 1;
+        }
+        row += 1;
+    }
+    let r = [
+        Double { hi: position.hi[0], lo: position.lo[0] },
+        Double { hi: position.hi[1], lo: position.lo[1] },
+        Double { hi: position.hi[2], lo: position.lo[2] },
+    ];
+    let clip = to_clip(&m, &r);
+    let w = clip[3].hi;
+    let within = |v: f32, reach: f32| v <= reach * w && -v <= reach * w;
+    let in_domain = w >= W_LOWEST
+        && w <= W_HIGHEST
+        && within(clip[0].hi, params.reach[0])
+        && within(clip[1].hi, params.reach[1])
+        && clip[2].hi >= -w
+        && clip[2].hi <= 2.0 * w;
+    if !in_domain {
+        return ProjectedVertex::NONE;
+    }
+    let (depth, inverse_w) = viewport::depth_and_inverse_w(&clip);
+    ProjectedVertex { screen: viewport::snap(&clip, params.half_units), depth, inverse_w }
 }

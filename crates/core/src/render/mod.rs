@@ -60,8 +60,9 @@ pub use validate::validate_mesh;
 use validate::validate_params;
 use vector::{cross, sub, unit};
 pub use vector::{multiply, normal_matrix, transform_normal};
+pub use vertex::GeometryKernels;
 use vertex::depth_range;
-use vertex::{ClipVertex, Projected};
+use vertex::{ClipVertex, Projected, VertexStageMemory};
 use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
@@ -74,14 +75,15 @@ const CHUNK: usize = 1 << 12;
 
 /// Runs the geometry stages over `mesh`: the prepared scene the kernels rasterise, and what
 /// the stages did.
-pub fn prepare_render(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
+/// `kernels` runs the kernels' geometry stages (the frame's backend).
+pub fn prepare_render(mesh: &Mesh, params: &RenderParams, kernels: &mut dyn GeometryKernels) -> Result<(Prepared, GeometryCounts), Error> {
     validate_mesh(mesh)?;
-    prepare_checked_mesh(mesh, params)
+    prepare_checked_mesh(mesh, params, kernels)
 }
 
 /// [`prepare_render`] for a mesh [`validate_mesh`] has accepted.
-pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
-    prepare_checked_mesh_in(mesh, params, &mut GeometryMemory::default())
+pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams, kernels: &mut dyn GeometryKernels) -> Result<(Prepared, GeometryCounts), Error> {
+    prepare_checked_mesh_in(mesh, params, &mut GeometryMemory::default(), kernels)
 }
 
 /// The geometry stages' memory, kept between frames: the vertices through the vertex stage and
@@ -94,6 +96,7 @@ pub struct GeometryMemory {
     vertices: Vec<ClipVertex>,
     triangles: Vec<TriangleInput>,
     shading: Vec<TriangleShading>,
+    vertex_stage: VertexStageMemory,
 }
 
 impl GeometryMemory {
@@ -107,8 +110,13 @@ impl GeometryMemory {
 }
 
 /// [`prepare_checked_mesh`] in `memory`.
-pub fn prepare_checked_mesh_in(mesh: &Mesh, params: &RenderParams, memory: &mut GeometryMemory) -> Result<(Prepared, GeometryCounts), Error> {
-    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, None, &mut |_| {})
+pub fn prepare_checked_mesh_in(
+    mesh: &Mesh,
+    params: &RenderParams,
+    memory: &mut GeometryMemory,
+    kernels: &mut dyn GeometryKernels,
+) -> Result<(Prepared, GeometryCounts), Error> {
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, None, kernels, &mut |_| {})
 }
 
 /// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left its textures
@@ -120,14 +128,15 @@ pub fn prepare_mesh_frame(
     params: &RenderParams,
     memory: &mut GeometryMemory,
     textures: &mut Option<LaidOutTextures>,
+    kernels: &mut dyn GeometryKernels,
 ) -> Result<(Prepared, GeometryCounts), Error> {
-    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(textures), &mut |_| {})
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(textures), kernels, &mut |_| {})
 }
 
 /// Runs the geometry stages over every instance of `world`.
-pub fn prepare_world(world: &World, params: &RenderParams) -> Result<(Prepared, GeometryCounts), Error> {
+pub fn prepare_world(world: &World, params: &RenderParams, kernels: &mut dyn GeometryKernels) -> Result<(Prepared, GeometryCounts), Error> {
     validate_world(&world.meshes, &world.instances)?;
-    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default(), None, &mut |_| {})
+    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default(), None, kernels, &mut |_| {})
 }
 
 /// The geometry stages' passes, in the order they run, as [`prepare_render_observed`] reports
@@ -137,7 +146,8 @@ pub enum GeometryPass {
     /// The frame's parameters checked, the instances culled and placed, the textures laid out,
     /// the wireframe's edges found.
     Frame,
-    /// `vertex`: every placed vertex to clip space, lit where shading is per vertex.
+    /// `vertex`: every placed vertex to clip space, lit where shading is per vertex, and through
+    /// the kernels' vertex stage.
     Vertex,
     /// `clip`, `cull` and `viewport` over every face (and line and point), counting what each
     /// chunk puts out.
@@ -165,9 +175,14 @@ impl GeometryPass {
 
 /// [`prepare_render`], calling `observe` as each of its passes ends (a caller that times them
 /// reads its clock there), in the order of [`GeometryPass::ALL`].
-pub fn prepare_render_observed(mesh: &Mesh, params: &RenderParams, observe: &mut dyn FnMut(GeometryPass)) -> Result<(Prepared, GeometryCounts), Error> {
+pub fn prepare_render_observed(
+    mesh: &Mesh,
+    params: &RenderParams,
+    kernels: &mut dyn GeometryKernels,
+    observe: &mut dyn FnMut(GeometryPass),
+) -> Result<(Prepared, GeometryCounts), Error> {
     validate_mesh(mesh)?;
-    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, &mut GeometryMemory::default(), None, observe)
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, &mut GeometryMemory::default(), None, kernels, observe)
 }
 
 /// The geometry stages over instances of checked meshes (`validate_world`); the textures
@@ -178,6 +193,7 @@ pub(crate) fn prepare_instances_in(
     params: &RenderParams,
     memory: &mut GeometryMemory,
     kept_textures: Option<&mut Option<LaidOutTextures>>,
+    kernels: &mut dyn GeometryKernels,
     observe: &mut dyn FnMut(GeometryPass),
 ) -> Result<(Prepared, GeometryCounts), Error> {
     validate_params(params)?;
@@ -262,7 +278,7 @@ pub(crate) fn prepare_instances_in(
     // A fragment shader takes the vertex attributes as they are (no lighting on the host).
     let shading = if params.fragment.is_some() { Shading::Unlit } else { params.shading };
     observe(GeometryPass::Frame);
-    vertex::transform_vertices(
+    counts.bytes_uploaded = vertex::transform_vertices(
         meshes.len(),
         &placements,
         first_vertex,
@@ -272,6 +288,8 @@ pub(crate) fn prepare_instances_in(
         &viewport,
         &mut memory.world,
         &mut memory.vertices,
+        &mut memory.vertex_stage,
+        kernels,
     )?;
     let (world, vertices) = (&memory.world[..], &memory.vertices[..]);
     observe(GeometryPass::Vertex);

@@ -254,6 +254,9 @@ pub struct GeometryCounts {
     /// pixel: outside the view volume, or under their rule (within one pixel's diamond).
     pub lines_drawn: u64,
     pub lines_culled: u64,
+    /// Bytes the geometry stages handed the backend's kernels: the vertex stage's positions
+    /// and parameters.
+    pub bytes_uploaded: u64,
 }
 
 impl GeometryCounts {
@@ -271,6 +274,7 @@ impl GeometryCounts {
         self.points_culled += o.points_culled;
         self.lines_drawn += o.lines_drawn;
         self.lines_culled += o.lines_culled;
+        self.bytes_uploaded += o.bytes_uploaded;
         self
     }
 }

@@ -3,12 +3,22 @@
 
 use super::instances::{self, Placement};
 use super::lighting::Lighting;
+use super::params::RENDER_SNAP_BITS;
 use super::params::{GREY, IDENTITY, Shading, face_normals};
 use super::vector::{normal_matrix, transform_normal, unit};
 use super::viewport::{Viewport, distance};
 use crate::Error;
 use rayon::prelude::*;
-use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES};
+use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, ProjectedVertex, RelativePosition, VertexParams};
+use tileraster_kernels::math::double::Double;
+
+/// The kernels' geometry stages as a backend runs them while the host prepares a frame: the
+/// CPU backend's twins, or the device's dispatches, to the same bits.
+pub trait GeometryKernels {
+    /// The `vertex` stage (`tileraster_kernels::stages::vertex`) over `positions`, into
+    /// `projected` (one per position; its memory reused).
+    fn vertex(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error>;
+}
 
 /// A vertex through the vertex stage: clip-space position and attributes.
 #[derive(Clone, Copy, Default)]
@@ -23,17 +33,15 @@ pub(super) struct ClipVertex {
 }
 
 impl ClipVertex {
+    /// Projected later, by the vertex stage ([`project_vertices`]).
     pub(super) fn new(clip: [f64; 4], attributes: [f64; ATTRIBUTES], viewport: &Viewport) -> Self {
         let planes = viewport.planes();
         let outside = (0..planes.len()).fold(0u8, |m, k| m | u8::from(distance(&planes, k, &clip) < 0.0) << k);
-        let mut v = ClipVertex { clip, attributes, outside, projected: Projected::default() };
-        if outside == 0 {
-            v.projected = v.project(viewport);
-        }
-        v
+        ClipVertex { clip, attributes, outside, projected: Projected::default() }
     }
 
-    /// Its snapped screen position, depth, `1/w` and attributes in `f32`.
+    /// Its snapped screen position, depth, `1/w` and attributes in `f32`, in `f64` on the host:
+    /// for the points clipping makes, and for the vertices outside the vertex stage's domain.
     pub(super) fn project(&self, viewport: &Viewport) -> Projected {
         let c = &self.clip;
         Projected {
@@ -70,7 +78,8 @@ pub(super) fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32;
 /// The vertex stage over the visible instances (`placements`, `count` vertices in all): each
 /// instance's transform, then the view-projection, into the arrays `world` (positions) and
 /// `vertices` (clip-space vertices with their attributes (colour, normal, world position, texture
-/// coordinates; lit per vertex for Gouraud shading)), kept between frames, on all cores. `mesh_count`: how many
+/// coordinates; lit per vertex for Gouraud shading)), kept between frames, on all cores, then
+/// the kernels' vertex stage ([`project_vertices`]; its bytes returned). `mesh_count`: how many
 /// meshes the placements index.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn transform_vertices(
@@ -83,7 +92,9 @@ pub(super) fn transform_vertices(
     viewport: &Viewport,
     world: &mut Vec<[f64; 3]>,
     vertices: &mut Vec<ClipVertex>,
-) -> Result<(), Error> {
+    stage: &mut VertexStageMemory,
+    kernels: &mut dyn GeometryKernels,
+) -> Result<u64, Error> {
     world.clear();
     vertices.clear();
     // Many instances of a large mesh can ask for more than the machine has: a typed error.
@@ -143,7 +154,78 @@ pub(super) fn transform_vertices(
             *out = ClipVertex::new(clip, attributes, viewport);
         });
     });
-    Ok(())
+    project_vertices(world, vertices, m, viewport, stage, kernels)
+}
+
+/// The vertex stage's memory, kept between frames.
+#[derive(Default)]
+pub(super) struct VertexStageMemory {
+    positions: Vec<RelativePosition>,
+    projected: Vec<ProjectedVertex>,
+}
+
+/// The vertex stage proper, on the frame's backend (`kernels`): every vertex inside the clipping
+/// planes gets its snapped position, depth and `1/w` from `stages::vertex`. The kernels take
+/// positions relative to the frame's origin (the centre of the vertices' box, subtracted here
+/// in `f64`) in double-`f32` pairs, and the view-projection with the origin composed in.
+/// Returns the bytes handed to the stage.
+pub(super) fn project_vertices(
+    world: &[[f64; 3]],
+    vertices: &mut [ClipVertex],
+    m: &[[f64; 4]; 4],
+    viewport: &Viewport,
+    memory: &mut VertexStageMemory,
+    kernels: &mut dyn GeometryKernels,
+) -> Result<u64, Error> {
+    let unbounded = || ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let (lo, hi) = world.par_iter().fold(unbounded, |(lo, hi), p| (min3(lo, *p), max3(hi, *p))).reduce(unbounded, |a, b| (min3(a.0, b.0), max3(a.1, b.1)));
+    let origin = if world.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|k| lo[k] / 2.0 + hi[k] / 2.0) };
+    let count = u32::try_from(world.len()).map_err(|_| Error::TooManyFaces { faces: world.len() as u64 })?;
+    let params = VertexParams { vertices: count, ..vertex_params(m, origin, viewport) };
+    world
+        .par_iter()
+        .map(|p| {
+            let r = [0, 1, 2].map(|k| Double::from_f64(p[k] - origin[k]));
+            RelativePosition { hi: r.map(|d| d.hi), lo: r.map(|d| d.lo) }
+        })
+        .collect_into_vec(&mut memory.positions);
+    kernels.vertex(&params, &memory.positions, &mut memory.projected)?;
+    if memory.projected.len() != vertices.len() {
+        return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {}", memory.projected.len(), vertices.len())));
+    }
+    vertices.par_iter_mut().zip(&memory.projected).filter(|(v, _)| v.outside == 0).for_each(|(v, p)| {
+        v.projected = if p.is_projected() {
+            Projected { screen: (p.screen[0] as i64, p.screen[1] as i64), depth: p.depth, inv_w: p.inverse_w, attributes: v.attributes.map(|a| a as f32) }
+        } else {
+            v.project(viewport)
+        };
+    });
+    Ok((std::mem::size_of::<VertexParams>() + std::mem::size_of_val(memory.positions.as_slice())) as u64)
+}
+
+fn min3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|k| a[k].min(b[k]))
+}
+
+fn max3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|k| a[k].max(b[k]))
+}
+
+/// The vertex stage's parameters: `m · T(origin)` in pairs, the viewport in snapped units.
+fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], viewport: &Viewport) -> VertexParams {
+    let mut composed = *m;
+    for row in &mut composed {
+        row[3] += row[0] * origin[0] + row[1] * origin[1] + row[2] * origin[2];
+    }
+    let pairs = composed.map(|row| row.map(Double::from_f64));
+    let unit = (1u64 << RENDER_SNAP_BITS) as f64;
+    VertexParams {
+        matrix_hi: pairs.map(|row| row.map(|d| d.hi)),
+        matrix_lo: pairs.map(|row| row.map(|d| d.lo)),
+        half_units: viewport.half.map(|h| (h * unit) as f32),
+        reach: viewport.guard.map(|g| (2.0 * g) as f32),
+        ..VertexParams::default()
+    }
 }
 
 /// The depths of the visible vertices, lowest and highest (the depth view's range).

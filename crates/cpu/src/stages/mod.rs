@@ -1,5 +1,5 @@
 //! One twin per kernel stage, with the stage's name, in files named as the kernel crate's
-//! `stages/` (`setup`, `bin`, `scan`, `small`, `fine`, `shade`), and `multisample` for the stage its
+//! `stages/` (`vertex`, `setup`, `bin`, `scan`, `small`, `fine`, `shade`), and `multisample` for the stage its
 //! program of that name makes (`fine_samples`).
 
 mod bin;
@@ -11,6 +11,7 @@ mod scan;
 mod setup;
 mod shade;
 mod small;
+mod vertex;
 
 pub use bin::{bin_count, bin_fill};
 pub use fine::{FinePath, fine_depth, fine_raster};
@@ -19,6 +20,7 @@ pub use scan::bin_scan;
 pub use setup::{setup, setup_into};
 pub use shade::shade;
 pub use small::{SmallBins, SmallSeeds, SmallTriangles, fine_small, fine_small_for};
+pub use vertex::vertex;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::memory::{Counters, Slots};

@@ -1,0 +1,246 @@
+//! Twin of the `vertex` entry point: one invocation per vertex of the frame.
+//!
+//! The kernel works in double-`f32` pairs, which cost a CPU about ten times what `f64` costs.
+//! So the twin first computes the vertex in `f64` from the same pairs, with a bound on how far
+//! both the pairs' result and its own may lie from the exact value; where no rounding boundary
+//! (of `f32`, or of the snapping to an integer) lies within that bound, both round alike and the
+//! `f64` result is the kernel's bits. Near a boundary, or outside the range the bound covers,
+//! it runs the kernel's own function ([`exact_in_f64`] says which).
+
+use rayon::prelude::*;
+use tileraster_kernels::abi::{ProjectedVertex, RelativePosition, VertexParams};
+use tileraster_kernels::stages::vertex::vertex as project;
+
+/// The frame's vertices through the vertex stage, into `projected` (its memory reused).
+pub fn vertex(params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) {
+    positions.par_iter().with_min_len(1 << 10).map(|p| exact_in_f64(params, p).unwrap_or_else(|| project(params, p))).collect_into_vec(projected);
+}
+
+/// Relative error of each pair operation of the kernel (sum, product, quotient, scaling), with
+/// room to spare: double-`f32` sums, products and quotients are within `16 · 2^-48` of exact
+/// (Joldes, Muller and Popescu 2017 bound these algorithms by at most that; `math::double`'s
+/// tests measure them within `2^-44`).
+const PAIR_ERROR: f64 = 1.0 / (1u64 << 40) as f64;
+/// The same for this twin's `f64` operations (`2^-53` each), with as much room.
+const F64_ERROR: f64 = 1.0 / (1u64 << 49) as f64;
+/// Both together: each step's bound on the gap between the two results.
+const STEP: f64 = PAIR_ERROR + F64_ERROR;
+/// Absolute room for pair parts that fall below `f32`'s normal range (each such rounding is
+/// below `2^-149`; a vertex has fewer than a hundred).
+const TINY: f64 = 1.0 / (1u128 << 120) as f64;
+/// Magnitudes the bound covers: the pairs' products and sums stay far from overflow (the
+/// kernel's Veltkamp splits overflow from `2^115`).
+const LARGEST: f64 = (1u128 << 100) as f64;
+
+/// The kernel's result for `position` where `f64` arithmetic proves it, else `None`.
+pub fn exact_in_f64(params: &VertexParams, position: &RelativePosition) -> Option<ProjectedVertex> {
+    let r: [f64; 3] = std::array::from_fn(|k| position.hi[k] as f64 + position.lo[k] as f64);
+    if !r.iter().all(|v| v.abs() < LARGEST) {
+        return None;
+    }
+    // Each row in `f64`, and the sum of its terms' magnitudes, which bounds both results' error.
+    let mut clip = [0.0f64; 4];
+    let mut error = [0.0f64; 4];
+    for row in 0..4 {
+        let m: [f64; 4] = std::array::from_fn(|c| params.matrix_hi[row][c] as f64 + params.matrix_lo[row][c] as f64);
+        let size = (m[0] * r[0]).abs() + (m[1] * r[1]).abs() + (m[2] * r[2]).abs() + m[3].abs();
+        if !(size < LARGEST && m.iter().all(|v| v.abs() < LARGEST)) {
+            return None;
+        }
+        clip[row] = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
+        // Three products and three sums, each within `STEP` of the terms it adds.
+        error[row] = 8.0 * STEP * size + TINY;
+    }
+    // The kernel's domain test compares the pairs' high parts (each `clip` rounded to `f32`):
+    // decided here where every value those parts may take decides it alike.
+    let hi: [Span; 4] = std::array::from_fn(|k| Span::around(clip[k], error[k]));
+    let w = hi[3];
+    let within = |v: Span, reach: f32| all(at_most(v, w.times(reach)), at_most(v.negated(), w.times(reach)));
+    let lowest = Span::exactly(1.0 / (1u64 << 60) as f32);
+    let highest = Span::exactly((1u128 << 100) as f32);
+    let checks = [
+        at_most(lowest, w),
+        at_most(w, highest),
+        within(hi[0], params.reach[0]),
+        within(hi[1], params.reach[1]),
+        at_most(w.negated(), hi[2]),
+        at_most(hi[2], w.times(2.0)),
+    ];
+    if checks.contains(&Some(false)) {
+        return Some(ProjectedVertex::NONE);
+    }
+    if checks.contains(&None) {
+        return None;
+    }
+    let (w, w_error) = (clip[3], error[3]);
+    if w_error >= w / 4.0 {
+        return None;
+    }
+    // `v / w`, and a bound on both results' distance from it.
+    let ratio = |v: f64, v_error: f64| {
+        let q = v / w;
+        (q, 2.0 * (2.0 * (v_error + q.abs() * w_error) / w + 2.0 * STEP * q.abs()) + TINY)
+    };
+    let snapped = |axis: usize| -> Option<i32> {
+        let (q, q_error) = ratio(clip[axis], error[axis]);
+        let half = params.half_units[axis] as f64;
+        let v = (q + 1.0) * half;
+        let e = 2.0 * (half * (q_error + 2.0 * STEP * (q.abs() + 1.0)) + 2.0 * STEP * v.abs()) + TINY;
+        let (low, high) = ((v - e).round(), (v + e).round());
+        (low == high && v.abs() + e < (1u32 << 29) as f64).then_some(low as i32)
+    };
+    let screen = [snapped(0)?, snapped(1)?];
+    let (z, z_error) = ratio(clip[2], error[2]);
+    let depth = rounded(z, z_error)?;
+    // As the kernel clamps (`depth` is no NaN; a negative zero stays, as there).
+    let depth = depth.clamp(0.0, 1.0);
+    let inverse = 1.0 / w;
+    let inverse_error = 2.0 * (2.0 * w_error / (w * w) + 2.0 * STEP * inverse) + TINY;
+    let inverse_w = rounded(inverse, inverse_error)?;
+    Some(ProjectedVertex { screen, depth, inverse_w })
+}
+
+/// The `f32`s a value within `error` of `v` may round to: rounding is monotonic, so the ends of
+/// the interval bound them.
+#[derive(Clone, Copy)]
+struct Span {
+    low: f32,
+    high: f32,
+}
+
+impl Span {
+    fn around(v: f64, error: f64) -> Span {
+        Span { low: (v - error) as f32, high: (v + error) as f32 }
+    }
+
+    fn exactly(v: f32) -> Span {
+        Span { low: v, high: v }
+    }
+
+    fn negated(self) -> Span {
+        Span { low: -self.high, high: -self.low }
+    }
+
+    /// `self · k` rounded to `f32`, for `k ≥ 0`.
+    fn times(self, k: f32) -> Span {
+        Span { low: self.low * k, high: self.high * k }
+    }
+}
+
+/// Whether `a ≤ b` for every value of both, or for none; `None` where it depends. (A NaN end
+/// decides nothing.)
+fn at_most(a: Span, b: Span) -> Option<bool> {
+    if a.high <= b.low {
+        Some(true)
+    } else if a.low > b.high {
+        Some(false)
+    } else {
+        None
+    }
+}
+
+/// Both, where both are decided or one is false.
+fn all(a: Option<bool>, b: Option<bool>) -> Option<bool> {
+    match (a, b) {
+        (Some(false), _) | (_, Some(false)) => Some(false),
+        (Some(true), Some(true)) => Some(true),
+        _ => None,
+    }
+}
+
+/// The `f32` nearest every value within `error` of `v` (the same one, bit for bit), if there is
+/// one: rounding is monotonic, so the ends of the interval decide.
+fn rounded(v: f64, error: f64) -> Option<f32> {
+    let (low, high) = ((v - error) as f32, (v + error) as f32);
+    (low.to_bits() == high.to_bits()).then_some(low)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tileraster_kernels::math::double::Double;
+
+    fn pairs(v: [f64; 3]) -> RelativePosition {
+        let d = v.map(Double::from_f64);
+        RelativePosition { hi: d.map(|d| d.hi), lo: d.map(|d| d.lo) }
+    }
+
+    fn params(m: [[f64; 4]; 4], width: u32, height: u32) -> VertexParams {
+        let d = m.map(|row| row.map(Double::from_f64));
+        VertexParams {
+            matrix_hi: d.map(|row| row.map(|d| d.hi)),
+            matrix_lo: d.map(|row| row.map(|d| d.lo)),
+            half_units: [width, height].map(|n| (n << 8) as f32 / 2.0),
+            reach: [width, height].map(|n| (2.0 * (1.0 + 2.0 * (1u32 << 19) as f64 / n as f64)) as f32),
+            ..VertexParams::default()
+        }
+    }
+
+    /// A deterministic stream in `[0, 1)`.
+    fn stream(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Wherever the `f64` path answers, it is the kernel's answer, bit for bit: on a perspective
+    /// view of terrain seen from within (vertices behind the camera and beyond the guard band
+    /// among them), and on vertices placed within `2^-30` px of a snapping boundary, where it
+    /// must leave most to the kernel.
+    #[test]
+    fn the_f64_path_gives_the_kernels_bits_or_nothing() {
+        let (w, h) = (1920u32, 1080u32);
+        // A perspective view (Vulkan depth) 400 m above the origin, looking along +x and down.
+        let (sy, near, far) = (1.0 / (35f64.to_radians()).tan(), 1.0, 40_000.0);
+        let sx = sy * h as f64 / w as f64;
+        let a = far / (far - near);
+        let (c, s) = (0.2f64.cos(), 0.2f64.sin());
+        // Eye space: x right (world -y), y down, z forward (world +x tilted down by 0.2 rad).
+        let view = [[0.0, -1.0, 0.0, 0.0], [-s, 0.0, -c, 400.0 * c], [c, 0.0, -s, 400.0 * s], [0.0, 0.0, 0.0, 1.0]];
+        let proj = [[sx, 0.0, 0.0, 0.0], [0.0, sy, 0.0, 0.0], [0.0, 0.0, a, -a * near], [0.0, 0.0, 1.0, 0.0]];
+        let m: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|k| (0..4).map(|j| proj[r][j] * view[j][k]).sum()));
+        let p = params(m, w, h);
+        let mut next = stream(0x2545_f491_4f6c_dd1d);
+        let (mut answered, mut projected, mut total) = (0, 0, 0);
+        for _ in 0..400_000 {
+            let v = [next() * 20_000.0 - 5_000.0, next() * 20_000.0 - 10_000.0, next() * 300.0];
+            let position = pairs(v);
+            let kernel = project(&p, &position);
+            total += 1;
+            projected += usize::from(kernel.is_projected());
+            if let Some(fast) = exact_in_f64(&p, &position) {
+                answered += 1;
+                assert_eq!(bytemuck::bytes_of(&fast), bytemuck::bytes_of(&kernel), "{v:?}: f64 {fast:?}, kernel {kernel:?}");
+            }
+        }
+        println!("terrain: the f64 path answered {answered} of {total} vertices ({projected} projected)");
+        assert!(projected > total / 4 && projected < total, "{projected} of {total} projected");
+        // (The bound's room leaves about one vertex in 400 to the kernel's pairs.)
+        assert!(answered as f64 >= 0.99 * total as f64, "{answered} of {total}");
+
+        // On a boundary: an orthographic view where `x` maps to `(x + 1) · half` exactly, at
+        // points a hair from the middle between two sub-pixel steps.
+        let ortho = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.5, 0.25], [0.0, 0.0, 0.0, 1.0]];
+        let p = params(ortho, w, h);
+        let half = p.half_units[0] as f64;
+        let (mut answered, mut total) = (0, 0);
+        for k in 0..20_000 {
+            let step = (k % 1000) as f64 + 0.5;
+            let hair = (next() - 0.5) * 2f64.powi(-30);
+            let x = (step + hair) / half - 1.0;
+            let position = pairs([x, 0.25 * next(), next() - 0.5]);
+            let kernel = project(&p, &position);
+            total += 1;
+            if let Some(fast) = exact_in_f64(&p, &position) {
+                answered += 1;
+                assert_eq!(bytemuck::bytes_of(&fast), bytemuck::bytes_of(&kernel), "x {x}: f64 {fast:?}, kernel {kernel:?}");
+            }
+        }
+        println!("boundary: the f64 path answered {answered} of {total} vertices");
+        assert!(answered < total / 10, "{answered} of {total} answered a hair from a boundary");
+    }
+}

@@ -16,8 +16,9 @@
 //! # Ok::<(), tileraster::Error>(())
 //! ```
 //!
-//! The geometry stages (vertex transform, clipping, culling, snapping: `tileraster_core::render`)
-//! run on the host; the depth test and the shading run in the kernels (`fine_depth`, `shade`).
+//! The geometry stages (`tileraster_core::render`) run on the host, but for the snapping of the
+//! vertices, which the kernels' `vertex` stage does on the frame's backend; the depth test and
+//! the shading run in the kernels (`fine_depth`, `shade`).
 
 mod camera;
 mod diagnostics;

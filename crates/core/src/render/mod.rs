@@ -1,5 +1,8 @@
-//! The render pipeline's geometry stages, on the host in `f64`, once per frame and the same
-//! for both backends: vertex transform, clipping, culling, viewport transform and snapping.
+//! The render pipeline's geometry stages, once per frame and the same for both backends: vertex
+//! transform, clipping, culling, viewport transform and snapping, on the host in `f64` but for
+//! the kernels' `vertex` stage (`stages::vertex`, run by the frame's backend through
+//! [`GeometryKernels`]), which gives every vertex inside the clipping planes its snapped
+//! position, depth and `1/w`.
 //! What they leave is a [`Prepared`] scene for the kernels (setup, binning, the depth test of
 //! `programs::depth` and the shade stage of `programs::shade`). The pipeline is written here
 //! (`prepare_instances_in`); each stage is a file of its own:
@@ -23,8 +26,8 @@
 //! - `params` (what a frame is made of and asked for), `validate` (bad input as typed errors)
 //!   and `vector` sit below them all.
 //!
-//! The kernels' own versions of the vertex and viewport arithmetic, in double-`f32`, are
-//! `stages::vertex` and `stages::viewport` (`docs/numeric-contract.md`).
+//! The kernels' vertex and viewport arithmetic, in double-`f32`, is `stages::vertex` and
+//! `stages::viewport` (`docs/numeric-contract.md`, "Geometry in the kernels").
 
 mod clip;
 mod cull;

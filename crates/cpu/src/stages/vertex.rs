@@ -13,7 +13,19 @@ use tileraster_kernels::stages::vertex::vertex as project;
 
 /// The frame's vertices through the vertex stage, into `projected` (its memory reused).
 pub fn vertex(params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) {
-    positions.par_iter().with_min_len(1 << 10).map(|p| exact_in_f64(params, p).unwrap_or_else(|| project(params, p))).collect_into_vec(projected);
+    let matrix = Matrix::of(params);
+    positions.par_iter().with_min_len(1 << 10).map(|p| exact_in_f64(params, &matrix, p).unwrap_or_else(|| project(params, p))).collect_into_vec(projected);
+}
+
+/// The frame's matrix in `f64`: the value of each pair (exact, or within `2^-53` of it where
+/// the low part lies far below the high one), if every entry is in the range the bound covers.
+pub struct Matrix(Option<[[f64; 4]; 4]>);
+
+impl Matrix {
+    pub fn of(params: &VertexParams) -> Matrix {
+        let m: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| params.matrix_hi[r][c] as f64 + params.matrix_lo[r][c] as f64));
+        Matrix(m.iter().flatten().all(|v| v.abs() < LARGEST).then_some(m))
+    }
 }
 
 /// Relative error of each pair operation of the kernel (sum, product, quotient, scaling), with
@@ -33,7 +45,8 @@ const TINY: f64 = 1.0 / (1u128 << 120) as f64;
 const LARGEST: f64 = (1u128 << 100) as f64;
 
 /// The kernel's result for `position` where `f64` arithmetic proves it, else `None`.
-pub fn exact_in_f64(params: &VertexParams, position: &RelativePosition) -> Option<ProjectedVertex> {
+pub fn exact_in_f64(params: &VertexParams, matrix: &Matrix, position: &RelativePosition) -> Option<ProjectedVertex> {
+    let matrix = matrix.0.as_ref()?;
     let r: [f64; 3] = std::array::from_fn(|k| position.hi[k] as f64 + position.lo[k] as f64);
     if !r.iter().all(|v| v.abs() < LARGEST) {
         return None;
@@ -42,9 +55,9 @@ pub fn exact_in_f64(params: &VertexParams, position: &RelativePosition) -> Optio
     let mut clip = [0.0f64; 4];
     let mut error = [0.0f64; 4];
     for row in 0..4 {
-        let m: [f64; 4] = std::array::from_fn(|c| params.matrix_hi[row][c] as f64 + params.matrix_lo[row][c] as f64);
+        let m = &matrix[row];
         let size = (m[0] * r[0]).abs() + (m[1] * r[1]).abs() + (m[2] * r[2]).abs() + m[3].abs();
-        if !(size < LARGEST && m.iter().all(|v| v.abs() < LARGEST)) {
+        if size >= LARGEST {
             return None;
         }
         clip[row] = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
@@ -76,26 +89,36 @@ pub fn exact_in_f64(params: &VertexParams, position: &RelativePosition) -> Optio
     if w_error >= w / 4.0 {
         return None;
     }
-    // `v / w`, and a bound on both results' distance from it.
+    // `v / w` (one division for all four), and a bound on both results' distance from it.
+    let inverse = 1.0 / w;
     let ratio = |v: f64, v_error: f64| {
-        let q = v / w;
-        (q, 2.0 * (2.0 * (v_error + q.abs() * w_error) / w + 2.0 * STEP * q.abs()) + TINY)
+        let q = v * inverse;
+        (q, 2.0 * (2.0 * (v_error + q.abs() * w_error) * inverse + 2.0 * STEP * q.abs()) + TINY)
     };
     let snapped = |axis: usize| -> Option<i32> {
         let (q, q_error) = ratio(clip[axis], error[axis]);
         let half = params.half_units[axis] as f64;
         let v = (q + 1.0) * half;
         let e = 2.0 * (half * (q_error + 2.0 * STEP * (q.abs() + 1.0)) + 2.0 * STEP * v.abs()) + TINY;
-        let (low, high) = ((v - e).round(), (v + e).round());
-        (low == high && v.abs() + e < (1u32 << 29) as f64).then_some(low as i32)
+        if v.abs() + e >= (1u32 << 29) as f64 {
+            return None;
+        }
+        // `v`'s integer part and fraction (exact); the kernel rounds halves away from zero, so
+        // the answer is decided unless a half lies within `e`.
+        let whole = v as i32;
+        let fraction = v - whole as f64;
+        let distance = fraction.abs();
+        if (distance - 0.5).abs() <= e {
+            return None;
+        }
+        Some(if distance > 0.5 { whole + fraction.signum() as i32 } else { whole })
     };
     let screen = [snapped(0)?, snapped(1)?];
     let (z, z_error) = ratio(clip[2], error[2]);
     let depth = rounded(z, z_error)?;
     // As the kernel clamps (`depth` is no NaN; a negative zero stays, as there).
     let depth = depth.clamp(0.0, 1.0);
-    let inverse = 1.0 / w;
-    let inverse_error = 2.0 * (2.0 * w_error / (w * w) + 2.0 * STEP * inverse) + TINY;
+    let inverse_error = 2.0 * (2.0 * w_error * inverse * inverse + 2.0 * STEP * inverse) + TINY;
     let inverse_w = rounded(inverse, inverse_error)?;
     Some(ProjectedVertex { screen, depth, inverse_w })
 }
@@ -212,7 +235,7 @@ mod tests {
             let kernel = project(&p, &position);
             total += 1;
             projected += usize::from(kernel.is_projected());
-            if let Some(fast) = exact_in_f64(&p, &position) {
+            if let Some(fast) = exact_in_f64(&p, &Matrix::of(&p), &position) {
                 answered += 1;
                 assert_eq!(bytemuck::bytes_of(&fast), bytemuck::bytes_of(&kernel), "{v:?}: f64 {fast:?}, kernel {kernel:?}");
             }
@@ -235,7 +258,7 @@ mod tests {
             let position = pairs([x, 0.25 * next(), next() - 0.5]);
             let kernel = project(&p, &position);
             total += 1;
-            if let Some(fast) = exact_in_f64(&p, &position) {
+            if let Some(fast) = exact_in_f64(&p, &Matrix::of(&p), &position) {
                 answered += 1;
                 assert_eq!(bytemuck::bytes_of(&fast), bytemuck::bytes_of(&kernel), "x {x}: f64 {fast:?}, kernel {kernel:?}");
             }

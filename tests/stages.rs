@@ -59,6 +59,8 @@ fn every_stage_leaves_the_same_buffers_on_both_backends() {
     if !common::gpu_or_skip("every_stage_leaves_the_same_buffers_on_both_backends") {
         return;
     }
+    // (Not while another test lowers the device's binding limit.)
+    let _turn = BINDING_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
     for (name, scene, grid) in cases() {
         for (variant, skips) in common::skip_variants() {
             let prepared = prepare(&scene, &Params::new(grid).with_skips(skips), None).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -93,6 +95,9 @@ fn a_differing_stage_buffer_is_named() {
     caught(&|b| b.counts[5] += 1, "counts");
     caught(&|b| *b.bins.last_mut().unwrap() ^= 1, "bin of tile");
 }
+
+/// Held by a test while it changes the GPU's binding limit, and by the tests it would change.
+static BINDING_LIMIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// What the host's preparation hands the vertex stage, kept, the stage run as its CPU twin.
 #[derive(Default)]
@@ -150,8 +155,22 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
     assert!(projected > positions.len() / 4 && refused > positions.len() / 10, "{projected} projected, {refused} not");
     assert!(cpu[cpu.len() - 5..cpu.len() - 1].iter().all(|p| *p == ProjectedVertex::NONE), "{:?}", &cpu[cpu.len() - 7..]);
     let bytes = |v: &[ProjectedVertex]| -> Vec<u8> { bytemuck::cast_slice(v).to_vec() };
-    if let Some(diff) = first_difference(&bytes(&cpu), &bytes(&gpu)) {
-        let k = cpu.iter().zip(&gpu).position(|(a, b)| bytemuck::bytes_of(a) != bytemuck::bytes_of(b));
-        panic!("the vertex stage differs between the backends: {diff}; vertex {k:?}: CPU {:?}, GPU {:?}", k.map(|k| cpu[k]), k.map(|k| gpu[k]));
-    }
+    let same = |what: &str, gpu: &[ProjectedVertex]| {
+        if let Some(diff) = first_difference(&bytes(&cpu), &bytes(gpu)) {
+            let k = cpu.iter().zip(gpu).position(|(a, b)| bytemuck::bytes_of(a) != bytemuck::bytes_of(b));
+            panic!("{what}: the vertex stage differs between the backends: {diff}; vertex {k:?}: CPU {:?}, GPU {:?}", k.map(|k| cpu[k]), k.map(|k| gpu[k]));
+        }
+    };
+    same("in one dispatch", &gpu);
+    // A device that binds fewer positions at once runs the stage in parts: the same bytes.
+    let limit = 10_000 * std::mem::size_of::<RelativePosition>() as u64;
+    let parts = {
+        let _turn = BINDING_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
+        tileraster::set_gpu_binding_limit(limit);
+        let parts = tileraster_gpu::GeometryDevice.vertex(&stage, &positions, &mut gpu);
+        tileraster::set_gpu_binding_limit(u64::MAX);
+        parts
+    };
+    parts.unwrap();
+    same("in ten parts", &gpu);
 }

@@ -883,7 +883,8 @@ pub struct ProjectedVertex {
     pub screen: [i32; 2],
     /// `z/w` rounded to `f32` and clamped to `[0, 1]`; [`ProjectedVertex::NONE`]'s `-1` where
     /// the vertex lies outside the stage's domain (behind the camera, far beyond the guard band,
-    /// or too large for the pairs), which the host's clipping stage then projects.
+    /// or too large for the pairs), which the host then projects in `f64` if it lies inside the
+    /// clipping planes at all.
     pub depth: f32,
     /// `1/w` rounded to `f32`.
     pub inverse_w: f32,

@@ -477,16 +477,20 @@ impl GpuContext {
         if n == 0 {
             return Ok(());
         }
-        let limit = self.max_binding();
+        // Parts that each fit one binding (and one 2D dispatch).
+        let per_part = (self.max_binding() / std::mem::size_of::<RelativePosition>() as u64).min(MAX_GROUPS as u64 * MAX_GROUPS as u64) as usize;
+        for part in positions.chunks(per_part.max(TRIANGLE_GROUP as usize)) {
+            self.vertex_part(params, part, projected)?;
+        }
+        Ok(())
+    }
+
+    /// [`Self::vertex_unchecked`] over positions that fit one binding, its results appended to
+    /// `projected`.
+    fn vertex_part(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
+        let n = positions.len() as u64;
         let out_bytes = n * std::mem::size_of::<ProjectedVertex>() as u64;
         let in_bytes = std::mem::size_of_val(positions) as u64;
-        if in_bytes > limit {
-            return Err(Error::RasterTooLarge {
-                width: n,
-                height: 1,
-                reason: format!("{n} vertices take {in_bytes} bytes, more than the {limit} bytes the device binds at once"),
-            });
-        }
         let row = STAGES.iter().position(|s| s.stage == Stage::Vertex).expect("the stage table has the vertex stage");
         let build = Build { row, fragment: None, spec: [None; 2] };
         let scope = self.gpu.error_scope();
@@ -539,7 +543,7 @@ impl GpuContext {
             return Err(Error::Gpu(format!("the vertex stage: {e}")));
         }
         let bytes = self.read_buffer(&projected_buf, out_bytes)?;
-        projected.extend_from_slice(bytemuck::cast_slice(&bytes));
+        projected.extend(bytemuck::pod_collect_to_vec::<u8, ProjectedVertex>(&bytes));
         Ok(())
     }
 

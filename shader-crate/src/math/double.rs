@@ -12,13 +12,13 @@
 //! (Vulkan does not promise one, and the build marks every product `NoContraction`): products
 //! are split by Veltkamp's constant `2^12 + 1` instead. So the operations are designed to give
 //! every device the CPU's bits; the tests hold them to exact `f64` arithmetic natively, and
-//! the vertex kernel stage will hold the devices to the CPU.
+//! the vertex stage's parity test holds a device to the CPU.
 //!
 //! Domain: finite operands below `2^115` in magnitude (Veltkamp's split overflows above it)
 //! whose low parts stay above the subnormal range (parts near `2^-126` lose bits where a device
-//! flushes subnormals to zero); a division's divisor normal and positive. The render pipeline's
-//! values lie far inside: clip coordinates of a frame at most `2^16` pixels wide with a guard
-//! band of `2^19`, `w` at least `10^−30`.
+//! flushes subnormals to zero); a division's divisor normal and positive. The vertex stage
+//! keeps its values inside (`stages::vertex`: positions below `2^50`, matrix entries below
+//! `2^60`, `w` in `[2^-60, 2^100]` before it divides).
 
 use super::float::div;
 

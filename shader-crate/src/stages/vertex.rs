@@ -26,19 +26,31 @@ pub fn to_clip(m: &[[Double; 4]; 4], r: &[Double; 3]) -> [Double; 4] {
     clip
 }
 
+/// The largest position (relative to the frame's origin) the stage projects, and the largest
+/// matrix entry the host hands it: products and sums then stay far from `f32`'s overflow (and
+/// the Veltkamp splits' `2^115`), so no infinity or NaN ever enters the arithmetic, whose
+/// handling of them Vulkan leaves to the driver. The host sends only finite values.
+pub const POSITION_LIMIT: f32 = (1u64 << 50) as f32;
+pub const MATRIX_LIMIT: f32 = (1u64 << 60) as f32;
+
 /// The smallest `w` the stage projects: its pairs' low parts stay far above the subnormals.
 const W_LOWEST: f32 = 1.0 / (1u64 << 60) as f32;
 /// The largest: `x / w` and the products before it stay far below `f32`'s overflow.
 const W_HIGHEST: f32 = (1u128 << 100) as f32;
 
-/// One vertex through the stage: projected where it lies in front of the camera, within
-/// `params.reach` of the view in `x` and `y` and within `[-w, 2w]` in `z` (every vertex inside
-/// the clipping planes does), else [`ProjectedVertex::NONE`]. Every comparison fails on a NaN,
-/// so a position too large for the pairs is not projected either.
+/// One vertex through the stage: projected where its position lies within [`POSITION_LIMIT`] and
+/// it lies in front of the camera (`w` in `[2^-60, 2^100]`), within `params.reach` of the view in
+/// `x` and `y` and within `[-w, 2w]` in `z`, else [`ProjectedVertex::NONE`] (the host then
+/// projects it in `f64` if it lies inside the clipping planes at all).
 #[inline]
 // Plain comparisons, as the CPU twin's `f64` path mirrors them.
 #[allow(clippy::manual_range_contains)]
 pub fn vertex(params: &VertexParams, position: &RelativePosition) -> ProjectedVertex {
+    let p = &position.hi;
+    let bounded = |v: f32| v < POSITION_LIMIT && v > -POSITION_LIMIT;
+    if !(bounded(p[0]) && bounded(p[1]) && bounded(p[2])) {
+        return ProjectedVertex::NONE;
+    }
     let mut m = [[Double::ZERO; 4]; 4];
     let mut row = 0;
     while row < 4 {

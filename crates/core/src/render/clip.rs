@@ -34,7 +34,9 @@ pub(super) fn geometry(
         return;
     }
     counts.clipped += 1;
-    let projected: Vec<Projected> = polygon.iter().map(|v| v.project(viewport)).collect();
+    // The face's own corners as the vertex stage projected them, for every face that shares
+    // them; the points clipping made, on the host.
+    let projected: Vec<Projected> = polygon.iter().map(|v| if v.cut { v.project(viewport) } else { v.projected }).collect();
     triangles(&projected, face, params, target, out, counts);
 }
 
@@ -71,7 +73,7 @@ pub(super) fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) ->
 /// `db`) crosses the plane, interpolated from the inside end.
 pub(super) fn cut(a: &ClipVertex, b: &ClipVertex, da: f64, db: f64, k: usize) -> ClipVertex {
     let t = da / (da - db);
-    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default() };
+    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default(), cut: true };
     for n in 0..4 {
         v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
     }

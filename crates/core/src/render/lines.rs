@@ -137,7 +137,10 @@ pub(super) fn line(
         counts.lines_culled += 1;
         return;
     };
-    let (pa, pb) = (a.project(viewport), b.project(viewport));
+    // A vertex's own end as the vertex stage snapped it (where the faces meet it), a point
+    // clipping made on the host.
+    let snap = |v: &ClipVertex| if !v.cut && v.outside == 0 { v.projected } else { v.project(viewport) };
+    let (pa, pb) = (snap(&a), snap(&b));
     let mut attributes = [pa.attributes, if flat { pa.attributes } else { pb.attributes }];
     if let Some(c) = wireframe.colour {
         for v in &mut attributes {

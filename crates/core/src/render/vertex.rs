@@ -3,14 +3,15 @@
 
 use super::instances::{self, Placement};
 use super::lighting::Lighting;
-use super::params::RENDER_SNAP_BITS;
 use super::params::{GREY, IDENTITY, Shading, face_normals};
+use super::params::{GUARD_PX, RENDER_SNAP_BITS};
 use super::vector::{normal_matrix, transform_normal, unit};
 use super::viewport::{Viewport, distance};
 use crate::Error;
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, ProjectedVertex, RelativePosition, VertexParams};
 use tileraster_kernels::math::double::Double;
+use tileraster_kernels::stages::vertex::{MATRIX_LIMIT, POSITION_LIMIT};
 
 /// The kernels' geometry stages as a backend runs them while the host prepares a frame: the
 /// CPU backend's twins, or the device's dispatches, to the same bits.
@@ -28,8 +29,11 @@ pub(super) struct ClipVertex {
     /// Bit `k`: outside clipping plane `k` (`Viewport::planes`).
     pub(super) outside: u8,
     /// What the kernels take of it, when inside every clipping plane (computed once for every
-    /// face that shares it).
+    /// face that shares it: a face that clipping cuts takes its kept corners' as they are, so
+    /// that no crack opens beside them).
     pub(super) projected: Projected,
+    /// A point clipping made: not yet projected (`project` gives it its values).
+    pub(super) cut: bool,
 }
 
 impl ClipVertex {
@@ -37,7 +41,7 @@ impl ClipVertex {
     pub(super) fn new(clip: [f64; 4], attributes: [f64; ATTRIBUTES], viewport: &Viewport) -> Self {
         let planes = viewport.planes();
         let outside = (0..planes.len()).fold(0u8, |m, k| m | u8::from(distance(&planes, k, &clip) < 0.0) << k);
-        ClipVertex { clip, attributes, outside, projected: Projected::default() }
+        ClipVertex { clip, attributes, outside, projected: Projected::default(), cut: false }
     }
 
     /// Its snapped screen position, depth, `1/w` and attributes in `f32`, in `f64` on the host:
@@ -181,11 +185,22 @@ pub(super) fn project_vertices(
     let (lo, hi) = world.par_iter().fold(unbounded, |(lo, hi), p| (min3(lo, *p), max3(hi, *p))).reduce(unbounded, |a, b| (min3(a.0, b.0), max3(a.1, b.1)));
     let origin = if world.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|k| lo[k] / 2.0 + hi[k] / 2.0) };
     let count = u32::try_from(world.len()).map_err(|_| Error::TooManyFaces { faces: world.len() as u64 })?;
-    let params = VertexParams { vertices: count, ..vertex_params(m, origin, viewport) };
+    let Some(params) = vertex_params(m, origin, viewport) else {
+        // A matrix beyond the stage's range (a camera of absurd scale): every vertex on the host.
+        vertices.par_iter_mut().filter(|v| v.outside == 0).for_each(|v| v.projected = v.project(viewport));
+        return Ok(0);
+    };
+    let params = VertexParams { vertices: count, ..params };
+    // Positions beyond the stage's range (or not finite) go as one that it does not project.
+    let beyond = RelativePosition { hi: [POSITION_LIMIT; 3], lo: [0.0; 3] };
     world
         .par_iter()
         .map(|p| {
-            let r = [0, 1, 2].map(|k| Double::from_f64(p[k] - origin[k]));
+            let r = [0, 1, 2].map(|k| p[k] - origin[k]);
+            if !r.iter().all(|v| v.abs() < POSITION_LIMIT as f64) {
+                return beyond;
+            }
+            let r = r.map(Double::from_f64);
             RelativePosition { hi: r.map(|d| d.hi), lo: r.map(|d| d.lo) }
         })
         .collect_into_vec(&mut memory.positions);
@@ -193,8 +208,15 @@ pub(super) fn project_vertices(
     if memory.projected.len() != vertices.len() {
         return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {}", memory.projected.len(), vertices.len())));
     }
+    // The guard band in snapped units: where every vertex inside the planes snaps in `f64`. The
+    // stage's snapped vertex is taken there (an ill-conditioned `w` may put it beyond, where
+    // the edge functions' range is not proven; the host projects such a vertex).
+    let unit = (1u64 << RENDER_SNAP_BITS) as f64;
+    let low = (-GUARD_PX * unit) as i32;
+    let high = viewport.half.map(|h| ((2.0 * h + GUARD_PX) * unit) as i32);
+    let within = |s: [i32; 2]| s[0] >= low && s[1] >= low && s[0] <= high[0] && s[1] <= high[1];
     vertices.par_iter_mut().zip(&memory.projected).filter(|(v, _)| v.outside == 0).for_each(|(v, p)| {
-        v.projected = if p.is_projected() {
+        v.projected = if p.is_projected() && within(p.screen) {
             Projected { screen: (p.screen[0] as i64, p.screen[1] as i64), depth: p.depth, inv_w: p.inverse_w, attributes: v.attributes.map(|a| a as f32) }
         } else {
             v.project(viewport)
@@ -211,21 +233,25 @@ fn max3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|k| a[k].max(b[k]))
 }
 
-/// The vertex stage's parameters: `m · T(origin)` in pairs, the viewport in snapped units.
-fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], viewport: &Viewport) -> VertexParams {
+/// The vertex stage's parameters: `m · T(origin)` in pairs, the viewport in snapped units;
+/// `None` where an entry lies beyond the stage's range.
+fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], viewport: &Viewport) -> Option<VertexParams> {
     let mut composed = *m;
     for row in &mut composed {
         row[3] += row[0] * origin[0] + row[1] * origin[1] + row[2] * origin[2];
     }
+    if !composed.iter().flatten().all(|v| v.abs() < MATRIX_LIMIT as f64) {
+        return None;
+    }
     let pairs = composed.map(|row| row.map(Double::from_f64));
     let unit = (1u64 << RENDER_SNAP_BITS) as f64;
-    VertexParams {
+    Some(VertexParams {
         matrix_hi: pairs.map(|row| row.map(|d| d.hi)),
         matrix_lo: pairs.map(|row| row.map(|d| d.lo)),
         half_units: viewport.half.map(|h| (h * unit) as f32),
         reach: viewport.guard.map(|g| (2.0 * g) as f32),
         ..VertexParams::default()
-    }
+    })
 }
 
 /// The depths of the visible vertices, lowest and highest (the depth view's range).

@@ -9,7 +9,7 @@
 
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ProjectedVertex, RelativePosition, VertexParams};
-use tileraster_kernels::stages::vertex::vertex as project;
+use tileraster_kernels::stages::vertex::{POSITION_LIMIT, vertex as project};
 
 /// The frame's vertices through the vertex stage, into `projected` (its memory reused).
 pub fn vertex(params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) {
@@ -18,14 +18,25 @@ pub fn vertex(params: &VertexParams, positions: &[RelativePosition], projected: 
 }
 
 /// The frame's matrix in `f64`: the value of each pair (exact, or within `2^-53` of it where
-/// the low part lies far below the high one), if every entry is in the range the bound covers.
+/// the low part lies far below the high one), where the bound covers the frame: every entry
+/// in range and a normalised pair, the viewport's sizes finite and not negative.
 pub struct Matrix(Option<[[f64; 4]; 4]>);
 
 impl Matrix {
     pub fn of(params: &VertexParams) -> Matrix {
         let m: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| params.matrix_hi[r][c] as f64 + params.matrix_lo[r][c] as f64));
-        Matrix(m.iter().flatten().all(|v| v.abs() < LARGEST).then_some(m))
+        let entries = (0..16).all(|k| {
+            let (hi, v) = (params.matrix_hi[k / 4][k % 4], m[k / 4][k % 4]);
+            v.abs() < LARGEST && normalised(hi, v)
+        });
+        let sizes = params.half_units.iter().chain(&params.reach).all(|&v| v.is_finite() && v >= 0.0);
+        Matrix((entries && sizes).then_some(m))
     }
+}
+
+/// Whether `hi` is the pair's value rounded to `f32`, as the pairs' bounds assume.
+fn normalised(hi: f32, value: f64) -> bool {
+    value as f32 == hi
 }
 
 /// Relative error of each pair operation of the kernel (sum, product, quotient, scaling), with
@@ -46,9 +57,14 @@ const LARGEST: f64 = (1u128 << 100) as f64;
 
 /// The kernel's result for `position` where `f64` arithmetic proves it, else `None`.
 pub fn exact_in_f64(params: &VertexParams, matrix: &Matrix, position: &RelativePosition) -> Option<ProjectedVertex> {
+    // The kernel's first test, on the same `f32`s.
+    let bounded = |v: f32| v < POSITION_LIMIT && v > -POSITION_LIMIT;
+    if !position.hi.iter().all(|&v| bounded(v)) {
+        return Some(ProjectedVertex::NONE);
+    }
     let matrix = matrix.0.as_ref()?;
     let r: [f64; 3] = std::array::from_fn(|k| position.hi[k] as f64 + position.lo[k] as f64);
-    if !r.iter().all(|v| v.abs() < LARGEST) {
+    if !(0..3).all(|k| normalised(position.hi[k], r[k])) {
         return None;
     }
     // Each row in `f64`, and the sum of its terms' magnitudes, which bounds both results' error.

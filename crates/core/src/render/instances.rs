@@ -12,6 +12,7 @@
 use super::params::{IDENTITY, Mesh};
 use super::vector::multiply;
 use crate::Error;
+use rayon::prelude::*;
 use tileraster_kernels::abi::NO_TEXTURE;
 
 /// One placement of a mesh. A mirroring placement (a transform of negative determinant) keeps
@@ -168,9 +169,15 @@ pub(super) fn instance_to_world(model: &[[f64; 4]; 4], instance: &Instance) -> [
 
 /// The smallest box holding a mesh's positions: `[min, max]`.
 pub(super) fn bounding_box(mesh: &Mesh) -> [[f64; 3]; 2] {
-    mesh.positions
-        .iter()
-        .fold([[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]], |[lo, hi], p| [std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))])
+    bounds(&mesh.positions)
+}
+
+/// The smallest box holding `points`, `[min, max]` (infinite and empty for none), on all cores
+/// (minima and maxima are exact: any order gives the same box).
+pub(super) fn bounds(points: &[[f64; 3]]) -> [[f64; 3]; 2] {
+    let join = |[lo, hi]: [[f64; 3]; 2], [l, h]: [[f64; 3]; 2]| [std::array::from_fn(|k| lo[k].min(l[k])), std::array::from_fn(|k| hi[k].max(h[k]))];
+    let empty = || [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]];
+    points.par_iter().fold(empty, |b, p| join(b, [*p, *p])).reduce(empty, join)
 }
 
 /// Whether a mesh of bounding box `bounds`, placed by `to_world` and seen through

@@ -181,8 +181,7 @@ pub(super) fn project_vertices(
     memory: &mut VertexStageMemory,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<u64, Error> {
-    let unbounded = || ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    let (lo, hi) = world.par_iter().fold(unbounded, |(lo, hi), p| (min3(lo, *p), max3(hi, *p))).reduce(unbounded, |a, b| (min3(a.0, b.0), max3(a.1, b.1)));
+    let [lo, hi] = instances::bounds(world);
     let origin = if world.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|k| lo[k] / 2.0 + hi[k] / 2.0) };
     let count = u32::try_from(world.len()).map_err(|_| Error::TooManyFaces { faces: world.len() as u64 })?;
     let Some(params) = vertex_params(m, origin, viewport) else {
@@ -223,14 +222,6 @@ pub(super) fn project_vertices(
         };
     });
     Ok((std::mem::size_of::<VertexParams>() + std::mem::size_of_val(memory.positions.as_slice())) as u64)
-}
-
-fn min3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|k| a[k].min(b[k]))
-}
-
-fn max3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|k| a[k].max(b[k]))
 }
 
 /// The vertex stage's parameters: `m · T(origin)` in pairs, the viewport in snapped units;

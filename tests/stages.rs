@@ -110,13 +110,13 @@ impl tileraster::render::GeometryKernels for Recorded {
     fn vertex(
         &mut self,
         params: &tileraster_kernels::abi::VertexParams,
-        positions: &[tileraster_kernels::abi::RelativePosition],
+        positions: tileraster_core::render::Positions<'_>,
         projected: &mut Vec<tileraster_kernels::abi::ProjectedVertex>,
-    ) -> Result<(), tileraster::Error> {
+    ) -> Result<u64, tileraster::Error> {
         self.params = Some(*params);
-        self.positions = positions.to_vec();
-        tileraster_cpu::vertex(params, positions, projected);
-        Ok(())
+        self.positions = positions.pairs.to_vec();
+        tileraster_cpu::vertex(params, positions.pairs, projected);
+        Ok(positions.bytes(true))
     }
 }
 
@@ -126,6 +126,7 @@ impl tileraster::render::GeometryKernels for Recorded {
 #[test]
 fn the_vertex_stage_is_the_same_bits_on_both_backends() {
     use tileraster::render::{Camera, GeometryKernels, Projection, RenderParams};
+    use tileraster_core::render::Positions;
     use tileraster_kernels::abi::{ProjectedVertex, RelativePosition};
     if !common::gpu_or_skip("the_vertex_stage_is_the_same_bits_on_both_backends") {
         return;
@@ -148,7 +149,8 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
     let stage = tileraster_kernels::abi::VertexParams { vertices: positions.len() as u32, ..stage };
     let (mut cpu, mut gpu) = (Vec::new(), Vec::new());
     tileraster_cpu::vertex(&stage, &positions, &mut cpu);
-    tileraster_gpu::GeometryDevice.vertex(&stage, &positions, &mut gpu).unwrap();
+    let handed = Positions { pairs: &positions, kept: None };
+    tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, &mut gpu).unwrap();
     let projected = cpu.iter().filter(|p| p.is_projected()).count();
     let refused = cpu.len() - projected;
     println!("{} vertices: {projected} projected, {refused} outside the stage's domain", cpu.len());
@@ -162,12 +164,20 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
         }
     };
     same("in one dispatch", &gpu);
+    // Kept positions: handed over once, then read where the device keeps them.
+    let mut device = tileraster_gpu::GeometryDevice::default();
+    let kept = Positions { pairs: &positions, kept: Some(7) };
+    for (call, handed) in [(1, true), (2, false)] {
+        gpu.clear();
+        assert_eq!(device.vertex(&stage, kept, &mut gpu).unwrap(), kept.bytes(handed), "call {call}");
+        same(&format!("kept, call {call}"), &gpu);
+    }
     // A device that binds fewer positions at once runs the stage in parts: the same bytes.
     let limit = 10_000 * std::mem::size_of::<RelativePosition>() as u64;
     let parts = {
         let _turn = BINDING_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
         tileraster::set_gpu_binding_limit(limit);
-        let parts = tileraster_gpu::GeometryDevice.vertex(&stage, &positions, &mut gpu);
+        let parts = tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, &mut gpu);
         tileraster::set_gpu_binding_limit(u64::MAX);
         parts
     };

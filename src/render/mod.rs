@@ -30,8 +30,8 @@ pub use terrain::dem_mesh;
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
     Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryKernels, GeometryMemory, GeometryPass, IDENTITY, Instance,
-    LaidOutTextures, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading, Texture,
-    Wireframe, World, edges, face_normals, validate_mesh,
+    KeptMesh, LaidOutTextures, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading,
+    Texture, Wireframe, World, edges, face_normals, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};
@@ -195,8 +195,8 @@ impl Frame {
 /// The geometry stages' kernels as `backend` runs them.
 fn geometry_kernels(backend: Backend) -> Box<dyn GeometryKernels> {
     match backend {
-        Backend::Cpu => Box::new(tileraster_cpu::GeometryTwins),
-        Backend::Gpu => Box::new(tileraster_gpu::GeometryDevice),
+        Backend::Cpu => Box::new(tileraster_cpu::GeometryTwins::default()),
+        Backend::Gpu => Box::new(tileraster_gpu::GeometryDevice::default()),
     }
 }
 
@@ -224,7 +224,7 @@ pub fn prepare_render_observed(
 
 /// The geometry stages over every instance of `world` (see [`prepare_render`]).
 pub fn prepare_world(world: &World, params: &RenderParams) -> Result<(tileraster_core::Prepared, GeometryCounts), Error> {
-    tileraster_core::render::prepare_world(world, params, &mut tileraster_cpu::GeometryTwins)
+    tileraster_core::render::prepare_world(world, params, &mut tileraster_cpu::GeometryTwins::default())
 }
 
 /// Render `mesh` as `params` say on `backend`.
@@ -275,9 +275,13 @@ pub struct PreparedMesh {
 #[derive(Default)]
 struct FrameMemory {
     geometry: GeometryMemory,
-    /// The mesh's textures as the last frame laid them out, and the texels each backend was
-    /// handed last (the GPU keeps them on the device).
-    textures: Option<LaidOutTextures>,
+    /// The mesh's textures as the last frame laid them out and its positions as the vertex
+    /// stage takes them; the geometry stages of each backend, which keep what they were handed
+    /// (the GPU's on the device); the texels each backend was handed last (the GPU keeps them
+    /// on the device).
+    kept: KeptMesh,
+    cpu_geometry: tileraster_cpu::GeometryTwins,
+    gpu_geometry: tileraster_gpu::GeometryDevice,
     cpu_texels: Option<std::sync::Arc<Vec<u64>>>,
     gpu_texels: Option<tileraster_gpu::ResidentTexels>,
     /// The CPU's setups and the layers its stages wrote that the frame does not return (the
@@ -311,8 +315,11 @@ impl PreparedMesh {
     pub fn render_into(&mut self, params: &RenderParams, backend: Backend, frame: &mut Frame) -> Result<(), Error> {
         let memory = &mut self.memory;
         let spare = std::mem::take(frame);
-        let (mut prepared, geometry) =
-            tileraster_core::render::prepare_mesh_frame(&self.mesh, params, &mut memory.geometry, &mut memory.textures, geometry_kernels(backend).as_mut())?;
+        let kernels: &mut dyn GeometryKernels = match backend {
+            Backend::Cpu => &mut memory.cpu_geometry,
+            Backend::Gpu => &mut memory.gpu_geometry,
+        };
+        let (mut prepared, geometry) = tileraster_core::render::prepare_mesh_frame(&self.mesh, params, &mut memory.geometry, &mut memory.kept, kernels)?;
         // Texels the backend was handed by the last frame are not handed over again.
         if let Some(render) = prepared.render.as_mut() {
             render.texels_resident = match backend {

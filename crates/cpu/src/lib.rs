@@ -12,8 +12,9 @@ pub use stages::{
 };
 pub use tileraster_kernels::pipeline::StageBuffers;
 
+use tileraster_core::render::Positions;
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
-use tileraster_kernels::abi::{Counter, ProjectedVertex, RelativePosition, TriangleSetup, VertexParams};
+use tileraster_kernels::abi::{Counter, ProjectedVertex, TriangleSetup, VertexParams};
 use tileraster_kernels::pipeline::{Stage, raster_stages};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
@@ -102,14 +103,19 @@ struct WindowBuffers {
 }
 
 /// The geometry stages' twins, which the host's preparation of a frame runs
-/// (`tileraster_core::render::GeometryKernels`).
+/// (`tileraster_core::render::GeometryKernels`). They read a mesh's kept positions where the
+/// host keeps them, and count them handed over once, as the GPU does.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct GeometryTwins;
+pub struct GeometryTwins {
+    /// The key of the kept positions handed over last.
+    held: Option<u64>,
+}
 
 impl tileraster_core::render::GeometryKernels for GeometryTwins {
-    fn vertex(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
-        vertex(params, positions, projected);
-        Ok(())
+    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error> {
+        vertex(params, positions.pairs, projected);
+        let handed = positions.kept.is_none_or(|key| self.held.replace(key) != Some(key));
+        Ok(positions.bytes(handed))
     }
 }
 

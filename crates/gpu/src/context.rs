@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
-use tileraster_core::render::{FragmentStage, GeometryKernels};
+use tileraster_core::render::{FragmentStage, GeometryKernels, Positions};
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
     Counter, FrameFlags, FrameParams, OutputSet, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup,
@@ -177,17 +177,27 @@ pub fn rasterise_profiled(prepared: &Prepared, plan: &Plan, resident: &mut Optio
 
 /// The kernels' geometry stages on the device, as the host prepares a frame
 /// (`tileraster_core::render::GeometryKernels`): each stage's output is read back for the host's
-/// clipping and assembly.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct GeometryDevice;
+/// clipping and assembly. A mesh's kept positions stay on the device between calls (one
+/// `GeometryDevice` a prepared mesh).
+#[derive(Debug, Default)]
+pub struct GeometryDevice {
+    kept: Option<KeptPositions>,
+}
+
+/// A mesh's kept positions on the device, and their key (`Positions::kept`).
+#[derive(Debug)]
+struct KeptPositions {
+    key: u64,
+    buffer: wgpu::Buffer,
+}
 
 impl GeometryKernels for GeometryDevice {
-    fn vertex(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
+    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error> {
         let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
         // The stage's pairs rest on what the `f32` modes rest on: correctly rounded `f32`
         // arithmetic, no contraction, subnormals kept.
         ctx.check_float_modes(Mode::Barycentric)?;
-        ctx.vertex_unchecked(params, positions, projected)
+        ctx.vertex_unchecked(params, positions, &mut self.kept, projected)
     }
 }
 
@@ -244,6 +254,9 @@ struct Buffers {
     colours: Grown,
     faces: Grown,
     readback: Grown,
+    vertex_params: Grown,
+    positions: Grown,
+    projected: Grown,
 }
 
 struct GpuContext {
@@ -373,6 +386,9 @@ impl GpuContext {
             colours: Grown::storage("colours"),
             faces: Grown::storage("faces"),
             readback: Grown::readback("readback"),
+            vertex_params: Grown::storage("vertex parameters"),
+            positions: Grown::storage("relative positions"),
+            projected: Grown::storage("projected vertices"),
         };
         let timestamps = gpu.device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let pipeline_cache = DiskPipelineCache::open(&gpu.device, &gpu.info);
@@ -471,26 +487,63 @@ impl GpuContext {
 
     /// The vertex stage over `positions` into `projected`, without the check of its arithmetic.
     /// Its pipeline is built on first use; the buffers are the frame's own.
-    fn vertex_unchecked(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
+    fn vertex_unchecked(
+        &mut self,
+        params: &VertexParams,
+        positions: Positions<'_>,
+        kept: &mut Option<KeptPositions>,
+        projected: &mut Vec<ProjectedVertex>,
+    ) -> Result<u64, Error> {
         projected.clear();
-        let n = positions.len() as u64;
+        let n = positions.pairs.len();
         if n == 0 {
-            return Ok(());
+            return Ok(positions.bytes(true));
         }
-        // Parts that each fit one binding (and one 2D dispatch).
+        // Parts that each fit one binding (and one 2D dispatch); positions in one part may stay
+        // on the device, more are handed over every call.
         let per_part = (self.max_binding() / std::mem::size_of::<RelativePosition>() as u64).min(MAX_GROUPS as u64 * MAX_GROUPS as u64) as usize;
-        for part in positions.chunks(per_part.max(TRIANGLE_GROUP as usize)) {
-            self.vertex_part(params, part, projected)?;
+        let per_part = per_part.max(TRIANGLE_GROUP as usize);
+        if n > per_part {
+            for part in positions.pairs.chunks(per_part) {
+                let buffer = self.buffers.positions.get(&self.gpu.device, std::mem::size_of_val(part) as u64);
+                self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(part));
+                self.vertex_part(params, part.len() as u64, &buffer, projected)?;
+            }
+            return Ok(positions.bytes(true));
         }
-        Ok(())
+        let (buffer, handed) = match (positions.kept, kept.as_ref()) {
+            (Some(key), Some(held)) if held.key == key => (held.buffer.clone(), false),
+            (key, _) => {
+                let bytes = std::mem::size_of_val(positions.pairs) as u64;
+                let buffer = match key {
+                    // A buffer of its own, kept with the key (the old one dropped first).
+                    Some(_) => {
+                        *kept = None;
+                        self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                            label: Some("kept positions"),
+                            size: bytes.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
+                            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                            mapped_at_creation: false,
+                        })
+                    }
+                    None => self.buffers.positions.get(&self.gpu.device, bytes),
+                };
+                self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(positions.pairs));
+                (buffer, true)
+            }
+        };
+        self.vertex_part(params, n as u64, &buffer, projected)?;
+        // Kept once the stage has run on them (a failed call hands them over again).
+        if let (Some(key), true) = (positions.kept, handed) {
+            *kept = Some(KeptPositions { key, buffer });
+        }
+        Ok(positions.bytes(handed))
     }
 
-    /// [`Self::vertex_unchecked`] over positions that fit one binding, its results appended to
-    /// `projected`.
-    fn vertex_part(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
-        let n = positions.len() as u64;
+    /// The vertex stage over the first `n` positions of `positions` (which fit one binding),
+    /// its results appended to `projected`.
+    fn vertex_part(&mut self, params: &VertexParams, n: u64, positions: &wgpu::Buffer, projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
         let out_bytes = n * std::mem::size_of::<ProjectedVertex>() as u64;
-        let in_bytes = std::mem::size_of_val(positions) as u64;
         let row = STAGES.iter().position(|s| s.stage == Stage::Vertex).expect("the stage table has the vertex stage");
         let build = Build { row, fragment: None, spec: [None; 2] };
         let scope = self.gpu.error_scope();
@@ -513,23 +566,13 @@ impl GpuContext {
         let (x, y) = (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS));
         let params = VertexParams { vertices: n as u32, dispatch_width: x * TRIANGLE_GROUP, ..*params };
         let device = &self.gpu.device;
-        let storage = |label, bytes: u64| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: bytes.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
-        };
-        let params_buf = storage("vertex parameters", std::mem::size_of::<VertexParams>() as u64);
-        let positions_buf = storage("relative positions", in_bytes);
-        let projected_buf = storage("projected vertices", out_bytes);
+        let params_buf = self.buffers.vertex_params.get(device, std::mem::size_of::<VertexParams>() as u64);
+        let projected_buf = self.buffers.projected.get(device, out_bytes);
         self.recorder.upload(&self.gpu.queue, &params_buf, bytemuck::bytes_of(&params));
-        self.recorder.upload(&self.gpu.queue, &positions_buf, bytemuck::cast_slice(positions));
         let mut encoder = device.create_command_encoder(&Default::default());
         let buffers = |buffer| match buffer {
             Buffer::VertexParams => Some(params_buf.clone()),
-            Buffer::Positions => Some(positions_buf.clone()),
+            Buffer::Positions => Some(positions.clone()),
             Buffer::Projected => Some(projected_buf.clone()),
             _ => None,
         };

@@ -63,9 +63,9 @@ pub use validate::validate_mesh;
 use validate::validate_params;
 use vector::{cross, sub, unit};
 pub use vector::{multiply, normal_matrix, transform_normal};
-pub use vertex::GeometryKernels;
 use vertex::depth_range;
 use vertex::{ClipVertex, Projected, VertexStageMemory};
+pub use vertex::{GeometryKernels, MeshPositions, Positions};
 use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
@@ -122,18 +122,27 @@ pub fn prepare_checked_mesh_in(
     prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, None, kernels, &mut |_| {})
 }
 
-/// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left its textures
-/// laid out in `textures`: taken as they are where this frame's filter and address overrides
-/// are theirs (else laid out again and kept). `textures` must hold only this mesh's (a
-/// `PreparedMesh` keeps both together).
+/// What a mesh's frames keep between them for the next: its textures as laid out for the
+/// kernels, and its positions as the vertex stage takes them (which a backend that keeps them,
+/// the GPU, is handed once).
+#[derive(Default)]
+pub struct KeptMesh {
+    textures: Option<LaidOutTextures>,
+    positions: Option<MeshPositions>,
+}
+
+/// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left what they keep
+/// in `kept`: its textures taken as they are where this frame's filter and address overrides
+/// are theirs (else laid out again and kept), its positions as they are. `kept` must hold only
+/// this mesh's (a `PreparedMesh` keeps both together).
 pub fn prepare_mesh_frame(
     mesh: &Mesh,
     params: &RenderParams,
     memory: &mut GeometryMemory,
-    textures: &mut Option<LaidOutTextures>,
+    kept: &mut KeptMesh,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<(Prepared, GeometryCounts), Error> {
-    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(textures), kernels, &mut |_| {})
+    prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(kept), kernels, &mut |_| {})
 }
 
 /// Runs the geometry stages over every instance of `world`.
@@ -188,14 +197,14 @@ pub fn prepare_render_observed(
     prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, &mut GeometryMemory::default(), None, kernels, observe)
 }
 
-/// The geometry stages over instances of checked meshes (`validate_world`); the textures
-/// kept from an earlier frame of the same meshes where `kept_textures` is given.
+/// The geometry stages over instances of checked meshes (`validate_world`); what an earlier
+/// frame of the same mesh kept where `kept` is given.
 pub(crate) fn prepare_instances_in(
     meshes: &[Mesh],
     instances: &[Instance],
     params: &RenderParams,
     memory: &mut GeometryMemory,
-    kept_textures: Option<&mut Option<LaidOutTextures>>,
+    mut kept: Option<&mut KeptMesh>,
     kernels: &mut dyn GeometryKernels,
     observe: &mut dyn FnMut(GeometryPass),
 ) -> Result<(Prepared, GeometryCounts), Error> {
@@ -224,9 +233,9 @@ pub(crate) fn prepare_instances_in(
         first_textures[k] = textures.len() as u32;
         textures.extend(mesh.textures.iter());
     }
-    let laid_out = LaidOutTextures::of(&textures, params.texture_filter, params.texture_address, kept_textures.as_deref().and_then(Option::as_ref))?;
-    if let Some(kept) = kept_textures {
-        *kept = Some(laid_out.clone());
+    let laid_out = LaidOutTextures::of(&textures, params.texture_filter, params.texture_address, kept.as_deref().and_then(|k| k.textures.as_ref()))?;
+    if let Some(kept) = kept.as_deref_mut() {
+        kept.textures = Some(laid_out.clone());
     }
     let LaidOutTextures { infos: texture_infos, texels, .. } = laid_out;
     let mut placements = Vec::with_capacity(instances.len());
@@ -292,6 +301,7 @@ pub(crate) fn prepare_instances_in(
         &mut memory.world,
         &mut memory.vertices,
         &mut memory.vertex_stage,
+        kept.map(|k| &mut k.positions),
         kernels,
     )?;
     let (world, vertices) = (&memory.world[..], &memory.vertices[..]);

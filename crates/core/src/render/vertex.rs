@@ -5,10 +5,11 @@ use super::instances::{self, Placement};
 use super::lighting::Lighting;
 use super::params::{GREY, IDENTITY, Shading, face_normals};
 use super::params::{GUARD_PX, RENDER_SNAP_BITS};
-use super::vector::{normal_matrix, transform_normal, unit};
+use super::vector::{multiply, normal_matrix, transform_normal, unit};
 use super::viewport::{Viewport, distance};
 use crate::Error;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, ProjectedVertex, RelativePosition, VertexParams};
 use tileraster_kernels::math::double::Double;
 use tileraster_kernels::stages::vertex::{MATRIX_LIMIT, POSITION_LIMIT};
@@ -17,8 +18,46 @@ use tileraster_kernels::stages::vertex::{MATRIX_LIMIT, POSITION_LIMIT};
 /// CPU backend's twins, or the device's dispatches, to the same bits.
 pub trait GeometryKernels {
     /// The `vertex` stage (`tileraster_kernels::stages::vertex`) over `positions`, into
-    /// `projected` (one per position; its memory reused).
-    fn vertex(&mut self, params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) -> Result<(), Error>;
+    /// `projected` (one per position; its memory reused). Returns the bytes handed to the
+    /// stage: its parameters, and the positions unless it holds them already (a mesh's kept
+    /// positions, [`Positions::kept`], that it was handed before).
+    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error>;
+}
+
+/// The positions a vertex stage runs over.
+#[derive(Clone, Copy)]
+pub struct Positions<'a> {
+    pub pairs: &'a [RelativePosition],
+    /// `Some`: a mesh's kept positions ([`MeshPositions`]), the same pairs in every call that
+    /// names this key, which a backend may keep between calls (the GPU keeps them on the
+    /// device, so that a prepared mesh's later frames upload none).
+    pub kept: Option<u64>,
+}
+
+impl Positions<'_> {
+    /// The bytes of the stage's input: its parameters and, where `handed`, the positions.
+    pub fn bytes(&self, handed: bool) -> u64 {
+        (std::mem::size_of::<VertexParams>() + if handed { std::mem::size_of_val(self.pairs) } else { 0 }) as u64
+    }
+}
+
+/// A mesh's positions as the vertex stage takes them, relative to the centre of the mesh's
+/// box in the mesh's own coordinates: the same for every frame and placement of the mesh, so
+/// computed once for a prepared mesh and kept (on the GPU, on the device).
+pub struct MeshPositions {
+    origin: [f64; 3],
+    pairs: Vec<RelativePosition>,
+    key: u64,
+}
+
+impl MeshPositions {
+    pub(super) fn of(positions: &[[f64; 3]]) -> Self {
+        static KEYS: AtomicU64 = AtomicU64::new(0);
+        let origin = box_centre(positions);
+        let mut pairs = Vec::new();
+        relative_pairs(positions, origin, &mut pairs);
+        MeshPositions { origin, pairs, key: KEYS.fetch_add(1, Ordering::Relaxed) }
+    }
 }
 
 /// A vertex through the vertex stage: clip-space position and attributes.
@@ -84,7 +123,8 @@ pub(super) fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32;
 /// `vertices` (clip-space vertices with their attributes (colour, normal, world position, texture
 /// coordinates; lit per vertex for Gouraud shading)), kept between frames, on all cores, then
 /// the kernels' vertex stage ([`project_vertices`]; its bytes returned). `mesh_count`: how many
-/// meshes the placements index.
+/// meshes the placements index; `kept`: a prepared mesh's positions for the stage, kept
+/// between its frames.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn transform_vertices(
     mesh_count: usize,
@@ -97,6 +137,7 @@ pub(super) fn transform_vertices(
     world: &mut Vec<[f64; 3]>,
     vertices: &mut Vec<ClipVertex>,
     stage: &mut VertexStageMemory,
+    kept: Option<&mut Option<MeshPositions>>,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<u64, Error> {
     world.clear();
@@ -158,7 +199,56 @@ pub(super) fn transform_vertices(
             *out = ClipVertex::new(clip, attributes, viewport);
         });
     });
-    project_vertices(world, vertices, m, viewport, stage, kernels)
+    // One placement (a mesh, or a world of one instance): the mesh's own positions, relative
+    // to its box's centre, with the placement's transform composed into the matrix, so that a
+    // prepared mesh (`kept`) hands them to the stage once. Several: the world's positions,
+    // relative to their box's centre.
+    let VertexStageMemory { positions, projected } = stage;
+    let (pairs, key, origin, matrix) = match (placements, kept) {
+        ([only], kept) => {
+            let matrix = if only.to_world == IDENTITY { *m } else { multiply(m, &only.to_world) };
+            match kept {
+                Some(kept) => {
+                    let mesh = kept.get_or_insert_with(|| MeshPositions::of(&only.mesh.positions));
+                    (&mesh.pairs[..], Some(mesh.key), mesh.origin, matrix)
+                }
+                None => {
+                    let origin = box_centre(&only.mesh.positions);
+                    relative_pairs(&only.mesh.positions, origin, positions);
+                    (&positions[..], None, origin, matrix)
+                }
+            }
+        }
+        _ => {
+            let origin = box_centre(world);
+            relative_pairs(world, origin, positions);
+            (&positions[..], None, origin, *m)
+        }
+    };
+    project_vertices(Positions { pairs, kept: key }, origin, &matrix, vertices, viewport, projected, kernels)
+}
+
+/// The centre of the points' box (the origin their pairs are taken from).
+fn box_centre(points: &[[f64; 3]]) -> [f64; 3] {
+    let [lo, hi] = instances::bounds(points);
+    if points.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|k| lo[k] / 2.0 + hi[k] / 2.0) }
+}
+
+/// `points − origin` in double-`f32` pairs, into `pairs`; a point beyond the stage's range (or
+/// not finite) goes as one that it does not project.
+fn relative_pairs(points: &[[f64; 3]], origin: [f64; 3], pairs: &mut Vec<RelativePosition>) {
+    let beyond = RelativePosition { hi: [POSITION_LIMIT; 3], lo: [0.0; 3] };
+    points
+        .par_iter()
+        .map(|p| {
+            let r = [0, 1, 2].map(|k| p[k] - origin[k]);
+            if !r.iter().all(|v| v.abs() < POSITION_LIMIT as f64) {
+                return beyond;
+            }
+            let r = r.map(Double::from_f64);
+            RelativePosition { hi: r.map(|d| d.hi), lo: r.map(|d| d.lo) }
+        })
+        .collect_into_vec(pairs);
 }
 
 /// The vertex stage's memory, kept between frames.
@@ -170,42 +260,28 @@ pub(super) struct VertexStageMemory {
 
 /// The vertex stage proper, on the frame's backend (`kernels`): every vertex inside the clipping
 /// planes gets its snapped position, depth and `1/w` from `stages::vertex`. The kernels take
-/// positions relative to the frame's origin (the centre of the vertices' box, subtracted here
-/// in `f64`) in double-`f32` pairs, and the view-projection with the origin composed in.
-/// Returns the bytes handed to the stage.
-pub(super) fn project_vertices(
-    world: &[[f64; 3]],
+/// positions relative to an origin in double-`f32` pairs (`positions`, one per vertex), and
+/// `matrix` (from the positions' space to clip space) with the origin composed in. Returns the
+/// bytes handed to the stage.
+fn project_vertices(
+    positions: Positions<'_>,
+    origin: [f64; 3],
+    matrix: &[[f64; 4]; 4],
     vertices: &mut [ClipVertex],
-    m: &[[f64; 4]; 4],
     viewport: &Viewport,
-    memory: &mut VertexStageMemory,
+    projected: &mut Vec<ProjectedVertex>,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<u64, Error> {
-    let [lo, hi] = instances::bounds(world);
-    let origin = if world.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|k| lo[k] / 2.0 + hi[k] / 2.0) };
-    let count = u32::try_from(world.len()).map_err(|_| Error::TooManyFaces { faces: world.len() as u64 })?;
-    let Some(params) = vertex_params(m, origin, viewport) else {
+    let count = u32::try_from(vertices.len()).map_err(|_| Error::TooManyFaces { faces: vertices.len() as u64 })?;
+    let Some(params) = vertex_params(matrix, origin, viewport) else {
         // A matrix beyond the stage's range (a camera of absurd scale): every vertex on the host.
         vertices.par_iter_mut().filter(|v| v.outside == 0).for_each(|v| v.projected = v.project(viewport));
         return Ok(0);
     };
     let params = VertexParams { vertices: count, ..params };
-    // Positions beyond the stage's range (or not finite) go as one that it does not project.
-    let beyond = RelativePosition { hi: [POSITION_LIMIT; 3], lo: [0.0; 3] };
-    world
-        .par_iter()
-        .map(|p| {
-            let r = [0, 1, 2].map(|k| p[k] - origin[k]);
-            if !r.iter().all(|v| v.abs() < POSITION_LIMIT as f64) {
-                return beyond;
-            }
-            let r = r.map(Double::from_f64);
-            RelativePosition { hi: r.map(|d| d.hi), lo: r.map(|d| d.lo) }
-        })
-        .collect_into_vec(&mut memory.positions);
-    kernels.vertex(&params, &memory.positions, &mut memory.projected)?;
-    if memory.projected.len() != vertices.len() {
-        return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {}", memory.projected.len(), vertices.len())));
+    let bytes = kernels.vertex(&params, positions, projected)?;
+    if projected.len() != vertices.len() {
+        return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {}", projected.len(), vertices.len())));
     }
     // The guard band in snapped units: where every vertex inside the planes snaps in `f64`. The
     // stage's snapped vertex is taken there (an ill-conditioned `w` may put it beyond, where
@@ -214,14 +290,14 @@ pub(super) fn project_vertices(
     let low = (-GUARD_PX * unit) as i32;
     let high = viewport.half.map(|h| ((2.0 * h + GUARD_PX) * unit) as i32);
     let within = |s: [i32; 2]| s[0] >= low && s[1] >= low && s[0] <= high[0] && s[1] <= high[1];
-    vertices.par_iter_mut().zip(&memory.projected).filter(|(v, _)| v.outside == 0).for_each(|(v, p)| {
+    vertices.par_iter_mut().zip(&*projected).filter(|(v, _)| v.outside == 0).for_each(|(v, p)| {
         v.projected = if p.is_projected() && within(p.screen) {
             Projected { screen: (p.screen[0] as i64, p.screen[1] as i64), depth: p.depth, inv_w: p.inverse_w, attributes: v.attributes.map(|a| a as f32) }
         } else {
             v.project(viewport)
         };
     });
-    Ok((std::mem::size_of::<VertexParams>() + std::mem::size_of_val(memory.positions.as_slice())) as u64)
+    Ok(bytes)
 }
 
 /// The vertex stage's parameters: `m · T(origin)` in pairs, the viewport in snapped units;

@@ -47,7 +47,7 @@ mod tests {
     #[test]
     fn bands_change_no_bin() {
         let params = RenderParams { cull: Cull::None, eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(1920, 1080, IDENTITY) };
-        let (prepared, _) = prepare_render(&meshes::fill_layers(8), &params, &mut crate::GeometryTwins).unwrap();
+        let (prepared, _) = prepare_render(&meshes::fill_layers(8), &params, &mut crate::GeometryTwins::default()).unwrap();
         let plan = prepared.plan(prepared.window, false).unwrap();
         let banded = plan.frame(&prepared, plan.active.unwrap());
         assert_eq!((banded.bin_part_rows, banded.bin_parts), (1, banded.tiles_y), "16 triangles take one tile row a band");

@@ -22,7 +22,7 @@ fn hidden_triangles_lose_every_pixel_of_their_tile() {
         let clear_depth = if matches!(func, DepthFunc::Greater | DepthFunc::GreaterEqual) { 0.0 } else { 1.0 };
         let params =
             RenderParams { cull: Cull::None, depth_func: func, clear_depth, eye: Some(Eye::Point([0.0, 0.0, -1.0])), ..RenderParams::new(400, 300, IDENTITY) };
-        let (prepared, _) = prepare_render(&mesh, &params, &mut crate::GeometryTwins).unwrap();
+        let (prepared, _) = prepare_render(&mesh, &params, &mut crate::GeometryTwins::default()).unwrap();
         let plan = prepared.plan(prepared.window, false).unwrap();
         let frame = plan.frame(&prepared, plan.active.unwrap());
         let buffers = crate::stage_buffers(&prepared).unwrap().unwrap();

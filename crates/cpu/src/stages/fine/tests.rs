@@ -190,7 +190,7 @@ fn depth_test_in_lanes_changes_no_bit() {
                         skips,
                         ..RenderParams::new(203, 157, IDENTITY)
                     };
-                    let (prepared, _) = prepare_render(&mesh, &params, &mut crate::GeometryTwins).unwrap();
+                    let (prepared, _) = prepare_render(&mesh, &params, &mut crate::GeometryTwins::default()).unwrap();
                     let plan = prepared.plan(prepared.window, false).unwrap();
                     let frame = plan.frame(&prepared, plan.active.unwrap());
                     let StageBuffers { setups, offsets, bins, .. } = crate::stage_buffers(&prepared).unwrap().unwrap();

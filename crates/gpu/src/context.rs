@@ -577,17 +577,19 @@ impl GpuContext {
             _ => None,
         };
         let frame = FrameParams::default();
-        let encoded = self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &frame, (x, y), &buffers);
-        self.recorder.submit();
-        self.gpu.queue.submit([encoder.finish()]);
-        let raised = scope.finish();
-        encoded?;
-        if let Some(e) = raised {
+        // The dispatch and the read-back in one submission.
+        let read = self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &frame, (x, y), &buffers).and_then(|()| {
+            let readback = self.buffers.readback.get(device, out_bytes);
+            encoder.copy_buffer_to_buffer(&projected_buf, 0, &readback, 0, out_bytes);
+            self.recorder.submit();
+            self.recorder.wait(out_bytes);
+            let collect = |b: &[u8]| projected.extend(bytemuck::pod_collect_to_vec::<u8, ProjectedVertex>(b));
+            self.gpu.submit_and_read(encoder, &readback, out_bytes, collect).map_err(Error::Gpu)
+        });
+        if let Some(e) = scope.finish() {
             return Err(Error::Gpu(format!("the vertex stage: {e}")));
         }
-        let bytes = self.read_buffer(&projected_buf, out_bytes)?;
-        projected.extend(bytemuck::pod_collect_to_vec::<u8, ProjectedVertex>(&bytes));
-        Ok(())
+        read
     }
 
     /// [`Self::rasterise`] without the check of the `f32` modes.

@@ -140,6 +140,12 @@ fn culling_instances_changes_no_bit() {
             assert_same_layers(&format!("{cull:?}: CPU vs GPU"), &a, &g);
             assert_eq!(a.stats, g.stats, "{cull:?}: statistics");
         }
+        // One instance left by the culling: still a world's frame, the same bits as without it.
+        let two = World { instances: vec![world.instances[3], world.instances[899]], ..world.clone() };
+        let (a, b) = (frame(&two, &on, Backend::Cpu), frame(&two, &off, Backend::Cpu));
+        assert_eq!((a.stats.geometry.instances_drawn, a.stats.geometry.instances_culled), (1, 1), "{cull:?}");
+        assert_same_layers(&format!("{cull:?}: one instance left, culling on vs off"), &a, &b);
+        assert!(a.stats.pixels_covered > 100, "{cull:?}: the instance left is on the screen");
     }
 }
 

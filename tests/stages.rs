@@ -164,23 +164,41 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
         }
     };
     same("in one dispatch", &gpu);
-    // Kept positions: handed over once, then read where the device keeps them.
+    // Kept positions: handed over once, then read where the device keeps them; other
+    // positions under another key (as many) replace them.
     let mut device = tileraster_gpu::GeometryDevice::default();
     let kept = Positions { pairs: &positions, kept: Some(7) };
     for (call, handed) in [(1, true), (2, false)] {
-        gpu.clear();
         assert_eq!(device.vertex(&stage, kept, &mut gpu).unwrap(), kept.bytes(handed), "call {call}");
         same(&format!("kept, call {call}"), &gpu);
     }
+    let reversed: Vec<RelativePosition> = positions.iter().rev().copied().collect();
+    let other = Positions { pairs: &reversed, kept: Some(8) };
+    assert_eq!(device.vertex(&stage, other, &mut gpu).unwrap(), other.bytes(true));
+    let mut cpu_reversed = Vec::new();
+    tileraster_cpu::vertex(&stage, &reversed, &mut cpu_reversed);
+    assert!(bytes(&gpu) == bytes(&cpu_reversed), "another mesh's kept positions: the stage read stale ones");
     // A device that binds fewer positions at once runs the stage in parts: the same bytes.
     let limit = 10_000 * std::mem::size_of::<RelativePosition>() as u64;
     let parts = {
         let _turn = BINDING_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
         tileraster::set_gpu_binding_limit(limit);
         let parts = tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, &mut gpu);
+        // Kept in parts: handed over once too.
+        let mut device = tileraster_gpu::GeometryDevice::default();
+        let kept_parts = [true, false].map(|handed| {
+            let mut out = Vec::new();
+            let counted = device.vertex(&stage, kept, &mut out).map(|b| b == kept.bytes(handed));
+            (counted, out)
+        });
         tileraster::set_gpu_binding_limit(u64::MAX);
-        parts
+        (parts, kept_parts)
     };
+    let (parts, kept_parts) = parts;
     parts.unwrap();
     same("in ten parts", &gpu);
+    for (call, (counted, out)) in kept_parts.into_iter().enumerate() {
+        assert!(counted.unwrap(), "kept in parts, call {call}: bytes counted");
+        same(&format!("kept in parts, call {call}"), &out);
+    }
 }

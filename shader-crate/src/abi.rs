@@ -864,7 +864,7 @@ pub struct VertexParams {
     pub _pad: [u32; 2],
 }
 
-/// A vertex's position relative to the frame's origin, each coordinate as the double-`f32`
+/// A vertex's position relative to the stage's origin, each coordinate as the double-`f32`
 /// pair `hi + lo`.
 #[repr(C)]
 #[derive(Copy, Clone, Default)]

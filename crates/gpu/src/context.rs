@@ -184,11 +184,13 @@ pub struct GeometryDevice {
     kept: Option<KeptPositions>,
 }
 
-/// A mesh's kept positions on the device, and their key (`Positions::kept`).
+/// A mesh's kept positions on the device, in parts of `per_part` positions (each fits one
+/// binding), and their key (`Positions::kept`).
 #[derive(Debug)]
 struct KeptPositions {
     key: u64,
-    buffer: wgpu::Buffer,
+    per_part: usize,
+    buffers: Vec<wgpu::Buffer>,
 }
 
 impl GeometryKernels for GeometryDevice {
@@ -486,7 +488,8 @@ impl GpuContext {
     }
 
     /// The vertex stage over `positions` into `projected`, without the check of its arithmetic.
-    /// Its pipeline is built on first use; the buffers are the frame's own.
+    /// Its pipeline is built on first use; its buffers are kept between calls, and a mesh's
+    /// kept positions (`Positions::kept`) stay on the device in `kept`.
     fn vertex_unchecked(
         &mut self,
         params: &VertexParams,
@@ -495,49 +498,56 @@ impl GpuContext {
         projected: &mut Vec<ProjectedVertex>,
     ) -> Result<u64, Error> {
         projected.clear();
-        let n = positions.pairs.len();
-        if n == 0 {
+        if positions.pairs.is_empty() {
             return Ok(positions.bytes(true));
         }
-        // Parts that each fit one binding (and one 2D dispatch); positions in one part may stay
-        // on the device, more are handed over every call.
+        // Parts that each fit one binding (and one 2D dispatch).
         let per_part = (self.max_binding() / std::mem::size_of::<RelativePosition>() as u64).min(MAX_GROUPS as u64 * MAX_GROUPS as u64) as usize;
         let per_part = per_part.max(TRIANGLE_GROUP as usize);
-        if n > per_part {
-            for part in positions.pairs.chunks(per_part) {
-                let buffer = self.buffers.positions.get(&self.gpu.device, std::mem::size_of_val(part) as u64);
-                self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(part));
-                self.vertex_part(params, part.len() as u64, &buffer, projected)?;
+        let parts: Vec<&[RelativePosition]> = positions.pairs.chunks(per_part).collect();
+        if let (Some(key), Some(held)) = (positions.kept, kept.as_ref())
+            && held.key == key
+            && held.per_part == per_part
+        {
+            let buffers = held.buffers.clone();
+            for (part, buffer) in parts.iter().zip(&buffers) {
+                self.vertex_part(params, part.len() as u64, buffer, projected)?;
             }
-            return Ok(positions.bytes(true));
+            return Ok(positions.bytes(false));
         }
-        let (buffer, handed) = match (positions.kept, kept.as_ref()) {
-            (Some(key), Some(held)) if held.key == key => (held.buffer.clone(), false),
-            (key, _) => {
-                let bytes = std::mem::size_of_val(positions.pairs) as u64;
-                let buffer = match key {
-                    // A buffer of its own, kept with the key (the old one dropped first).
-                    Some(_) => {
-                        *kept = None;
-                        self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                            label: Some("kept positions"),
-                            size: bytes.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
-                            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                            mapped_at_creation: false,
-                        })
-                    }
+        // Handed over: into buffers of their own where they are kept (the old ones dropped
+        // first), else into the stage's buffer, part by part. Kept only once the stage has run
+        // on them with no error raised (a failed call hands them over again).
+        *kept = None;
+        let scope = self.gpu.error_scope();
+        let mut own = Vec::new();
+        let mut run = || -> Result<(), Error> {
+            for part in &parts {
+                let bytes = std::mem::size_of_val(*part) as u64;
+                let buffer = match positions.kept {
+                    Some(_) => self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("kept positions"),
+                        size: bytes.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    }),
                     None => self.buffers.positions.get(&self.gpu.device, bytes),
                 };
-                self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(positions.pairs));
-                (buffer, true)
+                self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(part));
+                self.vertex_part(params, part.len() as u64, &buffer, projected)?;
+                own.push(buffer);
             }
+            Ok(())
         };
-        self.vertex_part(params, n as u64, &buffer, projected)?;
-        // Kept once the stage has run on them (a failed call hands them over again).
-        if let (Some(key), true) = (positions.kept, handed) {
-            *kept = Some(KeptPositions { key, buffer });
+        let ran = run();
+        if let Some(e) = scope.finish() {
+            return Err(Error::Gpu(format!("the vertex stage's positions: {e}")));
         }
-        Ok(positions.bytes(handed))
+        ran?;
+        if let Some(key) = positions.kept {
+            *kept = Some(KeptPositions { key, per_part, buffers: own });
+        }
+        Ok(positions.bytes(true))
     }
 
     /// The vertex stage over the first `n` positions of `positions` (which fit one binding),
@@ -584,7 +594,7 @@ impl GpuContext {
             self.recorder.submit();
             self.recorder.wait(out_bytes);
             let collect = |b: &[u8]| projected.extend(bytemuck::pod_collect_to_vec::<u8, ProjectedVertex>(b));
-            self.gpu.submit_and_read(encoder, &readback, out_bytes, collect).map_err(Error::Gpu)
+            self.gpu.submit_and_read(encoder, &readback, out_bytes, collect).map_err(|e| Error::Gpu(format!("the vertex stage: {e}")))
         });
         if let Some(e) = scope.finish() {
             return Err(Error::Gpu(format!("the vertex stage: {e}")));

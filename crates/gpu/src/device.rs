@@ -73,14 +73,16 @@ impl Gpu {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("waiting for the GPU failed: {e}"))?;
-        rx.recv().map_err(|_| "the readback was dropped".to_string())?.map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
-        {
+        let mapped = (|| {
+            self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("waiting for the GPU failed: {e}"))?;
+            rx.recv().map_err(|_| "the readback was dropped".to_string())?.map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
             let view = slice.get_mapped_range().map_err(|e| format!("mapping the readback buffer failed: {e}"))?;
             read(&view);
-        }
+            Ok(())
+        })();
+        // Unmapped on every way out: the buffer is read back into again by later calls.
         readback.unmap();
-        Ok(())
+        mapped
     }
 }
 

@@ -12,8 +12,8 @@ use crate::abi::{ProjectedVertex, RelativePosition, VertexParams};
 use crate::math::double::Double;
 use crate::stages::viewport;
 
-/// `m · (r, 1)`: a position relative to the frame's origin to clip space, `m` row-major with
-/// the origin composed in.
+/// `m · (r, 1)`: a position relative to the stage's origin (the host's choice: the centre of
+/// the positions' box) to clip space, `m` row-major with the origin composed in.
 #[inline]
 pub fn to_clip(m: &[[Double; 4]; 4], r: &[Double; 3]) -> [Double; 4] {
     let mut clip = [Double::ZERO; 4];
@@ -26,7 +26,7 @@ pub fn to_clip(m: &[[Double; 4]; 4], r: &[Double; 3]) -> [Double; 4] {
     clip
 }
 
-/// The largest position (relative to the frame's origin) the stage projects, and the largest
+/// The largest position (relative to the stage's origin) the stage projects, and the largest
 /// matrix entry the host hands it: products and sums then stay far from `f32`'s overflow (and
 /// the Veltkamp splits' `2^115`), so no infinity or NaN ever enters the arithmetic, whose
 /// handling of them Vulkan leaves to the driver. The host sends only finite values.

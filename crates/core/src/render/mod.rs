@@ -301,6 +301,7 @@ pub(crate) fn prepare_instances_in(
         &mut memory.world,
         &mut memory.vertices,
         &mut memory.vertex_stage,
+        instances.len() == 1,
         kept.map(|k| &mut k.positions),
         kernels,
     )?;

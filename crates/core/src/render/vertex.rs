@@ -123,8 +123,9 @@ pub(super) fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32;
 /// `vertices` (clip-space vertices with their attributes (colour, normal, world position, texture
 /// coordinates; lit per vertex for Gouraud shading)), kept between frames, on all cores, then
 /// the kernels' vertex stage ([`project_vertices`]; its bytes returned). `mesh_count`: how many
-/// meshes the placements index; `kept`: a prepared mesh's positions for the stage, kept
-/// between its frames.
+/// meshes the placements index; `one_instance`: whether the world has one instance (then
+/// placed in `placements`); `kept`: a prepared mesh's positions for the stage, kept between
+/// its frames.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn transform_vertices(
     mesh_count: usize,
@@ -137,6 +138,7 @@ pub(super) fn transform_vertices(
     world: &mut Vec<[f64; 3]>,
     vertices: &mut Vec<ClipVertex>,
     stage: &mut VertexStageMemory,
+    one_instance: bool,
     kept: Option<&mut Option<MeshPositions>>,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<u64, Error> {
@@ -199,13 +201,13 @@ pub(super) fn transform_vertices(
             *out = ClipVertex::new(clip, attributes, viewport);
         });
     });
-    // One placement (a mesh, or a world of one instance): the mesh's own positions, relative
-    // to its box's centre, with the placement's transform composed into the matrix, so that a
-    // prepared mesh (`kept`) hands them to the stage once. Several: the world's positions,
-    // relative to their box's centre.
+    // A world of one instance (a mesh): the mesh's own positions, relative to its box's centre,
+    // with the placement's transform composed into the matrix, so that a prepared mesh (`kept`)
+    // hands them to the stage once. Several instances: the world's positions, relative to their
+    // box's centre, however many the culling keeps (which changes no bit).
     let VertexStageMemory { positions, projected } = stage;
     let (pairs, key, origin, matrix) = match (placements, kept) {
-        ([only], kept) => {
+        ([only], kept) if one_instance => {
             let matrix = if only.to_world == IDENTITY { *m } else { multiply(m, &only.to_world) };
             match kept {
                 Some(kept) => {
@@ -241,7 +243,8 @@ fn relative_pairs(points: &[[f64; 3]], origin: [f64; 3], pairs: &mut Vec<Relativ
     points
         .par_iter()
         .map(|p| {
-            let r = [0, 1, 2].map(|k| p[k] - origin[k]);
+            // `+ 0.0`: a −0 coordinate goes as +0, as it does through a transform.
+            let r = [0, 1, 2].map(|k| p[k] - origin[k] + 0.0);
             if !r.iter().all(|v| v.abs() < POSITION_LIMIT as f64) {
                 return beyond;
             }

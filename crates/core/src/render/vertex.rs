@@ -206,28 +206,21 @@ pub(super) fn transform_vertices(
     // hands them to the stage once. Several instances: the world's positions, relative to their
     // box's centre, however many the culling keeps (which changes no bit).
     let VertexStageMemory { positions, projected } = stage;
-    let (pairs, key, origin, matrix) = match (placements, kept) {
-        ([only], kept) if one_instance => {
+    let (points, matrix) = match placements {
+        [only] if one_instance => {
             let matrix = if only.to_world == IDENTITY { *m } else { multiply(m, &only.to_world) };
-            match kept {
-                Some(kept) => {
-                    let mesh = kept.get_or_insert_with(|| MeshPositions::of(&only.mesh.positions));
-                    (&mesh.pairs[..], Some(mesh.key), mesh.origin, matrix)
-                }
-                None => {
-                    let origin = box_centre(&only.mesh.positions);
-                    relative_pairs(&only.mesh.positions, origin, positions);
-                    (&positions[..], None, origin, matrix)
-                }
+            if let Some(kept) = kept {
+                let mesh = kept.get_or_insert_with(|| MeshPositions::of(&only.mesh.positions));
+                let handed = Positions { pairs: &mesh.pairs, kept: Some(mesh.key) };
+                return project_vertices(handed, mesh.origin, &matrix, vertices, viewport, projected, kernels);
             }
+            (&only.mesh.positions[..], matrix)
         }
-        _ => {
-            let origin = box_centre(world);
-            relative_pairs(world, origin, positions);
-            (&positions[..], None, origin, *m)
-        }
+        _ => (&world[..], *m),
     };
-    project_vertices(Positions { pairs, kept: key }, origin, &matrix, vertices, viewport, projected, kernels)
+    let origin = box_centre(points);
+    relative_pairs(points, origin, positions);
+    project_vertices(Positions { pairs: positions, kept: None }, origin, &matrix, vertices, viewport, projected, kernels)
 }
 
 /// The centre of the points' box (the origin their pairs are taken from).

@@ -485,8 +485,20 @@ fn blending_is_in_submission_order_on_both_backends() {
                         }
                         let d = depth_bits(s, i, j);
                         if (DepthProgram { func: depth_func, write: true, clear: running, small_edges: false }).passes(f32::from_bits(d)) {
-                            colour =
-                                source_over(fragment_colour(&render.params, s, &render.triangles[slot], &render.textures, &render.texels, d, i, j), colour);
+                            colour = source_over(
+                                fragment_colour(
+                                    &render.params,
+                                    s,
+                                    &render.triangles[slot],
+                                    render.triangles[slot].face,
+                                    &render.textures,
+                                    &render.texels,
+                                    d,
+                                    i,
+                                    j,
+                                ),
+                                colour,
+                            );
                             layers += 1;
                             if depth_write {
                                 running = f32::from_bits(d);

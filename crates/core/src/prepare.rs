@@ -16,7 +16,7 @@
 
 use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{DepthTest, FloatCoeffs, OutputSet, PixelRect, Plane, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{DepthTest, FloatCoeffs, OutputSet, PixelRect, Plane, RecordsAndFaces, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::pipeline::Pipeline;
@@ -96,6 +96,9 @@ pub struct Prepared {
 pub struct RenderInputs {
     /// One per prepared triangle, in the same order (setup slots).
     pub triangles: Vec<TriangleShading>,
+    /// Each one's `face` again (`faces[k] == triangles[k].face`), compact: the CPU's shade stage
+    /// reads a pixel's face here (`abi::RecordsAndFaces`).
+    pub faces: Vec<u32>,
     pub params: ShadeParams,
     pub depth_test: DepthTest,
     /// The frame's textures and their texels (`programs::texture`), the texels shared with
@@ -111,6 +114,14 @@ pub struct RenderInputs {
     /// write both in any case.
     pub returns_colour: bool,
     pub returns_depth: bool,
+}
+
+impl RenderInputs {
+    /// The shading records as the CPU's shade stages read them: with the faces apart.
+    pub fn records(&self) -> RecordsAndFaces<'_> {
+        debug_assert_eq!(self.faces.len(), self.triangles.len(), "a face per record");
+        RecordsAndFaces { records: &self.triangles, faces: &self.faces }
+    }
 }
 
 impl Prepared {

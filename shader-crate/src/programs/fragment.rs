@@ -19,7 +19,8 @@ use crate::abi::{ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ShadeParams, TextureInfo, 
 use crate::programs::shade::{base_colour, colour_at, fragment_colour, interpolate, interpolate3, normalise, rgba8, weights};
 
 /// How the shade stage colours a fragment: triangle `(s, t)` at pixel `(i, j)`, of depth
-/// `depth_bits`, as RGBA8 (red in the low byte).
+/// `depth_bits`, as RGBA8 (red in the low byte). `face` is `t.face` as the backend keeps it
+/// (`ShadingRecords::face`): a program that needs nothing else of `t` reads no record.
 pub trait FragmentProgram {
     #[allow(clippy::too_many_arguments)]
     fn colour(
@@ -27,6 +28,7 @@ pub trait FragmentProgram {
         params: &ShadeParams,
         s: &TriangleSetup,
         t: &TriangleShading,
+        face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
         depth_bits: u32,
@@ -46,13 +48,14 @@ impl FragmentProgram for Builtin {
         params: &ShadeParams,
         s: &TriangleSetup,
         t: &TriangleShading,
+        face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
         depth_bits: u32,
         i: i32,
         j: i32,
     ) -> u32 {
-        fragment_colour(params, s, t, textures, texels, depth_bits, i, j)
+        fragment_colour(params, s, t, face, textures, texels, depth_bits, i, j)
     }
 }
 
@@ -85,13 +88,14 @@ pub struct Fragment {
 }
 
 impl Fragment {
-    /// Triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`.
+    /// Triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`; `face` is `t.face`.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub fn at(
         params: &ShadeParams,
         s: &TriangleSetup,
         t: &TriangleShading,
+        face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
         depth_bits: u32,
@@ -102,7 +106,7 @@ impl Fragment {
         Fragment {
             pixel: [i, j],
             depth: f32::from_bits(depth_bits),
-            face: t.face,
+            face,
             flags: t.flags,
             position: interpolate3(t, &b, ATTR_POSITION),
             normal: normalise(interpolate3(t, &b, ATTR_NORMAL)),
@@ -130,13 +134,14 @@ impl<S: FragmentShader> FragmentProgram for Programmed<S> {
         params: &ShadeParams,
         s: &TriangleSetup,
         t: &TriangleShading,
+        face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
         depth_bits: u32,
         i: i32,
         j: i32,
     ) -> u32 {
-        rgba8(self.0.shade(&Fragment::at(params, s, t, textures, texels, depth_bits, i, j), params))
+        rgba8(self.0.shade(&Fragment::at(params, s, t, face, textures, texels, depth_bits, i, j), params))
     }
 }
 

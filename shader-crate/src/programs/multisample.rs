@@ -239,7 +239,7 @@ pub fn resolve_samples<F: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
 ) -> Resolved {
     let shade = |slot: u32| {
         let setup = &setups[slot as usize];
-        fragment.colour(params, setup, &shading.record(slot), textures, texels, depth_bits(setup, i, j), i, j)
+        fragment.colour(params, setup, &shading.record(slot), shading.face(slot), textures, texels, depth_bits(setup, i, j), i, j)
     };
     let colours = sample_colours(shade, params.background, states, samples);
     let (mut r, mut g, mut b, mut a) = (0u32, 0u32, 0u32, 0u32);
@@ -265,7 +265,7 @@ pub fn resolve_samples<F: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
     } else {
         program.clear.to_bits()
     };
-    Resolved { colour, face: shading.record(slot).face, slot, depth }
+    Resolved { colour, face: shading.face(slot), slot, depth }
 }
 
 /// Each sample's colour: its owner's, `shade(slot)`, evaluated once per owner; `background`

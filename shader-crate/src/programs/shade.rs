@@ -294,6 +294,7 @@ pub fn fragment_colour(
     params: &ShadeParams,
     s: &TriangleSetup,
     t: &TriangleShading,
+    face: u32,
     textures: &[TextureInfo],
     texels: &[u64],
     depth_bits: u32,
@@ -310,7 +311,7 @@ pub fn fragment_colour(
             let g = 1.0 - (f32::from_bits(depth_bits) - params.depth_view[0]) * params.depth_view[1];
             return rgba8([g, g, g, 1.0]);
         }
-        ShadeMode::Ids => return id_colour(t.face),
+        ShadeMode::Ids => return id_colour(face),
         ShadeMode::Colour | ShadeMode::Phong | ShadeMode::Normals => {}
     }
     let b = weights(s, t, params, i, j);
@@ -399,9 +400,10 @@ pub fn shaded_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
         if blend && !(DepthProgram { clear: running, ..test }).passes(f32::from_bits(d)) {
             continue;
         }
-        let t = &shading.record(next);
-        let colour = program.colour(params, s, t, textures, texels, d, i, j);
-        out = Shaded { colour: if blend { source_over(colour, out.colour) } else { colour }, face: t.face };
+        // The face from where the backend keeps it: a face-id frame reads no more of the record.
+        let face = shading.face(next);
+        let colour = program.colour(params, s, &shading.record(next), face, textures, texels, d, i, j);
+        out = Shaded { colour: if blend { source_over(colour, out.colour) } else { colour }, face };
         if blend && write {
             running = f32::from_bits(d);
         }

@@ -14,7 +14,7 @@ pub(super) struct FaceTag {
 /// counts a chunk's, the second writes them into the chunk's place in the frame's arrays.
 pub(super) enum Emit<'a> {
     Count(usize),
-    Fill { triangles: &'a mut [TriangleInput], shading: &'a mut [TriangleShading], next: usize, first_slot: usize },
+    Fill { triangles: &'a mut [TriangleInput], shading: &'a mut [TriangleShading], faces: &'a mut [u32], next: usize, first_slot: usize },
 }
 
 impl Emit<'_> {
@@ -33,10 +33,11 @@ impl Emit<'_> {
     pub(super) fn put(&mut self, make: impl FnOnce() -> (TriangleInput, TriangleShading)) {
         match self {
             Emit::Count(n) => *n += 1,
-            Emit::Fill { triangles, shading, next, first_slot } => {
+            Emit::Fill { triangles, shading, faces, next, first_slot } => {
                 let (t, s) = make();
                 // The setup slot is the index: the depth key's tie-break and the owner layer's value.
                 triangles[*next] = TriangleInput { index: (*first_slot + *next) as u32, ..t };
+                faces[*next] = s.face;
                 shading[*next] = s;
                 *next += 1;
             }

@@ -99,6 +99,7 @@ pub struct GeometryMemory {
     vertices: Vec<ClipVertex>,
     triangles: Vec<TriangleInput>,
     shading: Vec<TriangleShading>,
+    faces: Vec<u32>,
     vertex_stage: VertexStageMemory,
 }
 
@@ -108,6 +109,7 @@ impl GeometryMemory {
         self.triangles = prepared.triangles;
         if let Some(render) = prepared.render {
             self.shading = render.triangles;
+            self.faces = render.faces;
         }
     }
 }
@@ -424,13 +426,15 @@ pub(crate) fn prepare_instances_in(
     let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
     let mut triangles = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.triangles)), total).map_err(out_of_memory)?;
     let mut shading = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.shading)), total).map_err(out_of_memory)?;
+    let mut faces = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.faces)), total).map_err(out_of_memory)?;
     let mut parts = Vec::with_capacity(counted.len());
-    let (mut rest_t, mut rest_s, mut first_slot) = (&mut triangles[..], &mut shading[..], 0);
+    let (mut rest_t, mut rest_s, mut rest_f, mut first_slot) = (&mut triangles[..], &mut shading[..], &mut faces[..], 0);
     for &(n, _) in &counted {
         let (t, tail_t) = rest_t.split_at_mut(n);
         let (s, tail_s) = rest_s.split_at_mut(n);
-        parts.push(Emit::Fill { triangles: t, shading: s, next: 0, first_slot });
-        (rest_t, rest_s, first_slot) = (tail_t, tail_s, first_slot + n);
+        let (f, tail_f) = rest_f.split_at_mut(n);
+        parts.push(Emit::Fill { triangles: t, shading: s, faces: f, next: 0, first_slot });
+        (rest_t, rest_s, rest_f, first_slot) = (tail_t, tail_s, tail_f, first_slot + n);
     }
     chunks.par_iter().enumerate().zip(parts).for_each(|((c, piece), mut emit)| {
         chunk(piece, &mut emit, &mut GeometryCounts::default());
@@ -467,6 +471,7 @@ pub(crate) fn prepare_instances_in(
         overlap_free_rows: None,
         render: Some(RenderInputs {
             triangles: shading,
+            faces,
             params: shade,
             depth_test: DepthTest::new(params.depth_func, params.depth_write),
             textures: texture_infos,

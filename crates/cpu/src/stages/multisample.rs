@@ -80,7 +80,7 @@ fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(
                             params,
                             &program,
                             setups,
-                            &inputs.triangles[..],
+                            &inputs.records(),
                             &inputs.textures,
                             &inputs.texels,
                             &states[lid as usize],

@@ -42,7 +42,7 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(
     bins: &[u32],
     raster: &mut Raster,
 ) {
-    let (params, shading) = (&inputs.params, &inputs.triangles[..]);
+    let (params, shading) = (&inputs.params, &inputs.records());
     let (textures, texels) = (&inputs.textures[..], &inputs.texels[..]);
     let stride = raster.window.width as usize;
     let (x0, y0) = (raster.window.x0, raster.window.y0);

@@ -71,7 +71,6 @@ use viewport::{Target, Viewport};
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, DepthTest, Interpolation, TriangleInput, TriangleShading};
-use tileraster_kernels::stages::setup::edges_fit_i32;
 
 /// Faces per task of the geometry stages; tasks keep face order.
 const CHUNK: usize = 1 << 12;
@@ -433,20 +432,27 @@ pub(crate) fn prepare_instances_in(
         let (t, tail_t) = rest_t.split_at_mut(n);
         let (s, tail_s) = rest_s.split_at_mut(n);
         let (f, tail_f) = rest_f.split_at_mut(n);
-        parts.push(Emit::Fill { triangles: t, shading: s, faces: f, next: 0, first_slot });
+        parts.push(Emit::Fill { triangles: t, shading: s, faces: f, next: 0, first_slot, small_edges: true });
         (rest_t, rest_s, rest_f, first_slot) = (tail_t, tail_s, tail_f, first_slot + n);
     }
-    chunks.par_iter().enumerate().zip(parts).for_each(|((c, piece), mut emit)| {
-        chunk(piece, &mut emit, &mut GeometryCounts::default());
-        debug_assert_eq!(emit.count(), counted[c].0, "the filling pass puts what the counting pass counted");
-    });
+    // (Folded with `reduce`, which fills every chunk, where `all` would stop at the first false.)
+    let small_edges = chunks
+        .par_iter()
+        .enumerate()
+        .zip(parts)
+        .map(|((c, piece), mut emit)| {
+            chunk(piece, &mut emit, &mut GeometryCounts::default());
+            debug_assert_eq!(emit.count(), counted[c].0, "the filling pass puts what the counting pass counted");
+            emit.small_edges()
+        })
+        .reduce(|| true, |a, b| a && b);
     observe(GeometryPass::AssembleFill);
     let mut counts = counts;
     counts.rasterised = total as u64;
     let mut shade = lighting.shade_params(depth_range(vertices));
     shade.textured = u32::from(!texture_infos.is_empty());
     // Whether the stages may take every edge function in 32-bit arithmetic.
-    shade.small_edges = u32::from(triangles.par_iter().all(|t| edges_fit_i32(t, RENDER_SNAP_BITS)));
+    shade.small_edges = u32::from(small_edges);
     // Multisampled tiles take neither path: both speak of pixel centres.
     let skips = Skips { full_tiles: false, overlap_free: false, hidden_triangles: params.skips.hidden_triangles && params.samples == 1, ..params.skips };
     let grid_params = Params {

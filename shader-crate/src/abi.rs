@@ -681,8 +681,8 @@ pub trait ShadingRecords {
     where
         Self: 'a;
     fn record(&self, slot: u32) -> Self::Record<'_>;
-    /// The record's `face`, which a backend may keep apart: the face-id view and the face layer
-    /// read nothing else of a record.
+    /// The record's `face`, which a backend may keep apart, so that on the CPU the face-id view
+    /// and the face layer read nothing else of a record (the GPU reads the record's word).
     fn face(&self, slot: u32) -> u32;
 }
 
@@ -701,8 +701,8 @@ impl ShadingRecords for [TriangleShading] {
 /// The records with their faces also kept apart, one per slot (`faces[k] == records[k].face`),
 /// as the host's geometry stages write them: where a pixel needs only its face (the face-id
 /// view, and the face layer in every view), the CPU's shade stage reads 4 bytes of a compact
-/// array instead of a cache line of the 176-byte records (17.6 MB for 100k triangles, out of
-/// any cache: 14 % of a 1080p face-id frame of the 100k-triangle terrain went to that miss).
+/// array instead of a cache line of the 176-byte records (17.6 MB for 100k triangles: a sixth
+/// of a 1080p face-id frame of the 100k-triangle terrain went to that cache miss).
 #[cfg(not(target_arch = "spirv"))]
 #[derive(Clone, Copy)]
 pub struct RecordsAndFaces<'a> {

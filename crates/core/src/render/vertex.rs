@@ -143,7 +143,7 @@ pub(super) fn transform_vertices(
     kernels: &mut dyn GeometryKernels,
 ) -> Result<u64, Error> {
     // Every entry is overwritten below: the last frame's are kept as they are, and only the
-    // entries beyond them filled first (a prepared mesh's frames fill none: 11.5 MB of stores
+    // entries beyond them filled first (a prepared mesh's frames fill none: about 12 MB of stores
     // a frame for the 100k-triangle terrain).
     world.truncate(count);
     vertices.truncate(count);

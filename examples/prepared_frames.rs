@@ -1,5 +1,6 @@
-//! Times a prepared mesh's frames: `render-report`'s 100k-triangle terrain (its camera, face ids,
-//! no fragment counts) drawn again and again by one `PreparedMesh`, as a viewer draws it.
+//! Times a prepared mesh's frames: `render-report`'s 100k-triangle terrain (its camera, face ids
+//! or Phong shading, no fragment counts) drawn again and again by one `PreparedMesh`, as a viewer
+//! draws it.
 //! A loop of frames and nothing else, for a profiler (`perf record`) and for before/after runs
 //! of two builds.
 //!

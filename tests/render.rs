@@ -79,6 +79,9 @@ fn render_skips() -> [(&'static str, Skips); 5] {
 /// GPU runs its workgroup): the same layers and counters.
 fn assert_plain_twin(name: &str, mesh: &Mesh, params: &RenderParams) {
     let (mut prepared, _) = prepare_render(mesh, params).unwrap_or_else(|e| panic!("{name}: {e}"));
+    // The CPU's shade stages read each slot's face apart from its record (the GPU's, from it).
+    let render = prepared.render.as_ref().expect("a frame's shading");
+    assert!(render.faces.iter().eq(render.triangles.iter().map(|t| &t.face)), "{name}: the faces kept apart are not the records'");
     // The owner layers too, which a frame does not return.
     prepared.params.outputs.owner = true;
     let run = |path| tileraster_cpu::rasterise_with(&prepared, path).unwrap_or_else(|e| panic!("{name}, {path:?}: {e}"));

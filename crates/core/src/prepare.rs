@@ -96,8 +96,9 @@ pub struct Prepared {
 pub struct RenderInputs {
     /// One per prepared triangle, in the same order (setup slots).
     pub triangles: Vec<TriangleShading>,
-    /// Each one's `face` again (`faces[k] == triangles[k].face`), compact: the CPU's shade stage
-    /// reads a pixel's face here (`abi::RecordsAndFaces`).
+    /// Each one's `face` again (`faces[k] == triangles[k].face`), compact: the CPU's shade stages
+    /// read a pixel's face here (`abi::RecordsAndFaces`), the GPU's from the record, so whoever
+    /// changes a record's face changes it here too.
     pub faces: Vec<u32>,
     pub params: ShadeParams,
     pub depth_test: DepthTest,

@@ -42,7 +42,7 @@ fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(
     raster: &mut Raster,
 ) -> StatCounters {
     let program = DepthProgram::of(frame);
-    let params = &inputs.params;
+    let (params, records) = (&inputs.params, inputs.records());
     let stats: StatCounters = std::array::from_fn(|_| AtomicU32::new(0));
     let tiles: Vec<TileOut> = (0..frame.tile_count())
         .into_par_iter()
@@ -80,7 +80,7 @@ fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(
                             params,
                             &program,
                             setups,
-                            &inputs.records(),
+                            &records,
                             &inputs.textures,
                             &inputs.texels,
                             &states[lid as usize],

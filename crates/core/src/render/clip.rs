@@ -1,16 +1,20 @@
 //! Clipping in homogeneous space: faces wholly outside one frustum plane are dropped, faces
 //! across a clipping plane cut (Sutherland–Hodgman) into a convex polygon, the rest pass whole.
 
-use super::cull::triangles;
+use super::cull::{kept, triangles};
 use super::emit::{Emit, FaceTag};
 use super::params::{GeometryCounts, RenderParams};
-use super::vertex::{ClipVertex, Projected};
+use super::vertex::{ClipVertex, Corner, Projected};
 use super::viewport::{Target, Viewport, distance};
 use tileraster_kernels::abi::ATTRIBUTES;
 
-/// Clip, cull, snap one face and push what reaches the rasteriser.
+/// Clip, cull, snap one face and push what reaches the rasteriser. The decisions read the
+/// face's [`Corner`]s, and counting reads nothing else of a face that needs no clipping; its
+/// vertices are `corners`' [`ClipVertex`]s (`vertices`).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn geometry(
-    corners: [&ClipVertex; 3],
+    corners: [&Corner; 3],
+    vertices: [&ClipVertex; 3],
     face: FaceTag,
     params: &RenderParams,
     viewport: &Viewport,
@@ -19,15 +23,21 @@ pub(super) fn geometry(
     counts: &mut GeometryCounts,
 ) {
     // Wholly outside one plane of the view frustum: nothing to clip.
-    let c = corners.map(|v| v.clip);
-    let frustum: [fn(&[f64; 4]) -> bool; 6] = [|c| c[0] < -c[3], |c| c[0] > c[3], |c| c[1] < -c[3], |c| c[1] > c[3], |c| c[2] < 0.0, |c| c[2] > c[3]];
-    if frustum.iter().any(|outside| c.iter().all(outside)) {
+    if corners[0].frustum & corners[1].frustum & corners[2].frustum != 0 {
         counts.culled_frustum += 1;
         return;
     }
-    if corners.iter().all(|v| v.outside == 0) {
-        return triangles(&corners.map(|v| v.projected), face, params, target, out, counts);
+    if corners.iter().all(|c| c.outside == 0) {
+        if out.counting() {
+            let (x, y) = (corners.map(|c| c.screen.0), corners.map(|c| c.screen.1));
+            if kept([0, 1, 2], x, y, params, target, counts).is_some() {
+                out.put(|| unreachable!("counting builds no triangle"));
+            }
+            return;
+        }
+        return triangles(&vertices.map(|v| v.projected), face, params, target, out, counts);
     }
+    let corners = vertices;
     let polygon = clip_polygon(&corners.map(|v| *v), &viewport.planes());
     if polygon.len() < 3 {
         counts.culled_frustum += 1;
@@ -73,7 +83,7 @@ pub(super) fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) ->
 /// `db`) crosses the plane, interpolated from the inside end.
 pub(super) fn cut(a: &ClipVertex, b: &ClipVertex, da: f64, db: f64, k: usize) -> ClipVertex {
     let t = da / (da - db);
-    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default(), cut: true };
+    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, frustum: 0, projected: Projected::default(), cut: true };
     for n in 0..4 {
         v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
     }

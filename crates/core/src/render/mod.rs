@@ -64,7 +64,7 @@ use validate::validate_params;
 use vector::{cross, sub, unit};
 pub use vector::{multiply, normal_matrix, transform_normal};
 use vertex::depth_range;
-use vertex::{ClipVertex, Projected, VertexStageMemory};
+use vertex::{ClipVertex, Corner, Projected, VertexStageMemory};
 pub use vertex::{GeometryKernels, MeshPositions, Positions};
 use viewport::{Target, Viewport};
 
@@ -96,6 +96,7 @@ pub fn prepare_checked_mesh(mesh: &Mesh, params: &RenderParams, kernels: &mut dy
 pub struct GeometryMemory {
     world: Vec<[f64; 3]>,
     vertices: Vec<ClipVertex>,
+    corners: Vec<Corner>,
     triangles: Vec<TriangleInput>,
     shading: Vec<TriangleShading>,
     faces: Vec<u32>,
@@ -306,7 +307,8 @@ pub(crate) fn prepare_instances_in(
         kept.map(|k| &mut k.positions),
         kernels,
     )?;
-    let (world, vertices) = (&memory.world[..], &memory.vertices[..]);
+    memory.vertices.par_iter().map(Corner::of).collect_into_vec(&mut memory.corners);
+    let (world, vertices, corners) = (&memory.world[..], &memory.vertices[..], &memory.corners[..]);
     observe(GeometryPass::Vertex);
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
@@ -363,15 +365,15 @@ pub(crate) fn prepare_instances_in(
             let face = p.first_face + (start + k) as u32;
             let tri = if p.mirrored { [tri[0], tri[2], tri[1]] } else { *tri };
             let tri = tri.map(|v| p.first_vertex + v as usize);
-            let mut corners = tri.map(|v| &vertices[v]);
+            let mut vertex = tri.map(|v| &vertices[v]);
+            let counting = emit.counting();
             // Flat modes give every corner (and so every clipped piece) one set of values
             // (attributes only: counting needs none of it).
             let mut flat: Option<[f64; ATTRIBUTES]> = None;
-            if params.interpolation == Interpolation::Flat {
+            if params.interpolation == Interpolation::Flat && !counting {
                 // The provoking vertex: the face's first.
-                flat = Some(corners[0].attributes);
+                flat = Some(vertex[0].attributes);
             }
-            let counting = emit.counting();
             if !counting && shading == Shading::Flat {
                 // One colour per face: its first vertex's, lit with the face normal there.
                 let q = tri.map(|v| world[v]);
@@ -379,19 +381,19 @@ pub(crate) fn prepare_instances_in(
                 let base = mesh.colours.as_ref().map_or(GREY, |c| c[tri[0] - p.first_vertex]).map(f64::from);
                 let colour = lighting.lit(base, n, q[0]);
                 for a in 0..3 {
-                    let mut values = flat.unwrap_or(corners[a].attributes);
+                    let mut values = flat.unwrap_or(vertex[a].attributes);
                     values[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
                     values[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
                     flattened[a] =
-                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
+                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..vertex[a].projected }, ..*vertex[a] };
                 }
-                corners = [&flattened[0], &flattened[1], &flattened[2]];
-            } else if let Some(values) = flat.filter(|_| !counting) {
+                vertex = [&flattened[0], &flattened[1], &flattened[2]];
+            } else if let Some(values) = flat {
                 for a in 0..3 {
                     flattened[a] =
-                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..corners[a].projected }, ..*corners[a] };
+                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..vertex[a].projected }, ..*vertex[a] };
                 }
-                corners = [&flattened[0], &flattened[1], &flattened[2]];
+                vertex = [&flattened[0], &flattened[1], &flattened[2]];
             }
             let texture = match &mesh.face_textures {
                 Some(t) => t[start + k],
@@ -399,7 +401,7 @@ pub(crate) fn prepare_instances_in(
                 None => 0,
             };
             let texture = if texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + texture };
-            geometry(corners, FaceTag { id: face, texture }, params, &viewport, &target, emit, counts);
+            geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, params, &viewport, &target, emit, counts);
         }
     };
     // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,

@@ -164,7 +164,8 @@ pub enum GeometryPass {
     /// the kernels' vertex stage.
     Vertex,
     /// `clip`, `cull` and `viewport` over every face (and line and point), counting what each
-    /// chunk puts out.
+    /// chunk puts out: a face that needs no clipping is counted from its corners' 24 bytes
+    /// each (`vertex::Corner`), its vertices left unread.
     AssembleCount,
     /// The same, writing the triangles into their places.
     AssembleFill,

@@ -18,7 +18,6 @@ use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
 use tileraster_kernels::abi::{DepthTest, FloatCoeffs, OutputSet, PixelRect, Plane, RecordsAndFaces, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
 use tileraster_kernels::math::edge::Side;
-use tileraster_kernels::math::fixed::{ceil_shr, floor_shr};
 use tileraster_kernels::pipeline::Pipeline;
 use tileraster_kernels::stages::fine::side;
 use tileraster_kernels::stages::setup::setup_triangle;
@@ -505,13 +504,7 @@ struct Snapped {
 
 /// Grid pixels whose centres lie in the snapped bounding box (empty if none does).
 pub(crate) fn pixel_rect(x: &[i64; 3], y: &[i64; 3], snap_bits: u32, grid: &Grid) -> PixelRect {
-    let half = 1i64 << (snap_bits - 1);
-    let (xmin, xmax) = (x[0].min(x[1]).min(x[2]), x[0].max(x[1]).max(x[2]));
-    let (ymin, ymax) = (y[0].min(y[1]).min(y[2]), y[0].max(y[1]).max(y[2]));
-    // First and last centre inside [min, max], clamped to the grid (an empty rectangle stays empty).
-    let first = |v: i64, n: u32| ceil_shr(v - half, snap_bits).clamp(0, n as i64) as i32;
-    let last = |v: i64, n: u32| floor_shr(v - half, snap_bits).clamp(-1, n as i64 - 1) as i32;
-    PixelRect { i0: first(xmin, grid.width), j0: first(ymin, grid.height), i1: last(xmax, grid.width), j1: last(ymax, grid.height) }
+    tileraster_kernels::stages::assemble::pixel_rect(x, y, snap_bits, grid.width, grid.height)
 }
 
 /// The plane through the unsnapped vertices (or, where those are flat or flipped, through the

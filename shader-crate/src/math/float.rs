@@ -213,6 +213,68 @@ pub fn recip(x: f32) -> f32 {
     div(1.0, x)
 }
 
+/// `(1.0 / n as f64) as f32` for `0 < n < 2^63`: the reciprocal of an integer (a triangle's
+/// doubled area in snapped units, up to `2^59`) with the host's `f64` roundings, which a GPU
+/// without `f64` gives through [`recip_u64_portable`]. The host divides natively.
+#[inline]
+pub fn recip_u64(n: u64) -> f32 {
+    #[cfg(not(target_arch = "spirv"))]
+    return (1.0 / n as f64) as f32;
+    #[cfg(target_arch = "spirv")]
+    recip_u64_portable(n)
+}
+
+/// [`recip_u64`] in integers, on every device alike: `n` rounded to 53 bits (`n as f64`), its
+/// reciprocal to 53 bits by long division (`1.0 / …`), that to 24 bits (`as f32`), each to
+/// nearest with ties to even. `n` must be positive and below `2^63`.
+#[inline]
+pub fn recip_u64_portable(n: u64) -> f32 {
+    const F64_BITS: u32 = 53;
+    // `n as f64` = m · 2^e, m in [2^52, 2^53).
+    let width = 64 - n.leading_zeros();
+    let (mut m, mut e) =
+        if width <= F64_BITS { (n << (F64_BITS - width), -((F64_BITS - width) as i32)) } else { (round_shift(n, width - F64_BITS), (width - F64_BITS) as i32) };
+    if m == 1 << F64_BITS {
+        m >>= 1;
+        e += 1;
+    }
+    // `1.0 / (m · 2^e)` = (2^105 / m) · 2^(−105 − e): the quotient q in (2^52, 2^53], from 54
+    // steps of long division starting at 2^51 (below m, so every remainder stays below 2^54).
+    let (mut q, mut r) = (0u64, 1u64 << 51);
+    let mut k = 0;
+    while k < 54 {
+        r <<= 1;
+        q <<= 1;
+        if r >= m {
+            r -= m;
+            q |= 1;
+        }
+        k += 1;
+    }
+    // Rounded to 53 bits: up where the remainder is above half of m, or half with q odd.
+    if 2 * r > m || (2 * r == m && q & 1 == 1) {
+        q += 1;
+    }
+    let mut p = -105 - e;
+    if q == 1 << F64_BITS {
+        q >>= 1;
+        p += 1;
+    }
+    // `as f32`: q · 2^p to 24 bits.
+    let q24 = round_shift(q, F64_BITS - 24);
+    p += (F64_BITS - 24) as i32;
+    // q24 · 2^p with q24 in [2^23, 2^24] (2^24 after a carry): `assemble`'s biased exponent is
+    // p + 150.
+    assemble(q24 as u32, p + 150)
+}
+
+/// `v >> s` rounded to nearest, ties to even (`0 < s < 64`).
+#[inline]
+fn round_shift(v: u64, s: u32) -> u64 {
+    let (kept, rest, half) = (v >> s, v & ((1u64 << s) - 1), 1u64 << (s - 1));
+    if rest > half || (rest == half && kept & 1 == 1) { kept + 1 } else { kept }
+}
+
 /// `√x`, correctly rounded, for positive normal `x` (`+0` for `+0`).
 #[inline]
 pub fn sqrt(x: f32) -> f32 {
@@ -303,6 +365,32 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn reciprocals_of_integers_round_as_f64_then_f32() {
+        let mut ns: Vec<u64> = (1..1 << 16).collect();
+        // Around every power of two and every binade's edges, where the roundings carry.
+        for b in 1..63u32 {
+            for d in 0..64u64 {
+                ns.extend([(1u64 << b).saturating_sub(d).max(1), ((1u64 << b) + d).min((1 << 63) - 1)]);
+            }
+        }
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..2_000_000 {
+            let mut next = || {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state
+            };
+            // Every width up to 63 bits alike.
+            let width = 1 + (next() >> 58) as u32 % 63;
+            ns.push((next() >> 1 >> (63 - width)).max(1));
+        }
+        for n in ns {
+            let want = (1.0 / n as f64) as f32;
+            assert_eq!(recip_u64_portable(n).to_bits(), want.to_bits(), "1 / {n}");
+            assert_eq!(recip_u64(n).to_bits(), want.to_bits(), "native: 1 / {n}");
+        }
     }
 
     #[test]

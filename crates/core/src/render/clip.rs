@@ -3,7 +3,7 @@
 
 use super::cull::{kept, triangles};
 use super::emit::{Emit, FaceTag};
-use super::params::{GeometryCounts, RenderParams};
+use super::params::GeometryCounts;
 use super::vertex::{ClipVertex, Corner, Projected};
 use super::viewport::{Target, Viewport, distance};
 use tileraster_kernels::abi::ATTRIBUTES;
@@ -11,12 +11,10 @@ use tileraster_kernels::abi::ATTRIBUTES;
 /// Clip, cull, snap one face and push what reaches the rasteriser. The decisions read the
 /// face's [`Corner`]s, and counting reads nothing else of a face that needs no clipping; its
 /// vertices are `corners`' [`ClipVertex`]s (`vertices`).
-#[allow(clippy::too_many_arguments)]
 pub(super) fn geometry(
     corners: [&Corner; 3],
     vertices: [&ClipVertex; 3],
     face: FaceTag,
-    params: &RenderParams,
     viewport: &Viewport,
     target: &Target<'_>,
     out: &mut Emit<'_>,
@@ -30,12 +28,12 @@ pub(super) fn geometry(
     if corners.iter().all(|c| c.outside == 0) {
         if out.counting() {
             let (x, y) = (corners.map(|c| c.screen.0), corners.map(|c| c.screen.1));
-            if kept([0, 1, 2], x, y, params, target, counts).is_some() {
+            if kept(x, y, target, counts).is_some() {
                 out.put(|| unreachable!("counting builds no triangle"));
             }
             return;
         }
-        return triangles(&vertices.map(|v| v.projected), face, params, target, out, counts);
+        return triangles(&vertices.map(|v| v.projected), face, target, out, counts);
     }
     let corners = vertices;
     let polygon = clip_polygon(&corners.map(|v| *v), &viewport.planes());
@@ -47,7 +45,7 @@ pub(super) fn geometry(
     // The face's own corners as the vertex stage projected them, for every face that shares
     // them; the points clipping made, on the host.
     let projected: Vec<Projected> = polygon.iter().map(|v| if v.cut { v.project(viewport) } else { v.projected }).collect();
-    triangles(&projected, face, params, target, out, counts);
+    triangles(&projected, face, target, out, counts);
 }
 
 /// Sutherland–Hodgman in homogeneous space against every plane. An edge crossing a plane is cut

@@ -23,6 +23,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::EXTENT_LIMIT_BITS;
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTRIBUTES, FloatCoeffs, NO_TEXTURE, SHADING_UNLIT, TriangleInput, TriangleShading};
+use tileraster_kernels::math::float::recip_u64;
 
 impl LineRule {
     pub fn name(self) -> &'static str {
@@ -329,7 +330,7 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target<'_>
             let opposite = [v[2].1, v[0].1, v[1].1];
             let depth = |at_b: bool| (if at_b { zb } else { za }) as f32;
             let attributes = |at_b: bool| if at_b { attr_b } else { attr_a };
-            let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), (1.0 / area.unsigned_abs() as f64) as f32] };
+            let coeffs = FloatCoeffs { c: [depth(opposite[0]), depth(opposite[1]), depth(opposite[2]), recip_u64(area.unsigned_abs() as u64)] };
             (
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
                 TriangleShading {

@@ -313,7 +313,7 @@ pub(crate) fn prepare_instances_in(
     observe(GeometryPass::Vertex);
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
-    let target = Target { grid: &grid, samples: params.samples };
+    let target = Target::new(&grid, params);
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
     // lines and the points likewise.
     let face_chunks =
@@ -402,7 +402,7 @@ pub(crate) fn prepare_instances_in(
                 None => 0,
             };
             let texture = if texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + texture };
-            geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, params, &viewport, &target, emit, counts);
+            geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, &viewport, &target, emit, counts);
         }
     };
     // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,

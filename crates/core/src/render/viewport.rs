@@ -1,10 +1,11 @@
 //! Clip space to pixels: the clipping planes with their guard band, snapping to 8 sub-pixel
 //! bits, and the pixels a snapped triangle may cover.
 
-use super::params::{GUARD_PX, RENDER_SNAP_BITS};
+use super::params::{Cull, FrontFace, GUARD_PX, RENDER_SNAP_BITS, RenderParams};
 use crate::Grid;
 use crate::prepare::{pixel_rect, round_to_i64};
 use tileraster_kernels::abi::PixelRect;
+use tileraster_kernels::stages::assemble::{Assembly, CULL_BACK, CULL_FRONT, CULL_NONE};
 
 /// Clip space to pixels.
 pub(super) struct Viewport {
@@ -48,19 +49,39 @@ impl Viewport {
     }
 }
 
-/// The frame the geometry stages emit triangles for: its pixels and samples per pixel.
+/// The frame the geometry stages emit triangles for: its pixels, and what the kernels'
+/// assembly decides with (culling, front face, samples per pixel).
 #[derive(Clone, Copy)]
 pub(super) struct Target<'a> {
     pub(super) grid: &'a Grid,
-    pub(super) samples: u32,
+    pub(super) assembly: Assembly,
 }
 
-impl Target<'_> {
-    /// The pixels a triangle with snapped vertices `x`, `y` may cover: those whose centre lies
-    /// in its box or, with several samples, whose samples may (the standard positions lie
-    /// within 7/16 px of the centre).
+impl<'a> Target<'a> {
+    pub(super) fn new(grid: &'a Grid, params: &RenderParams) -> Self {
+        let cull = match params.cull {
+            Cull::None => CULL_NONE,
+            Cull::Back => CULL_BACK,
+            Cull::Front => CULL_FRONT,
+        };
+        // With several samples a pixel is covered where its samples are: the standard positions
+        // lie within 7/16 px of the centre.
+        let reach = if params.samples > 1 { 7 << (RENDER_SNAP_BITS - 4) } else { 0 };
+        let assembly = Assembly {
+            cull,
+            front_counter_clockwise: u32::from(params.front_face == FrontFace::CounterClockwise),
+            width: grid.width,
+            height: grid.height,
+            snap_bits: RENDER_SNAP_BITS,
+            reach,
+        };
+        Target { grid, assembly }
+    }
+
+    /// The pixels a triangle with snapped vertices `x`, `y` may cover: those whose centre (or,
+    /// with several samples, one of whose samples) may lie in its box.
     pub(super) fn rect(&self, x: &[i64; 3], y: &[i64; 3]) -> PixelRect {
-        let reach = if self.samples > 1 { 7 << (RENDER_SNAP_BITS - 4) } else { 0 };
+        let reach = self.assembly.reach;
         let (x0, x1) = (x[0].min(x[1]).min(x[2]) - reach, x[0].max(x[1]).max(x[2]) + reach);
         let (y0, y1) = (y[0].min(y[1]).min(y[2]) - reach, y[0].max(y[1]).max(y[2]) + reach);
         pixel_rect(&[x0, x1, x1], &[y0, y1, y1], RENDER_SNAP_BITS, self.grid)

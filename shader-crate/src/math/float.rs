@@ -15,6 +15,9 @@
 //! gives, as the tests check against the CPU's own operations. On a GPU the settling is a
 //! dozen 32-bit operations with no loop and no 64-bit product (which a GPU emulates).
 //!
+//! [`recip_u64`], the reciprocal of an integer with the host's `f64` roundings, is apart: a loop
+//! of 64-bit integer steps, for the assembly's once-per-triangle `1/Σw`.
+//!
 //! Domain: positive, normal, finite operands, and results in the normal range (what the render
 //! pipeline feeds them: sums of positive weights, squared lengths). Outside it they return
 //! `+0` for zero or an underflowing result and `+∞` for an overflowing one.
@@ -23,6 +26,8 @@
 //! operands and the result are in that domain: IEEE 754 rounds them correctly too (Rust
 //! guarantees it), and a correctly rounded result is unique. The SPIR-V build always takes the
 //! portable path; the tests hold it to the CPU's operations.
+
+use crate::math::fixed::msb;
 
 /// The significand with its implicit bit (24 bits) and the biased exponent of a positive
 /// normal `f32`.
@@ -230,8 +235,9 @@ pub fn recip_u64(n: u64) -> f32 {
 #[inline]
 pub fn recip_u64_portable(n: u64) -> f32 {
     const F64_BITS: u32 = 53;
-    // `n as f64` = m · 2^e, m in [2^52, 2^53).
-    let width = 64 - n.leading_zeros();
+    // `n as f64` = m · 2^e, m in [2^52, 2^53). (`msb`, not `leading_zeros`: 32-bit bit
+    // searches, which every device gives alike.)
+    let width = msb(n) + 1;
     let (mut m, mut e) =
         if width <= F64_BITS { (n << (F64_BITS - width), -((F64_BITS - width) as i32)) } else { (round_shift(n, width - F64_BITS), (width - F64_BITS) as i32) };
     if m == 1 << F64_BITS {

@@ -9,8 +9,8 @@ use super::viewport::{Target, Viewport, distance};
 use tileraster_kernels::abi::ATTRIBUTES;
 
 /// Clip, cull, snap one face and push what reaches the rasteriser. The decisions read the
-/// face's [`Corner`]s, and counting reads nothing else of a face that needs no clipping; its
-/// vertices are `corners`' [`ClipVertex`]s (`vertices`).
+/// face's [`Corner`]s, and counting reads nothing else of a face that needs no clipping;
+/// `vertices` are its corners' [`ClipVertex`]s (in flat modes, copies with the face's values).
 pub(super) fn geometry(
     corners: [&Corner; 3],
     vertices: [&ClipVertex; 3],

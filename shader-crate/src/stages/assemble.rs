@@ -87,9 +87,7 @@ pub fn snap_triangle(x: [i64; 3], y: [i64; 3], a: &Assembly) -> Snapped {
         t.y = [y[0], y[2], y[1]];
     }
     t.area = signed.unsigned_abs();
-    let (x0, x1) = (min3(&t.x) - a.reach, max3(&t.x) + a.reach);
-    let (y0, y1) = (min3(&t.y) - a.reach, max3(&t.y) + a.reach);
-    t.rect = pixel_rect(&[x0, x1, x1], &[y0, y1, y1], a.snap_bits, a.width, a.height);
+    t.rect = reach_rect(&t.x, &t.y, a);
     if t.rect.is_empty() {
         t.dropped = DROPPED_NO_CENTRE;
     }
@@ -121,6 +119,14 @@ pub fn triangle_records(
             _pad: 0,
         },
     )
+}
+
+/// The pixels a triangle of snapped vertices `x`, `y` may cover: those whose centre lies in its
+/// box or, with several samples, whose samples may (`Assembly::reach`).
+pub fn reach_rect(x: &[i64; 3], y: &[i64; 3], a: &Assembly) -> PixelRect {
+    let (x0, x1) = (min3(x) - a.reach, max3(x) + a.reach);
+    let (y0, y1) = (min3(y) - a.reach, max3(y) + a.reach);
+    pixel_rect(&[x0, x1, x1], &[y0, y1, y1], a.snap_bits, a.width, a.height)
 }
 
 /// The pixels whose centres lie in the box of the snapped vertices `x`, `y`, clamped to a

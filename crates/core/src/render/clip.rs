@@ -16,7 +16,7 @@ pub(super) fn geometry(
     vertices: [&ClipVertex; 3],
     face: FaceTag,
     viewport: &Viewport,
-    target: &Target<'_>,
+    target: &Target,
     out: &mut Emit<'_>,
     counts: &mut GeometryCounts,
 ) {
@@ -81,7 +81,7 @@ pub(super) fn clip_polygon(corners: &[ClipVertex; 3], planes: &[[f64; 4]; 7]) ->
 /// `db`) crosses the plane, interpolated from the inside end.
 pub(super) fn cut(a: &ClipVertex, b: &ClipVertex, da: f64, db: f64, k: usize) -> ClipVertex {
     let t = da / (da - db);
-    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, frustum: 0, projected: Projected::default(), cut: true };
+    let mut v = ClipVertex { clip: [0.0; 4], attributes: [0.0; ATTRIBUTES], outside: 0, projected: Projected::default(), cut: true };
     for n in 0..4 {
         v.clip[n] = a.clip[n] + t * (b.clip[n] - a.clip[n]);
     }

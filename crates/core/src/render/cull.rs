@@ -10,7 +10,7 @@ use tileraster_kernels::stages::assemble::{DROPPED_BACK, DROPPED_FRONT, DROPPED_
 
 /// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
 /// and push what reaches the rasteriser.
-pub(super) fn triangles(polygon: &[Projected], face: FaceTag, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+pub(super) fn triangles(polygon: &[Projected], face: FaceTag, target: &Target, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     for k in 1..polygon.len() - 1 {
         let corners = [&polygon[0], &polygon[k], &polygon[k + 1]];
         let Some(t) = kept(corners.map(|p| p.screen.0), corners.map(|p| p.screen.1), target, counts) else {
@@ -26,7 +26,7 @@ pub(super) fn triangles(polygon: &[Projected], face: FaceTag, target: &Target<'_
 /// The triangle of snapped corners `x`, `y` oriented for the kernels where it reaches the
 /// rasteriser (`stages::assemble`); where it does not (zero area, back or front face, no pixel
 /// centre), `None`, and counted in `counts`.
-pub(super) fn kept(x: [i64; 3], y: [i64; 3], target: &Target<'_>, counts: &mut GeometryCounts) -> Option<Snapped> {
+pub(super) fn kept(x: [i64; 3], y: [i64; 3], target: &Target, counts: &mut GeometryCounts) -> Option<Snapped> {
     let t = snap_triangle(x, y, &target.assembly);
     match t.dropped {
         KEPT => {

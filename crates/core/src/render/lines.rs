@@ -130,7 +130,7 @@ pub(super) fn line(
     flat: bool,
     id: u32,
     viewport: &Viewport,
-    target: &Target<'_>,
+    target: &Target,
     out: &mut Emit<'_>,
     counts: &mut GeometryCounts,
 ) {
@@ -280,7 +280,7 @@ fn rectangle_quad(p0: (i64, i64), p1: (i64, i64)) -> Option<Quad> {
 
 /// Push the two triangles of a line's quadrilateral; how many were put (none where the line
 /// lights no pixel of the frame).
-fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target<'_>, out: &mut Emit<'_>) -> u64 {
+fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target, out: &mut Emit<'_>) -> u64 {
     let quad = match rule {
         LineRule::Rectangle => rectangle_quad(p0.at, p1.at),
         LineRule::DiamondExit | LineRule::Bresenham => band_quad(p0.at, p1.at, rule),

@@ -46,7 +46,7 @@ pub(super) fn surface_bias(placements: &[Placement], vertices: &[ClipVertex], si
 /// triangles (the top-left rule then covers exactly `size²` pixel centres of a square of whole
 /// pixels wherever it lies), at the vertex's depth less `bias`, in its attributes; dropped
 /// where the vertex lies outside the view volume.
-pub(super) fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, target: &Target<'_>, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+pub(super) fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, target: &Target, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     let c = &v.clip;
     if !(c[3] > W_MIN && c[0].abs() <= c[3] && c[1].abs() <= c[3] && c[2] >= 0.0 && c[2] <= c[3]) {
         counts.points_culled += 1;

@@ -67,8 +67,6 @@ pub(super) struct ClipVertex {
     pub(super) attributes: [f64; ATTRIBUTES],
     /// Bit `k`: outside clipping plane `k` (`Viewport::planes`).
     pub(super) outside: u8,
-    /// Bit `k`: outside plane `k` of the view frustum ([`frustum_outcode`]).
-    pub(super) frustum: u8,
     /// What the kernels take of it, when inside every clipping plane (computed once for every
     /// face that shares it: a face that clipping cuts takes its kept corners' as they are, so
     /// that no crack opens beside them).
@@ -82,7 +80,7 @@ impl ClipVertex {
     pub(super) fn new(clip: [f64; 4], attributes: [f64; ATTRIBUTES], viewport: &Viewport) -> Self {
         let planes = viewport.planes();
         let outside = (0..planes.len()).fold(0u8, |m, k| m | u8::from(distance(&planes, k, &clip) < 0.0) << k);
-        ClipVertex { clip, attributes, outside, frustum: frustum_outcode(&clip), projected: Projected::default(), cut: false }
+        ClipVertex { clip, attributes, outside, projected: Projected::default(), cut: false }
     }
 
     /// Its snapped screen position, depth, `1/w` and attributes in `f32`, in `f64` on the host:
@@ -100,7 +98,7 @@ impl ClipVertex {
 
 /// Bit `k`: `c` outside plane `k` of the view frustum (left, right, top, bottom, near, far). A
 /// face is wholly outside one plane where its corners' codes share a bit.
-pub(super) fn frustum_outcode(c: &[f64; 4]) -> u8 {
+fn frustum_outcode(c: &[f64; 4]) -> u8 {
     let outside = [c[0] < -c[3], c[0] > c[3], c[1] < -c[3], c[1] > c[3], c[2] < 0.0, c[2] > c[3]];
     outside.iter().enumerate().fold(0, |code, (k, &out)| code | u8::from(out) << k)
 }
@@ -113,12 +111,13 @@ pub(super) struct Corner {
     /// [`Projected::screen`], where `outside` is zero.
     pub(super) screen: (i64, i64),
     pub(super) outside: u8,
+    /// Bit `k`: outside plane `k` of the view frustum ([`frustum_outcode`]).
     pub(super) frustum: u8,
 }
 
 impl Corner {
     pub(super) fn of(v: &ClipVertex) -> Self {
-        Corner { screen: v.projected.screen, outside: v.outside, frustum: v.frustum }
+        Corner { screen: v.projected.screen, outside: v.outside, frustum: frustum_outcode(&v.clip) }
     }
 }
 

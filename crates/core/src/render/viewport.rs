@@ -3,9 +3,9 @@
 
 use super::params::{Cull, FrontFace, GUARD_PX, RENDER_SNAP_BITS, RenderParams};
 use crate::Grid;
-use crate::prepare::{pixel_rect, round_to_i64};
+use crate::prepare::round_to_i64;
 use tileraster_kernels::abi::PixelRect;
-use tileraster_kernels::stages::assemble::{Assembly, CULL_BACK, CULL_FRONT, CULL_NONE};
+use tileraster_kernels::stages::assemble::{Assembly, CULL_BACK, CULL_FRONT, CULL_NONE, reach_rect};
 
 /// Clip space to pixels.
 pub(super) struct Viewport {
@@ -52,13 +52,12 @@ impl Viewport {
 /// The frame the geometry stages emit triangles for: its pixels, and what the kernels'
 /// assembly decides with (culling, front face, samples per pixel).
 #[derive(Clone, Copy)]
-pub(super) struct Target<'a> {
-    pub(super) grid: &'a Grid,
+pub(super) struct Target {
     pub(super) assembly: Assembly,
 }
 
-impl<'a> Target<'a> {
-    pub(super) fn new(grid: &'a Grid, params: &RenderParams) -> Self {
+impl Target {
+    pub(super) fn new(grid: &Grid, params: &RenderParams) -> Self {
         let cull = match params.cull {
             Cull::None => CULL_NONE,
             Cull::Back => CULL_BACK,
@@ -75,16 +74,13 @@ impl<'a> Target<'a> {
             snap_bits: RENDER_SNAP_BITS,
             reach,
         };
-        Target { grid, assembly }
+        Target { assembly }
     }
 
     /// The pixels a triangle with snapped vertices `x`, `y` may cover: those whose centre (or,
     /// with several samples, one of whose samples) may lie in its box.
     pub(super) fn rect(&self, x: &[i64; 3], y: &[i64; 3]) -> PixelRect {
-        let reach = self.assembly.reach;
-        let (x0, x1) = (x[0].min(x[1]).min(x[2]) - reach, x[0].max(x[1]).max(x[2]) + reach);
-        let (y0, y1) = (y[0].min(y[1]).min(y[2]) - reach, y[0].max(y[1]).max(y[2]) + reach);
-        pixel_rect(&[x0, x1, x1], &[y0, y1, y1], RENDER_SNAP_BITS, self.grid)
+        reach_rect(x, y, &self.assembly)
     }
 }
 

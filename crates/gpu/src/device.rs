@@ -3,7 +3,25 @@
 //! benchmark's GPU peers, which must run on the same adapter. Errors are plain strings here;
 //! each user maps them into its own error type.
 
+/// Run `f` with the process's one Vulkan instance, one caller at a time. Vulkan drivers,
+/// NVIDIA's among them, have raced when several threads created instances or opened devices at
+/// once, so every instance use here (listing adapters, opening devices) goes through this lock.
+/// It is no licence to draw on several devices from several threads at once: the GPU peers,
+/// which did, still hung on an NVIDIA H200 with it, and take turns on one device instead.
+pub fn with_instance<T>(f: impl FnOnce(&wgpu::Instance) -> T) -> T {
+    static INSTANCE: std::sync::OnceLock<std::sync::Mutex<wgpu::Instance>> = std::sync::OnceLock::new();
+    let instance = INSTANCE.get_or_init(|| {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        std::sync::Mutex::new(wgpu::Instance::new(desc))
+    });
+    // A panic in another caller's `f` leaves the instance as it was: the lock's poison says nothing here.
+    let instance = instance.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    f(&instance)
+}
+
 /// An open device with what its users need to know about it.
+#[derive(Clone)]
 pub struct Gpu {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
@@ -22,18 +40,18 @@ impl Gpu {
         optional: wgpu::Features,
         choose: impl FnOnce(Vec<wgpu::Adapter>) -> Result<wgpu::Adapter, String>,
     ) -> Result<(Gpu, wgpu::Adapter), String> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::VULKAN;
-        let instance = wgpu::Instance::new(desc);
-        let adapter = choose(pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN)))?;
+        let (adapter, device, queue) = with_instance(|instance| {
+            let adapter = choose(pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN)))?;
+            let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some(label),
+                required_features: features | (adapter.features() & optional),
+                required_limits: adapter.limits(),
+                ..Default::default()
+            }))
+            .map_err(|e| format!("the device could not be opened: {e}"))?;
+            Ok::<_, String>((adapter, device, queue))
+        })?;
         let limits = adapter.limits();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some(label),
-            required_features: features | (adapter.features() & optional),
-            required_limits: limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| format!("the device could not be opened: {e}"))?;
         let label = label.to_string();
         device.on_uncaptured_error(std::sync::Arc::new(move |e| eprintln!("{label}: uncaptured GPU error: {e}")));
         Ok((Gpu { device, queue, info: adapter.get_info(), limits }, adapter))

@@ -124,10 +124,7 @@ pub fn survey() -> Survey {
 
 /// The adapters the loader lists, without opening any.
 fn enumerate() -> Vec<SurveyedAdapter> {
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-    desc.backends = wgpu::Backends::VULKAN;
-    let instance = wgpu::Instance::new(desc);
-    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
+    crate::device::with_instance(|instance| pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN)))
         .into_iter()
         .map(|a| {
             let info = a.get_info();

@@ -1,5 +1,12 @@
 //! The GPU peers open their device with the GPU backend's helpers
 //! (`tileraster_gpu::device`), on the adapter the backend itself uses.
+//!
+//! They share one device per process and take turns on it, as tileraster's own GPU calls do
+//! (one context behind a lock). On an NVIDIA H200 the peers' tests, each opening its own device
+//! and drawing on it while the others did, hung in 2 of 5 runs with four or more test threads
+//! and in none with one or two; opening the devices one at a time did not cure it.
+
+use std::sync::{Mutex, MutexGuard, OnceLock, PoisonError};
 
 pub(crate) use tileraster_gpu::device::{Gpu, Grown};
 
@@ -127,13 +134,27 @@ pub(crate) fn read_target<T: bytemuck::Pod>(
     Ok(out)
 }
 
-/// Open the adapter tileraster's GPU backend uses (its choice, `TILERASTER_ADAPTER` included),
-/// so that the peers run on the same device as the kernels they are compared with.
-pub(crate) fn open(label: &str) -> Result<Gpu, String> {
-    let name = tileraster_gpu::adapter().map_err(|e| e.to_string())?.name;
-    let choose = |adapters: Vec<wgpu::Adapter>| {
-        let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
-        adapters.into_iter().find(|a| a.get_info().name == name).ok_or_else(|| format!("tileraster's adapter {name:?} is not among {seen:?}"))
-    };
-    Gpu::open(label, wgpu::Features::empty(), wgpu::Features::empty(), choose).map(|(gpu, _)| gpu)
+/// The peers' device, opened on first use on the adapter tileraster's GPU backend uses (its
+/// choice, `TILERASTER_ADAPTER` included), so that the peers run on the same device as the
+/// kernels they are compared with. Call it during a [`turn`].
+pub(crate) fn open() -> Result<Gpu, String> {
+    static SHARED: OnceLock<Result<Gpu, String>> = OnceLock::new();
+    SHARED
+        .get_or_init(|| {
+            let name = tileraster_gpu::adapter().map_err(|e| e.to_string())?.name;
+            let choose = |adapters: Vec<wgpu::Adapter>| {
+                let seen: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+                adapters.into_iter().find(|a| a.get_info().name == name).ok_or_else(|| format!("tileraster's adapter {name:?} is not among {seen:?}"))
+            };
+            Gpu::open("tileraster-peers", wgpu::Features::empty(), wgpu::Features::empty(), choose).map(|(gpu, _)| gpu)
+        })
+        .clone()
+}
+
+/// The right to use the peers' device until the guard drops: each peer holds it while it builds
+/// its pipelines and while it draws, so no two peers' work on the device overlaps.
+pub(crate) fn turn() -> MutexGuard<'static, ()> {
+    static TURN: Mutex<()> = Mutex::new(());
+    // A peer that panicked mid-turn leaves no state behind the lock.
+    TURN.lock().unwrap_or_else(PoisonError::into_inner)
 }

@@ -69,7 +69,8 @@ impl GpuFill {
     /// Open the adapter (a discrete GPU first; `TILERASTER_ADAPTER` picks one by name) and build
     /// the pipeline.
     pub fn new() -> Result<Self, String> {
-        let mut gpu = device::open("tileraster-peers fill")?;
+        let _turn = device::turn();
+        let mut gpu = device::open()?;
         let pipeline = gpu.scoped(|gpu| {
             let module =
                 gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("fill peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
@@ -108,6 +109,7 @@ impl GpuFill {
 
     /// Fill `cells` values with `value` on the GPU and read them back.
     pub fn fill(&mut self, cells: usize, value: f32) -> Result<Vec<f32>, String> {
+        let _turn = device::turn();
         // Allocated as tileraster allocates its rasters (see `fill_cpu`): a plain zeroed
         // vector would fault in 4 KiB pages during the read-back copy, which the rasteriser's
         // own read-back does not, and make the roofline slower than a whole raster call.

@@ -154,7 +154,8 @@ pub struct MarblePipeline {
 
 impl MarblePipeline {
     pub fn new() -> Result<Self, String> {
-        let mut gpu = device::open("tileraster-peers marble pipeline")?;
+        let _turn = device::turn();
+        let mut gpu = device::open()?;
         let pipeline = gpu.scoped(|gpu| {
             let module =
                 gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("marble peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
@@ -183,6 +184,7 @@ impl MarblePipeline {
     /// background, and the marble's constants: veins per unit and turbulence, 3 and 1.5 where
     /// not positive). Returns RGBA8 per pixel, row 0 at the top.
     pub fn draw(&mut self, mesh: &Mesh, params: &RenderParams) -> Result<Vec<u32>, String> {
+        let _turn = device::turn();
         let normals = mesh.normals.as_ref().ok_or("the mesh has no normals")?;
         let eye = params.eye.ok_or("the frame names no eye")?;
         let (width, height) = (params.width, params.height);

@@ -66,7 +66,8 @@ pub struct MeshPipeline {
 
 impl MeshPipeline {
     pub fn new() -> Result<Self, String> {
-        let mut gpu = device::open("tileraster-peers mesh pipeline")?;
+        let _turn = device::turn();
+        let mut gpu = device::open()?;
         let (depth_tested, in_order, lines, points, uniforms) = gpu.scoped(|gpu| {
             use wgpu::PrimitiveTopology::TriangleList as Triangles;
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -149,6 +150,7 @@ impl MeshPipeline {
         pipeline: wgpu::RenderPipeline,
         depth_test: bool,
     ) -> Result<Vec<u32>, String> {
+        let _turn = device::turn();
         let limits = &self.gpu.limits;
         let max_dim = limits.max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max_dim || height > max_dim {

@@ -47,7 +47,8 @@ pub struct MultisampledPipeline {
 
 impl MultisampledPipeline {
     pub fn new() -> Result<Self, String> {
-        let mut gpu = device::open("tileraster-peers multisampled pipeline")?;
+        let _turn = device::turn();
+        let mut gpu = device::open()?;
         let (draw, read) = gpu.scoped(|gpu| {
             let device = &gpu.device;
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -117,6 +118,7 @@ impl MultisampledPipeline {
         width: u32,
         height: u32,
     ) -> Result<Vec<u32>, String> {
+        let _turn = device::turn();
         if triangles.len() >= NO_SAMPLE_ID as usize {
             return Err(format!("{} triangles: at most {} have ids in three bytes", triangles.len(), NO_SAMPLE_ID - 1));
         }

@@ -53,7 +53,8 @@ impl RenderPipeline {
     /// Open the adapter (a discrete GPU first; `TILERASTER_ADAPTER` picks one by name) and build
     /// the pipeline.
     pub fn new() -> Result<Self, String> {
-        let mut gpu = device::open("tileraster-peers render pipeline")?;
+        let _turn = device::turn();
+        let mut gpu = device::open()?;
         let pipeline = gpu.scoped(|gpu| {
             let module =
                 gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("render peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
@@ -108,6 +109,7 @@ impl RenderPipeline {
     /// grid.height` cells, `nodata` where no triangle covers a cell centre. Grids larger than
     /// the device's texture or buffer limits are an error.
     pub fn rasterise(&mut self, scene: &Scene, grid: &Grid, nodata: f32) -> Result<Vec<f32>, String> {
+        let _turn = device::turn();
         grid.validate().map_err(|e| e.to_string())?;
         let (width, height) = (grid.width, grid.height);
         let limits = &self.gpu.limits;

@@ -89,7 +89,8 @@ pub fn mip_levels(texture: &Texture) -> Vec<Level> {
 
 impl TexturedPipeline {
     pub fn new() -> Result<Self, String> {
-        let mut gpu = device::open("tileraster-peers textured pipeline")?;
+        let _turn = device::turn();
+        let mut gpu = device::open()?;
         let pipeline = gpu.scoped(|gpu| {
             let module =
                 gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("textured peer"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
@@ -119,6 +120,7 @@ impl TexturedPipeline {
     /// trilinear the chain of [`mip_levels`] (built once for the texture drawn last; the texture
     /// itself is uploaded on every call). Returns RGBA8 per pixel, row 0 at the top.
     pub fn draw(&mut self, mesh: &Mesh, matrix: &[[f64; 4]; 4], width: u32, height: u32, filter: Filter, address: Address) -> Result<Vec<u32>, String> {
+        let _turn = device::turn();
         let texture = mesh.textures.first().ok_or("the mesh has no texture")?;
         let uvs = mesh.uvs.as_ref().ok_or("the mesh has no texture coordinates")?;
         let max_dim = self.gpu.limits.max_texture_dimension_2d;

@@ -9,6 +9,7 @@ use tileraster::render::{
     Camera, Cull, DepthFunc, Eye, Frame, FrontFace, Interpolation, Mesh, NO_FACE, Projection, RenderParams, Shading, Up, prepare_render, render,
 };
 use tileraster::{Backend, Error, Skips};
+use tileraster_core::render::{GUARD_PX, RENDER_SNAP_BITS};
 use tileraster_cpu::FinePath;
 use tileraster_kernels::abi::ShadeParams;
 use tileraster_kernels::math::edge::Side;
@@ -861,4 +862,54 @@ fn the_geometry_passes_are_reported_in_order() {
     let (plain, plain_counts) = prepare_render(&square, &params).unwrap();
     assert_eq!((observed.triangles, observed.render), (plain.triangles, plain.render));
     assert_eq!(counts, plain_counts);
+}
+
+/// Faces with a corner at or near the centre of projection (clip-space `x = y = w = 0`), under
+/// a matrix whose near plane passes through it: the points clipping makes there come from
+/// differences of nearly equal numbers, and must still snap inside the guard band (else the
+/// kernels' 64-bit edge functions overflow) with a finite `1/w` and depth in `[0, 1]`, the same
+/// bits on both backends. (Before the points were taken onto the planes, 230 of the corners
+/// below lay beyond the band and 1782 had an infinite `1/w`.)
+#[test]
+fn clipped_points_near_the_centre_of_projection_stay_in_the_guard_band() {
+    // clip = (x, y, z/2, z): the near plane z = 0 is w = 0, through the eye at the origin.
+    let m = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.5, 0.0], [0.0, 0.0, 1.0, 0.0]];
+    let (w, h) = (64u32, 48u32);
+    let (unit, guard) = ((1u64 << RENDER_SNAP_BITS) as f64, GUARD_PX);
+    let (low, high) = (-guard * unit, [(w as f64 + guard) * unit, (h as f64 + guard) * unit]);
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for k in 0..4000u32 {
+        let scale = [0.0, 1e-300, 1e-40, 1e-30, 1e-20, 1e-12, 1e-6][k as usize % 7];
+        let near = [next() * scale, next() * scale, next().abs() * scale * if k % 3 == 0 { -1.0 } else { 1.0 }];
+        let far = |z: f64, a: f64, b: f64| [a * 3.0 * z, b * 3.0 * z, z];
+        let (z1, z2) = (0.5 + 4.0 * next().abs(), 0.5 + 4.0 * next().abs());
+        let v1 = far(z1, next(), next());
+        let v2 = far(z2, next(), next());
+        positions.extend([near, v1, v2]);
+        triangles.push([3 * k, 3 * k + 1, 3 * k + 2]);
+    }
+    let mesh = Mesh { positions, triangles, ..Default::default() };
+    let params = RenderParams { cull: Cull::None, ..RenderParams::new(w, h, m) };
+    let (prepared, counts) = prepare_render(&mesh, &params).unwrap_or_else(|e| panic!("{e}"));
+    assert!(counts.clipped > 1000, "{} faces clipped", counts.clipped);
+    let shading = &prepared.render.as_ref().expect("a render frame").triangles;
+    for (t, s) in prepared.triangles.iter().zip(shading) {
+        for v in 0..3 {
+            let (x, y) = (t.x[v] as f64, t.y[v] as f64);
+            assert!(x >= low && y >= low && x <= high[0] && y <= high[1], "face {}: corner ({x}, {y}) beyond the guard band", s.face);
+            assert!(s.inv_w[v].is_finite() && s.inv_w[v] > 0.0, "face {}: 1/w = {}", s.face, s.inv_w[v]);
+        }
+    }
+    let frame = assert_render_parity("corners near the centre of projection", &mesh, &params);
+    assert!(frame.depth.iter().all(|d| (0.0..=1.0).contains(d) || d.to_bits() == params.clear_depth.to_bits()), "every depth in [0, 1]");
+    assert!(frame.ids.iter().any(|&id| id != NO_FACE), "the faces cover pixels");
 }

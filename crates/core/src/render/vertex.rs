@@ -86,7 +86,7 @@ impl ClipVertex {
     /// Its snapped screen position, depth, `1/w` and attributes in `f32`, in `f64` on the host:
     /// for the points clipping makes, and for the vertices outside the vertex stage's domain.
     pub(super) fn project(&self, viewport: &Viewport) -> Projected {
-        let c = &self.clip;
+        let c = &viewport.onto_planes(&self.clip);
         Projected {
             screen: viewport.snap(c),
             depth: (c[2] / c[3]).clamp(0.0, 1.0) as f32,

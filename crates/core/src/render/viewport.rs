@@ -40,6 +40,18 @@ impl Viewport {
         ]
     }
 
+    /// `c` taken onto the clipping planes it lies beyond. A point inside them all as the `f64`
+    /// tests found it may still lie a rounding error outside, and a point clipping made near
+    /// the centre of projection (`x = y = w = 0`) comes from differences of nearly equal
+    /// numbers: divided by its tiny `w`, that error would put its snapped position far beyond
+    /// the guard band (where the kernels' 64-bit edge functions overflow) and its `1/w` beyond
+    /// `f32`. On the planes, neither can happen; a point inside moves not at all.
+    pub(super) fn onto_planes(&self, c: &[f64; 4]) -> [f64; 4] {
+        let w = c[3].max(W_MIN);
+        let [gx, gy] = self.guard;
+        [c[0].clamp(-gx * w, gx * w), c[1].clamp(-gy * w, gy * w), c[2].clamp(0.0, w), w]
+    }
+
     /// A clip-space position in snapped pixel units (`2^-RENDER_SNAP_BITS` px), `y` down.
     pub(super) fn snap(&self, c: &[f64; 4]) -> (i64, i64) {
         let unit = (1u64 << RENDER_SNAP_BITS) as f64;

@@ -1,16 +1,16 @@
 //! Times a prepared mesh's frames: `render-report`'s 100k-triangle terrain (its camera, face ids
 //! or Phong shading, no fragment counts) drawn again and again by one `PreparedMesh`, as a viewer
-//! draws it.
+//! draws it; or, with `one-shot`, by `render` calls, each a whole frame from the mesh.
 //! A loop of frames and nothing else, for a profiler (`perf record`) and for before/after runs
 //! of two builds.
 //!
 //! ```text
-//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong]
+//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong] [prepared|one-shot]
 //! ```
 
 use std::time::Instant;
 use tileraster::Backend;
-use tileraster::render::{Camera, Frame, PreparedMesh, Projection, RenderParams, Shading, Up};
+use tileraster::render::{Camera, Frame, PreparedMesh, Projection, RenderParams, Shading, Up, render};
 use tileraster_testkit::meshes;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -26,6 +26,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("phong") => Shading::Phong,
         Some(other) => return Err(format!("shading {other:?}: ids or phong").into()),
     };
+    let one_shot = match args.next().as_deref() {
+        None | Some("prepared") => false,
+        Some("one-shot") => true,
+        Some(other) => return Err(format!("calls {other:?}: prepared or one-shot").into()),
+    };
     let (w, h) = (1920, 1080);
     let mesh = meshes::terrain(224, 1000.0, 60.0);
     let camera = Camera::framing(&mesh, w as f64 / h as f64, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
@@ -38,20 +43,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..RenderParams::new(w, h, camera.view_projection(w, h)?)
     };
     let triangles = mesh.triangles.len();
-    let mut prepared = PreparedMesh::new(mesh)?;
-    let mut frame = Frame::default();
-    prepared.render_into(&params, backend, &mut frame)?;
-    let mut ms: Vec<f64> = (0..frames.max(1))
-        .map(|_| {
+    let mut frame_ms: Box<dyn FnMut() -> Result<f64, tileraster::Error>> = if one_shot {
+        Box::new(move || {
+            let start = Instant::now();
+            render(&mesh, &params, backend).map(|frame| {
+                let ms = start.elapsed().as_secs_f64() * 1e3;
+                drop(frame);
+                ms
+            })
+        })
+    } else {
+        let mut prepared = PreparedMesh::new(mesh)?;
+        let mut frame = Frame::default();
+        Box::new(move || {
             let start = Instant::now();
             prepared.render_into(&params, backend, &mut frame).map(|()| start.elapsed().as_secs_f64() * 1e3)
         })
-        .collect::<Result<_, _>>()?;
+    };
+    frame_ms()?;
+    let mut ms: Vec<f64> = (0..frames.max(1)).map(|_| frame_ms()).collect::<Result<_, _>>()?;
     ms.sort_by(f64::total_cmp);
     let n = ms.len();
     println!(
-        "{triangles} triangles, {w}×{h}, {}, {backend:?}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames",
+        "{triangles} triangles, {w}×{h}, {}, {backend:?}, {}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames",
         shading.name(),
+        if one_shot { "one-shot" } else { "prepared" },
         ms[n / 2],
         ms[0],
         ms[n - 1]

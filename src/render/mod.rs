@@ -227,21 +227,79 @@ pub fn prepare_world(world: &World, params: &RenderParams) -> Result<(tileraster
     tileraster_core::render::prepare_world(world, params, &mut tileraster_cpu::GeometryTwins::default())
 }
 
-/// Render `mesh` as `params` say on `backend`.
+/// Render `mesh` as `params` say on `backend`. The call works in the memory the last call on
+/// any thread left ([`release_memory`] says which), as a [`PreparedMesh`] does.
 pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-    let (prepared, geometry) = prepare_render_on(mesh, params, backend)?;
-    let raster = crate::rasterise_prepared(&prepared, backend)?;
-    Ok(frame_of(raster, geometry, params))
+    validate_mesh(mesh)?;
+    with_call_memory(|memory| memory.render(mesh, params, backend))
 }
 
 /// Render every instance of `world` (many placements of its meshes, each culled against the
 /// view frustum by its bounding box before any vertex work) as `params` say on `backend`. The
 /// face ids number the instances' faces in order, as if they were one mesh
-/// ([`World::flattened`] gives that mesh, and the same frame).
+/// ([`World::flattened`] gives that mesh, and the same frame). Like [`render`], the call works
+/// in the memory the last call left.
 pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-    let (prepared, geometry) = tileraster_core::render::prepare_world(world, params, geometry_kernels(backend).as_mut())?;
-    let raster = crate::rasterise_prepared(&prepared, backend)?;
-    Ok(frame_of(raster, geometry, params))
+    with_call_memory(|memory| {
+        let (prepared, geometry) = tileraster_core::render::prepare_world_in(world, params, &mut memory.geometry, geometry_kernels(backend).as_mut())?;
+        memory.rasterise(prepared, geometry, params, backend)
+    })
+}
+
+/// The memory [`render`] and [`render_world`] work in, kept for the next call: the geometry
+/// stages' arrays, and the CPU's triangle setups and the layers its stages wrote that a frame
+/// did not return (a frame's returned layers are the caller's). A frame drawn in pages already
+/// mapped skips faulting tens of megabytes in (the 100k-triangle terrain at 1080p); its bits
+/// are the same.
+#[derive(Default)]
+struct CallMemory {
+    geometry: GeometryMemory,
+    cpu: tileraster_cpu::Workspace,
+}
+
+/// The kept [`CallMemory`], `None` until a call leaves it or after [`release_memory`].
+static CALL_MEMORY: std::sync::Mutex<Option<CallMemory>> = std::sync::Mutex::new(None);
+
+/// Run `f` in the kept memory where no other call holds it; a call beside it works in fresh
+/// memory rather than wait.
+fn with_call_memory<T>(f: impl FnOnce(&mut CallMemory) -> T) -> T {
+    use std::sync::TryLockError;
+    match CALL_MEMORY.try_lock() {
+        Ok(mut kept) => f(kept.get_or_insert_with(CallMemory::default)),
+        Err(TryLockError::WouldBlock) => f(&mut CallMemory::default()),
+        // A call that panicked may have left its arrays half-taken: start again from none.
+        Err(TryLockError::Poisoned(poisoned)) => {
+            let mut kept = poisoned.into_inner();
+            CALL_MEMORY.clear_poison();
+            f(kept.insert(CallMemory::default()))
+        }
+    }
+}
+
+/// Free the memory that [`render`] and [`render_world`] keep between calls (as much as the
+/// largest frame since needed: a few hundred megabytes after a frame of a million triangles).
+/// The next call maps fresh memory again. Where a call holds it, this waits for that call to end.
+pub fn release_memory() {
+    let mut kept = CALL_MEMORY.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    *kept = None;
+}
+
+impl CallMemory {
+    /// [`render`] of a checked mesh in this memory.
+    fn render(&mut self, mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
+        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(mesh, params, &mut self.geometry, geometry_kernels(backend).as_mut())?;
+        self.rasterise(prepared, geometry, params, backend)
+    }
+
+    /// Rasterise and shade `prepared` on `backend`, and take its arrays back.
+    fn rasterise(&mut self, prepared: tileraster_core::Prepared, geometry: GeometryCounts, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
+        let raster = match backend {
+            Backend::Cpu => tileraster_cpu::rasterise_in(&prepared, &mut self.cpu),
+            Backend::Gpu => crate::rasterise_prepared(&prepared, backend),
+        };
+        self.geometry.recycle(prepared);
+        Ok(frame_of(raster?, geometry, params))
+    }
 }
 
 /// A mesh checked once, with its normals computed once where it has none, and the memory its
@@ -373,5 +431,63 @@ fn frame_of(mut raster: Raster, geometry: GeometryCounts, params: &RenderParams)
         fragments: per_pixel,
         tiles: raster.tiles.as_deref().map(|layer| TileCounts::from_layer(params.width, params.height, layer)),
         stats: RenderStats { geometry, fragments, pixels_covered: covered, depth_rejected: fragments.saturating_sub(covered), raster: raster.stats },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tileraster_testkit::meshes;
+
+    /// One-shot calls in kept memory give the frame that fresh memory gives, whatever the calls
+    /// before them drew (other sizes, shadings, returned layers, meshes), on the CPU and where
+    /// an adapter is found (or the tests are told to skip it) the GPU.
+    #[test]
+    fn calls_in_kept_memory_keep_nothing_of_the_last_frame() {
+        let sphere = meshes::sphere([0.0, 0.0, 0.0], 1.0, 12, 20);
+        let soup = meshes::soup(300, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 0.6, 9);
+        let camera = |w: u32, h: u32, eye: [f64; 3]| {
+            Camera { eye, target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 50.0 }, near: 0.5, far: 30.0 }
+                .view_projection(w, h)
+                .unwrap()
+        };
+        let frames = [
+            (&sphere, 131, 97, [3.0, -2.0, 1.0], Shading::Phong, true, true, 1),
+            (&soup, 64, 48, [-2.0, 3.0, 2.0], Shading::Ids, false, false, 1),
+            (&sphere, 90, 70, [2.5, -2.0, 1.0], Shading::Smooth, true, false, 4),
+            (&soup, 200, 120, [2.0, 2.5, -1.5], Shading::Unlit, false, true, 1),
+            (&sphere, 32, 32, [12.0, 9.0, 6.0], Shading::Flat, true, true, 1),
+        ];
+        let mut backends = vec![Backend::Cpu];
+        if std::env::var_os("TILERASTER_SKIP_GPU").is_some() {
+            eprintln!("kept memory: GPU frames skipped (TILERASTER_SKIP_GPU is set)");
+        } else {
+            backends.push(Backend::Gpu);
+        }
+        for backend in backends {
+            let mut kept = CallMemory::default();
+            for (k, &(mesh, w, h, eye, shading, return_colour, return_depth, samples)) in frames.iter().chain(&frames).enumerate() {
+                let params = RenderParams { shading, return_colour, return_depth, samples, cull: Cull::None, ..RenderParams::new(w, h, camera(w, h, eye)) };
+                let got = kept.render(mesh, &params, backend).unwrap_or_else(|e| panic!("{backend:?}, frame {k}: {e}"));
+                let want = CallMemory::default().render(mesh, &params, backend).unwrap();
+                assert!(got.ids.iter().any(|&f| f != NO_FACE), "{backend:?}, frame {k} draws the mesh");
+                assert_eq!(got.colour, want.colour, "{backend:?}, frame {k}: colour");
+                assert_eq!(
+                    got.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+                    want.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+                    "{backend:?}, frame {k}: depth"
+                );
+                assert_eq!(got.ids, want.ids, "{backend:?}, frame {k}: ids");
+                assert_eq!(got.fragments, want.fragments, "{backend:?}, frame {k}: fragments");
+                assert_eq!(got.stats.geometry, want.stats.geometry, "{backend:?}, frame {k}: geometry counts");
+            }
+        }
+        // After the kept memory is released, the public call (in whatever memory it finds)
+        // draws the same frame again.
+        release_memory();
+        let (w, h) = (80, 60);
+        let params = RenderParams { shading: Shading::Phong, cull: Cull::None, ..RenderParams::new(w, h, camera(w, h, [3.0, 1.0, 2.0])) };
+        let (got, want) = (render(&sphere, &params, Backend::Cpu).unwrap(), CallMemory::default().render(&sphere, &params, Backend::Cpu).unwrap());
+        assert!(got.colour == want.colour && got.ids == want.ids, "a call after the release");
     }
 }

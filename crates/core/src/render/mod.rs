@@ -149,8 +149,18 @@ pub fn prepare_mesh_frame(
 
 /// Runs the geometry stages over every instance of `world`.
 pub fn prepare_world(world: &World, params: &RenderParams, kernels: &mut dyn GeometryKernels) -> Result<(Prepared, GeometryCounts), Error> {
+    prepare_world_in(world, params, &mut GeometryMemory::default(), kernels)
+}
+
+/// [`prepare_world`] in `memory`.
+pub fn prepare_world_in(
+    world: &World,
+    params: &RenderParams,
+    memory: &mut GeometryMemory,
+    kernels: &mut dyn GeometryKernels,
+) -> Result<(Prepared, GeometryCounts), Error> {
     validate_world(&world.meshes, &world.instances)?;
-    prepare_instances_in(&world.meshes, &world.instances, params, &mut GeometryMemory::default(), None, kernels, &mut |_| {})
+    prepare_instances_in(&world.meshes, &world.instances, params, memory, None, kernels, &mut |_| {})
 }
 
 /// The geometry stages' passes, in the order they run, as [`prepare_render_observed`] reports

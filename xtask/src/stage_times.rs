@@ -169,17 +169,29 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     Ok(laps)
 }
 
-/// One GPU call: its profile, the host's preparation and the call's wall time (ms).
-fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, f64, f64), String> {
-    let start = Instant::now();
-    let prepared = case.prepare(Backend::Gpu)?;
-    let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
+/// One GPU call: its profile, the host's preparation pass by pass ([`Case::preparation`]) and
+/// the call's wall time (ms).
+fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, Vec<f64>, f64), String> {
+    let mut clock = Instant::now();
+    let mut laps = Vec::new();
+    let mut lap = || {
+        laps.push(clock.elapsed().as_secs_f64() * 1e3);
+        clock = Instant::now();
+    };
+    let prepared = match case {
+        Case::Render(mesh, params) => prepare_render_observed(mesh, params, Backend::Gpu, &mut |_| lap()).map(|(p, _)| p).map_err(|e| e.to_string())?,
+        Case::Height(..) => {
+            let prepared = case.prepare(Backend::Gpu)?;
+            lap();
+            prepared
+        }
+    };
     let plan = prepared.plan(prepared.window, false).map_err(|e| e.to_string())?;
     let start = Instant::now();
     let (raster, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, true).map_err(|e| e.to_string())?;
     let ms = start.elapsed().as_secs_f64() * 1e3;
     drop(raster);
-    Ok((profile, prepare_ms, ms))
+    Ok((profile, laps, ms))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -238,13 +250,15 @@ fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
 fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let adapter = tileraster::gpu_adapter().map_err(|e| e.to_string())?;
     let mut s = format!(
-        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. *prepare* is the host's preparation before the call (the heightfields' snapping and analysis, the render pipeline's geometry stages; the plan between it and the call is in neither), ms; stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped, and its unmapping (the submission itself, the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (the context's lock, allocating the raster, recording passes, binding, the statistics, reading the timestamps back).\n"
+        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. The host's preparation before the call, ms: *prepare* for a heightfield (its snapping and analysis), the geometry stages' passes for a mesh as in the CPU's table (*vertex* runs the kernels' vertex stage on the device, its upload and read-back included); the plan between it and the call is in neither. stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped, and its unmapping (the submission itself, the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (the context's lock, allocating the raster, recording passes, binding, the statistics, reading the timestamps back).\n"
     );
     let mut header = None;
     for (name, case) in cases {
         let rows: Vec<_> = raster_stages(case.pipeline()).collect();
-        let names: Vec<&str> = ["prepare"]
-            .into_iter()
+        let preparation = case.preparation();
+        let names: Vec<&str> = preparation
+            .iter()
+            .copied()
             .chain(rows.iter().map(|info| info.name))
             .chain(["device", "call", "upload", "wait", "copy", "rest", "dispatches", "submissions", "waits", "MB up", "MB down"])
             .collect();
@@ -255,7 +269,7 @@ fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
             return Err(format!("{adapter} writes no timestamps: the GPU's stage times cannot be measured on it"));
         };
         let stage = |k: usize| median(calls.iter().map(|(p, _, _)| p.stage(rows[k].stage).unwrap_or(f64::NAN)).collect());
-        let mut cells = vec![format!("{:.1}", median(calls.iter().map(|(_, prepare, _)| *prepare).collect()))];
+        let mut cells: Vec<String> = (0..preparation.len()).map(|k| format!("{:.1}", median(calls.iter().map(|(_, laps, _)| laps[k]).collect()))).collect();
         cells.extend((0..rows.len()).map(|k| format!("{:.1}", stage(k))));
         cells.push(format!("{:.1}", median(calls.iter().map(|(p, _, _)| rows.iter().map(|info| p.stage(info.stage).unwrap_or(0.0)).sum()).collect())));
         cells.push(format!("{:.1}", median(calls.iter().map(|(_, _, ms)| *ms).collect())));

@@ -104,7 +104,9 @@ pub fn run(quick: bool) -> Result<String, String> {
         let phong = RenderParams { shading: Shading::Phong, ..scene.params.clone() };
         let (cpu_time, cpu) = timed(runs, || render(&scene.mesh, &ids, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (phong_time, _) = timed(runs, || render(&scene.mesh, &phong, Backend::Cpu).map_err(|e| e.to_string()))?;
-        // The prepared form: one frame's memory and layers reused by every call.
+        // The prepared form: one frame's memory and layers reused by every call; the memory the
+        // one-shot calls kept is freed first, so that neither form works beside the other's.
+        tileraster::render::release_memory();
         let mut prepared = PreparedMesh::new(scene.mesh.clone()).map_err(|e| e.to_string())?;
         let mut frame = Frame::default();
         let mut into = |params: &RenderParams, frame: &mut Frame| timed(runs, || prepared.render_into(params, Backend::Cpu, frame).map_err(|e| e.to_string()));
@@ -409,6 +411,7 @@ fn texture_section(quick: bool, runs: usize, gpu: bool) -> Result<String, String
         let (gpu_cell, same) = gpu_cell(gpu, runs, &mesh, &params, &cpu)?;
         // The prepared form, one mesh per backend: its texture laid out by the warm-up frame.
         let prepared_cell = |backend: Backend| -> Result<(String, Timing), String> {
+            tileraster::render::release_memory();
             let mut prepared = PreparedMesh::new(mesh.clone()).map_err(|e| e.to_string())?;
             let mut frame = Frame::default();
             let (time, ()) = timed(runs, || prepared.render_into(&params, backend, &mut frame).map_err(|e| e.to_string()))?;

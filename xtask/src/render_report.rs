@@ -105,7 +105,7 @@ pub fn run(quick: bool) -> Result<String, String> {
         let (cpu_time, cpu) = timed(runs, || render(&scene.mesh, &ids, Backend::Cpu).map_err(|e| e.to_string()))?;
         let (phong_time, _) = timed(runs, || render(&scene.mesh, &phong, Backend::Cpu).map_err(|e| e.to_string()))?;
         // The prepared form: one frame's memory and layers reused by every call; the memory the
-        // one-shot calls kept is freed first, so that neither form works beside the other's.
+        // CPU's one-shot calls kept is freed first, so that its frames do not run beside it.
         tileraster::render::release_memory();
         let mut prepared = PreparedMesh::new(scene.mesh.clone()).map_err(|e| e.to_string())?;
         let mut frame = Frame::default();

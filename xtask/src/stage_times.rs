@@ -186,6 +186,9 @@ fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, Vec<f64>, f
             prepared
         }
     };
+    if laps.len() != case.preparation().len() {
+        return Err(format!("the preparation reported {} passes of {}", laps.len(), case.preparation().len()));
+    }
     let plan = prepared.plan(prepared.window, false).map_err(|e| e.to_string())?;
     let start = Instant::now();
     let (raster, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, true).map_err(|e| e.to_string())?;
@@ -250,7 +253,7 @@ fn cpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
 fn gpu_table(cases: &[(String, Case)], runs: usize) -> Result<String, String> {
     let adapter = tileraster::gpu_adapter().map_err(|e| e.to_string())?;
     let mut s = format!(
-        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. The host's preparation before the call, ms: *prepare* for a heightfield (its snapping and analysis), the geometry stages' passes for a mesh as in the CPU's table (*vertex* runs the kernels' vertex stage on the device, its upload and read-back included); the plan between it and the call is in neither. stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped, and its unmapping (the submission itself, the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (the context's lock, allocating the raster, recording passes, binding, the statistics, reading the timestamps back).\n"
+        "\nGPU backend on {adapter}; median of {runs} calls after a warm-up. The host's preparation before the call, ms: *prepare* for a heightfield (its snapping and analysis), the geometry stages' passes for a mesh as in the CPU's table (*vertex* runs the kernels' vertex stage on the device, its upload and read-back included); the plan between it and the call is in neither. Stage columns: device time from timestamp queries, ms; *device* is their sum, *call* the whole call's wall time. The host's share of the call: *upload* hands the scene to the queue (copies into staging memory), *wait* runs from each read-back's submission until its buffer is mapped, and its unmapping (the submission itself, the device's work, the copies over the bus, the driver), *copy* takes the mapped read-back into the raster's layers, *rest* is the remainder (the context's lock, allocating the raster, recording passes, binding, the statistics, reading the timestamps back).\n"
     );
     let mut header = None;
     for (name, case) in cases {

@@ -40,12 +40,13 @@ impl Viewport {
         ]
     }
 
-    /// `c` taken onto the clipping planes it lies beyond. A point inside them all as the `f64`
-    /// tests found it may still lie a rounding error outside, and a point clipping made near
-    /// the centre of projection (`x = y = w = 0`) comes from differences of nearly equal
-    /// numbers: divided by its tiny `w`, that error would put its snapped position far beyond
-    /// the guard band (where the kernels' 64-bit edge functions overflow) and its `1/w` beyond
-    /// `f32`. On the planes, neither can happen; a point inside moves not at all.
+    /// `c` taken onto the clipping planes it lies beyond. A point clipping made is tested only
+    /// against the planes after the one it was cut on, and near the centre of projection
+    /// (`x = y = w = 0`) it comes from differences of nearly equal numbers: a rounding error
+    /// outside an earlier plane, divided by its tiny `w`, would put its snapped position far
+    /// beyond the guard band (where the kernels' 64-bit edge functions overflow) and its `1/w`
+    /// beyond `f32`. On the planes, neither can happen. A point the `f64` tests found inside
+    /// every plane does not move (the bounds are the tests' own comparisons).
     pub(super) fn onto_planes(&self, c: &[f64; 4]) -> [f64; 4] {
         let w = c[3].max(W_MIN);
         let [gx, gy] = self.guard;

@@ -15,7 +15,7 @@
 
 use std::fmt::Write;
 use std::time::Instant;
-use tileraster::render::{Camera, Cull, Eye, GeometryPass, IDENTITY, Mesh, Projection, RenderParams, Shading, Up, prepare_render_observed, prepare_render_on};
+use tileraster::render::{Camera, Cull, Eye, GeometryPass, IDENTITY, Mesh, Projection, RenderParams, Shading, Up, prepare_render_observed};
 use tileraster::{Backend, Grid, Params, Prepared, Scene};
 use tileraster_core::kernels::pipeline::{Pipeline, raster_stages};
 use tileraster_testkit::{meshes, scenes};
@@ -27,12 +27,27 @@ enum Case {
 }
 
 impl Case {
-    /// The prepared scene, a mesh's geometry stages run on `backend`.
-    fn prepare(&self, backend: Backend) -> Result<Prepared, String> {
-        match self {
-            Case::Height(scene, grid) => tileraster::prepare(scene, &Params::new(*grid), None).map_err(|e| e.to_string()),
-            Case::Render(mesh, params) => prepare_render_on(mesh, params, backend).map(|(p, _)| p).map_err(|e| e.to_string()),
+    /// The prepared scene, a mesh's geometry stages run on `backend`, and the time of each pass
+    /// of [`Self::preparation`] (ms).
+    fn prepare_timed(&self, backend: Backend) -> Result<(Prepared, Vec<f64>), String> {
+        let text = |e: tileraster::Error| e.to_string();
+        let mut clock = Instant::now();
+        let mut laps = Vec::new();
+        let mut lap = || {
+            laps.push(clock.elapsed().as_secs_f64() * 1e3);
+            clock = Instant::now();
+        };
+        let prepared = match self {
+            Case::Height(scene, grid) => tileraster::prepare(scene, &Params::new(*grid), None).map_err(text)?,
+            Case::Render(mesh, params) => prepare_render_observed(mesh, params, backend, &mut |_| lap()).map(|(p, _)| p).map_err(text)?,
+        };
+        if let Case::Height(..) = self {
+            lap();
         }
+        if laps.len() != self.preparation().len() {
+            return Err(format!("the preparation reported {} passes of {}", laps.len(), self.preparation().len()));
+        }
+        Ok((prepared, laps))
     }
 
     /// The columns of the host's preparation: the geometry stages' passes for a mesh, one for a
@@ -136,20 +151,12 @@ fn report_cases(terrain: &Mesh, base: &RenderParams) -> Result<Vec<(String, Case
 fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     let text = |e: tileraster::Error| e.to_string();
     let rows: Vec<_> = raster_stages(case.pipeline()).map(|info| info.stage).collect();
+    let (prepared, mut laps) = case.prepare_timed(Backend::Cpu)?;
     let mut clock = Instant::now();
     let mut lap = || {
         let ms = clock.elapsed().as_secs_f64() * 1e3;
         clock = Instant::now();
         ms
-    };
-    let mut laps = Vec::new();
-    let prepared = match case {
-        Case::Render(mesh, params) => prepare_render_observed(mesh, params, Backend::Cpu, &mut |_| laps.push(lap())).map(|(p, _)| p).map_err(text)?,
-        Case::Height(..) => {
-            let prepared = case.prepare(Backend::Cpu)?;
-            laps.push(lap());
-            prepared
-        }
     };
     let plan = prepared.plan(prepared.window, false).map_err(text)?;
     laps.push(lap());
@@ -172,23 +179,7 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
 /// One GPU call: its profile, the host's preparation pass by pass ([`Case::preparation`]) and
 /// the call's wall time (ms).
 fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, Vec<f64>, f64), String> {
-    let mut clock = Instant::now();
-    let mut laps = Vec::new();
-    let mut lap = || {
-        laps.push(clock.elapsed().as_secs_f64() * 1e3);
-        clock = Instant::now();
-    };
-    let prepared = match case {
-        Case::Render(mesh, params) => prepare_render_observed(mesh, params, Backend::Gpu, &mut |_| lap()).map(|(p, _)| p).map_err(|e| e.to_string())?,
-        Case::Height(..) => {
-            let prepared = case.prepare(Backend::Gpu)?;
-            lap();
-            prepared
-        }
-    };
-    if laps.len() != case.preparation().len() {
-        return Err(format!("the preparation reported {} passes of {}", laps.len(), case.preparation().len()));
-    }
+    let (prepared, laps) = case.prepare_timed(Backend::Gpu)?;
     let plan = prepared.plan(prepared.window, false).map_err(|e| e.to_string())?;
     let start = Instant::now();
     let (raster, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, true).map_err(|e| e.to_string())?;

@@ -898,7 +898,15 @@ fn clipped_points_near_the_centre_of_projection_stay_in_the_guard_band() {
         triangles.push([3 * k, 3 * k + 1, 3 * k + 2]);
     }
     let mesh = Mesh { positions, triangles, ..Default::default() };
-    let params = RenderParams { cull: Cull::None, ..RenderParams::new(w, h, m) };
+    // Lit per vertex (the host's assembly) and face ids (the kernels').
+    for shading in [Shading::Smooth, Shading::Ids] {
+        let params = RenderParams { cull: Cull::None, shading, ..RenderParams::new(w, h, m) };
+        corners_stay_in_the_guard_band(&mesh, &params, low, high);
+    }
+}
+
+fn corners_stay_in_the_guard_band(mesh: &Mesh, params: &RenderParams, low: f64, high: [f64; 2]) {
+    let (mesh, params) = (mesh.clone(), params.clone());
     let (prepared, counts) = prepare_render(&mesh, &params).unwrap_or_else(|e| panic!("{e}"));
     assert!(counts.clipped > 1000, "{} faces clipped", counts.clipped);
     let shading = &prepared.render.as_ref().expect("a render frame").triangles;
@@ -909,7 +917,32 @@ fn clipped_points_near_the_centre_of_projection_stay_in_the_guard_band() {
             assert!(s.inv_w[v].is_finite() && s.inv_w[v] > 0.0, "face {}: 1/w = {}", s.face, s.inv_w[v]);
         }
     }
-    let frame = assert_render_parity("corners near the centre of projection", &mesh, &params);
+    let frame = assert_render_parity(&format!("corners near the centre of projection, {}", params.shading.name()), &mesh, &params);
     assert!(frame.depth.iter().all(|d| (0.0..=1.0).contains(d) || d.to_bits() == params.clear_depth.to_bits()), "every depth in [0, 1]");
     assert!(frame.ids.iter().any(|&id| id != NO_FACE), "the faces cover pixels");
+}
+
+/// Faces the kernels assemble meet the faces the host clips without a crack or a double hit:
+/// a flat grid seen from just above it, cut by the near plane under the camera and by the far
+/// plane ahead, covers every pixel centre below the far plane's line exactly once, column by
+/// column down to the bottom row, the same bits on both backends.
+#[test]
+fn kernel_assembled_faces_meet_host_clipped_faces_without_a_crack() {
+    let mesh = meshes::terrain(120, 400.0, 0.0);
+    let (w, h) = (180u32, 120u32);
+    for (eye, target) in [([200.0, 200.0, 1.0], [300.0, 260.0, 1.0]), ([201.3, 197.9, 0.4], [180.0, 270.0, -3.0])] {
+        let camera = Camera { eye, target, up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 0.3, far: 80.0 };
+        let params = RenderParams { cull: Cull::None, shading: Shading::Ids, ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
+        let frame = assert_render_parity(&format!("a grid from {eye:?}"), &mesh, &params);
+        let g = frame.stats.geometry;
+        assert!(g.clipped > 10 && g.rasterised > 100, "{eye:?}: {g:?}");
+        for i in 0..w as usize {
+            let column: Vec<u32> = (0..h as usize).map(|j| frame.fragments[j * w as usize + i]).collect();
+            let first = column.iter().position(|&f| f != 0).unwrap_or_else(|| panic!("{eye:?}: column {i} is empty"));
+            assert!(first > 0 && first < h as usize / 2 + 20, "{eye:?}: column {i} starts at row {first}");
+            if let Some(j) = (first..h as usize).find(|&j| column[j] != 1) {
+                panic!("{eye:?}: pixel ({i}, {j}) is inside {} faces (the run starts at row {first})", column[j]);
+            }
+        }
+    }
 }

@@ -900,7 +900,11 @@ pub struct VertexParams {
     pub vertices: u32,
     /// Invocations per row of the 2D dispatch that stands for a 1D one.
     pub dispatch_width: u32,
-    pub _pad: [u32; 2],
+    /// The guard band in snapped units: a projected vertex the assembly may take lies within
+    /// `[band_low, band_high]` on both axes (`stages::vertex::UNASSEMBLED`).
+    pub band_low: i32,
+    pub _pad: u32,
+    pub band_high: [i32; 2],
 }
 
 /// A vertex's position relative to the stage's origin, each coordinate as the double-`f32`
@@ -927,11 +931,20 @@ pub struct ProjectedVertex {
     pub depth: f32,
     /// `1/w` rounded to `f32`.
     pub inverse_w: f32,
+    /// Bits of `stages::vertex`: the frustum planes it lies beyond, and whether the kernels'
+    /// assembly may take it as projected (`UNASSEMBLED` where not).
+    pub planes: u32,
 }
 
 impl ProjectedVertex {
     /// What the stage writes for a vertex it does not project: the same bits on every device.
-    pub const NONE: ProjectedVertex = ProjectedVertex { screen: [0, 0], depth: -1.0, inverse_w: 0.0 };
+    pub const NONE: ProjectedVertex = ProjectedVertex::none(crate::stages::vertex::UNASSEMBLED);
+
+    /// [`Self::NONE`] beyond the frustum planes `planes` (and so `UNASSEMBLED`).
+    #[inline]
+    pub const fn none(planes: u32) -> ProjectedVertex {
+        ProjectedVertex { screen: [0, 0], depth: -1.0, inverse_w: 0.0, planes: planes | crate::stages::vertex::UNASSEMBLED }
+    }
 
     #[inline]
     pub fn is_projected(&self) -> bool {

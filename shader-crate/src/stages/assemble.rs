@@ -7,9 +7,10 @@
 //! Range: snapped coordinates within the guard band (below `2^28` in magnitude), so that
 //! differences stay below `2^29` and the doubled area below `2^59`.
 
-use crate::abi::{ATTRIBUTES, FloatCoeffs, PixelRect, TriangleInput, TriangleShading};
+use crate::abi::{ATTRIBUTES, FloatCoeffs, PixelRect, ProjectedVertex, TriangleInput, TriangleShading};
 use crate::math::fixed::{ceil_shr, floor_shr};
 use crate::math::float::recip_u64;
+use crate::stages::vertex::{FRUSTUM, UNASSEMBLED};
 
 /// Culling by facing: none.
 pub const CULL_NONE: u32 = 0;
@@ -45,6 +46,10 @@ pub const DROPPED_BACK: u32 = 2;
 pub const DROPPED_FRONT: u32 = 3;
 /// Dropped: no pixel centre (or sample) lies in its box.
 pub const DROPPED_NO_CENTRE: u32 = 4;
+/// Dropped: its corners lie beyond one plane of the view frustum ([`assemble_face`]).
+pub const DROPPED_FRUSTUM: u32 = 5;
+/// Left to the host's clipping: a corner the vertex stage marked `UNASSEMBLED` ([`assemble_face`]).
+pub const CLIPPED_ON_HOST: u32 = 6;
 
 /// A snapped triangle as assembly leaves it.
 #[derive(Copy, Clone, Default)]
@@ -92,6 +97,25 @@ pub fn snap_triangle(x: [i64; 3], y: [i64; 3], a: &Assembly) -> Snapped {
         t.dropped = DROPPED_NO_CENTRE;
     }
     t
+}
+
+/// A face of three vertices through the vertex stage: dropped wholly outside one frustum plane
+/// (by the stage's bits), left to the host where a corner is `UNASSEMBLED` (beyond the near or
+/// far plane or the guard band, or outside the stage's domain), else [`snap_triangle`]. What
+/// the assembly decides is the stage's bits alone, so every device decides alike, and a vertex
+/// shared by faces is taken the same way by each of them.
+#[inline]
+pub fn assemble_face(corners: [&ProjectedVertex; 3], a: &Assembly) -> Snapped {
+    let (p0, p1, p2) = (corners[0].planes, corners[1].planes, corners[2].planes);
+    if p0 & p1 & p2 & FRUSTUM != 0 {
+        return Snapped { dropped: DROPPED_FRUSTUM, ..Snapped::default() };
+    }
+    if (p0 | p1 | p2) & UNASSEMBLED != 0 {
+        return Snapped { dropped: CLIPPED_ON_HOST, ..Snapped::default() };
+    }
+    let x = [corners[0].screen[0] as i64, corners[1].screen[0] as i64, corners[2].screen[0] as i64];
+    let y = [corners[0].screen[1] as i64, corners[1].screen[1] as i64, corners[2].screen[1] as i64];
+    snap_triangle(x, y, a)
 }
 
 /// The records of a kept triangle: for setup (its corners, pixels and depth coefficients) and
@@ -196,6 +220,27 @@ mod tests {
         let reached = snap_triangle(x, y, &frame(CULL_NONE, 7 << 4));
         assert_eq!(reached.dropped, KEPT);
         assert_eq!((reached.rect.i0, reached.rect.i1), (0, 1));
+    }
+
+    #[test]
+    fn a_face_is_decided_by_its_corners_planes() {
+        use crate::stages::vertex::{BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, UNASSEMBLED};
+        let corner = |x: i64, y: i64, planes: u32| ProjectedVertex { screen: [x as i32, y as i32], depth: 0.5, inverse_w: 1.0, planes };
+        let (a, b, c) = (corner(UNIT, UNIT, 0), corner(UNIT, 5 * UNIT, 0), corner(5 * UNIT, UNIT, 0));
+        let kept = assemble_face([&a, &b, &c], &frame(CULL_NONE, 0));
+        assert_eq!((kept.dropped, kept.area), (KEPT, 16 * UNIT as u64 * UNIT as u64));
+        // Beyond one plane together: dropped, even where a corner is not projected.
+        let left = |v: &ProjectedVertex, more: u32| ProjectedVertex { planes: BEYOND_LEFT | more, ..*v };
+        let outside = [left(&a, 0), left(&b, BEYOND_NEAR | UNASSEMBLED), left(&c, BEYOND_FAR)];
+        assert_eq!(assemble_face(outside.each_ref(), &frame(CULL_NONE, 0)).dropped, DROPPED_FRUSTUM);
+        // Beyond different planes, or one corner left to the host: clipped there.
+        let across = [left(&a, 0), ProjectedVertex { planes: BEYOND_NEAR | UNASSEMBLED, ..b }, c];
+        assert_eq!(assemble_face(across.each_ref(), &frame(CULL_NONE, 0)).dropped, CLIPPED_ON_HOST);
+        let none = ProjectedVertex::NONE;
+        assert_eq!(assemble_face([&a, &none, &c], &frame(CULL_BACK, 0)).dropped, CLIPPED_ON_HOST);
+        // Beyond a side plane but projected: the assembly takes it (the guard band holds it).
+        let wide = [left(&a, 0), b, c];
+        assert_eq!(assemble_face(wide.each_ref(), &frame(CULL_NONE, 0)).dropped, KEPT);
     }
 
     #[test]

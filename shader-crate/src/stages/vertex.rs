@@ -38,10 +38,41 @@ const W_LOWEST: f32 = 1.0 / (1u64 << 60) as f32;
 /// The largest: `x / w` and the products before it stay far below `f32`'s overflow.
 const W_HIGHEST: f32 = (1u128 << 100) as f32;
 
+/// [`ProjectedVertex::planes`]: beyond the frustum plane `x = -w`, `x = w`, `y = -w`, `y = w`,
+/// `z = 0` (near), `z = w` (far). A face whose corners share one is wholly outside the frustum.
+pub const BEYOND_LEFT: u32 = 1;
+pub const BEYOND_RIGHT: u32 = 2;
+pub const BEYOND_TOP: u32 = 4;
+pub const BEYOND_BOTTOM: u32 = 8;
+pub const BEYOND_NEAR: u32 = 16;
+pub const BEYOND_FAR: u32 = 32;
+/// All six frustum bits.
+pub const FRUSTUM: u32 = 63;
+/// The kernels' assembly may not take the vertex as projected: it lies outside the stage's
+/// domain, beyond the near or far plane, or beyond the guard band once snapped. A face with
+/// such a corner (and not wholly outside the frustum) is clipped by the host.
+pub const UNASSEMBLED: u32 = 64;
+
+/// The frustum bits of a clip-space position, by its pairs' high parts (as the domain test
+/// compares them; the CPU twin's `f64` path decides the same comparisons).
+#[inline]
+pub fn frustum_planes(clip: &[Double; 4]) -> u32 {
+    let (x, y, z, w) = (clip[0].hi, clip[1].hi, clip[2].hi, clip[3].hi);
+    let bit = |beyond: bool, b: u32| if beyond { b } else { 0 };
+    bit(x < -w, BEYOND_LEFT)
+        | bit(x > w, BEYOND_RIGHT)
+        | bit(y < -w, BEYOND_TOP)
+        | bit(y > w, BEYOND_BOTTOM)
+        | bit(z < 0.0, BEYOND_NEAR)
+        | bit(z > w, BEYOND_FAR)
+}
+
 /// One vertex through the stage: projected where its position lies within [`POSITION_LIMIT`] and
 /// it lies in front of the camera (`w` in `[2^-60, 2^100]`), within `params.reach` of the view in
-/// `x` and `y` and within `[-w, 2w]` in `z`, else [`ProjectedVertex::NONE`] (the host then
-/// projects it in `f64` if it lies inside the clipping planes at all).
+/// `x` and `y` and within `[-w, 2w]` in `z`, else [`ProjectedVertex::none`] (the host then
+/// projects it in `f64` if it lies inside the clipping planes at all). Its [`FRUSTUM`] bits are
+/// set wherever its position is within the limit; [`UNASSEMBLED`] where the kernels' assembly
+/// may not take it.
 #[inline]
 // Plain comparisons, as the CPU twin's `f64` path mirrors them.
 #[allow(clippy::manual_range_contains)]
@@ -67,6 +98,7 @@ pub fn vertex(params: &VertexParams, position: &RelativePosition) -> ProjectedVe
         Double { hi: position.hi[2], lo: position.lo[2] },
     ];
     let clip = to_clip(&m, &r);
+    let planes = frustum_planes(&clip);
     let w = clip[3].hi;
     let within = |v: f32, reach: f32| v <= reach * w && -v <= reach * w;
     let in_domain = w >= W_LOWEST
@@ -76,8 +108,21 @@ pub fn vertex(params: &VertexParams, position: &RelativePosition) -> ProjectedVe
         && clip[2].hi >= -w
         && clip[2].hi <= 2.0 * w;
     if !in_domain {
-        return ProjectedVertex::NONE;
+        return ProjectedVertex::none(planes);
     }
     let (depth, inverse_w) = viewport::depth_and_inverse_w(&clip);
-    ProjectedVertex { screen: viewport::snap(&clip, params.half_units), depth, inverse_w }
+    let screen = viewport::snap(&clip, params.half_units);
+    ProjectedVertex { screen, depth, inverse_w, planes: planes | assembled(params, screen, planes) }
+}
+
+/// [`UNASSEMBLED`] for a projected vertex beyond the near or far plane or beyond the guard
+/// band (`screen` snapped), else 0.
+#[inline]
+pub fn assembled(params: &VertexParams, screen: [i32; 2], planes: u32) -> u32 {
+    let inside = screen[0] >= params.band_low
+        && screen[1] >= params.band_low
+        && screen[0] <= params.band_high[0]
+        && screen[1] <= params.band_high[1]
+        && planes & (BEYOND_NEAR | BEYOND_FAR) == 0;
+    if inside { 0 } else { UNASSEMBLED }
 }

@@ -35,10 +35,17 @@ pub(super) fn kept(x: [i64; 3], y: [i64; 3], target: &Target, counts: &mut Geome
             debug_assert!(((extent >> RENDER_SNAP_BITS) + 2) << RENDER_SNAP_BITS < 1 << EXTENT_LIMIT_BITS, "the guard band bounds every triangle");
             return Some(t);
         }
+        dropped => count_dropped(dropped, counts),
+    }
+    None
+}
+
+/// A triangle [`snap_triangle`] dropped, counted by why.
+pub(super) fn count_dropped(dropped: u32, counts: &mut GeometryCounts) {
+    match dropped {
         DROPPED_ZERO_AREA => counts.culled_zero_area += 1,
         DROPPED_BACK => counts.culled_back += 1,
         DROPPED_FRONT => counts.culled_front += 1,
         _ => counts.culled_no_centre += 1,
     }
-    None
 }

@@ -18,6 +18,11 @@
 //!   cut into a fan; every piece keeps its face's id.
 //! - `cull`: whole triangles outside one frustum plane (in `clip`); back or front faces
 //!   (orientation from the snapped vertices, Vulkan's sign rule); zero-area pieces.
+//! - `assemble`: for a frame of one mesh whose vertex attributes are the mesh's own, the
+//!   kernels' assembly (`stages::assemble::assemble_face`) decides every face from the vertex
+//!   stage's bits and makes the kept faces' records from `f32` attributes kept with the mesh;
+//!   only the faces it leaves to the host go through `clip` and `cull`, and no other vertex
+//!   is computed in `f64`.
 //! - `viewport`: pixel centres at `+0.5`, vertices rounded to 8 sub-pixel bits (16.8 fixed
 //!   point, as Direct3D 11 and Vulkan's 2022 roadmap require), the clipping planes.
 //! - `lines` and `points`: the wireframe and vertices views; `lighting`: the viewer, flat and
@@ -29,6 +34,7 @@
 //! The kernels' vertex and viewport arithmetic, in double-`f32`, is `stages::vertex` and
 //! `stages::viewport` (`docs/numeric-contract.md`, "Geometry in the kernels").
 
+mod assemble;
 mod clip;
 mod cull;
 mod emit;
@@ -44,6 +50,7 @@ mod vector;
 mod vertex;
 mod viewport;
 
+use assemble::{MeshFaces, VertexAttributes};
 use clip::geometry;
 use emit::{Emit, FaceTag};
 pub use fragment::{FragmentConstants, FragmentStage};
@@ -64,7 +71,7 @@ use validate::validate_params;
 use vector::{cross, sub, unit};
 pub use vector::{multiply, normal_matrix, transform_normal};
 use vertex::depth_range;
-use vertex::{ClipVertex, Corner, Projected, VertexStageMemory};
+use vertex::{ClipVertex, Corner, Projected, Shaded, VertexStageMemory};
 pub use vertex::{GeometryKernels, MeshPositions, Positions};
 use viewport::{Target, Viewport};
 
@@ -131,6 +138,7 @@ pub fn prepare_checked_mesh_in(
 pub struct KeptMesh {
     textures: Option<LaidOutTextures>,
     positions: Option<MeshPositions>,
+    attributes: Option<VertexAttributes>,
 }
 
 /// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left what they keep
@@ -173,9 +181,10 @@ pub enum GeometryPass {
     /// `vertex`: every placed vertex to clip space, lit where shading is per vertex, and through
     /// the kernels' vertex stage.
     Vertex,
-    /// `clip`, `cull` and `viewport` over every face (and line and point), counting what each
-    /// chunk puts out: a face that needs no clipping is counted from its corners' 24 bytes
-    /// each (`vertex::Corner`), its vertices left unread.
+    /// `clip`, `cull` and `viewport` over every face (and line and point), or the kernels'
+    /// assembly (`assemble`), counting what each chunk puts out: a face that needs no clipping
+    /// is counted from its corners' 24 bytes each (`vertex::Corner`; the kernels' assembly
+    /// reads the vertex stage's 20), its vertices left unread.
     AssembleCount,
     /// The same, writing the triangles into their places.
     AssembleFill,
@@ -303,23 +312,60 @@ pub(crate) fn prepare_instances_in(
     // A fragment shader takes the vertex attributes as they are (no lighting on the host).
     let shading = if params.fragment.is_some() { Shading::Unlit } else { params.shading };
     observe(GeometryPass::Frame);
-    counts.bytes_uploaded = vertex::transform_vertices(
-        meshes.len(),
-        &placements,
-        first_vertex,
-        &params.view_projection,
-        shading,
-        &lighting,
-        &viewport,
-        &mut memory.world,
-        &mut memory.vertices,
-        &mut memory.vertex_stage,
-        instances.len() == 1,
-        kept.map(|k| &mut k.positions),
-        kernels,
-    )?;
-    memory.vertices.par_iter().map(Corner::of).collect_into_vec(&mut memory.corners);
-    let (world, vertices, corners) = (&memory.world[..], &memory.vertices[..], &memory.corners[..]);
+    // The kernels assemble the faces of a frame that lets them (`assemble`), unless its matrix
+    // lies beyond the vertex stage's range; the host's path takes the rest.
+    let kernel_stage = match placements.as_slice() {
+        [only] if assemble::assembles(params, shading, instances.len(), placements.len()) => {
+            vertex::project_mesh(only, m, &viewport, &mut memory.vertex_stage, kept.as_deref_mut().map(|k| &mut k.positions), kernels)?
+        }
+        _ => None,
+    };
+    let mut fresh_attributes = None;
+    let mut mesh_faces = None;
+    match kernel_stage {
+        Some(bytes) => {
+            counts.bytes_uploaded = bytes;
+            let only = &placements[0];
+            let slot = match kept {
+                Some(k) => &mut k.attributes,
+                None => &mut fresh_attributes,
+            };
+            let attributes = VertexAttributes::of(only.mesh, &only.to_world, shading, &lighting, slot);
+            let shaded = Shaded { mesh: only.mesh, normals: &attributes.normals, shading, lighting: &lighting, attributes_used: shading.reads_attributes() };
+            mesh_faces = Some(MeshFaces {
+                placement: only,
+                projected: memory.vertex_stage.projected(),
+                attributes: &attributes.values,
+                flat: params.interpolation == Interpolation::Flat,
+                shaded,
+                view_projection: m,
+            });
+        }
+        None => {
+            counts.bytes_uploaded = vertex::transform_vertices(
+                meshes.len(),
+                &placements,
+                first_vertex,
+                &params.view_projection,
+                shading,
+                &lighting,
+                &viewport,
+                &mut memory.world,
+                &mut memory.vertices,
+                &mut memory.vertex_stage,
+                instances.len() == 1,
+                kept.map(|k| &mut k.positions),
+                kernels,
+            )?;
+            memory.vertices.par_iter().map(Corner::of).collect_into_vec(&mut memory.corners);
+        }
+    }
+    // (The kernels' assembly reads no vertex in `f64`: the arrays the host's path keeps hold
+    // an earlier frame's.)
+    let (world, vertices, corners) = match mesh_faces {
+        Some(_) => (&[][..], &[][..], &[][..]),
+        None => (&memory.world[..], &memory.vertices[..], &memory.corners[..]),
+    };
     observe(GeometryPass::Vertex);
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
@@ -370,7 +416,15 @@ pub(crate) fn prepare_instances_in(
             return;
         }
         let mesh = p.mesh;
-        let faces = &mesh.triangles[start..(start + CHUNK).min(mesh.triangles.len())];
+        let end = (start + CHUNK).min(mesh.triangles.len());
+        if let Some(faces) = &mesh_faces {
+            for k in start..end {
+                let tag = FaceTag { id: p.first_face + k as u32, texture: face_texture(mesh, k, p.first_texture) };
+                faces.face(k, tag, &viewport, &target, emit, counts);
+            }
+            return;
+        }
+        let faces = &mesh.triangles[start..end];
         let mut flattened = [ClipVertex::default(); 3];
         for (k, tri) in faces.iter().enumerate() {
             let face = p.first_face + (start + k) as u32;
@@ -406,12 +460,7 @@ pub(crate) fn prepare_instances_in(
                 }
                 vertex = [&flattened[0], &flattened[1], &flattened[2]];
             }
-            let texture = match &mesh.face_textures {
-                Some(t) => t[start + k],
-                None if mesh.textures.is_empty() => NO_TEXTURE,
-                None => 0,
-            };
-            let texture = if texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + texture };
+            let texture = face_texture(mesh, start + k, p.first_texture);
             geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, &viewport, &target, emit, counts);
         }
     };
@@ -503,6 +552,17 @@ pub(crate) fn prepare_instances_in(
     };
     observe(GeometryPass::Finish);
     Ok((prepared, counts))
+}
+
+/// Face `k`'s texture in the frame's textures (its mesh's start at `first_texture`), or
+/// [`NO_TEXTURE`].
+fn face_texture(mesh: &Mesh, k: usize, first_texture: u32) -> u32 {
+    let texture = match &mesh.face_textures {
+        Some(t) => t[k],
+        None if mesh.textures.is_empty() => NO_TEXTURE,
+        None => 0,
+    };
+    if texture == NO_TEXTURE { NO_TEXTURE } else { first_texture + texture }
 }
 
 /// What a chunk of the geometry stages takes.

@@ -3,7 +3,7 @@
 
 use super::instances::{self, Placement};
 use super::lighting::Lighting;
-use super::params::{GREY, IDENTITY, Shading, face_normals};
+use super::params::{GREY, IDENTITY, Mesh, Shading, face_normals};
 use super::params::{GUARD_PX, RENDER_SNAP_BITS};
 use super::vector::{multiply, normal_matrix, transform_normal, unit};
 use super::viewport::{Viewport, distance};
@@ -143,6 +143,47 @@ pub(super) fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32;
     n.par_iter().map(|&v| transform_normal(&normal_matrix, v)).collect()
 }
 
+/// What a vertex's attributes are made of: its mesh, the mesh's normals in the world
+/// ([`vertex_normals`]; empty where no attribute is read), and the frame's shading.
+pub(super) struct Shaded<'a> {
+    pub(super) mesh: &'a Mesh,
+    pub(super) normals: &'a [[f32; 3]],
+    pub(super) shading: Shading,
+    pub(super) lighting: &'a Lighting<'a>,
+    pub(super) attributes_used: bool,
+}
+
+impl Shaded<'_> {
+    /// Vertex `v` of the mesh, at `world` in the world, through `m` to clip space with its
+    /// attributes (colour, normal, world position, texture coordinates; lit per vertex for
+    /// Gouraud shading), in `f64`.
+    pub(super) fn clip_vertex(&self, v: usize, world: [f64; 3], m: &[[f64; 4]; 4], viewport: &Viewport) -> ClipVertex {
+        let p = world;
+        let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
+        ClipVertex::new(clip, self.attributes(v, p), viewport)
+    }
+
+    /// The attributes of vertex `v` at `p` in the world (zeros where none is read).
+    pub(super) fn attributes(&self, v: usize, p: [f64; 3]) -> [f64; ATTRIBUTES] {
+        let mesh = self.mesh;
+        let mut attributes = [0.0; ATTRIBUTES];
+        if !self.attributes_used {
+            return attributes;
+        }
+        let n = self.normals[v].map(f64::from);
+        let mut colour = mesh.colours.as_ref().map_or(GREY, |c| c[v]).map(f64::from);
+        if self.shading == Shading::Smooth {
+            colour = self.lighting.lit(colour, unit(n), p);
+        }
+        let uv = mesh.uvs.as_ref().map_or([0.0; 2], |t| t[v]).map(f64::from);
+        attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
+        attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+        attributes[ATTR_POSITION..ATTR_POSITION + 3].copy_from_slice(&p);
+        attributes[ATTR_UV..ATTR_UV + 2].copy_from_slice(&uv);
+        attributes
+    }
+}
+
 /// The vertex stage over the visible instances (`placements`, `count` vertices in all): each
 /// instance's transform, then the view-projection, into the arrays `world` (positions) and
 /// `vertices` (clip-space vertices with their attributes (colour, normal, world position, texture
@@ -209,24 +250,8 @@ pub(super) fn transform_vertices(
         let normals =
             if attributes_used { vertex_normals(base_normals[p.mesh_index].as_ref().expect("normals of every placed mesh"), model) } else { Vec::new() };
         vertices.par_iter_mut().enumerate().for_each(|(v, out)| {
-            let p = world[v];
-            let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
-            if !attributes_used {
-                *out = ClipVertex::new(clip, [0.0; ATTRIBUTES], viewport);
-                return;
-            }
-            let n = normals[v].map(f64::from);
-            let mut colour = mesh.colours.as_ref().map_or(GREY, |c| c[v]).map(f64::from);
-            if shading == Shading::Smooth {
-                colour = lighting.lit(colour, unit(n), p);
-            }
-            let uv = mesh.uvs.as_ref().map_or([0.0; 2], |t| t[v]).map(f64::from);
-            let mut attributes = [0.0; ATTRIBUTES];
-            attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
-            attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
-            attributes[ATTR_POSITION..ATTR_POSITION + 3].copy_from_slice(&p);
-            attributes[ATTR_UV..ATTR_UV + 2].copy_from_slice(&uv);
-            *out = ClipVertex::new(clip, attributes, viewport);
+            let shaded = Shaded { mesh, normals: &normals, shading, lighting, attributes_used };
+            *out = shaded.clip_vertex(v, world[v], m, viewport);
         });
     });
     // A world of one instance (a mesh): the mesh's own positions, relative to its box's centre,
@@ -282,6 +307,49 @@ pub(super) struct VertexStageMemory {
     projected: Vec<ProjectedVertex>,
 }
 
+impl VertexStageMemory {
+    /// The frame's vertices as the stage projected them.
+    pub(super) fn projected(&self) -> &[ProjectedVertex] {
+        &self.projected
+    }
+}
+
+/// The kernels' vertex stage alone, over a world of one instance (`only`), for a frame the
+/// kernels assemble (`assemble`): no vertex in `f64`. The projected vertices are left in
+/// `stage`; returns the bytes handed to the stage, or `None` where the frame's matrix lies beyond
+/// the stage's range (the frame then takes the host's path).
+pub(super) fn project_mesh(
+    only: &Placement,
+    m: &[[f64; 4]; 4],
+    viewport: &Viewport,
+    stage: &mut VertexStageMemory,
+    kept: Option<&mut Option<MeshPositions>>,
+    kernels: &mut dyn GeometryKernels,
+) -> Result<Option<u64>, Error> {
+    let count = u32::try_from(only.mesh.positions.len()).map_err(|_| Error::TooManyFaces { faces: only.mesh.positions.len() as u64 })?;
+    let matrix = if only.to_world == IDENTITY { *m } else { multiply(m, &only.to_world) };
+    let VertexStageMemory { positions, projected } = stage;
+    let (handed, origin) = match kept {
+        Some(kept) => {
+            let mesh = kept.get_or_insert_with(|| MeshPositions::of(&only.mesh.positions));
+            (Positions { pairs: &mesh.pairs, kept: Some(mesh.key) }, mesh.origin)
+        }
+        None => {
+            let origin = box_centre(&only.mesh.positions);
+            relative_pairs(&only.mesh.positions, origin, positions);
+            (Positions { pairs: positions, kept: None }, origin)
+        }
+    };
+    let Some(params) = vertex_params(&matrix, origin, viewport) else {
+        return Ok(None);
+    };
+    let bytes = kernels.vertex(&VertexParams { vertices: count, ..params }, handed, projected)?;
+    if projected.len() != count as usize {
+        return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {count}", projected.len())));
+    }
+    Ok(Some(bytes))
+}
+
 /// The vertex stage proper, on the frame's backend (`kernels`): every vertex inside the clipping
 /// planes gets its snapped position, depth and `1/w` from `stages::vertex`. The kernels take
 /// positions relative to an origin in double-`f32` pairs (`positions`, one per vertex), and
@@ -310,9 +378,7 @@ fn project_vertices(
     // The guard band in snapped units: where every vertex inside the planes snaps in `f64`. The
     // stage's snapped vertex is taken there (an ill-conditioned `w` may put it beyond, where
     // the edge functions' range is not proven; the host projects such a vertex).
-    let unit = (1u64 << RENDER_SNAP_BITS) as f64;
-    let low = (-GUARD_PX * unit) as i32;
-    let high = viewport.half.map(|h| ((2.0 * h + GUARD_PX) * unit) as i32);
+    let (low, high) = guard_band_units(viewport);
     let within = |s: [i32; 2]| s[0] >= low && s[1] >= low && s[0] <= high[0] && s[1] <= high[1];
     vertices.par_iter_mut().zip(&*projected).filter(|(v, _)| v.outside == 0).for_each(|(v, p)| {
         v.projected = if p.is_projected() && within(p.screen) {
@@ -335,14 +401,24 @@ fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], viewport: &Viewport) -> Op
         return None;
     }
     let pairs = composed.map(|row| row.map(Double::from_f64));
+    let (low, high) = guard_band_units(viewport);
     let unit = (1u64 << RENDER_SNAP_BITS) as f64;
     Some(VertexParams {
         matrix_hi: pairs.map(|row| row.map(|d| d.hi)),
         matrix_lo: pairs.map(|row| row.map(|d| d.lo)),
         half_units: viewport.half.map(|h| (h * unit) as f32),
         reach: viewport.guard.map(|g| (2.0 * g) as f32),
+        band_low: low,
+        band_high: high,
         ..VertexParams::default()
     })
+}
+
+/// The guard band in snapped units, lowest and highest per axis: where every vertex inside the
+/// clipping planes snaps in `f64`.
+fn guard_band_units(viewport: &Viewport) -> (i32, [i32; 2]) {
+    let unit = (1u64 << RENDER_SNAP_BITS) as f64;
+    ((-GUARD_PX * unit) as i32, viewport.half.map(|h| ((2.0 * h + GUARD_PX) * unit) as i32))
 }
 
 /// The depths of the visible vertices, lowest and highest (the depth view's range).

@@ -9,7 +9,9 @@
 
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ProjectedVertex, RelativePosition, VertexParams};
-use tileraster_kernels::stages::vertex::{POSITION_LIMIT, vertex as project};
+use tileraster_kernels::stages::vertex::{
+    BEYOND_BOTTOM, BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, BEYOND_RIGHT, BEYOND_TOP, POSITION_LIMIT, assembled, vertex as project,
+};
 
 /// The frame's vertices through the vertex stage, into `projected` (its memory reused).
 pub fn vertex(params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) {
@@ -84,6 +86,19 @@ pub fn exact_in_f64(params: &VertexParams, matrix: &Matrix, position: &RelativeP
     // decided here where every value those parts may take decides it alike.
     let hi: [Span; 4] = std::array::from_fn(|k| Span::around(clip[k], error[k]));
     let w = hi[3];
+    // The frustum bits, as the kernel compares the high parts (`stages::vertex::frustum_planes`).
+    let beyond = [
+        (at_most(w.negated(), hi[0]), BEYOND_LEFT),
+        (at_most(hi[0], w), BEYOND_RIGHT),
+        (at_most(w.negated(), hi[1]), BEYOND_TOP),
+        (at_most(hi[1], w), BEYOND_BOTTOM),
+        (at_most(Span::exactly(0.0), hi[2]), BEYOND_NEAR),
+        (at_most(hi[2], w), BEYOND_FAR),
+    ];
+    let mut planes = 0;
+    for (inside, bit) in beyond {
+        planes |= if inside? { 0 } else { bit };
+    }
     let within = |v: Span, reach: f32| all(at_most(v, w.times(reach)), at_most(v.negated(), w.times(reach)));
     let lowest = Span::exactly(1.0 / (1u64 << 60) as f32);
     let highest = Span::exactly((1u128 << 100) as f32);
@@ -96,7 +111,7 @@ pub fn exact_in_f64(params: &VertexParams, matrix: &Matrix, position: &RelativeP
         at_most(hi[2], w.times(2.0)),
     ];
     if checks.contains(&Some(false)) {
-        return Some(ProjectedVertex::NONE);
+        return Some(ProjectedVertex::none(planes));
     }
     if checks.contains(&None) {
         return None;
@@ -136,7 +151,7 @@ pub fn exact_in_f64(params: &VertexParams, matrix: &Matrix, position: &RelativeP
     let depth = depth.clamp(0.0, 1.0);
     let inverse_error = 2.0 * (2.0 * w_error * inverse * inverse + 2.0 * STEP * inverse) + TINY;
     let inverse_w = rounded(inverse, inverse_error)?;
-    Some(ProjectedVertex { screen, depth, inverse_w })
+    Some(ProjectedVertex { screen, depth, inverse_w, planes: planes | assembled(params, screen, planes) })
 }
 
 /// The `f32`s a value within `error` of `v` may round to: rounding is monotonic, so the ends of

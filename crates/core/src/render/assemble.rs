@@ -1,0 +1,143 @@
+//! The kernels' assembly of a mesh's faces (`stages::assemble::assemble_face`), for a frame of
+//! one instance that draws faces alone and whose vertex attributes do not depend on the camera
+//! (no lighting per vertex or per face, no depth view): what happens to a face (culled wholly
+//! outside the frustum, by facing, for having no pixel centre; kept; clipped) is decided by the
+//! vertex stage's bits alone, and a kept face's records come from its corners as the stage
+//! projected them and its vertices' attributes in `f32`. No vertex is computed in `f64` but the
+//! corners of the faces the stage leaves to the host's clipping (`CLIPPED_ON_HOST`), and those
+//! take the stage's word for every corner it projected, so that a vertex shared by a kept face
+//! and a clipped one lies where both say. These are the decisions and records the device's
+//! assembly stages make; here the host runs them, on the stage's output.
+
+use super::clip::geometry;
+use super::cull::count_dropped;
+use super::emit::{Emit, FaceTag};
+use super::instances::{Placement, transform_point};
+use super::lighting::Lighting;
+use super::params::{GeometryCounts, Mesh, RenderParams, Shading, face_normals};
+use super::vertex::{ClipVertex, Corner, Projected, Shaded, vertex_normals};
+use super::viewport::{Target, Viewport};
+use rayon::prelude::*;
+use tileraster_kernels::abi::{ATTRIBUTES, ProjectedVertex};
+use tileraster_kernels::stages::assemble::{CLIPPED_ON_HOST, DROPPED_FRUSTUM, KEPT, assemble_face, triangle_records};
+use tileraster_kernels::stages::vertex::UNASSEMBLED;
+
+/// Whether the kernels assemble a frame's faces: one instance, faces alone (no wireframe or
+/// vertices view), and a `shading` whose vertex attributes are the mesh's own, placed in the
+/// world (not lit on the host, no depth view, which ranges over the vertices in `f64`).
+pub(super) fn assembles(params: &RenderParams, shading: Shading, instances: usize, placements: usize) -> bool {
+    params.faces
+        && params.wireframe.is_none()
+        && params.points.is_none()
+        && instances == 1
+        && placements == 1
+        && matches!(shading, Shading::Unlit | Shading::Phong | Shading::Normals | Shading::Ids)
+}
+
+/// A mesh's vertex attributes in `f32`, as the kernels' assembly reads them, and its normals in
+/// the world (for the corners the host clips): the same for every frame of the mesh at one
+/// placement, so a prepared mesh keeps them.
+pub(super) struct VertexAttributes {
+    /// The placement they were made for, and whether any is read (none: both empty).
+    to_world: [[f64; 4]; 4],
+    used: bool,
+    pub(super) normals: Vec<[f32; 3]>,
+    pub(super) values: Vec<[f32; ATTRIBUTES]>,
+}
+
+impl VertexAttributes {
+    /// The attributes of `mesh` placed by `to_world` for `shading` (one that [`assembles`]): kept
+    /// ones where they were made for the same (`kept`), else made afresh and kept there.
+    pub(super) fn of<'a>(
+        mesh: &Mesh,
+        to_world: &[[f64; 4]; 4],
+        shading: Shading,
+        lighting: &Lighting,
+        kept: &'a mut Option<VertexAttributes>,
+    ) -> &'a VertexAttributes {
+        let used = shading.reads_attributes();
+        if !kept.as_ref().is_some_and(|k| k.to_world == *to_world && k.used == used) {
+            let normals = match (&mesh.normals, used) {
+                (_, false) => Vec::new(),
+                (Some(n), true) => vertex_normals(n, to_world),
+                (None, true) => vertex_normals(&face_normals(mesh), to_world),
+            };
+            let shaded = Shaded { mesh, normals: &normals, shading, lighting, attributes_used: used };
+            let values = if used {
+                mesh.positions.par_iter().enumerate().map(|(v, p)| shaded.attributes(v, transform_point(to_world, p)).map(|a| a as f32)).collect()
+            } else {
+                Vec::new()
+            };
+            *kept = Some(VertexAttributes { to_world: *to_world, used, normals, values });
+        }
+        kept.as_ref().expect("made above")
+    }
+}
+
+/// A mesh's faces as the kernels assemble them.
+pub(super) struct MeshFaces<'a> {
+    pub(super) placement: &'a Placement<'a>,
+    /// The mesh's vertices through the vertex stage.
+    pub(super) projected: &'a [ProjectedVertex],
+    /// Their attributes in `f32` (empty where none is read).
+    pub(super) attributes: &'a [[f32; ATTRIBUTES]],
+    /// Flat interpolation: every corner takes the face's first vertex's attributes.
+    pub(super) flat: bool,
+    /// What the host's clipping computes a corner from: the frame's matrix and the attributes' recipe.
+    pub(super) shaded: Shaded<'a>,
+    pub(super) view_projection: &'a [[f64; 4]; 4],
+}
+
+impl MeshFaces<'_> {
+    /// Face `k` of the mesh (tagged `tag`): culled and counted, kept and put, or clipped on the host.
+    pub(super) fn face(&self, k: usize, tag: FaceTag, viewport: &Viewport, target: &Target, emit: &mut Emit<'_>, counts: &mut GeometryCounts) {
+        let tri = self.placement.mesh.triangles[k];
+        let tri = if self.placement.mirrored { [tri[0], tri[2], tri[1]] } else { tri }.map(|v| v as usize);
+        let corners = tri.map(|v| &self.projected[v]);
+        let t = assemble_face(corners, &target.assembly);
+        match t.dropped {
+            KEPT => emit.put(|| {
+                let attributes = |v: usize| self.attributes.get(v).copied().unwrap_or([0.0; ATTRIBUTES]);
+                let attributes = if self.flat { [attributes(tri[0]); 3] } else { tri.map(attributes) };
+                triangle_records(&t, &corners.map(|c| c.depth), &corners.map(|c| c.inverse_w), &attributes, tag.id, tag.texture)
+            }),
+            DROPPED_FRUSTUM => counts.culled_frustum += 1,
+            CLIPPED_ON_HOST => self.clip_on_host(tri, tag, viewport, target, emit, counts),
+            dropped => count_dropped(dropped, counts),
+        }
+    }
+
+    /// A face with a corner the vertex stage left to the host, through the host's clipping.
+    fn clip_on_host(&self, tri: [usize; 3], tag: FaceTag, viewport: &Viewport, target: &Target, emit: &mut Emit<'_>, counts: &mut GeometryCounts) {
+        let mut vertices = tri.map(|v| self.corner(v, viewport));
+        if self.flat {
+            let values = vertices[0].attributes;
+            for v in &mut vertices {
+                v.attributes = values;
+                v.projected.attributes = values.map(|a| a as f32);
+            }
+        }
+        let corners = vertices.each_ref().map(Corner::of);
+        geometry(corners.each_ref(), vertices.each_ref(), tag, viewport, target, emit, counts);
+    }
+
+    /// Vertex `v` in `f64` for the host's clipping, taken as the vertex stage took it: where the
+    /// stage projected it for the assembly, onto the clipping planes it may lie a rounding
+    /// beyond (so the clipping keeps it whole) with the stage's values; where not, projected
+    /// on the host if it lies inside the planes.
+    fn corner(&self, v: usize, viewport: &Viewport) -> ClipVertex {
+        let p = self.placement;
+        let world = transform_point(&p.to_world, &p.mesh.positions[v]);
+        let mut c = self.shaded.clip_vertex(v, world, self.view_projection, viewport);
+        let k = &self.projected[v];
+        if k.planes & UNASSEMBLED == 0 {
+            c = ClipVertex::new(viewport.onto_planes(&c.clip), c.attributes, viewport);
+            debug_assert_eq!(c.outside, 0, "on the planes");
+            let screen = (k.screen[0] as i64, k.screen[1] as i64);
+            c.projected = Projected { screen, depth: k.depth, inv_w: k.inverse_w, attributes: c.attributes.map(|a| a as f32) };
+        } else if c.outside == 0 {
+            c.projected = c.project(viewport);
+        }
+        c
+    }
+}

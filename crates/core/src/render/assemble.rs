@@ -1,20 +1,21 @@
 //! The kernels' assembly of a mesh's faces (`stages::assemble::assemble_face`), for a frame of
-//! one instance that draws faces alone and whose vertex attributes do not depend on the camera
-//! (no lighting per vertex or per face, no depth view): what happens to a face (culled wholly
-//! outside the frustum, by facing, for having no pixel centre; kept; clipped) is decided by the
-//! vertex stage's bits alone, and a kept face's records come from its corners as the stage
-//! projected them and its vertices' attributes in `f32`. No vertex is computed in `f64` but the
-//! corners of the faces the stage leaves to the host's clipping (`CLIPPED_ON_HOST`), and those
-//! take the stage's word for every corner it projected, so that a vertex shared by a kept face
-//! and a clipped one lies where both say. These are the decisions and records the device's
-//! assembly stages make; here the host runs them, on the stage's output.
+//! one instance that draws faces alone (and not the depth view): what happens to a face
+//! (culled wholly outside the frustum, by facing, for having no pixel centre; kept; clipped) is
+//! decided by the vertex stage's bits alone, and a kept face's records come from its corners as
+//! the stage projected them and its vertices' attributes in `f32` (lit on the host in `f64` per
+//! vertex for Gouraud shading and per face for flat shading, as the host's path lights them).
+//! No vertex is computed in `f64` but the corners of the faces the stage leaves to the host's
+//! clipping (`CLIPPED_ON_HOST`), and those take the stage's word for every corner it projected,
+//! so that a vertex shared by a kept face and a clipped one lies where both say. These are the
+//! decisions and records the device's assembly stages will make; here the host runs them, on
+//! the stage's output.
 
 use super::clip::geometry;
 use super::cull::count_dropped;
 use super::emit::{Emit, FaceTag};
 use super::instances::{Placement, transform_point};
-use super::lighting::Lighting;
-use super::params::{GeometryCounts, Mesh, RenderParams, Shading, face_normals};
+use super::lighting::{FaceLight, Lighting};
+use super::params::{GREY, GeometryCounts, Mesh, RenderParams, Shading, face_normals};
 use super::vertex::{ClipVertex, Corner, Projected, Shaded, vertex_normals};
 use super::viewport::{Target, Viewport};
 use rayon::prelude::*;
@@ -23,24 +24,22 @@ use tileraster_kernels::stages::assemble::{CLIPPED_ON_HOST, DROPPED_FRUSTUM, KEP
 use tileraster_kernels::stages::vertex::UNASSEMBLED;
 
 /// Whether the kernels assemble a frame's faces: one instance, faces alone (no wireframe or
-/// vertices view), and a `shading` whose vertex attributes are the mesh's own, placed in the
-/// world (not lit on the host, no depth view, which ranges over the vertices in `f64`).
+/// vertices view), and any shading but the depth view (which ranges over the vertices in
+/// `f64`).
 pub(super) fn assembles(params: &RenderParams, shading: Shading, instances: usize, placements: usize) -> bool {
-    params.faces
-        && params.wireframe.is_none()
-        && params.points.is_none()
-        && instances == 1
-        && placements == 1
-        && matches!(shading, Shading::Unlit | Shading::Phong | Shading::Normals | Shading::Ids)
+    params.faces && params.wireframe.is_none() && params.points.is_none() && instances == 1 && placements == 1 && shading != Shading::Depth
 }
 
 /// A mesh's vertex attributes in `f32`, as the kernels' assembly reads them, and its normals in
 /// the world (for the corners the host clips): the same for every frame of the mesh at one
-/// placement, so a prepared mesh keeps them.
+/// placement, so a prepared mesh keeps them, unless they are lit per vertex (Gouraud shading:
+/// lit afresh every frame, for its viewer and lights).
 pub(super) struct VertexAttributes {
-    /// The placement they were made for, and whether any is read (none: both empty).
+    /// The placement they were made for, whether any is read (none: both empty), and whether
+    /// they were lit.
     to_world: [[f64; 4]; 4],
     used: bool,
+    lit: bool,
     pub(super) normals: Vec<[f32; 3]>,
     pub(super) values: Vec<[f32; ATTRIBUTES]>,
 }
@@ -55,8 +54,8 @@ impl VertexAttributes {
         lighting: &Lighting,
         kept: &'a mut Option<VertexAttributes>,
     ) -> &'a VertexAttributes {
-        let used = shading.reads_attributes();
-        if !kept.as_ref().is_some_and(|k| k.to_world == *to_world && k.used == used) {
+        let (used, lit) = (shading.reads_attributes(), shading == Shading::Smooth);
+        if lit || !kept.as_ref().is_some_and(|k| k.to_world == *to_world && k.used == used && !k.lit) {
             let normals = match (&mesh.normals, used) {
                 (_, false) => Vec::new(),
                 (Some(n), true) => vertex_normals(n, to_world),
@@ -68,7 +67,7 @@ impl VertexAttributes {
             } else {
                 Vec::new()
             };
-            *kept = Some(VertexAttributes { to_world: *to_world, used, normals, values });
+            *kept = Some(VertexAttributes { to_world: *to_world, used, lit, normals, values });
         }
         kept.as_ref().expect("made above")
     }
@@ -98,7 +97,10 @@ impl MeshFaces<'_> {
         match t.dropped {
             KEPT => emit.put(|| {
                 let attributes = |v: usize| self.attributes.get(v).copied().unwrap_or([0.0; ATTRIBUTES]);
-                let attributes = if self.flat { [attributes(tri[0]); 3] } else { tri.map(attributes) };
+                let mut attributes = if self.flat { [attributes(tri[0]); 3] } else { tri.map(attributes) };
+                if let Some(light) = self.face_light(tri) {
+                    attributes.iter_mut().for_each(|a| light.apply_f32(a));
+                }
                 triangle_records(&t, &corners.map(|c| c.depth), &corners.map(|c| c.inverse_w), &attributes, tag.id, tag.texture)
             }),
             DROPPED_FRUSTUM => counts.culled_frustum += 1,
@@ -110,15 +112,33 @@ impl MeshFaces<'_> {
     /// A face with a corner the vertex stage left to the host, through the host's clipping.
     fn clip_on_host(&self, tri: [usize; 3], tag: FaceTag, viewport: &Viewport, target: &Target, emit: &mut Emit<'_>, counts: &mut GeometryCounts) {
         let mut vertices = tri.map(|v| self.corner(v, viewport));
-        if self.flat {
-            let values = vertices[0].attributes;
+        let light = self.face_light(tri);
+        if self.flat || light.is_some() {
+            let first = vertices[0].attributes;
             for v in &mut vertices {
-                v.attributes = values;
-                v.projected.attributes = values.map(|a| a as f32);
+                if self.flat {
+                    v.attributes = first;
+                }
+                if let Some(light) = &light {
+                    light.apply(&mut v.attributes);
+                }
+                v.projected.attributes = v.attributes.map(|a| a as f32);
             }
         }
         let corners = vertices.each_ref().map(Corner::of);
         geometry(corners.each_ref(), vertices.each_ref(), tag, viewport, target, emit, counts);
+    }
+
+    /// Under flat shading, the face's lit colour and normal (`Lighting::light_face`, from its
+    /// corners in the world in `f64`).
+    fn face_light(&self, tri: [usize; 3]) -> Option<FaceLight> {
+        if self.shaded.shading != Shading::Flat {
+            return None;
+        }
+        let p = self.placement;
+        let q = tri.map(|v| transform_point(&p.to_world, &p.mesh.positions[v]));
+        let base = p.mesh.colours.as_ref().map_or(GREY, |c| c[tri[0]]).map(f64::from);
+        Some(self.shaded.lighting.light_face(base, q))
     }
 
     /// Vertex `v` in `f64` for the host's clipping, taken as the vertex stage took it: where the

@@ -3,9 +3,30 @@
 //! stage's parameters for a frame.
 
 use super::params::{Eye, Light, RenderParams, Shading};
-use super::vector::{dot, unit};
+use super::vector::{cross, dot, sub, unit};
 use crate::Error;
-use tileraster_kernels::abi::{DepthTest, MAX_LIGHTS, ShadeMode, ShadeParams};
+use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, DepthTest, MAX_LIGHTS, ShadeMode, ShadeParams};
+
+/// A face's values under flat shading ([`Lighting::light_face`]).
+pub(super) struct FaceLight {
+    colour: [f64; 4],
+    normal: [f64; 3],
+}
+
+impl FaceLight {
+    /// Written over a corner's colour and normal.
+    pub(super) fn apply(&self, attributes: &mut [f64; ATTRIBUTES]) {
+        attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&self.colour);
+        attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&self.normal);
+    }
+
+    /// [`Self::apply`] to a corner's attributes in `f32` (each value rounded once, as the
+    /// `f64` corner's are on their way to the kernels).
+    pub(super) fn apply_f32(&self, attributes: &mut [f32; ATTRIBUTES]) {
+        attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&self.colour.map(|v| v as f32));
+        attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&self.normal.map(|v| v as f32));
+    }
+}
 
 /// A frame's lighting as the host's stages take it: the viewer, homogeneous (`[x, y, z, 1]`
 /// for a point, `[x, y, z, 0]` for a direction at infinity), and the lights, normalised.
@@ -33,6 +54,13 @@ impl<'a> Lighting<'a> {
     /// and Gouraud shading; the kernels' per-pixel version is `programs::shade`).
     pub(super) fn lit(&self, base: [f64; 4], n: [f64; 3], p: [f64; 3]) -> [f64; 4] {
         blinn_phong(self.params, &self.lights, self.eye, base, n, p)
+    }
+
+    /// Flat shading's values for a face whose corners lie at `q` in the world and whose first
+    /// vertex has colour `base`: its normal, and that colour lit with it at the first corner.
+    pub(super) fn light_face(&self, base: [f64; 4], q: [[f64; 3]; 3]) -> FaceLight {
+        let normal = unit(cross(sub(q[1], q[0]), sub(q[2], q[0])));
+        FaceLight { colour: self.lit(base, normal, q[0]), normal }
     }
 
     /// The kernels' shade parameters for the frame, the depth view spanning `depths`.

@@ -18,11 +18,11 @@
 //!   cut into a fan; every piece keeps its face's id.
 //! - `cull`: whole triangles outside one frustum plane (in `clip`); back or front faces
 //!   (orientation from the snapped vertices, Vulkan's sign rule); zero-area pieces.
-//! - `assemble`: for a frame of one mesh whose vertex attributes are the mesh's own, the
-//!   kernels' assembly (`stages::assemble::assemble_face`) decides every face from the vertex
-//!   stage's bits and makes the kept faces' records from `f32` attributes kept with the mesh;
-//!   only the faces it leaves to the host go through `clip` and `cull`, and no other vertex
-//!   is computed in `f64`.
+//! - `assemble`: for a frame of one mesh drawing faces alone (not the depth view), the kernels'
+//!   assembly (`stages::assemble::assemble_face`) decides every face from the vertex stage's
+//!   bits and makes the kept faces' records from `f32` attributes (kept with a prepared mesh
+//!   unless lit per vertex); only the faces it leaves to the host go through `clip` and `cull`,
+//!   and no other vertex is computed in `f64`.
 //! - `viewport`: pixel centres at `+0.5`, vertices rounded to 8 sub-pixel bits (16.8 fixed
 //!   point, as Direct3D 11 and Vulkan's 2022 roadmap require), the clipping planes.
 //! - `lines` and `points`: the wireframe and vertices views; `lighting`: the viewer, flat and
@@ -68,7 +68,6 @@ pub use texture::{LaidOutTextures, MAX_TEXTURE_DIM, Texture};
 pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 pub use validate::validate_mesh;
 use validate::validate_params;
-use vector::{cross, sub, unit};
 pub use vector::{multiply, normal_matrix, transform_normal};
 use vertex::depth_range;
 use vertex::{ClipVertex, Corner, Projected, Shaded, VertexStageMemory};
@@ -77,7 +76,7 @@ use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, DepthTest, Interpolation, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{ATTRIBUTES, DepthTest, Interpolation, TriangleInput, TriangleShading};
 
 /// Faces per task of the geometry stages; tasks keep face order.
 const CHUNK: usize = 1 << 12;
@@ -442,13 +441,11 @@ pub(crate) fn prepare_instances_in(
             if !counting && shading == Shading::Flat {
                 // One colour per face: its first vertex's, lit with the face normal there.
                 let q = tri.map(|v| world[v]);
-                let n = unit(cross(sub(q[1], q[0]), sub(q[2], q[0])));
                 let base = mesh.colours.as_ref().map_or(GREY, |c| c[tri[0] - p.first_vertex]).map(f64::from);
-                let colour = lighting.lit(base, n, q[0]);
+                let light = lighting.light_face(base, q);
                 for a in 0..3 {
                     let mut values = flat.unwrap_or(vertex[a].attributes);
-                    values[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
-                    values[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);
+                    light.apply(&mut values);
                     flattened[a] =
                         ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..vertex[a].projected }, ..*vertex[a] };
                 }

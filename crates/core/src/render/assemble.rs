@@ -1,5 +1,5 @@
-//! The kernels' assembly of a mesh's faces (`stages::assemble::assemble_face`), for a frame of
-//! one instance that draws faces alone (and not the depth view): what happens to a face
+//! The kernels' assembly of a frame's faces (`stages::assemble::assemble_face`), for a frame
+//! that draws faces alone (and not the depth view): what happens to a face
 //! (culled wholly outside the frustum, by facing, for having no pixel centre; kept; clipped) is
 //! decided by the vertex stage's bits alone, and a kept face's records come from its corners as
 //! the stage projected them and its vertices' attributes in `f32` (lit on the host in `f64` per
@@ -15,7 +15,7 @@ use super::cull::count_dropped;
 use super::emit::{Emit, FaceTag};
 use super::instances::{Placement, transform_point};
 use super::lighting::{FaceLight, Lighting};
-use super::params::{GREY, GeometryCounts, Mesh, RenderParams, Shading, face_normals};
+use super::params::{GREY, GeometryCounts, IDENTITY, RenderParams, Shading, face_normals};
 use super::vertex::{ClipVertex, Corner, Projected, Shaded, vertex_normals};
 use super::viewport::{Target, Viewport};
 use rayon::prelude::*;
@@ -23,20 +23,20 @@ use tileraster_kernels::abi::{ATTRIBUTES, ProjectedVertex};
 use tileraster_kernels::stages::assemble::{CLIPPED_ON_HOST, DROPPED_FRUSTUM, KEPT, assemble_face, triangle_records};
 use tileraster_kernels::stages::vertex::UNASSEMBLED;
 
-/// Whether the kernels assemble a frame's faces: one instance, faces alone (no wireframe or
-/// vertices view), and any shading but the depth view (which ranges over the vertices in
-/// `f64`).
-pub(super) fn assembles(params: &RenderParams, shading: Shading, instances: usize, placements: usize) -> bool {
-    params.faces && params.wireframe.is_none() && params.points.is_none() && instances == 1 && placements == 1 && shading != Shading::Depth
+/// Whether the kernels assemble a frame's faces: faces alone (no wireframe or vertices view),
+/// any shading but the depth view (which ranges over the vertices in `f64`).
+pub(super) fn assembles(params: &RenderParams, shading: Shading) -> bool {
+    params.faces && params.wireframe.is_none() && params.points.is_none() && shading != Shading::Depth
 }
 
-/// A mesh's vertex attributes in `f32`, as the kernels' assembly reads them, and its normals in
-/// the world (for the corners the host clips): the same for every frame of the mesh at one
-/// placement, so a prepared mesh keeps them, unless they are lit per vertex (Gouraud shading:
-/// lit afresh every frame, for its viewer and lights).
+/// The visible instances' vertex attributes in `f32`, one after the other in the placements'
+/// order, as the kernels' assembly reads them, and their normals in the world (for the corners
+/// the host clips): the same for every frame of one mesh at one placement, so a prepared mesh
+/// keeps them, unless they are lit per vertex (Gouraud shading: lit afresh every frame, for its
+/// viewer and lights).
 pub(super) struct VertexAttributes {
-    /// The placement they were made for, whether any is read (none: both empty), and whether
-    /// they were lit.
+    /// The placement they were made for (a prepared mesh's one), whether any is read (none:
+    /// both empty), and whether they were lit.
     to_world: [[f64; 4]; 4],
     used: bool,
     lit: bool,
@@ -45,31 +45,55 @@ pub(super) struct VertexAttributes {
 }
 
 impl VertexAttributes {
-    /// The attributes of `mesh` placed by `to_world` for `shading` (one that [`assembles`]): kept
-    /// ones where they were made for the same (`kept`), else made afresh and kept there.
+    /// The attributes of the instances `placements` (`count` vertices) for `shading`: a prepared
+    /// mesh's (one placement and `kept`) as it kept them where they were made for the same
+    /// placement, else made afresh (and kept there).
     pub(super) fn of<'a>(
-        mesh: &Mesh,
-        to_world: &[[f64; 4]; 4],
+        placements: &[Placement],
+        count: usize,
         shading: Shading,
         lighting: &Lighting,
         kept: &'a mut Option<VertexAttributes>,
     ) -> &'a VertexAttributes {
         let (used, lit) = (shading.reads_attributes(), shading == Shading::Smooth);
-        if lit || !kept.as_ref().is_some_and(|k| k.to_world == *to_world && k.used == used && !k.lit) {
-            let normals = match (&mesh.normals, used) {
-                (_, false) => Vec::new(),
-                (Some(n), true) => vertex_normals(n, to_world),
-                (None, true) => vertex_normals(&face_normals(mesh), to_world),
-            };
-            let shaded = Shaded { mesh, normals: &normals, shading, lighting, attributes_used: used };
-            let values = if used {
-                mesh.positions.par_iter().enumerate().map(|(v, p)| shaded.attributes(v, transform_point(to_world, p)).map(|a| a as f32)).collect()
-            } else {
-                Vec::new()
-            };
-            *kept = Some(VertexAttributes { to_world: *to_world, used, lit, normals, values });
+        let to_world = match placements {
+            [only] => only.to_world,
+            _ => IDENTITY,
+        };
+        let same = |k: &VertexAttributes| placements.len() == 1 && k.to_world == to_world && k.used == used && !k.lit;
+        if lit || !kept.as_ref().is_some_and(same) {
+            let (mut normals, mut values) = (Vec::new(), Vec::new());
+            if used {
+                // Each mesh's own normals (or its faces'), once, turned by each placement.
+                let mut base: Vec<Option<Vec<[f32; 3]>>> = Vec::new();
+                for p in placements {
+                    if base.len() <= p.mesh_index {
+                        base.resize(p.mesh_index + 1, None);
+                    }
+                    if base[p.mesh_index].is_none() && p.mesh.normals.is_none() {
+                        base[p.mesh_index] = Some(face_normals(p.mesh));
+                    }
+                }
+                normals.reserve_exact(count);
+                values.reserve_exact(count);
+                for p in placements {
+                    let own = p.mesh.normals.as_deref().or(base[p.mesh_index].as_deref()).expect("normals of every placed mesh");
+                    let turned = vertex_normals(own, &p.to_world);
+                    let shaded = Shaded { mesh: p.mesh, normals: &turned, shading, lighting, attributes_used: used };
+                    let positions = p.mesh.positions.par_iter().enumerate();
+                    values.par_extend(positions.map(|(v, q)| shaded.attributes(v, transform_point(&p.to_world, q)).map(|a| a as f32)));
+                    normals.extend_from_slice(&turned);
+                }
+            }
+            *kept = Some(VertexAttributes { to_world, used, lit, normals, values });
         }
         kept.as_ref().expect("made above")
+    }
+
+    /// The attributes and normals of the placement whose vertices start at `first` (of `n`);
+    /// empty where none is read.
+    pub(super) fn of_placement(&self, first: usize, n: usize) -> (&[[f32; ATTRIBUTES]], &[[f32; 3]]) {
+        if self.used { (&self.values[first..first + n], &self.normals[first..first + n]) } else { (&[], &[]) }
     }
 }
 

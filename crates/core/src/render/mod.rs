@@ -314,31 +314,38 @@ pub(crate) fn prepare_instances_in(
     // The kernels assemble the faces of a frame that lets them (`assemble`), unless its matrix
     // lies beyond the vertex stage's range; the host's path takes the rest.
     let kernel_stage = match placements.as_slice() {
-        [only] if assemble::assembles(params, shading, instances.len(), placements.len()) => {
+        _ if !assemble::assembles(params, shading) => None,
+        [only] if instances.len() == 1 => {
             vertex::project_mesh(only, m, &viewport, &mut memory.vertex_stage, kept.as_deref_mut().map(|k| &mut k.positions), kernels)?
         }
-        _ => None,
+        _ => vertex::project_world(&placements, first_vertex, m, &viewport, &mut memory.world, &mut memory.vertex_stage, kernels)?,
     };
     let mut fresh_attributes = None;
-    let mut mesh_faces = None;
+    let mut mesh_faces = Vec::new();
     match kernel_stage {
         Some(bytes) => {
             counts.bytes_uploaded = bytes;
-            let only = &placements[0];
             let slot = match kept {
-                Some(k) => &mut k.attributes,
-                None => &mut fresh_attributes,
+                Some(k) if placements.len() == 1 => &mut k.attributes,
+                _ => &mut fresh_attributes,
             };
-            let attributes = VertexAttributes::of(only.mesh, &only.to_world, shading, &lighting, slot);
-            let shaded = Shaded { mesh: only.mesh, normals: &attributes.normals, shading, lighting: &lighting, attributes_used: shading.reads_attributes() };
-            mesh_faces = Some(MeshFaces {
-                placement: only,
-                projected: memory.vertex_stage.projected(),
-                attributes: &attributes.values,
-                flat: params.interpolation == Interpolation::Flat,
-                shaded,
-                view_projection: m,
-            });
+            let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, slot);
+            let projected = memory.vertex_stage.projected();
+            mesh_faces = placements
+                .iter()
+                .map(|p| {
+                    let n = p.mesh.positions.len();
+                    let (values, normals) = attributes.of_placement(p.first_vertex, n);
+                    MeshFaces {
+                        placement: p,
+                        projected: &projected[p.first_vertex..p.first_vertex + n],
+                        attributes: values,
+                        flat: params.interpolation == Interpolation::Flat,
+                        shaded: Shaded { mesh: p.mesh, normals, shading, lighting: &lighting, attributes_used: shading.reads_attributes() },
+                        view_projection: m,
+                    }
+                })
+                .collect();
         }
         None => {
             counts.bytes_uploaded = vertex::transform_vertices(
@@ -361,7 +368,7 @@ pub(crate) fn prepare_instances_in(
     }
     // (The kernels' assembly reads no vertex in `f64`: the arrays the host's path keeps hold
     // an earlier frame's.)
-    let (world, vertices, corners) = match mesh_faces {
+    let (world, vertices, corners) = match kernel_stage {
         Some(_) => (&[][..], &[][..], &[][..]),
         None => (&memory.world[..], &memory.vertices[..], &memory.corners[..]),
     };
@@ -371,8 +378,11 @@ pub(crate) fn prepare_instances_in(
     let target = Target::new(&grid, params);
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
     // lines and the points likewise.
-    let face_chunks =
-        placements.iter().filter(|_| params.faces).flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces)));
+    let face_chunks = placements
+        .iter()
+        .enumerate()
+        .filter(|_| params.faces)
+        .flat_map(|(k, p)| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces(k))));
     let line_chunks = placements
         .iter()
         .filter(|_| params.wireframe.is_some())
@@ -406,7 +416,7 @@ pub(crate) fn prepare_instances_in(
             }
             return;
         }
-        if work == Work::Points {
+        if let Work::Points = work {
             let size = params.points.expect("point chunks only with points");
             for v in start..(start + CHUNK).min(p.mesh.positions.len()) {
                 let bias = point_bias.get(p.first_vertex + v).copied().unwrap_or(0.0);
@@ -416,7 +426,9 @@ pub(crate) fn prepare_instances_in(
         }
         let mesh = p.mesh;
         let end = (start + CHUNK).min(mesh.triangles.len());
-        if let Some(faces) = &mesh_faces {
+        if let Work::Faces(placed) = work
+            && let Some(faces) = mesh_faces.get(placed)
+        {
             for k in start..end {
                 let tag = FaceTag { id: p.first_face + k as u32, texture: face_texture(mesh, k, p.first_texture) };
                 faces.face(k, tag, &viewport, &target, emit, counts);
@@ -565,7 +577,8 @@ fn face_texture(mesh: &Mesh, k: usize, first_texture: u32) -> u32 {
 /// What a chunk of the geometry stages takes.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Work {
-    Faces,
+    /// The faces of the placement of that index.
+    Faces(usize),
     Lines,
     Points,
 }

@@ -314,6 +314,38 @@ impl VertexStageMemory {
     }
 }
 
+/// The kernels' vertex stage alone over the visible instances of a world (`placements`,
+/// `count` vertices in all), for a frame the kernels assemble: each instance's positions into
+/// the world in `f64` (into `world`), relative to their box's centre, as the host's path hands
+/// them to the stage. The projected vertices are left in `stage`; returns the bytes handed to
+/// the stage, or `None` where the frame's matrix lies beyond the stage's range.
+pub(super) fn project_world(
+    placements: &[Placement],
+    count: usize,
+    m: &[[f64; 4]; 4],
+    viewport: &Viewport,
+    world: &mut Vec<[f64; 3]>,
+    stage: &mut VertexStageMemory,
+    kernels: &mut dyn GeometryKernels,
+) -> Result<Option<u64>, Error> {
+    let vertices = u32::try_from(count).map_err(|_| Error::TooManyFaces { faces: count as u64 })?;
+    world.clear();
+    let reserved = world.try_reserve_exact(count);
+    reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{count} vertices ({e})") })?;
+    world.par_extend(placements.par_iter().flat_map(|p| p.mesh.positions.par_iter().map(|v| instances::transform_point(&p.to_world, v))));
+    let origin = box_centre(world);
+    let Some(params) = vertex_params(m, origin, viewport) else {
+        return Ok(None);
+    };
+    let VertexStageMemory { positions, projected } = stage;
+    relative_pairs(world, origin, positions);
+    let bytes = kernels.vertex(&VertexParams { vertices, ..params }, Positions { pairs: positions, kept: None }, projected)?;
+    if projected.len() != count {
+        return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {count}", projected.len())));
+    }
+    Ok(Some(bytes))
+}
+
 /// The kernels' vertex stage alone, over a world of one instance (`only`), for a frame the
 /// kernels assemble (`assemble`): no vertex in `f64`. The projected vertices are left in
 /// `stage`; returns the bytes handed to the stage, or `None` where the frame's matrix lies beyond

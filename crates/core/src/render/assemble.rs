@@ -1,5 +1,5 @@
 //! The kernels' assembly of a frame's faces (`stages::assemble::assemble_face`), for a frame
-//! that draws faces alone (and not the depth view): what happens to a face
+//! that draws faces alone: what happens to a face
 //! (culled wholly outside the frustum, by facing, for having no pixel centre; kept; clipped) is
 //! decided by the vertex stage's bits alone, and a kept face's records come from its corners as
 //! the stage projected them and its vertices' attributes in `f32` (lit on the host in `f64` per
@@ -23,10 +23,10 @@ use tileraster_kernels::abi::{ATTRIBUTES, ProjectedVertex};
 use tileraster_kernels::stages::assemble::{CLIPPED_ON_HOST, DROPPED_FRUSTUM, KEPT, assemble_face, triangle_records};
 use tileraster_kernels::stages::vertex::UNASSEMBLED;
 
-/// Whether the kernels assemble a frame's faces: faces alone (no wireframe or vertices view),
-/// any shading but the depth view (which ranges over the vertices in `f64`).
-pub(super) fn assembles(params: &RenderParams, shading: Shading) -> bool {
-    params.faces && params.wireframe.is_none() && params.points.is_none() && shading != Shading::Depth
+/// Whether the kernels assemble a frame's faces: faces alone (the wireframe and vertices views
+/// take their vertices in `f64`).
+pub(super) fn assembles(params: &RenderParams) -> bool {
+    params.faces && params.wireframe.is_none() && params.points.is_none()
 }
 
 /// The visible instances' vertex attributes in `f32`, one after the other in the placements'

@@ -18,7 +18,7 @@
 //!   cut into a fan; every piece keeps its face's id.
 //! - `cull`: whole triangles outside one frustum plane (in `clip`); back or front faces
 //!   (orientation from the snapped vertices, Vulkan's sign rule); zero-area pieces.
-//! - `assemble`: for a frame of one mesh drawing faces alone (not the depth view), the kernels'
+//! - `assemble`: for a frame drawing faces alone (one mesh or a world of instances), the kernels'
 //!   assembly (`stages::assemble::assemble_face`) decides every face from the vertex stage's
 //!   bits and makes the kept faces' records from `f32` attributes (kept with a prepared mesh
 //!   unless lit per vertex); only the faces it leaves to the host go through `clip` and `cull`,
@@ -314,7 +314,7 @@ pub(crate) fn prepare_instances_in(
     // The kernels assemble the faces of a frame that lets them (`assemble`), unless its matrix
     // lies beyond the vertex stage's range; the host's path takes the rest.
     let kernel_stage = match placements.as_slice() {
-        _ if !assemble::assembles(params, shading) => None,
+        _ if !assemble::assembles(params) => None,
         [only] if instances.len() == 1 => {
             vertex::project_mesh(only, m, &viewport, &mut memory.vertex_stage, kept.as_deref_mut().map(|k| &mut k.positions), kernels)?
         }
@@ -520,7 +520,11 @@ pub(crate) fn prepare_instances_in(
     observe(GeometryPass::AssembleFill);
     let mut counts = counts;
     counts.rasterised = total as u64;
-    let mut shade = lighting.shade_params(depth_range(vertices));
+    let depths = match kernel_stage {
+        Some(_) => vertex::projected_depth_range(memory.vertex_stage.projected()),
+        None => depth_range(vertices),
+    };
+    let mut shade = lighting.shade_params(depths);
     shade.textured = u32::from(!texture_infos.is_empty());
     // Whether the stages may take every edge function in 32-bit arithmetic.
     shade.small_edges = u32::from(small_edges);

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, ProjectedVertex, RelativePosition, VertexParams};
 use tileraster_kernels::math::double::Double;
-use tileraster_kernels::stages::vertex::{MATRIX_LIMIT, POSITION_LIMIT};
+use tileraster_kernels::stages::vertex::{FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
 
 /// The kernels' geometry stages as a backend runs them while the host prepares a frame: the
 /// CPU backend's twins, or the device's dispatches, to the same bits.
@@ -451,6 +451,15 @@ fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], viewport: &Viewport) -> Op
 fn guard_band_units(viewport: &Viewport) -> (i32, [i32; 2]) {
     let unit = (1u64 << RENDER_SNAP_BITS) as f64;
     ((-GUARD_PX * unit) as i32, viewport.half.map(|h| ((2.0 * h + GUARD_PX) * unit) as i32))
+}
+
+/// The depths of the vertices the vertex stage found inside the frustum, lowest and highest
+/// (the depth view's range, where the kernels assemble the frame): the stage's `f32` depths.
+pub(super) fn projected_depth_range(projected: &[ProjectedVertex]) -> (f64, f64) {
+    let inside = |p: &&ProjectedVertex| p.is_projected() && p.planes & FRUSTUM == 0;
+    let visible = projected.par_iter().filter(inside).map(|p| p.depth as f64);
+    let (lo, hi) = visible.fold(|| (1.0f64, 0.0f64), |(lo, hi), d| (lo.min(d), hi.max(d))).reduce(|| (1.0, 0.0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    if lo < hi { (lo, hi) } else { (0.0, 1.0) }
 }
 
 /// The depths of the visible vertices, lowest and highest (the depth view's range).

@@ -5,7 +5,7 @@
 mod common;
 
 use common::gpu_or_skip;
-use tileraster::render::{Camera, Cull, Frame, GeometryCounts, Instance, Mesh, Projection, RenderParams, Shading, Up, World, render, render_world};
+use tileraster::render::{Camera, Cull, DepthFunc, Frame, GeometryCounts, Instance, Mesh, Projection, RenderParams, Shading, Up, World, render, render_world};
 use tileraster::{Backend, Error, Skips};
 use tileraster_testkit::meshes;
 
@@ -125,8 +125,13 @@ fn culling_instances_changes_no_bit() {
     };
     let (w, h) = (160, 120);
     let gpu = gpu_or_skip("culling_instances_changes_no_bit");
-    for cull in [Cull::Back, Cull::None] {
-        let on = RenderParams { cull, shading: Shading::Phong, eye: Some(camera.viewer()), ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
+    // The depth view ranges over the visible vertices, and a less-or-equal test passes a face
+    // at the far plane's depth: neither sees the culled instances.
+    for (cull, shading, depth_func) in
+        [(Cull::Back, Shading::Phong, DepthFunc::Less), (Cull::None, Shading::Phong, DepthFunc::Less), (Cull::None, Shading::Depth, DepthFunc::LessEqual)]
+    {
+        let view = camera.view_projection(w, h).unwrap();
+        let on = RenderParams { cull, shading, depth_func, eye: Some(camera.viewer()), ..RenderParams::new(w, h, view) };
         let off = RenderParams { skips: Skips { cull_instances: false, ..Skips::ALL }, ..on.clone() };
         let (a, b) = (frame(&world, &on, Backend::Cpu), frame(&world, &off, Backend::Cpu));
         assert_same_layers(&format!("{cull:?}: culling on vs off"), &a, &b);

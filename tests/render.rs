@@ -588,6 +588,11 @@ fn a_prepared_mesh_renders_what_render_does() {
             (131, 97, [2.0, 2.5, -1.5], tileraster::render::IDENTITY, Shading::Smooth, [9, 8, 7, 255], false),
             (64, 48, [12.0, 9.0, 6.0], tileraster::render::IDENTITY, Shading::Ids, [1, 2, 3, 4], false),
             (90, 70, [2.5, -2.0, 1.0], model, Shading::Unlit, [0, 0, 40, 255], true),
+            // Lit per vertex, then per face, then not at all, at one placement: attributes lit
+            // for one frame are not kept for the next.
+            (70, 50, [3.0, 1.0, 2.0], model, Shading::Smooth, [0, 0, 0, 255], false),
+            (70, 50, [1.0, 3.0, 2.0], model, Shading::Flat, [0, 0, 0, 255], false),
+            (70, 50, [1.0, 3.0, -2.0], model, Shading::Unlit, [0, 0, 0, 255], false),
         ];
         for (k, (w, h, eye, m, shading, background, blend)) in frames.into_iter().enumerate() {
             let mut v = view(w, h, eye, 0.5, 30.0);
@@ -932,7 +937,16 @@ fn kernel_assembled_faces_meet_host_clipped_faces_without_a_crack() {
     let (w, h) = (180u32, 120u32);
     for (eye, target) in [([200.0, 200.0, 1.0], [300.0, 260.0, 1.0]), ([201.3, 197.9, 0.4], [180.0, 270.0, -3.0])] {
         let camera = Camera { eye, target, up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 0.3, far: 80.0 };
-        let params = RenderParams { cull: Cull::None, shading: Shading::Ids, ..RenderParams::new(w, h, camera.view_projection(w, h).unwrap()) };
+        let view = camera.view_projection(w, h).unwrap();
+        // Host-clipped corners carry the stage's values as kept faces do: every shading's
+        // attributes meet at the seam (lit per vertex and per face, flat interpolation).
+        for (shading, interpolation) in
+            [(Shading::Flat, Interpolation::Flat), (Shading::Smooth, Interpolation::Perspective), (Shading::Phong, Interpolation::Flat)]
+        {
+            let params = RenderParams { cull: Cull::None, shading, interpolation, eye: Some(Eye::Point(eye)), ..RenderParams::new(w, h, view) };
+            assert_render_parity(&format!("a grid from {eye:?}, {}", shading.name()), &mesh, &params);
+        }
+        let params = RenderParams { cull: Cull::None, shading: Shading::Ids, ..RenderParams::new(w, h, view) };
         let frame = assert_render_parity(&format!("a grid from {eye:?}"), &mesh, &params);
         let g = frame.stats.geometry;
         assert!(g.clipped > 10 && g.rasterised > 100, "{eye:?}: {g:?}");

@@ -105,7 +105,7 @@ pub fn snap_triangle(x: [i64; 3], y: [i64; 3], a: &Assembly) -> Snapped {
 /// the assembly decides is the stage's bits alone, so every device decides alike, and a vertex
 /// shared by faces is taken the same way by each of them.
 #[inline]
-pub fn assemble_face(corners: [&ProjectedVertex; 3], a: &Assembly) -> Snapped {
+pub fn assemble_face(corners: [ProjectedVertex; 3], a: &Assembly) -> Snapped {
     let (p0, p1, p2) = (corners[0].planes, corners[1].planes, corners[2].planes);
     if p0 & p1 & p2 & FRUSTUM != 0 {
         return Snapped { dropped: DROPPED_FRUSTUM, ..Snapped::default() };
@@ -227,20 +227,20 @@ mod tests {
         use crate::stages::vertex::{BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, UNASSEMBLED};
         let corner = |x: i64, y: i64, planes: u32| ProjectedVertex { screen: [x as i32, y as i32], depth: 0.5, inverse_w: 1.0, planes };
         let (a, b, c) = (corner(UNIT, UNIT, 0), corner(UNIT, 5 * UNIT, 0), corner(5 * UNIT, UNIT, 0));
-        let kept = assemble_face([&a, &b, &c], &frame(CULL_NONE, 0));
+        let kept = assemble_face([a, b, c], &frame(CULL_NONE, 0));
         assert_eq!((kept.dropped, kept.area), (KEPT, 16 * UNIT as u64 * UNIT as u64));
         // Beyond one plane together: dropped, even where a corner is not projected.
         let left = |v: &ProjectedVertex, more: u32| ProjectedVertex { planes: BEYOND_LEFT | more, ..*v };
         let outside = [left(&a, 0), left(&b, BEYOND_NEAR | UNASSEMBLED), left(&c, BEYOND_FAR)];
-        assert_eq!(assemble_face(outside.each_ref(), &frame(CULL_NONE, 0)).dropped, DROPPED_FRUSTUM);
+        assert_eq!(assemble_face(outside, &frame(CULL_NONE, 0)).dropped, DROPPED_FRUSTUM);
         // Beyond different planes, or one corner left to the host: clipped there.
         let across = [left(&a, 0), ProjectedVertex { planes: BEYOND_NEAR | UNASSEMBLED, ..b }, c];
-        assert_eq!(assemble_face(across.each_ref(), &frame(CULL_NONE, 0)).dropped, CLIPPED_ON_HOST);
+        assert_eq!(assemble_face(across, &frame(CULL_NONE, 0)).dropped, CLIPPED_ON_HOST);
         let none = ProjectedVertex::NONE;
-        assert_eq!(assemble_face([&a, &none, &c], &frame(CULL_BACK, 0)).dropped, CLIPPED_ON_HOST);
+        assert_eq!(assemble_face([a, none, c], &frame(CULL_BACK, 0)).dropped, CLIPPED_ON_HOST);
         // Beyond a side plane but projected: the assembly takes it (the guard band holds it).
         let wide = [left(&a, 0), b, c];
-        assert_eq!(assemble_face(wide.each_ref(), &frame(CULL_NONE, 0)).dropped, KEPT);
+        assert_eq!(assemble_face(wide, &frame(CULL_NONE, 0)).dropped, KEPT);
     }
 
     #[test]

@@ -53,18 +53,21 @@ pub const FRUSTUM: u32 = 63;
 /// such a corner (and not wholly outside the frustum) is clipped by the host.
 pub const UNASSEMBLED: u32 = 64;
 
-/// The frustum bits of a clip-space position, by its pairs' high parts (as the domain test
-/// compares them; the CPU twin's `f64` path decides the same comparisons).
+/// The frustum bits of a clip-space position: the signs of `x + w`, `w − x`, `y + w`, `w − y`,
+/// `z` and `w − z` in pairs (a normalised pair's high part carries its sign), so within a few
+/// units of `2^-44` of the exact comparisons, far below the margin by which the host culls
+/// whole instances (`instances::outside_frustum`): a vertex of an instance it culls lies
+/// beyond a plane by these bits too.
 #[inline]
 pub fn frustum_planes(clip: &[Double; 4]) -> u32 {
-    let (x, y, z, w) = (clip[0].hi, clip[1].hi, clip[2].hi, clip[3].hi);
+    let (x, y, z, w) = (clip[0], clip[1], clip[2], clip[3]);
     let bit = |beyond: bool, b: u32| if beyond { b } else { 0 };
-    bit(x < -w, BEYOND_LEFT)
-        | bit(x > w, BEYOND_RIGHT)
-        | bit(y < -w, BEYOND_TOP)
-        | bit(y > w, BEYOND_BOTTOM)
-        | bit(z < 0.0, BEYOND_NEAR)
-        | bit(z > w, BEYOND_FAR)
+    bit((x + w).hi < 0.0, BEYOND_LEFT)
+        | bit((w - x).hi < 0.0, BEYOND_RIGHT)
+        | bit((y + w).hi < 0.0, BEYOND_TOP)
+        | bit((w - y).hi < 0.0, BEYOND_BOTTOM)
+        | bit(z.hi < 0.0, BEYOND_NEAR)
+        | bit((w - z).hi < 0.0, BEYOND_FAR)
 }
 
 /// One vertex through the stage: projected where its position lies within [`POSITION_LIMIT`] and
@@ -112,13 +115,13 @@ pub fn vertex(params: &VertexParams, position: &RelativePosition) -> ProjectedVe
     }
     let (depth, inverse_w) = viewport::depth_and_inverse_w(&clip);
     let screen = viewport::snap(&clip, params.half_units);
-    ProjectedVertex { screen, depth, inverse_w, planes: planes | assembled(params, screen, planes) }
+    ProjectedVertex { screen, depth, inverse_w, planes: planes | assembly_bit(params, screen, planes) }
 }
 
 /// [`UNASSEMBLED`] for a projected vertex beyond the near or far plane or beyond the guard
 /// band (`screen` snapped), else 0.
 #[inline]
-pub fn assembled(params: &VertexParams, screen: [i32; 2], planes: u32) -> u32 {
+pub fn assembly_bit(params: &VertexParams, screen: [i32; 2], planes: u32) -> u32 {
     let inside = screen[0] >= params.band_low
         && screen[1] >= params.band_low
         && screen[0] <= params.band_high[0]

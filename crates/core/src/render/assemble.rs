@@ -1,6 +1,7 @@
 //! The kernels' assembly of a frame's faces (`stages::assemble::assemble_face`), for a frame
 //! that draws faces alone: what happens to a face
-//! (culled wholly outside the frustum, by facing, for having no pixel centre; kept; clipped) is
+//! (culled wholly outside the frustum, for zero area, by facing, for having no pixel centre;
+//! kept; clipped) is
 //! decided by the vertex stage's bits alone, and a kept face's records come from its corners as
 //! the stage projected them and its vertices' attributes in `f32` (lit on the host in `f64` per
 //! vertex for Gouraud shading and per face for flat shading, as the host's path lights them).
@@ -116,11 +117,11 @@ impl MeshFaces<'_> {
     pub(super) fn face(&self, k: usize, tag: FaceTag, viewport: &Viewport, target: &Target, emit: &mut Emit<'_>, counts: &mut GeometryCounts) {
         let tri = self.placement.mesh.triangles[k];
         let tri = if self.placement.mirrored { [tri[0], tri[2], tri[1]] } else { tri }.map(|v| v as usize);
-        let corners = tri.map(|v| &self.projected[v]);
+        let corners = tri.map(|v| self.projected[v]);
         let t = assemble_face(corners, &target.assembly);
         match t.dropped {
             KEPT => emit.put(|| {
-                let attributes = |v: usize| self.attributes.get(v).copied().unwrap_or([0.0; ATTRIBUTES]);
+                let attributes = |v: usize| if self.attributes.is_empty() { [0.0; ATTRIBUTES] } else { self.attributes[v] };
                 let mut attributes = if self.flat { [attributes(tri[0]); 3] } else { tri.map(attributes) };
                 if let Some(light) = self.face_light(tri) {
                     attributes.iter_mut().for_each(|a| light.apply_f32(a));
@@ -136,7 +137,8 @@ impl MeshFaces<'_> {
     /// A face with a corner the vertex stage left to the host, through the host's clipping.
     fn clip_on_host(&self, tri: [usize; 3], tag: FaceTag, viewport: &Viewport, target: &Target, emit: &mut Emit<'_>, counts: &mut GeometryCounts) {
         let mut vertices = tri.map(|v| self.corner(v, viewport));
-        let light = self.face_light(tri);
+        // (Counting reads no attribute.)
+        let light = if emit.counting() { None } else { self.face_light(tri) };
         if self.flat || light.is_some() {
             let first = vertices[0].attributes;
             for v in &mut vertices {

@@ -6,7 +6,7 @@ use super::params::{GeometryCounts, RENDER_SNAP_BITS};
 use super::vertex::Projected;
 use super::viewport::Target;
 use tileraster_kernels::EXTENT_LIMIT_BITS;
-use tileraster_kernels::stages::assemble::{DROPPED_BACK, DROPPED_FRONT, DROPPED_ZERO_AREA, KEPT, Snapped, snap_triangle, triangle_records};
+use tileraster_kernels::stages::assemble::{DROPPED_BACK, DROPPED_FRONT, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, KEPT, Snapped, snap_triangle, triangle_records};
 
 /// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
 /// and push what reaches the rasteriser.
@@ -46,6 +46,7 @@ pub(super) fn count_dropped(dropped: u32, counts: &mut GeometryCounts) {
         DROPPED_ZERO_AREA => counts.culled_zero_area += 1,
         DROPPED_BACK => counts.culled_back += 1,
         DROPPED_FRONT => counts.culled_front += 1,
-        _ => counts.culled_no_centre += 1,
+        DROPPED_NO_CENTRE => counts.culled_no_centre += 1,
+        other => unreachable!("snap_triangle drops for no reason {other}"),
     }
 }

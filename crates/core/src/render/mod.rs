@@ -1,8 +1,10 @@
 //! The render pipeline's geometry stages, once per frame and the same for both backends: vertex
-//! transform, clipping, culling, viewport transform and snapping, on the host in `f64` but for
-//! the kernels' `vertex` stage (`stages::vertex`, run by the frame's backend through
-//! [`GeometryKernels`]), which gives every vertex inside the clipping planes its snapped
-//! position, depth and `1/w`.
+//! transform, clipping, culling, viewport transform and snapping. The kernels' `vertex` stage
+//! (`stages::vertex`, run by the frame's backend through [`GeometryKernels`]) gives every
+//! vertex inside the clipping planes its snapped position, depth and `1/w`, and its frustum
+//! bits, from which the kernels' assembly (`assemble`) decides the faces of a frame that draws
+//! faces alone; the host clips in `f64` the faces it leaves, and runs the rest of the stages
+//! in `f64` for frames with the wireframe or vertices view.
 //! What they leave is a [`Prepared`] scene for the kernels (setup, binning, the depth test of
 //! `programs::depth` and the shade stage of `programs::shade`). The pipeline is written here
 //! (`prepare_instances_in`); each stage is a file of its own:
@@ -131,8 +133,9 @@ pub fn prepare_checked_mesh_in(
 }
 
 /// What a mesh's frames keep between them for the next: its textures as laid out for the
-/// kernels, and its positions as the vertex stage takes them (which a backend that keeps them,
-/// the GPU, is handed once).
+/// kernels, its positions as the vertex stage takes them (which a backend that keeps them, the
+/// GPU, is handed once), and its vertex attributes as the kernels' assembly reads them (unless
+/// lit per vertex).
 #[derive(Default)]
 pub struct KeptMesh {
     textures: Option<LaidOutTextures>,
@@ -142,8 +145,9 @@ pub struct KeptMesh {
 
 /// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left what they keep
 /// in `kept`: its textures taken as they are where this frame's filter and address overrides
-/// are theirs (else laid out again and kept), its positions as they are. `kept` must hold only
-/// this mesh's (a `PreparedMesh` keeps both together).
+/// are theirs (else laid out again and kept), its positions as they are, its attributes where
+/// made for the same placement. `kept` must hold only this mesh's (a `PreparedMesh` keeps them
+/// together).
 pub fn prepare_mesh_frame(
     mesh: &Mesh,
     params: &RenderParams,
@@ -177,8 +181,9 @@ pub enum GeometryPass {
     /// The frame's parameters checked, the instances culled and placed, the textures laid out,
     /// the wireframe's edges found.
     Frame,
-    /// `vertex`: every placed vertex to clip space, lit where shading is per vertex, and through
-    /// the kernels' vertex stage.
+    /// `vertex`: every placed vertex through the kernels' vertex stage, and its attributes
+    /// (lit where shading is per vertex); where the host assembles the frame, every vertex to
+    /// clip space in `f64` too.
     Vertex,
     /// `clip`, `cull` and `viewport` over every face (and line and point), or the kernels'
     /// assembly (`assemble`), counting what each chunk puts out: a face that needs no clipping
@@ -426,9 +431,8 @@ pub(crate) fn prepare_instances_in(
         }
         let mesh = p.mesh;
         let end = (start + CHUNK).min(mesh.triangles.len());
-        if let Work::Faces(placed) = work
-            && let Some(faces) = mesh_faces.get(placed)
-        {
+        if let (Work::Faces(placed), Some(_)) = (work, kernel_stage) {
+            let faces = &mesh_faces[placed];
             for k in start..end {
                 let tag = FaceTag { id: p.first_face + k as u32, texture: face_texture(mesh, k, p.first_texture) };
                 faces.face(k, tag, &viewport, &target, emit, counts);

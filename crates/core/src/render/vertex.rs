@@ -457,7 +457,8 @@ fn guard_band_units(viewport: &Viewport) -> (i32, [i32; 2]) {
 /// (the depth view's range, where the kernels assemble the frame): the stage's `f32` depths.
 pub(super) fn projected_depth_range(projected: &[ProjectedVertex]) -> (f64, f64) {
     let inside = |p: &&ProjectedVertex| p.is_projected() && p.planes & FRUSTUM == 0;
-    let visible = projected.par_iter().filter(inside).map(|p| p.depth as f64);
+    // (`+ 0.0`: a depth of −0 counts as +0, whichever way the reduction splits.)
+    let visible = projected.par_iter().filter(inside).map(|p| p.depth as f64 + 0.0);
     let (lo, hi) = visible.fold(|| (1.0f64, 0.0f64), |(lo, hi), d| (lo.min(d), hi.max(d))).reduce(|| (1.0, 0.0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
     if lo < hi { (lo, hi) } else { (0.0, 1.0) }
 }

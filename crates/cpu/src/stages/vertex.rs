@@ -10,7 +10,7 @@
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ProjectedVertex, RelativePosition, VertexParams};
 use tileraster_kernels::stages::vertex::{
-    BEYOND_BOTTOM, BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, BEYOND_RIGHT, BEYOND_TOP, POSITION_LIMIT, assembled, vertex as project,
+    BEYOND_BOTTOM, BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, BEYOND_RIGHT, BEYOND_TOP, POSITION_LIMIT, assembly_bit, vertex as project,
 };
 
 /// The frame's vertices through the vertex stage, into `projected` (its memory reused).
@@ -86,18 +86,34 @@ pub fn exact_in_f64(params: &VertexParams, matrix: &Matrix, position: &RelativeP
     // decided here where every value those parts may take decides it alike.
     let hi: [Span; 4] = std::array::from_fn(|k| Span::around(clip[k], error[k]));
     let w = hi[3];
-    // The frustum bits, as the kernel compares the high parts (`stages::vertex::frustum_planes`).
+    // The frustum bits: the signs of the kernel's pair sums and differences
+    // (`stages::vertex::frustum_planes`), decided where the `f64` value lies farther from zero
+    // than both results' error.
+    let sign_of = |a: usize, b: Option<(usize, f64)>| -> Option<bool> {
+        let (v, e) = match b {
+            Some((b, k)) => (clip[b] + k * clip[a], error[a] + error[b] + 2.0 * STEP * (clip[a].abs() + clip[b].abs())),
+            None => (clip[a], error[a]),
+        };
+        let e = 2.0 * e + TINY;
+        if v > e {
+            Some(false)
+        } else if v < -e {
+            Some(true)
+        } else {
+            None
+        }
+    };
     let beyond = [
-        (at_most(w.negated(), hi[0]), BEYOND_LEFT),
-        (at_most(hi[0], w), BEYOND_RIGHT),
-        (at_most(w.negated(), hi[1]), BEYOND_TOP),
-        (at_most(hi[1], w), BEYOND_BOTTOM),
-        (at_most(Span::exactly(0.0), hi[2]), BEYOND_NEAR),
-        (at_most(hi[2], w), BEYOND_FAR),
+        (sign_of(0, Some((3, 1.0))), BEYOND_LEFT),
+        (sign_of(0, Some((3, -1.0))), BEYOND_RIGHT),
+        (sign_of(1, Some((3, 1.0))), BEYOND_TOP),
+        (sign_of(1, Some((3, -1.0))), BEYOND_BOTTOM),
+        (sign_of(2, None), BEYOND_NEAR),
+        (sign_of(2, Some((3, -1.0))), BEYOND_FAR),
     ];
     let mut planes = 0;
-    for (inside, bit) in beyond {
-        planes |= if inside? { 0 } else { bit };
+    for (negative, bit) in beyond {
+        planes |= if negative? { bit } else { 0 };
     }
     let within = |v: Span, reach: f32| all(at_most(v, w.times(reach)), at_most(v.negated(), w.times(reach)));
     let lowest = Span::exactly(1.0 / (1u64 << 60) as f32);
@@ -151,7 +167,7 @@ pub fn exact_in_f64(params: &VertexParams, matrix: &Matrix, position: &RelativeP
     let depth = depth.clamp(0.0, 1.0);
     let inverse_error = 2.0 * (2.0 * w_error * inverse * inverse + 2.0 * STEP * inverse) + TINY;
     let inverse_w = rounded(inverse, inverse_error)?;
-    Some(ProjectedVertex { screen, depth, inverse_w, planes: planes | assembled(params, screen, planes) })
+    Some(ProjectedVertex { screen, depth, inverse_w, planes: planes | assembly_bit(params, screen, planes) })
 }
 
 /// The `f32`s a value within `error` of `v` may round to: rounding is monotonic, so the ends of
@@ -213,6 +229,7 @@ fn rounded(v: f64, error: f64) -> Option<f32> {
 mod tests {
     use super::*;
     use tileraster_kernels::math::double::Double;
+    use tileraster_kernels::stages::vertex::UNASSEMBLED;
 
     fn pairs(v: [f64; 3]) -> RelativePosition {
         let d = v.map(Double::from_f64);
@@ -226,6 +243,9 @@ mod tests {
             matrix_lo: d.map(|row| row.map(|d| d.lo)),
             half_units: [width, height].map(|n| (n << 8) as f32 / 2.0),
             reach: [width, height].map(|n| (2.0 * (1.0 + 2.0 * (1u32 << 19) as f64 / n as f64)) as f32),
+            // The guard band, 2^19 px beyond each side, in snapped units.
+            band_low: -(1 << 27),
+            band_high: [width, height].map(|n| ((n + (1 << 19)) << 8) as i32),
             ..VertexParams::default()
         }
     }
@@ -259,20 +279,22 @@ mod tests {
         let m: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|k| (0..4).map(|j| proj[r][j] * view[j][k]).sum()));
         let p = params(m, w, h);
         let mut next = stream(0x2545_f491_4f6c_dd1d);
-        let (mut answered, mut projected, mut total) = (0, 0, 0);
+        let (mut answered, mut projected, mut assembled, mut total) = (0, 0, 0, 0);
         for _ in 0..400_000 {
             let v = [next() * 20_000.0 - 5_000.0, next() * 20_000.0 - 10_000.0, next() * 300.0];
             let position = pairs(v);
             let kernel = project(&p, &position);
             total += 1;
             projected += usize::from(kernel.is_projected());
+            assembled += usize::from(kernel.planes & UNASSEMBLED == 0);
             if let Some(fast) = exact_in_f64(&p, &Matrix::of(&p), &position) {
                 answered += 1;
                 assert_eq!(bytemuck::bytes_of(&fast), bytemuck::bytes_of(&kernel), "{v:?}: f64 {fast:?}, kernel {kernel:?}");
             }
         }
-        println!("terrain: the f64 path answered {answered} of {total} vertices ({projected} projected)");
+        println!("terrain: the f64 path answered {answered} of {total} vertices ({projected} projected, {assembled} for the assembly)");
         assert!(projected > total / 4 && projected < total, "{projected} of {total} projected");
+        assert!(assembled > total / 10 && assembled < projected, "{assembled} of {projected} projected vertices for the assembly");
         // (The bound's room leaves about one vertex in 400 to the kernel's pairs.)
         assert!(answered as f64 >= 0.99 * total as f64, "{answered} of {total}");
 
@@ -296,5 +318,35 @@ mod tests {
         }
         println!("boundary: the f64 path answered {answered} of {total} vertices");
         assert!(answered < total / 10, "{answered} of {total} answered a hair from a boundary");
+
+        // A hair from the frustum's planes (`x = ±w`, `y = ±w`, `z = 0`, `z = w` of the same
+        // view): where the `f64` path answers, its bits are the kernel's, and each bit comes out
+        // both ways.
+        let (mut answered, mut total, mut set, mut clear) = (0, 0, [0; 6], [0; 6]);
+        for k in 0..6000 {
+            let hair = (next() - 0.5) * 2f64.powi(-12 - (k % 40));
+            let v = match k % 6 {
+                0 => [-1.0 + hair, (next() * 1.6 - 0.8), next()],
+                1 => [1.0 + hair, (next() * 1.6 - 0.8), next()],
+                2 => [(next() * 1.6 - 0.8), -1.0 + hair, next()],
+                3 => [(next() * 1.6 - 0.8), 1.0 + hair, next()],
+                // z = 0.5 · z_in + 0.25: 0 at -0.5, w at 1.5.
+                4 => [(next() * 1.6 - 0.8), (next() * 1.6 - 0.8), -0.5 + hair],
+                _ => [(next() * 1.6 - 0.8), (next() * 1.6 - 0.8), 1.5 + hair],
+            };
+            let position = pairs(v);
+            let kernel = project(&p, &position);
+            total += 1;
+            for b in 0..6 {
+                if kernel.planes & (1 << b) != 0 { set[b] += 1 } else { clear[b] += 1 }
+            }
+            if let Some(fast) = exact_in_f64(&p, &Matrix::of(&p), &position) {
+                answered += 1;
+                assert_eq!(bytemuck::bytes_of(&fast), bytemuck::bytes_of(&kernel), "{v:?}: f64 {fast:?}, kernel {kernel:?}");
+            }
+        }
+        println!("planes: the f64 path answered {answered} of {total} vertices; bits set {set:?}");
+        assert!(answered > total / 4 && answered < total, "{answered} of {total} answered a hair from a plane");
+        assert!(set.iter().zip(clear).all(|(&s, c)| s > 100 && c > 100), "set {set:?}, clear {clear:?}");
     }
 }

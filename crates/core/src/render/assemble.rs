@@ -1,13 +1,12 @@
 //! The kernels' assembly of a frame's faces (`stages::assemble::assemble_face`), for a frame
-//! that draws faces alone: what happens to a face
-//! (culled wholly outside the frustum, for zero area, by facing, for having no pixel centre;
-//! kept; clipped) is
-//! decided by the vertex stage's bits alone, and a kept face's records come from its corners as
-//! the stage projected them and its vertices' attributes in `f32` (lit on the host in `f64` per
-//! vertex for Gouraud shading and per face for flat shading, as the host's path lights them).
-//! No vertex is computed in `f64` but the corners of the faces the stage leaves to the host's
-//! clipping (`CLIPPED_ON_HOST`), and those take the stage's word for every corner it projected,
-//! so that a vertex shared by a kept face and a clipped one lies where both say. These are the
+//! that draws faces alone: what happens to a face (culled wholly outside the frustum, for zero
+//! area, by facing, for having no pixel centre; kept; clipped) is decided by the vertex stage's
+//! bits alone, and a kept face's records come from its corners as the stage projected them and
+//! its vertices' attributes in `f32` (lit on the host in `f64` per vertex for Gouraud shading
+//! and per face for flat shading, as the host's path lights them). No vertex is computed in
+//! `f64` but the corners of the faces the stage leaves to the host's clipping
+//! (`CLIPPED_ON_HOST`), and those take the stage's word for every corner it projected, so that
+//! a vertex shared by a kept face and a clipped one lies where both say. These are the
 //! decisions and records the device's assembly stages will make; here the host runs them, on
 //! the stage's output.
 
@@ -107,7 +106,8 @@ pub(super) struct MeshFaces<'a> {
     pub(super) attributes: &'a [[f32; ATTRIBUTES]],
     /// Flat interpolation: every corner takes the face's first vertex's attributes.
     pub(super) flat: bool,
-    /// What the host's clipping computes a corner from: the frame's matrix and the attributes' recipe.
+    /// What the host's clipping computes a corner from: the attributes' recipe and the frame's
+    /// matrix.
     pub(super) shaded: Shaded<'a>,
     pub(super) view_projection: &'a [[f64; 4]; 4],
 }

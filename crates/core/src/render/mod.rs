@@ -318,12 +318,19 @@ pub(crate) fn prepare_instances_in(
     observe(GeometryPass::Frame);
     // The kernels assemble the faces of a frame that lets them (`assemble`), unless its matrix
     // lies beyond the vertex stage's range; the host's path takes the rest.
-    let kernel_stage = match placements.as_slice() {
-        _ if !assemble::assembles(params) => None,
-        [only] if instances.len() == 1 => {
-            vertex::project_mesh(only, m, &viewport, &mut memory.vertex_stage, kept.as_deref_mut().map(|k| &mut k.positions), kernels)?
-        }
-        _ => vertex::project_world(&placements, first_vertex, m, &viewport, &mut memory.world, &mut memory.vertex_stage, kernels)?,
+    let kernel_stage = match assemble::assembles(params) {
+        true => vertex::project_for_assembly(
+            &placements,
+            instances.len() == 1,
+            first_vertex,
+            m,
+            &viewport,
+            &mut memory.world,
+            &mut memory.vertex_stage,
+            kept.as_deref_mut().map(|k| &mut k.positions),
+            kernels,
+        )?,
+        false => None,
     };
     let mut fresh_attributes = None;
     let mut mesh_faces = Vec::new();

@@ -254,26 +254,39 @@ pub(super) fn transform_vertices(
             *out = shaded.clip_vertex(v, world[v], m, viewport);
         });
     });
-    // A world of one instance (a mesh): the mesh's own positions, relative to its box's centre,
-    // with the placement's transform composed into the matrix, so that a prepared mesh (`kept`)
-    // hands them to the stage once. Several instances: the world's positions, relative to their
-    // box's centre, however many the culling keeps (which changes no bit).
     let VertexStageMemory { positions, projected } = stage;
+    let (handed, origin, matrix) = stage_input(placements, one_instance, m, world, kept, positions);
+    project_vertices(handed, origin, &matrix, vertices, viewport, projected, kernels)
+}
+
+/// What the vertex stage takes for a frame: its positions, their origin, and the matrix from
+/// them to clip space. A world of one instance (a mesh) hands the mesh's own positions,
+/// relative to its box's centre, with the placement's transform composed into the matrix, so
+/// that a prepared mesh (`kept`) hands them to the stage once. Several instances hand the
+/// world's positions (`world`), relative to their box's centre, however many the culling keeps
+/// (which changes no bit). `pairs` holds the positions a prepared mesh does not keep.
+fn stage_input<'a>(
+    placements: &[Placement],
+    one_instance: bool,
+    m: &[[f64; 4]; 4],
+    world: &[[f64; 3]],
+    kept: Option<&'a mut Option<MeshPositions>>,
+    pairs: &'a mut Vec<RelativePosition>,
+) -> (Positions<'a>, [f64; 3], [[f64; 4]; 4]) {
     let (points, matrix) = match placements {
         [only] if one_instance => {
             let matrix = if only.to_world == IDENTITY { *m } else { multiply(m, &only.to_world) };
             if let Some(kept) = kept {
                 let mesh = kept.get_or_insert_with(|| MeshPositions::of(&only.mesh.positions));
-                let handed = Positions { pairs: &mesh.pairs, kept: Some(mesh.key) };
-                return project_vertices(handed, mesh.origin, &matrix, vertices, viewport, projected, kernels);
+                return (Positions { pairs: &mesh.pairs, kept: Some(mesh.key) }, mesh.origin, matrix);
             }
             (&only.mesh.positions[..], matrix)
         }
-        _ => (&world[..], *m),
+        _ => (world, *m),
     };
     let origin = box_centre(points);
-    relative_pairs(points, origin, positions);
-    project_vertices(Positions { pairs: positions, kept: None }, origin, &matrix, vertices, viewport, projected, kernels)
+    relative_pairs(points, origin, pairs);
+    (Positions { pairs, kept: None }, origin, matrix)
 }
 
 /// The centre of the points' box (the origin their pairs are taken from).
@@ -314,69 +327,37 @@ impl VertexStageMemory {
     }
 }
 
-/// The kernels' vertex stage alone over the visible instances of a world (`placements`,
-/// `count` vertices in all), for a frame the kernels assemble: each instance's positions into
-/// the world in `f64` (into `world`), relative to their box's centre, as the host's path hands
-/// them to the stage. The projected vertices are left in `stage`; returns the bytes handed to
-/// the stage, or `None` where the frame's matrix lies beyond the stage's range.
-pub(super) fn project_world(
+/// The kernels' vertex stage alone, for a frame the kernels assemble (`assemble`): no vertex in
+/// `f64` but, for a world of several instances, their positions in the world (into `world`),
+/// which the stage takes as the host's path hands them (`stage_input`). The projected vertices
+/// are left in `stage`; returns the bytes handed to the stage, or `None` where the frame's
+/// matrix lies beyond the stage's range (the frame then takes the host's path).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn project_for_assembly(
     placements: &[Placement],
+    one_instance: bool,
     count: usize,
     m: &[[f64; 4]; 4],
     viewport: &Viewport,
     world: &mut Vec<[f64; 3]>,
     stage: &mut VertexStageMemory,
-    kernels: &mut dyn GeometryKernels,
-) -> Result<Option<u64>, Error> {
-    let vertices = u32::try_from(count).map_err(|_| Error::TooManyFaces { faces: count as u64 })?;
-    world.clear();
-    let reserved = world.try_reserve_exact(count);
-    reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{count} vertices ({e})") })?;
-    world.par_extend(placements.par_iter().flat_map(|p| p.mesh.positions.par_iter().map(|v| instances::transform_point(&p.to_world, v))));
-    let origin = box_centre(world);
-    let Some(params) = vertex_params(m, origin, viewport) else {
-        return Ok(None);
-    };
-    let VertexStageMemory { positions, projected } = stage;
-    relative_pairs(world, origin, positions);
-    let bytes = kernels.vertex(&VertexParams { vertices, ..params }, Positions { pairs: positions, kept: None }, projected)?;
-    if projected.len() != count {
-        return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {count}", projected.len())));
-    }
-    Ok(Some(bytes))
-}
-
-/// The kernels' vertex stage alone, over a world of one instance (`only`), for a frame the
-/// kernels assemble (`assemble`): no vertex in `f64`. The projected vertices are left in
-/// `stage`; returns the bytes handed to the stage, or `None` where the frame's matrix lies beyond
-/// the stage's range (the frame then takes the host's path).
-pub(super) fn project_mesh(
-    only: &Placement,
-    m: &[[f64; 4]; 4],
-    viewport: &Viewport,
-    stage: &mut VertexStageMemory,
     kept: Option<&mut Option<MeshPositions>>,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<Option<u64>, Error> {
-    let count = u32::try_from(only.mesh.positions.len()).map_err(|_| Error::TooManyFaces { faces: only.mesh.positions.len() as u64 })?;
-    let matrix = if only.to_world == IDENTITY { *m } else { multiply(m, &only.to_world) };
+    let vertices = u32::try_from(count).map_err(|_| Error::TooManyFaces { faces: count as u64 })?;
+    if !(one_instance && placements.len() == 1) {
+        world.clear();
+        let reserved = world.try_reserve_exact(count);
+        reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{count} vertices ({e})") })?;
+        world.par_extend(placements.par_iter().flat_map(|p| p.mesh.positions.par_iter().map(|v| instances::transform_point(&p.to_world, v))));
+    }
     let VertexStageMemory { positions, projected } = stage;
-    let (handed, origin) = match kept {
-        Some(kept) => {
-            let mesh = kept.get_or_insert_with(|| MeshPositions::of(&only.mesh.positions));
-            (Positions { pairs: &mesh.pairs, kept: Some(mesh.key) }, mesh.origin)
-        }
-        None => {
-            let origin = box_centre(&only.mesh.positions);
-            relative_pairs(&only.mesh.positions, origin, positions);
-            (Positions { pairs: positions, kept: None }, origin)
-        }
-    };
+    let (handed, origin, matrix) = stage_input(placements, one_instance, m, world, kept, positions);
     let Some(params) = vertex_params(&matrix, origin, viewport) else {
         return Ok(None);
     };
-    let bytes = kernels.vertex(&VertexParams { vertices: count, ..params }, handed, projected)?;
-    if projected.len() != count as usize {
+    let bytes = kernels.vertex(&VertexParams { vertices, ..params }, handed, projected)?;
+    if projected.len() != count {
         return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {count}", projected.len())));
     }
     Ok(Some(bytes))

@@ -45,24 +45,28 @@ pub(super) struct VertexAttributes {
 }
 
 impl VertexAttributes {
-    /// The attributes of the instances `placements` (`count` vertices) for `shading`: a prepared
-    /// mesh's (one placement and `kept`) as it kept them where they were made for the same
-    /// placement, else made afresh (and kept there).
+    /// The attributes of the instances `placements` (`count` vertices) for `shading`, in `slot`:
+    /// where it `keeps` a prepared mesh's (one placement), as they are if made for the same
+    /// placement; else made afresh in the slot's arrays (whose pages a frame that reuses its
+    /// memory has mapped already).
     pub(super) fn of<'a>(
         placements: &[Placement],
         count: usize,
         shading: Shading,
         lighting: &Lighting,
-        kept: &'a mut Option<VertexAttributes>,
+        slot: &'a mut Option<VertexAttributes>,
+        keeps: bool,
     ) -> &'a VertexAttributes {
         let (used, lit) = (shading.reads_attributes(), shading == Shading::Smooth);
         let to_world = match placements {
             [only] => only.to_world,
             _ => IDENTITY,
         };
-        let same = |k: &VertexAttributes| placements.len() == 1 && k.to_world == to_world && k.used == used && !k.lit;
-        if lit || !kept.as_ref().is_some_and(same) {
-            let (mut normals, mut values) = (Vec::new(), Vec::new());
+        let same = |k: &VertexAttributes| keeps && placements.len() == 1 && k.to_world == to_world && k.used == used && !k.lit;
+        if lit || !slot.as_ref().is_some_and(same) {
+            let (mut normals, mut values) = slot.take().map_or_else(Default::default, |k| (k.normals, k.values));
+            normals.clear();
+            values.clear();
             if used {
                 // Each mesh's own normals (or its faces'), once, turned by each placement.
                 let mut base: Vec<Option<Vec<[f32; 3]>>> = Vec::new();
@@ -85,9 +89,9 @@ impl VertexAttributes {
                     normals.extend_from_slice(&turned);
                 }
             }
-            *kept = Some(VertexAttributes { to_world, used, lit, normals, values });
+            *slot = Some(VertexAttributes { to_world, used, lit, normals, values });
         }
-        kept.as_ref().expect("made above")
+        slot.as_ref().expect("made above")
     }
 
     /// The attributes and normals of the placement whose vertices start at `first` (of `n`);

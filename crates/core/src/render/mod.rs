@@ -109,6 +109,8 @@ pub struct GeometryMemory {
     shading: Vec<TriangleShading>,
     faces: Vec<u32>,
     vertex_stage: VertexStageMemory,
+    /// The kernels' assembly's attributes of a frame that keeps none (`assemble`).
+    attributes: Option<VertexAttributes>,
 }
 
 impl GeometryMemory {
@@ -332,16 +334,15 @@ pub(crate) fn prepare_instances_in(
         )?,
         false => None,
     };
-    let mut fresh_attributes = None;
     let mut mesh_faces = Vec::new();
     match kernel_stage {
         Some(bytes) => {
             counts.bytes_uploaded = bytes;
-            let slot = match kept {
-                Some(k) if placements.len() == 1 => &mut k.attributes,
-                _ => &mut fresh_attributes,
+            let (slot, keeps) = match kept {
+                Some(k) if placements.len() == 1 => (&mut k.attributes, true),
+                _ => (&mut memory.attributes, false),
             };
-            let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, slot);
+            let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, slot, keeps);
             let projected = memory.vertex_stage.projected();
             mesh_faces = placements
                 .iter()

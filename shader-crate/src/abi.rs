@@ -938,7 +938,7 @@ pub struct ProjectedVertex {
 
 impl ProjectedVertex {
     /// What the stage writes for a vertex it does not project: the same bits on every device.
-    pub const NONE: ProjectedVertex = ProjectedVertex::none(crate::stages::vertex::UNASSEMBLED);
+    pub const NONE: ProjectedVertex = ProjectedVertex::none(0);
 
     /// [`Self::NONE`] beyond the frustum planes `planes` (and so `UNASSEMBLED`).
     #[inline]

@@ -15,8 +15,8 @@ use super::cull::count_dropped;
 use super::emit::{Emit, FaceTag};
 use super::instances::{Placement, transform_point};
 use super::lighting::{FaceLight, Lighting};
-use super::params::{GREY, GeometryCounts, IDENTITY, RenderParams, Shading, face_normals};
-use super::vertex::{ClipVertex, Corner, Projected, Shaded, vertex_normals};
+use super::params::{GREY, GeometryCounts, IDENTITY, RenderParams, Shading};
+use super::vertex::{ClipVertex, Corner, Projected, Shaded, computed_normals, flattened, placed_normals};
 use super::viewport::{Target, Viewport};
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ATTRIBUTES, ProjectedVertex};
@@ -68,22 +68,12 @@ impl VertexAttributes {
             normals.clear();
             values.clear();
             if used {
-                // Each mesh's own normals (or its faces'), once, turned by each placement.
-                let mut base: Vec<Option<Vec<[f32; 3]>>> = Vec::new();
-                for p in placements {
-                    if base.len() <= p.mesh_index {
-                        base.resize(p.mesh_index + 1, None);
-                    }
-                    if base[p.mesh_index].is_none() && p.mesh.normals.is_none() {
-                        base[p.mesh_index] = Some(face_normals(p.mesh));
-                    }
-                }
+                let computed = computed_normals(placements);
                 normals.reserve_exact(count);
                 values.reserve_exact(count);
                 for p in placements {
-                    let own = p.mesh.normals.as_deref().or(base[p.mesh_index].as_deref()).expect("normals of every placed mesh");
-                    let turned = vertex_normals(own, &p.to_world);
-                    let shaded = Shaded { mesh: p.mesh, normals: &turned, shading, lighting, attributes_used: used };
+                    let turned = placed_normals(p, &computed);
+                    let shaded = Shaded { mesh: p.mesh, normals: &turned, shading, lighting };
                     let positions = p.mesh.positions.par_iter().enumerate();
                     values.par_extend(positions.map(|(v, q)| shaded.attributes(v, transform_point(&p.to_world, q)).map(|a| a as f32)));
                     normals.extend_from_slice(&turned);
@@ -140,21 +130,10 @@ impl MeshFaces<'_> {
 
     /// A face with a corner the vertex stage left to the host, through the host's clipping.
     fn clip_on_host(&self, tri: [usize; 3], tag: FaceTag, viewport: &Viewport, target: &Target, emit: &mut Emit<'_>, counts: &mut GeometryCounts) {
-        let mut vertices = tri.map(|v| self.corner(v, viewport));
+        let vertices = tri.map(|v| self.corner(v, viewport));
         // (Counting reads no attribute.)
         let light = if emit.counting() { None } else { self.face_light(tri) };
-        if self.flat || light.is_some() {
-            let first = vertices[0].attributes;
-            for v in &mut vertices {
-                if self.flat {
-                    v.attributes = first;
-                }
-                if let Some(light) = &light {
-                    light.apply(&mut v.attributes);
-                }
-                v.projected.attributes = v.attributes.map(|a| a as f32);
-            }
-        }
+        let vertices = flattened(vertices.each_ref(), self.flat && !emit.counting(), light.as_ref()).unwrap_or(vertices);
         let corners = vertices.each_ref().map(Corner::of);
         geometry(corners.each_ref(), vertices.each_ref(), tag, viewport, target, emit, counts);
     }

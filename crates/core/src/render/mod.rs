@@ -72,13 +72,13 @@ pub use validate::validate_mesh;
 use validate::validate_params;
 pub use vector::{multiply, normal_matrix, transform_normal};
 use vertex::depth_range;
-use vertex::{ClipVertex, Corner, Projected, Shaded, VertexStageMemory};
+use vertex::{ClipVertex, Corner, Shaded, VertexStageMemory, flattened};
 pub use vertex::{GeometryKernels, MeshPositions, Positions};
 use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{ATTRIBUTES, DepthTest, Interpolation, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{DepthTest, Interpolation, TriangleInput, TriangleShading};
 
 /// Faces per task of the geometry stages; tasks keep face order.
 const CHUNK: usize = 1 << 12;
@@ -354,7 +354,7 @@ pub(crate) fn prepare_instances_in(
                         projected: &projected[p.first_vertex..p.first_vertex + n],
                         attributes: values,
                         flat: params.interpolation == Interpolation::Flat,
-                        shaded: Shaded { mesh: p.mesh, normals, shading, lighting: &lighting, attributes_used: shading.reads_attributes() },
+                        shaded: Shaded { mesh: p.mesh, normals, shading, lighting: &lighting },
                         view_projection: m,
                     }
                 })
@@ -362,7 +362,6 @@ pub(crate) fn prepare_instances_in(
         }
         None => {
             counts.bytes_uploaded = vertex::transform_vertices(
-                meshes.len(),
                 &placements,
                 first_vertex,
                 &params.view_projection,
@@ -448,38 +447,23 @@ pub(crate) fn prepare_instances_in(
             return;
         }
         let faces = &mesh.triangles[start..end];
-        let mut flattened = [ClipVertex::default(); 3];
         for (k, tri) in faces.iter().enumerate() {
             let face = p.first_face + (start + k) as u32;
             let tri = if p.mirrored { [tri[0], tri[2], tri[1]] } else { *tri };
             let tri = tri.map(|v| p.first_vertex + v as usize);
             let mut vertex = tri.map(|v| &vertices[v]);
-            let counting = emit.counting();
             // Flat modes give every corner (and so every clipped piece) one set of values
-            // (attributes only: counting needs none of it).
-            let mut flat: Option<[f64; ATTRIBUTES]> = None;
-            if params.interpolation == Interpolation::Flat && !counting {
-                // The provoking vertex: the face's first.
-                flat = Some(vertex[0].attributes);
-            }
-            if !counting && shading == Shading::Flat {
-                // One colour per face: its first vertex's, lit with the face normal there.
-                let q = tri.map(|v| world[v]);
+            // (attributes only: counting needs none of it). Flat shading lights the face with
+            // its normal at its first vertex, in that vertex's colour.
+            let counting = emit.counting();
+            let light = (!counting && shading == Shading::Flat).then(|| {
                 let base = mesh.colours.as_ref().map_or(GREY, |c| c[tri[0] - p.first_vertex]).map(f64::from);
-                let light = lighting.light_face(base, q);
-                for a in 0..3 {
-                    let mut values = flat.unwrap_or(vertex[a].attributes);
-                    light.apply(&mut values);
-                    flattened[a] =
-                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..vertex[a].projected }, ..*vertex[a] };
-                }
-                vertex = [&flattened[0], &flattened[1], &flattened[2]];
-            } else if let Some(values) = flat {
-                for a in 0..3 {
-                    flattened[a] =
-                        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..vertex[a].projected }, ..*vertex[a] };
-                }
-                vertex = [&flattened[0], &flattened[1], &flattened[2]];
+                lighting.light_face(base, tri.map(|v| world[v]))
+            });
+            let flat_corners;
+            if let Some(corners) = flattened(vertex, !counting && params.interpolation == Interpolation::Flat, light.as_ref()) {
+                flat_corners = corners;
+                vertex = flat_corners.each_ref();
             }
             let texture = face_texture(mesh, start + k, p.first_texture);
             geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, &viewport, &target, emit, counts);

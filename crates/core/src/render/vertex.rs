@@ -2,7 +2,7 @@
 //! carries to the stages after it.
 
 use super::instances::{self, Placement};
-use super::lighting::Lighting;
+use super::lighting::{FaceLight, Lighting};
 use super::params::{GREY, IDENTITY, Mesh, Shading, face_normals};
 use super::params::{GUARD_PX, RENDER_SNAP_BITS};
 use super::vector::{multiply, normal_matrix, transform_normal, unit};
@@ -143,6 +143,42 @@ pub(super) fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32;
     n.par_iter().map(|&v| transform_normal(&normal_matrix, v)).collect()
 }
 
+/// The normals of the placed meshes that have none of their own ([`face_normals`]), once per
+/// mesh, by mesh index (`None` for the others).
+pub(super) fn computed_normals(placements: &[Placement]) -> Vec<Option<Vec<[f32; 3]>>> {
+    let mut computed: Vec<Option<Vec<[f32; 3]>>> = vec![None; placements.iter().map(|p| p.mesh_index + 1).max().unwrap_or(0)];
+    for p in placements {
+        if p.mesh.normals.is_none() && computed[p.mesh_index].is_none() {
+            computed[p.mesh_index] = Some(face_normals(p.mesh));
+        }
+    }
+    computed
+}
+
+/// A placement's normals in the world: its mesh's own or `computed` ([`computed_normals`]),
+/// turned by its transform ([`vertex_normals`]).
+pub(super) fn placed_normals(p: &Placement, computed: &[Option<Vec<[f32; 3]>>]) -> Vec<[f32; 3]> {
+    let own = p.mesh.normals.as_deref().or(computed[p.mesh_index].as_deref()).expect("normals of every placed mesh");
+    vertex_normals(own, &p.to_world)
+}
+
+/// A face's corners with flat interpolation's values (`flat`: the first corner's attributes at
+/// every corner) and flat shading's face light over them, where either applies: every clipped
+/// piece then carries them.
+pub(super) fn flattened(corners: [&ClipVertex; 3], flat: bool, light: Option<&FaceLight>) -> Option<[ClipVertex; 3]> {
+    if !flat && light.is_none() {
+        return None;
+    }
+    let first = corners[0].attributes;
+    Some(corners.map(|c| {
+        let mut values = if flat { first } else { c.attributes };
+        if let Some(light) = light {
+            light.apply(&mut values);
+        }
+        ClipVertex { attributes: values, projected: Projected { attributes: values.map(|v| v as f32), ..c.projected }, ..*c }
+    }))
+}
+
 /// What a vertex's attributes are made of: its mesh, the mesh's normals in the world
 /// ([`vertex_normals`]; empty where no attribute is read), and the frame's shading.
 pub(super) struct Shaded<'a> {
@@ -150,7 +186,6 @@ pub(super) struct Shaded<'a> {
     pub(super) normals: &'a [[f32; 3]],
     pub(super) shading: Shading,
     pub(super) lighting: &'a Lighting<'a>,
-    pub(super) attributes_used: bool,
 }
 
 impl Shaded<'_> {
@@ -167,7 +202,7 @@ impl Shaded<'_> {
     pub(super) fn attributes(&self, v: usize, p: [f64; 3]) -> [f64; ATTRIBUTES] {
         let mesh = self.mesh;
         let mut attributes = [0.0; ATTRIBUTES];
-        if !self.attributes_used {
+        if !self.shading.reads_attributes() {
             return attributes;
         }
         let n = self.normals[v].map(f64::from);
@@ -188,13 +223,11 @@ impl Shaded<'_> {
 /// instance's transform, then the view-projection, into the arrays `world` (positions) and
 /// `vertices` (clip-space vertices with their attributes (colour, normal, world position, texture
 /// coordinates; lit per vertex for Gouraud shading)), kept between frames, on all cores, then
-/// the kernels' vertex stage ([`project_vertices`]; its bytes returned). `mesh_count`: how many
-/// meshes the placements index; `one_instance`: whether the world has one instance (then
-/// placed in `placements`); `kept`: a prepared mesh's positions for the stage, kept between
-/// its frames.
+/// the kernels' vertex stage ([`project_vertices`]; its bytes returned). `one_instance`:
+/// whether the world has one instance (then placed in `placements`); `kept`: a prepared mesh's
+/// positions for the stage, kept between its frames.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn transform_vertices(
-    mesh_count: usize,
     placements: &[Placement],
     count: usize,
     m: &[[f64; 4]; 4],
@@ -222,18 +255,7 @@ pub(super) fn transform_vertices(
     vertices.par_extend(rayon::iter::repeat_n(ClipVertex::default(), count - vertices.len()));
     // The depth and id views read no attribute: they carry zeros, and no normal is computed.
     let attributes_used = shading.reads_attributes();
-    let mut base_normals: Vec<Option<Vec<[f32; 3]>>> = vec![None; mesh_count];
-    if attributes_used {
-        for p in placements {
-            let k = p.mesh_index;
-            if base_normals[k].is_none() {
-                base_normals[k] = Some(match &p.mesh.normals {
-                    Some(n) => n.clone(),
-                    None => face_normals(p.mesh),
-                });
-            }
-        }
-    }
+    let computed = if attributes_used { computed_normals(placements) } else { Vec::new() };
     let mut pieces = Vec::with_capacity(placements.len());
     let (mut rest_w, mut rest_v) = (&mut world[..], &mut vertices[..]);
     for p in placements {
@@ -247,10 +269,9 @@ pub(super) fn transform_vertices(
         let (mesh, model) = (p.mesh, &p.to_world);
         mesh.positions.par_iter().zip(world.par_iter_mut()).for_each(|(v, out)| *out = instances::transform_point(model, v));
         let world = &*world;
-        let normals =
-            if attributes_used { vertex_normals(base_normals[p.mesh_index].as_ref().expect("normals of every placed mesh"), model) } else { Vec::new() };
+        let normals = if attributes_used { placed_normals(p, &computed) } else { Vec::new() };
         vertices.par_iter_mut().enumerate().for_each(|(v, out)| {
-            let shaded = Shaded { mesh, normals: &normals, shading, lighting, attributes_used };
+            let shaded = Shaded { mesh, normals: &normals, shading, lighting };
             *out = shaded.clip_vertex(v, world[v], m, viewport);
         });
     });

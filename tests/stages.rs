@@ -99,11 +99,27 @@ fn a_differing_stage_buffer_is_named() {
 /// Held by a test while it changes the GPU's binding limit, and by the tests it would change.
 static BINDING_LIMIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-/// What the host's preparation hands the vertex stage, kept, the stage run as its CPU twin.
+/// What the host's preparation hands the vertex and assembly stages, kept, the stages run as
+/// their CPU twins.
 #[derive(Default)]
 struct Recorded {
     params: Option<tileraster_kernels::abi::VertexParams>,
     positions: Vec<tileraster_kernels::abi::RelativePosition>,
+    assembled: Vec<RecordedMesh>,
+}
+
+/// A placed mesh's faces as the host handed them to the assembly stages, and what the twins made.
+struct RecordedMesh {
+    params: tileraster_kernels::abi::AssembleParams,
+    faces: Vec<u32>,
+    projected: Vec<tileraster_kernels::abi::ProjectedVertex>,
+    attributes: Vec<[f32; tileraster_kernels::abi::ATTRIBUTES]>,
+    lights: Vec<tileraster_kernels::abi::LitFace>,
+    textures: Vec<u32>,
+    count: tileraster_core::render::AssemblyCount,
+    patches: tileraster_core::render::AssemblyPatches,
+    inputs: Vec<tileraster_kernels::abi::TriangleInput>,
+    shading: Vec<tileraster_kernels::abi::TriangleShading>,
 }
 
 impl tileraster::render::GeometryKernels for Recorded {
@@ -117,6 +133,35 @@ impl tileraster::render::GeometryKernels for Recorded {
         self.positions = positions.pairs.to_vec();
         tileraster_cpu::vertex(params, positions.pairs, projected);
         Ok(positions.bytes(true))
+    }
+
+    fn assemble_count(&mut self, mesh: &tileraster_core::render::AssemblyMesh<'_>) -> Result<tileraster_core::render::AssemblyCount, tileraster::Error> {
+        Ok(tileraster_cpu::assemble_count(mesh))
+    }
+
+    fn assemble_fill(
+        &mut self,
+        mesh: &tileraster_core::render::AssemblyMesh<'_>,
+        count: &tileraster_core::render::AssemblyCount,
+        patches: &tileraster_core::render::AssemblyPatches,
+        out: tileraster_core::render::AssembledRecords<'_>,
+    ) -> Result<(), tileraster::Error> {
+        let offsets = tileraster_cpu::assemble_scan(&mesh.params, &count.group_counts, &patches.patches);
+        let tileraster_core::render::AssembledRecords { inputs, shading, .. } = out;
+        tileraster_cpu::assemble_fill(mesh, &offsets, patches, tileraster_core::render::AssembledRecords { inputs, shading, lists: None });
+        self.assembled.push(RecordedMesh {
+            params: mesh.params,
+            faces: mesh.faces.to_vec(),
+            projected: mesh.projected.to_vec(),
+            attributes: mesh.attributes.to_vec(),
+            lights: mesh.lights.to_vec(),
+            textures: mesh.textures.to_vec(),
+            count: count.clone(),
+            patches: patches.clone(),
+            inputs: inputs.to_vec(),
+            shading: shading.to_vec(),
+        });
+        Ok(())
     }
 }
 
@@ -201,4 +246,83 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
         assert!(counted.unwrap(), "kept in parts, call {call}: bytes counted");
         same(&format!("kept in parts, call {call}"), &out);
     }
+}
+
+/// The assembly's rows on the device write the CPU twins' bytes: counts, ranks, records and
+/// lists, on what a preparation handed the twins (a grid cut by the near and far planes, so
+/// that the host clips faces and the rows patch them in; every shading and interpolation,
+/// culling, several samples; a second placement's records after the first's). The lists are
+/// the plan's.
+#[test]
+fn the_assembly_stages_are_the_same_bits_on_both_backends() {
+    use tileraster::render::{Camera, Cull, Eye, Instance, Interpolation, Projection, RenderParams, Shading, World};
+    use tileraster_core::render::{AssembledRecords, AssemblyMesh};
+    if !common::gpu_or_skip("the_assembly_stages_are_the_same_bits_on_both_backends") {
+        return;
+    }
+    let mesh = tileraster_testkit::meshes::terrain(500, 400.0, 0.0);
+    let (w, h) = (180u32, 120u32);
+    let eye = [201.3, 197.9, 0.4];
+    let camera = Camera { eye, target: [180.0, 270.0, -3.0], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 0.3, far: 80.0 };
+    let view = camera.view_projection(w, h).unwrap();
+    let base = RenderParams { eye: Some(Eye::Point(eye)), ..RenderParams::new(w, h, view) };
+    let cases = [
+        ("flat shading, flat interpolation", RenderParams { cull: Cull::None, shading: Shading::Flat, interpolation: Interpolation::Flat, ..base.clone() }),
+        ("Gouraud shading, back faces culled", RenderParams { cull: Cull::Back, shading: Shading::Smooth, ..base.clone() }),
+        ("Phong shading, four samples", RenderParams { samples: 4, ..base.clone() }),
+        ("ids", RenderParams { shading: Shading::Ids, ..base.clone() }),
+    ];
+    let (mut compared, mut patched) = (0, 0);
+    for (name, params) in cases {
+        let mut recorded = Recorded::default();
+        let (prepared, _) = tileraster_core::render::prepare_render(&mesh, &params, &mut recorded).unwrap();
+        let [one] = &recorded.assembled[..] else { panic!("{name}: one placed mesh, {} assembled", recorded.assembled.len()) };
+        let input = AssemblyMesh {
+            params: one.params,
+            faces: &one.faces,
+            projected: &one.projected,
+            attributes: &one.attributes,
+            lights: &one.lights,
+            textures: &one.textures,
+        };
+        let device = tileraster_gpu::assemble_rows(&input, &one.patches).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(device.count, one.count, "{name}: assemble_count");
+        assert_eq!(device.offsets, tileraster_cpu::assemble_scan(&one.params, &one.count.group_counts, &one.patches.patches), "{name}: assemble_scan");
+        let same = |what: &str, cpu: &[u8], gpu: &[u8]| {
+            if let Some(diff) = first_difference(cpu, gpu) {
+                panic!("{name}: assemble_fill's {what} differ between the backends: {diff}");
+            }
+        };
+        same("inputs", bytemuck::cast_slice(&one.inputs), bytemuck::cast_slice(&device.inputs));
+        same("shading", bytemuck::cast_slice(&one.shading), bytemuck::cast_slice(&device.shading));
+        // The twin's lists, and the plan's (the frame's records are this mesh's).
+        let (mut inputs, mut shading) = (one.inputs.clone(), one.shading.clone());
+        let (mut listed, mut small) = (vec![0; device.listed.len()], vec![0; device.small.len()]);
+        let offsets = tileraster_cpu::assemble_scan(&one.params, &one.count.group_counts, &one.patches.patches);
+        let out = AssembledRecords { inputs: &mut inputs, shading: &mut shading, lists: Some((&mut listed, &mut small)) };
+        tileraster_cpu::assemble_fill(&input, &offsets, &one.patches, out);
+        assert_eq!((&listed, &small), (&device.listed, &device.small), "{name}: the lists");
+        let plan = prepared.plan(prepared.window, false).unwrap();
+        assert_eq!((&plan.listed, &plan.small), (&device.listed, &device.small), "{name}: the lists are not the plan's");
+        assert!(bytemuck::cast_slice::<_, u8>(&prepared.triangles) == bytemuck::cast_slice::<_, u8>(&one.inputs), "{name}: the frame's records");
+        assert!(one.count.clipped.len() > 100 && one.inputs.len() > 400, "{name}: {} clipped, {} records", one.count.clipped.len(), one.inputs.len());
+        compared += one.inputs.len();
+        patched += one.patches.inputs.len();
+    }
+    // Two placements: the second's records and lists follow the first's.
+    let world = World {
+        meshes: vec![mesh.clone()],
+        instances: vec![
+            Instance::of(0),
+            Instance { transform: [[1.0, 0.0, 0.0, 3.0], [0.0, 1.0, 0.0, 2.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]], ..Instance::of(0) },
+        ],
+    };
+    let mut recorded = Recorded::default();
+    let (prepared, _) = tileraster_core::render::prepare_world(&world, &base, &mut recorded).unwrap();
+    let [first, second] = &recorded.assembled[..] else { panic!("two placed meshes, {} assembled", recorded.assembled.len()) };
+    assert_eq!((second.params.first_listed + second.params.first_small) as usize, first.inputs.len());
+    let records: Vec<u8> = [bytemuck::cast_slice::<_, u8>(&first.inputs), bytemuck::cast_slice(&second.inputs)].concat();
+    assert!(records == bytemuck::cast_slice::<_, u8>(&prepared.triangles), "the world's records are its placements' in turn");
+    println!("{compared} records compared, {patched} of them pieces of faces clipped on the host");
+    assert!(patched > 20, "{patched} pieces");
 }

@@ -951,3 +951,70 @@ impl ProjectedVertex {
         self.depth >= 0.0
     }
 }
+
+/// What the assembly stages take for the faces of one placed mesh (`stages::assemble`): how
+/// they are culled and snapped, and what their records carry.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
+pub struct AssembleParams {
+    /// Faces of the mesh, and the id of its first (a frame numbers its instances' faces in turn).
+    pub faces: u32,
+    pub first_face: u32,
+    /// `stages::assemble::CULL_*`, and 1 where counter-clockwise triangles face the viewer.
+    pub cull: u32,
+    pub front_counter_clockwise: u32,
+    /// The target's pixels, the snapped coordinates' sub-pixel bits, and how far beyond its
+    /// snapped box a triangle's samples reach, in snapped units (0 with one sample).
+    pub width: u32,
+    pub height: u32,
+    pub snap_bits: u32,
+    pub reach: u32,
+    /// 1 where the placement mirrors the mesh: its faces' second and third corners swap.
+    pub mirrored: u32,
+    /// 1 where the vertices carry attributes (else every attribute is 0).
+    pub attributes: u32,
+    /// 1 for flat interpolation: every corner takes the face's first vertex's attributes.
+    pub flat: u32,
+    /// 1 where each face's colour and normal come from its `LitFace` (flat shading).
+    pub face_lights: u32,
+    /// 1 where each face names its texture (`FaceTextures`, offset by `first_texture` unless
+    /// `NO_TEXTURE`); else every face takes `texture`.
+    pub face_textures: u32,
+    pub first_texture: u32,
+    pub texture: u32,
+    /// 1 where small triangles go to their own list (`Plan::small`, `stages::small`).
+    pub split_small: u32,
+    /// Faces the host clipped (`AssemblyPatch` entries), and workgroups of faces.
+    pub patches: u32,
+    pub groups: u32,
+    /// Invocations per row of the 2D dispatch that stands for a 1D one.
+    pub dispatch_width: u32,
+    /// Records of the frame's earlier placements in the listed and the small list: this
+    /// mesh's records follow theirs (slot = listed rank + small rank).
+    pub first_listed: u32,
+    pub first_small: u32,
+    pub _pad: [u32; 3],
+}
+
+/// A face the host clipped, patched into the assembly's output in its place: its pieces'
+/// records (`Pieces`, `PieceShading`) start at `first`; `listed` and `small` count those that
+/// go to each list.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
+pub struct AssemblyPatch {
+    pub face: u32,
+    pub first: u32,
+    pub listed: u32,
+    pub small: u32,
+}
+
+/// A face's colour and normal under flat shading, written over its corners' (colour in
+/// `[0..4]`, normal in `[4..7]`).
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct LitFace {
+    pub values: [f32; 8],
+}

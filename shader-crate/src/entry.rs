@@ -7,16 +7,18 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
+use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, LitFace, TriangleShading};
 use crate::abi::{
     Counter, Coverage, FrameParams, OutputSet, ProjectedVertex, RelativePosition, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput,
     TriangleSetup, VertexParams,
 };
-use crate::memory::{LaneValue, Lanes};
+use crate::memory::{Counters, LaneValue, Lanes};
 use crate::programs::depth::DepthProgram;
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::height::HeightProgram;
 use crate::programs::multisample::{self, MAX_SAMPLES, SampleState};
 use crate::programs::shade::shaded_pixel;
+use crate::stages::assemble::{self, AssemblyScanShared, FACE_GROUP};
 use crate::stages::bin::{self, bin_count as count_tiles, bin_fill as fill_tiles};
 use crate::stages::fine::{self, FineShared, PixelProgram};
 use crate::stages::scan::{self, ScanShared};
@@ -47,6 +49,80 @@ pub fn vertex(
     if v < params.vertices {
         projected[v as usize] = crate::stages::vertex::vertex(params, &positions[v as usize]);
     }
+}
+
+#[cfg(feature = "entry-points")]
+#[spirv(compute(threads(64)))]
+pub fn assemble_count(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &AssembleParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] faces: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] projected: &[ProjectedVertex],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] group_counts: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] clipped: &mut [u32],
+) {
+    let f = gid.y * params.dispatch_width + gid.x;
+    if f < params.faces {
+        let (fate, out) = assemble::count_face(params, faces, projected, f);
+        if fate == assemble::KEPT {
+            group_counts.fetch_add(assemble::count_word(f, out), 1);
+        } else if fate == assemble::CLIPPED_ON_HOST {
+            let k = counters.fetch_add(fate as usize, 1);
+            clipped[k as usize] = f;
+        } else {
+            counters.fetch_add(fate as usize, 1);
+        }
+    }
+}
+
+#[cfg(feature = "entry-points")]
+#[spirv(compute(threads(256)))]
+pub fn assemble_scan(
+    #[spirv(local_invocation_index)] lid: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &AssembleParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] group_counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] patches: &[AssemblyPatch],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] offsets: &mut [u32],
+    #[spirv(workgroup)] shared: &mut AssemblyScanShared,
+) {
+    assemble::assemble_scan_reduce(lid, params, group_counts, patches, shared);
+    barrier();
+    assemble::assemble_scan_partials(lid, shared);
+    barrier();
+    assemble::assemble_scan_write(lid, params, group_counts, patches, shared, offsets);
+}
+
+#[cfg(feature = "entry-points")]
+#[spirv(compute(threads(64)))]
+#[allow(clippy::too_many_arguments)]
+pub fn assemble_fill(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(local_invocation_index)] lid: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &AssembleParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] faces: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] projected: &[ProjectedVertex],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] attributes: &[[f32; ATTRIBUTES]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[LitFace],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] textures: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] patches: &[AssemblyPatch],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] piece_inputs: &[TriangleInput],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] piece_shading: &[TriangleShading],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] inputs: &mut [TriangleInput],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] shading: &mut [TriangleShading],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] listed: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] small: &mut [u32],
+    #[spirv(workgroup)] shared: &mut [u32; FACE_GROUP as usize],
+) {
+    let f = gid.y * params.dispatch_width + gid.x;
+    let face = assemble::face_fate(params, faces, projected, f);
+    shared[lid as usize] = assemble::fill_output(params, patches, f, &face);
+    barrier();
+    assemble::fill_ranks(lid, shared);
+    barrier();
+    let rank = shared[lid as usize];
+    assemble::fill_face(params, attributes, lights, textures, patches, piece_inputs, piece_shading, f, &face, offsets, rank, inputs, shading, listed, small);
 }
 
 #[cfg(feature = "entry-points")]

@@ -17,8 +17,12 @@
 //! in the same stage (a pixel's samples never leave its invocation).
 //!
 //! ```text
-//!  frame:   vertex params, positions ─▶ vertex ─▶ projected (read back: the host clips and
-//!           assembles the frame's triangles)
+//!  frame:   vertex params, positions ─▶ vertex ─▶ projected
+//!           assemble params, face indices, projected ─▶ assemble_count ─▶ group counts,
+//!               assembly counters, clipped faces (read back: the host clips those)
+//!           group counts, patches ─▶ assemble_scan ─▶ group offsets
+//!           face indices, projected, vertex attributes, lit faces, face textures, patches,
+//!               pieces, group offsets ─▶ assemble_fill ─▶ inputs, shading, listed, small listed
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins, bin keys (cursors: its atomics)
@@ -38,6 +42,9 @@ use crate::{SCAN_GROUP, SHADE_PASSES, TILE, TRIANGLE_GROUP};
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
     Vertex,
+    AssembleCount,
+    AssembleScan,
+    AssembleFill,
     Setup,
     BinCount,
     BinScan,
@@ -80,6 +87,30 @@ pub enum Buffer {
     /// `ProjectedVertex` per vertex of the frame, read back by the host's clipping and
     /// assembly.
     Projected,
+    /// `AssembleParams` of a placed mesh's faces (`stages::assemble`).
+    AssembleParams,
+    /// The mesh's faces, three vertex indices each (`u32`).
+    FaceIndices,
+    /// The mesh's vertices' attributes, `[f32; ATTRIBUTES]` each (where they carry any).
+    VertexAttributes,
+    /// `LitFace` per face of the mesh (flat shading).
+    LitFaces,
+    /// The texture of each face of the mesh, `u32` (where the faces name theirs).
+    FaceTextures,
+    /// Per workgroup of faces, its kept faces' listed and small records (`u32` each).
+    GroupCounts,
+    /// `ASSEMBLY_COUNTERS` words: faces dropped for each cause and left to the host.
+    AssemblyCounters,
+    /// The faces left to the host, in no order (their number is the counters').
+    ClippedFaces,
+    /// `AssemblyPatch` per face the host clipped, by face.
+    Patches,
+    /// The pieces of the faces the host clipped: their `TriangleInput`s and their
+    /// `TriangleShading`s, in the patches' order.
+    Pieces,
+    PieceShading,
+    /// Per workgroup of faces, its first listed and small rank, then the totals.
+    GroupOffsets,
     /// `FrameParams` of the dispatch.
     Frame,
     /// `TriangleInput` per prepared triangle (uploaded once per scene).
@@ -163,6 +194,9 @@ pub enum Dispatch {
     /// One per vertex of the frame, `TRIANGLE_GROUP` a workgroup, in 2D past 65,535 workgroups
     /// (`VertexParams::dispatch_width`).
     PerVertex,
+    /// One per face of a placed mesh, `FACE_GROUP` a workgroup, laid out as `PerVertex`
+    /// (`AssembleParams::dispatch_width`).
+    PerFace,
     /// One per prepared triangle, `TRIANGLE_GROUP` a workgroup, in 2D past 65,535 workgroups
     /// (`FrameParams::dispatch_width`).
     PerTriangle,
@@ -271,7 +305,7 @@ const fn appended<const N: usize, const M: usize>(bindings: [Binding; N], last: 
 }
 
 /// The stages in the order they run.
-pub const STAGES: [StageInfo; 10] = [
+pub const STAGES: [StageInfo; 13] = [
     StageInfo {
         stage: Stage::Vertex,
         name: "vertex",
@@ -280,6 +314,58 @@ pub const STAGES: [StageInfo; 10] = [
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerVertex,
         bindings: &[read(Buffer::VertexParams), read(Buffer::Positions), write(Buffer::Projected)],
+        pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
+    },
+    StageInfo {
+        stage: Stage::AssembleCount,
+        name: "assemble_count",
+        entry_point: "entry::assemble_count",
+        scope: Scope::Frame,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerFace,
+        bindings: &[
+            read(Buffer::AssembleParams),
+            read(Buffer::FaceIndices),
+            read(Buffer::Projected),
+            write(Buffer::GroupCounts),
+            write(Buffer::AssemblyCounters),
+            write(Buffer::ClippedFaces),
+        ],
+        pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
+    },
+    StageInfo {
+        stage: Stage::AssembleScan,
+        name: "assemble_scan",
+        entry_point: "entry::assemble_scan",
+        scope: Scope::Frame,
+        workgroup: [SCAN_GROUP, 1, 1],
+        dispatch: Dispatch::Single,
+        bindings: &[read(Buffer::AssembleParams), read(Buffer::GroupCounts), read(Buffer::Patches), write(Buffer::GroupOffsets)],
+        pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
+    },
+    StageInfo {
+        stage: Stage::AssembleFill,
+        name: "assemble_fill",
+        entry_point: "entry::assemble_fill",
+        scope: Scope::Frame,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerFace,
+        bindings: &[
+            read(Buffer::AssembleParams),
+            read(Buffer::FaceIndices),
+            read(Buffer::Projected),
+            read(Buffer::VertexAttributes),
+            read(Buffer::LitFaces),
+            read(Buffer::FaceTextures),
+            read(Buffer::Patches),
+            read(Buffer::Pieces),
+            read(Buffer::PieceShading),
+            read(Buffer::GroupOffsets),
+            write(Buffer::Inputs),
+            write(Buffer::Shading),
+            write(Buffer::Listed),
+            write(Buffer::SmallListed),
+        ],
         pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
     },
     StageInfo {
@@ -416,8 +502,11 @@ pub const STAGES: [StageInfo; 10] = [
 ];
 
 impl Stage {
-    pub const ALL: [Stage; 10] = [
+    pub const ALL: [Stage; 13] = [
         Stage::Vertex,
+        Stage::AssembleCount,
+        Stage::AssembleScan,
+        Stage::AssembleFill,
         Stage::Setup,
         Stage::BinCount,
         Stage::BinScan,

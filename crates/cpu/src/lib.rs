@@ -7,12 +7,12 @@
 mod stages;
 
 pub use stages::{
-    FinePath, SmallBins, SmallSeeds, SmallTriangles, bin_count, bin_fill, bin_scan, fine_depth, fine_raster, fine_samples, fine_small, fine_small_for, setup,
-    setup_into, shade, vertex,
+    FinePath, SmallBins, SmallSeeds, SmallTriangles, assemble_count, assemble_fill, assemble_scan, bin_count, bin_fill, bin_scan, fine_depth, fine_raster,
+    fine_samples, fine_small, fine_small_for, setup, setup_into, shade, vertex,
 };
 pub use tileraster_kernels::pipeline::StageBuffers;
 
-use tileraster_core::render::Positions;
+use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, Positions};
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{Counter, ProjectedVertex, TriangleSetup, VertexParams};
 use tileraster_kernels::pipeline::{Stage, raster_stages};
@@ -117,6 +117,16 @@ impl tileraster_core::render::GeometryKernels for GeometryTwins {
         let handed = positions.kept.is_none_or(|key| self.held.replace(key) != Some(key));
         Ok(positions.bytes(handed))
     }
+
+    fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
+        Ok(assemble_count(mesh))
+    }
+
+    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<(), Error> {
+        let offsets = assemble_scan(&mesh.params, &count.group_counts, &patches.patches);
+        assemble_fill(mesh, &offsets, patches, out);
+        Ok(())
+    }
 }
 
 /// The stages of `plan` in the table's order. With a `workspace`, the raster takes its layers
@@ -149,7 +159,9 @@ fn rasterise_planned_with(
         for info in raster_stages(prepared.pipeline()).filter(|s| s.runs_for(frame.flags)) {
             let setups = resident.as_ref().map(|r| r.setups.as_slice()).unwrap_or_default();
             match info.stage {
-                Stage::Vertex => unreachable!("the geometry stages run as the host prepares the frame"),
+                Stage::Vertex | Stage::AssembleCount | Stage::AssembleScan | Stage::AssembleFill => {
+                    unreachable!("the geometry stages run as the host prepares the frame")
+                }
                 Stage::Setup => {
                     if resident.is_none() {
                         let mut setups = workspace.as_mut().map(|w| std::mem::take(&mut w.setups)).unwrap_or_default();

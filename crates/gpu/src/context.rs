@@ -1,3 +1,7 @@
+#[path = "assemble.rs"]
+mod assemble;
+pub use assemble::{AssembledOnDevice, assemble_rows};
+
 use crate::device::{Gpu, Grown};
 use crate::float_controls::{self, FloatControls};
 use crate::pipeline_cache::DiskPipelineCache;
@@ -6,7 +10,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
-use tileraster_core::render::{FragmentStage, GeometryKernels, Positions};
+use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, FragmentStage, GeometryKernels, Positions};
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
     Counter, FrameFlags, FrameParams, OutputSet, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup,
@@ -200,6 +204,17 @@ impl GeometryKernels for GeometryDevice {
         // arithmetic, no contraction, subnormals kept.
         ctx.check_float_modes(Mode::Barycentric)?;
         ctx.vertex_unchecked(params, positions, &mut self.kept, projected)
+    }
+
+    // The assembly runs as the CPU's twins until its records stay on the device for the
+    // raster stages (docs/kernels.md, "The assembly on the device"); `assemble_rows` runs the
+    // device's rows.
+    fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
+        tileraster_cpu::GeometryTwins::default().assemble_count(mesh)
+    }
+
+    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<(), Error> {
+        tileraster_cpu::GeometryTwins::default().assemble_fill(mesh, count, patches, out)
     }
 }
 
@@ -554,24 +569,8 @@ impl GpuContext {
     /// its results appended to `projected`.
     fn vertex_part(&mut self, params: &VertexParams, n: u64, positions: &wgpu::Buffer, projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
         let out_bytes = n * std::mem::size_of::<ProjectedVertex>() as u64;
-        let row = STAGES.iter().position(|s| s.stage == Stage::Vertex).expect("the stage table has the vertex stage");
-        let build = Build { row, fragment: None, spec: [None; 2] };
         let scope = self.gpu.error_scope();
-        let index = match self.pipelines.iter().position(|(b, _)| *b == build) {
-            Some(k) => k,
-            None => {
-                let info = &STAGES[row];
-                let module = passthrough_module(&self.gpu.device, "tileraster kernels, vertex", self.kernels, &build.spec, |other| other.stage == info.stage);
-                let cache = self.pipeline_cache.as_ref().map(|c| &c.cache);
-                self.pipelines.push((build, stage_pipeline(&self.gpu.device, &module, info, cache)));
-                if let Some(cache) = &self.pipeline_cache {
-                    cache.save();
-                }
-                self.pipelines.len() - 1
-            }
-        };
-        let mut rows = vec![None; STAGES.len()];
-        rows[row] = Some(index);
+        let rows = self.frame_rows(&[Stage::Vertex]);
         let groups = (n as u32).div_ceil(TRIANGLE_GROUP).max(1);
         let (x, y) = (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS));
         let params = VertexParams { vertices: n as u32, dispatch_width: x * TRIANGLE_GROUP, ..*params };
@@ -795,7 +794,7 @@ impl GpuContext {
             .map_or(0, |r| DepthProgram::spec_bits(r.depth_test) | if r.params.small_edges != 0 { DepthProgram::SMALL_EDGES } else { 0 });
         let walk = if walks { fine::WALK } else { 0 };
         let no_tiles_left = if prepared.may_leave_tiles_to_shade() { 0 } else { fine::NO_TILES_LEFT };
-        for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.runs_in(prepared.pipeline())) {
+        for (row, info) in STAGES.iter().enumerate().filter(|(_, info)| info.scope != Scope::Frame && info.runs_in(prepared.pipeline())) {
             let build = match info.stage {
                 _ if info.stage.colours_fragments() => {
                     // Both test depth (the shade stage resolves the tiles fine raster leaves
@@ -875,8 +874,14 @@ impl GpuContext {
         triangle_groups: (u32, u32),
         buffers: &dyn Fn(Buffer) -> Option<wgpu::Buffer>,
     ) -> Result<(), Error> {
-        let run: Vec<(usize, &StageInfo)> =
-            STAGES.iter().enumerate().filter(|(_, info)| info.scope == scope && info.runs_in(pipeline) && info.runs_for(frame.flags)).collect();
+        // The frame's rows run one at a time, as the host's preparation reaches them: a call
+        // records those it has built a pipeline for.
+        let ours = |k: usize, info: &StageInfo| info.scope != Scope::Frame || rows[k].is_some();
+        let run: Vec<(usize, &StageInfo)> = STAGES
+            .iter()
+            .enumerate()
+            .filter(|&(k, info)| info.scope == scope && info.runs_in(pipeline) && info.runs_for(frame.flags) && ours(k, info))
+            .collect();
         let record = |encoder: &mut wgpu::CommandEncoder, queries: Option<&wgpu::QuerySet>| -> Result<(), Error> {
             for (n, &(k, info)) in run.iter().enumerate() {
                 let stage = &self.pipelines[rows[k].ok_or_else(|| Error::Gpu(format!("stage {} has no pipeline for this frame", info.name)))?].1;
@@ -889,7 +894,7 @@ impl GpuContext {
                     bound.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
                 let bind = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(info.name), layout: &stage.layout, entries: &entries });
                 let (x, y) = match info.dispatch {
-                    Dispatch::PerTriangle | Dispatch::PerTrianglePart | Dispatch::PerVertex => triangle_groups,
+                    Dispatch::PerTriangle | Dispatch::PerTrianglePart | Dispatch::PerVertex | Dispatch::PerFace => triangle_groups,
                     Dispatch::Single => (1, 1),
                     Dispatch::PerTile => (frame.tiles_x, frame.tiles_y),
                     Dispatch::PerSmallTriangle => {
@@ -1086,7 +1091,22 @@ impl GpuContext {
         let buffers = |buffer| {
             Some(match buffer {
                 Buffer::Frame => frame_buf.clone(),
-                Buffer::Inputs | Buffer::VertexParams | Buffer::Positions | Buffer::Projected => return None,
+                Buffer::Inputs
+                | Buffer::VertexParams
+                | Buffer::Positions
+                | Buffer::Projected
+                | Buffer::AssembleParams
+                | Buffer::FaceIndices
+                | Buffer::VertexAttributes
+                | Buffer::LitFaces
+                | Buffer::FaceTextures
+                | Buffer::GroupCounts
+                | Buffer::AssemblyCounters
+                | Buffer::ClippedFaces
+                | Buffer::Patches
+                | Buffer::Pieces
+                | Buffer::PieceShading
+                | Buffer::GroupOffsets => return None,
                 Buffer::Setups | Buffer::SetupWords => scene.setups.clone(),
                 Buffer::Listed => listed.clone(),
                 Buffer::SmallListed => small_listed.clone(),

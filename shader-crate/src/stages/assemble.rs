@@ -7,10 +7,14 @@
 //! Range: snapped coordinates within the guard band (below `2^28` in magnitude), so that
 //! differences stay below `2^29` and the doubled area below `2^59`.
 
-use crate::abi::{ATTRIBUTES, FloatCoeffs, PixelRect, ProjectedVertex, TriangleInput, TriangleShading};
+use crate::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, AssembleParams, AssemblyPatch, FloatCoeffs, LitFace, NO_TEXTURE, PixelRect, ProjectedVertex};
+use crate::abi::{TriangleInput, TriangleShading};
 use crate::math::fixed::{ceil_shr, floor_shr};
 use crate::math::float::recip_u64;
+use crate::memory::Slots;
+use crate::stages::small::is_small;
 use crate::stages::vertex::{FRUSTUM, UNASSEMBLED};
+use crate::{SCAN_GROUP, TRIANGLE_GROUP};
 
 /// Culling by facing: none.
 pub const CULL_NONE: u32 = 0;
@@ -172,6 +176,327 @@ fn max3(v: &[i64; 3]) -> i64 {
 
 fn clamp(v: i64, lo: i64, hi: i64) -> i64 {
     v.max(lo).min(hi)
+}
+
+/// Faces a workgroup of `assemble_count` and `assemble_fill` takes, in order: group `g` holds
+/// faces `g · FACE_GROUP ..`.
+pub const FACE_GROUP: u32 = TRIANGLE_GROUP;
+
+/// Words of the assembly's counters: faces dropped for each cause and left to the host,
+/// at the index of their code (`DROPPED_ZERO_AREA` ..= `CLIPPED_ON_HOST`).
+pub const ASSEMBLY_COUNTERS: usize = 8;
+
+/// A face's records go to the listed triangles (binned) or the small ones: a face puts out
+/// `listed + (small << SMALL_SHIFT)`, packed so that one prefix sum ranks both.
+pub const SMALL_SHIFT: u32 = 16;
+const LISTED_MASK: u32 = (1 << SMALL_SHIFT) - 1;
+
+/// The frame's [`Assembly`] as the stages' parameters give it.
+#[inline]
+pub fn assembly_of(p: &AssembleParams) -> Assembly {
+    Assembly {
+        cull: p.cull,
+        front_counter_clockwise: p.front_counter_clockwise,
+        width: p.width,
+        height: p.height,
+        snap_bits: p.snap_bits,
+        reach: p.reach as i64,
+    }
+}
+
+/// Face `f`'s vertices (three indices a face in `faces`), in drawing order: a mirroring
+/// placement swaps the second and third, so that facing stays the mesh's.
+#[inline]
+pub fn face_vertices(p: &AssembleParams, faces: &[u32], f: u32) -> [u32; 3] {
+    let base = 3 * f as usize;
+    let (a, b, c) = (faces[base], faces[base + 1], faces[base + 2]);
+    if p.mirrored == 1 { [a, c, b] } else { [a, b, c] }
+}
+
+/// A face of the mesh through [`assemble_face`]: its vertices (in drawing order), their
+/// projections and the decision. `assemble_fill` decides once and keeps it between its phases.
+#[derive(Copy, Clone, Default)]
+pub struct FaceFate {
+    pub tri: [u32; 3],
+    pub corners: [ProjectedVertex; 3],
+    pub t: Snapped,
+}
+
+/// What [`face_fate`] says past the mesh's last face (an invocation of the last group with no
+/// face): nothing to write, nothing counted.
+pub const NO_FACE: u32 = 7;
+
+/// Face `f` through [`assemble_face`].
+#[inline]
+pub fn face_fate(p: &AssembleParams, faces: &[u32], projected: &[ProjectedVertex], f: u32) -> FaceFate {
+    if f >= p.faces {
+        return FaceFate { t: Snapped { dropped: NO_FACE, ..Snapped::default() }, ..FaceFate::default() };
+    }
+    let tri = face_vertices(p, faces, f);
+    let corners = [projected[tri[0] as usize], projected[tri[1] as usize], projected[tri[2] as usize]];
+    FaceFate { tri, corners, t: assemble_face(corners, &assembly_of(p)) }
+}
+
+/// Whether a kept triangle of rectangle `rect` goes to the small list.
+#[inline]
+pub fn goes_small(p: &AssembleParams, rect: &PixelRect) -> bool {
+    p.split_small == 1 && is_small(rect)
+}
+
+/// What `assemble_count` adds for face `f`: its fate (a `DROPPED_*` code, [`KEPT`],
+/// [`CLIPPED_ON_HOST`] or [`NO_FACE`]) and, where kept, the packed output it puts out (1 listed
+/// or 1 small).
+#[inline]
+pub fn count_face(p: &AssembleParams, faces: &[u32], projected: &[ProjectedVertex], f: u32) -> (u32, u32) {
+    let t = face_fate(p, faces, projected, f).t;
+    (t.dropped, kept_output(p, &t))
+}
+
+/// The packed output of a face decided `t`: 1 listed or 1 small record where kept, else none.
+#[inline]
+fn kept_output(p: &AssembleParams, t: &Snapped) -> u32 {
+    if t.dropped != KEPT {
+        0
+    } else if goes_small(p, &t.rect) {
+        1 << SMALL_SHIFT
+    } else {
+        1
+    }
+}
+
+/// The word of `GroupCounts` a kept face `f` that puts out `out` adds 1 to: its group's
+/// listed or small records.
+#[inline]
+pub fn count_word(f: u32, out: u32) -> usize {
+    2 * (f / FACE_GROUP) as usize + if out & LISTED_MASK != 0 { 0 } else { 1 }
+}
+
+/// The first of `patches` (sorted by face) whose face is `face` or later.
+#[inline]
+pub fn first_patch_from(patches: &[AssemblyPatch], count: u32, face: u32) -> u32 {
+    let (mut lo, mut hi) = (0, count);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if patches[mid as usize].face < face { lo = mid + 1 } else { hi = mid }
+    }
+    lo
+}
+
+/// Workgroup memory of `assemble_scan`: per invocation, its chunk's listed and then its small
+/// records.
+pub type AssemblyScanShared = [u32; 2 * SCAN_GROUP as usize];
+
+/// The groups of invocation `lid`'s chunk.
+fn scan_chunk(lid: u32, groups: u32) -> (u32, u32) {
+    let size = groups.div_ceil(SCAN_GROUP);
+    let (start, end) = (lid * size, lid * size + size);
+    (if start < groups { start } else { groups }, if end < groups { end } else { groups })
+}
+
+/// Group `g`'s records (listed, small): its kept faces' (`counts`, two words a group) and its
+/// clipped faces' pieces, the patches from `*next` on (advanced past the group's).
+#[inline]
+fn group_records(p: &AssembleParams, counts: &[u32], patches: &[AssemblyPatch], g: u32, next: &mut u32) -> (u32, u32) {
+    let (mut listed, mut small) = (counts[2 * g as usize], counts[2 * g as usize + 1]);
+    let end = (g + 1) * FACE_GROUP;
+    while *next < p.patches && patches[*next as usize].face < end {
+        listed += patches[*next as usize].listed;
+        small += patches[*next as usize].small;
+        *next += 1;
+    }
+    (listed, small)
+}
+
+/// `assemble_scan`, phase 1: `shared[lid]` and `shared[SCAN_GROUP + lid]` = the listed and
+/// small records of this invocation's chunk of groups.
+pub fn assemble_scan_reduce(lid: u32, p: &AssembleParams, counts: &[u32], patches: &[AssemblyPatch], shared: &mut AssemblyScanShared) {
+    let (start, end) = scan_chunk(lid, p.groups);
+    let mut next = first_patch_from(patches, p.patches, start * FACE_GROUP);
+    let (mut listed, mut small) = (0, 0);
+    let mut g = start;
+    while g < end {
+        let (l, s) = group_records(p, counts, patches, g, &mut next);
+        listed += l;
+        small += s;
+        g += 1;
+    }
+    shared[lid as usize] = listed;
+    shared[(SCAN_GROUP + lid) as usize] = small;
+}
+
+/// Phase 2: invocation 0 turns the chunks' sums into exclusive prefixes.
+pub fn assemble_scan_partials(lid: u32, shared: &mut AssemblyScanShared) {
+    if lid != 0 {
+        return;
+    }
+    let (mut listed, mut small) = (0, 0);
+    let mut k = 0;
+    while k < SCAN_GROUP as usize {
+        let (l, s) = (shared[k], shared[SCAN_GROUP as usize + k]);
+        shared[k] = listed;
+        shared[SCAN_GROUP as usize + k] = small;
+        listed += l;
+        small += s;
+        k += 1;
+    }
+}
+
+/// Phase 3: each group's first listed and small rank (`offsets[2g]`, `offsets[2g + 1]`); the
+/// last invocation writes the totals after them.
+pub fn assemble_scan_write(lid: u32, p: &AssembleParams, counts: &[u32], patches: &[AssemblyPatch], shared: &AssemblyScanShared, offsets: &mut [u32]) {
+    let (start, end) = scan_chunk(lid, p.groups);
+    let mut next = first_patch_from(patches, p.patches, start * FACE_GROUP);
+    let (mut listed, mut small) = (shared[lid as usize], shared[(SCAN_GROUP + lid) as usize]);
+    let mut g = start;
+    while g < end {
+        offsets[2 * g as usize] = listed;
+        offsets[2 * g as usize + 1] = small;
+        let (l, s) = group_records(p, counts, patches, g, &mut next);
+        listed += l;
+        small += s;
+        g += 1;
+    }
+    if lid == SCAN_GROUP - 1 {
+        offsets[2 * p.groups as usize] = listed;
+        offsets[2 * p.groups as usize + 1] = small;
+    }
+}
+
+/// `assemble_fill`, phase 1: what face `f`, decided `face` ([`face_fate`]), puts out (packed as
+/// `count_face`'s): a kept face one record, a clipped one its pieces, any other none.
+#[inline]
+pub fn fill_output(p: &AssembleParams, patches: &[AssemblyPatch], f: u32, face: &FaceFate) -> u32 {
+    if face.t.dropped != CLIPPED_ON_HOST {
+        return kept_output(p, &face.t);
+    }
+    let k = first_patch_from(patches, p.patches, f);
+    let patch = &patches[k as usize];
+    patch.listed | (patch.small << SMALL_SHIFT)
+}
+
+/// Phase 2: invocation 0 turns the group's outputs into exclusive prefixes (its ranks).
+pub fn fill_ranks(lid: u32, shared: &mut [u32; FACE_GROUP as usize]) {
+    if lid != 0 {
+        return;
+    }
+    let mut running = 0;
+    let mut k = 0;
+    while k < FACE_GROUP as usize {
+        let out = shared[k];
+        shared[k] = running;
+        running += out;
+        k += 1;
+    }
+}
+
+/// Phase 3: face `f`'s records (decided `face`), its group's first ranks `offsets[2g..]` plus its own `rank`
+/// (phase 2's, packed): a kept face's made from its corners and, per vertex of the mesh, its
+/// `attributes` (empty where `AssembleParams::attributes` is 0), per face its colour and
+/// normal under flat shading (`lights`) and its texture (`textures`); a clipped face's pieces
+/// copied from `piece_inputs` and `piece_shading` in their order. (Slices apart, not structs
+/// of them: the kernels' compiler keeps no reference in a struct.) Slot = listed rank + small rank: the frame's records are in
+/// face order, and each list in slot order.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn fill_face<I: Slots<TriangleInput> + ?Sized, S: Slots<TriangleShading> + ?Sized, L: Slots + ?Sized>(
+    p: &AssembleParams,
+    attributes: &[[f32; ATTRIBUTES]],
+    lights: &[LitFace],
+    textures: &[u32],
+    patches: &[AssemblyPatch],
+    piece_inputs: &[TriangleInput],
+    piece_shading: &[TriangleShading],
+    f: u32,
+    face: &FaceFate,
+    offsets: &[u32],
+    rank: u32,
+    out_inputs: &mut I,
+    out_shading: &mut S,
+    out_listed: &mut L,
+    out_small: &mut L,
+) {
+    if face.t.dropped != KEPT && face.t.dropped != CLIPPED_ON_HOST {
+        return;
+    }
+    let g = (f / FACE_GROUP) as usize;
+    let mut listed = p.first_listed + offsets[2 * g] + (rank & LISTED_MASK);
+    let mut small = p.first_small + offsets[2 * g + 1] + (rank >> SMALL_SHIFT);
+    let (tri, corners, t) = (face.tri, &face.corners, &face.t);
+    if t.dropped == KEPT {
+        let attributes = face_attributes(p, attributes, lights, tri, f);
+        let depth = [corners[0].depth, corners[1].depth, corners[2].depth];
+        let inv_w = [corners[0].inverse_w, corners[1].inverse_w, corners[2].inverse_w];
+        let (mut input, shading) = triangle_records(t, &depth, &inv_w, &attributes, p.first_face + f, face_texture(p, textures, f));
+        let slot = listed + small;
+        input.index = slot;
+        out_inputs.store(slot as usize, input);
+        out_shading.store(slot as usize, shading);
+        if goes_small(p, &input.rect) {
+            out_small.store(small as usize, slot)
+        } else {
+            out_listed.store(listed as usize, slot)
+        }
+        return;
+    }
+    let patch = patches[first_patch_from(patches, p.patches, f) as usize];
+    let mut k = 0;
+    while k < patch.listed + patch.small {
+        let mut input = piece_inputs[(patch.first + k) as usize];
+        let slot = listed + small;
+        input.index = slot;
+        out_inputs.store(slot as usize, input);
+        out_shading.store(slot as usize, piece_shading[(patch.first + k) as usize]);
+        if goes_small(p, &input.rect) {
+            out_small.store(small as usize, slot);
+            small += 1;
+        } else {
+            out_listed.store(listed as usize, slot);
+            listed += 1;
+        }
+        k += 1;
+    }
+}
+
+/// A kept face's corners' attributes: its vertices' (every corner its first vertex's under
+/// flat interpolation), with its colour and normal over them under flat shading; all 0 where
+/// the vertices carry none.
+#[inline]
+fn face_attributes(p: &AssembleParams, attributes: &[[f32; ATTRIBUTES]], lights: &[LitFace], tri: [u32; 3], f: u32) -> [[f32; ATTRIBUTES]; 3] {
+    let mut a = [[0.0; ATTRIBUTES]; 3];
+    if p.attributes == 1 {
+        let flat = p.flat == 1;
+        a[0] = attributes[tri[0] as usize];
+        a[1] = attributes[if flat { tri[0] } else { tri[1] } as usize];
+        a[2] = attributes[if flat { tri[0] } else { tri[2] } as usize];
+    }
+    if p.face_lights == 1 {
+        let light = &lights[f as usize].values;
+        let mut k = 0;
+        while k < 3 {
+            let mut c = 0;
+            while c < 4 {
+                a[k][ATTR_COLOUR + c] = light[c];
+                c += 1;
+            }
+            let mut c = 0;
+            while c < 3 {
+                a[k][ATTR_NORMAL + c] = light[4 + c];
+                c += 1;
+            }
+            k += 1;
+        }
+    }
+    a
+}
+
+/// Face `f`'s texture in the frame's textures.
+#[inline]
+fn face_texture(p: &AssembleParams, textures: &[u32], f: u32) -> u32 {
+    if p.face_textures == 0 {
+        return p.texture;
+    }
+    let t = textures[f as usize];
+    if t == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + t }
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]

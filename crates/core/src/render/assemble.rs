@@ -10,18 +10,70 @@
 //! decisions and records the device's assembly stages will make; here the host runs them, on
 //! the stage's output.
 
+use super::GeometryPass;
 use super::clip::geometry;
-use super::cull::count_dropped;
 use super::emit::{Emit, FaceTag};
 use super::instances::{Placement, transform_point};
 use super::lighting::{FaceLight, Lighting};
 use super::params::{GREY, GeometryCounts, IDENTITY, RenderParams, Shading};
+use super::vertex::GeometryKernels;
 use super::vertex::{ClipVertex, Corner, Projected, Shaded, computed_normals, flattened, placed_normals};
 use super::viewport::{Target, Viewport};
+use crate::Error;
 use rayon::prelude::*;
-use tileraster_kernels::abi::{ATTRIBUTES, ProjectedVertex};
-use tileraster_kernels::stages::assemble::{CLIPPED_ON_HOST, DROPPED_FRUSTUM, KEPT, assemble_face, triangle_records};
+use tileraster_kernels::abi::NO_TEXTURE;
+use tileraster_kernels::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, LitFace, ProjectedVertex, TriangleInput, TriangleShading};
+use tileraster_kernels::stages::assemble::{
+    ASSEMBLY_COUNTERS, DROPPED_BACK, DROPPED_FRONT, DROPPED_FRUSTUM, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, FACE_GROUP, goes_small,
+};
 use tileraster_kernels::stages::vertex::UNASSEMBLED;
+
+/// One placed mesh's faces as the kernels' assembly stages take them (`stages::assemble`):
+/// their parameters, the mesh's faces (three vertex indices each) and its vertices through the
+/// vertex stage, and what the records carry (each read where `params` says so): per vertex its
+/// attributes in `f32`, per face its colour and normal under flat shading and its texture.
+pub struct AssemblyMesh<'a> {
+    pub params: AssembleParams,
+    pub faces: &'a [u32],
+    pub projected: &'a [ProjectedVertex],
+    pub attributes: &'a [[f32; ATTRIBUTES]],
+    pub lights: &'a [LitFace],
+    pub textures: &'a [u32],
+}
+
+/// What `assemble_count` leaves: two words per group of faces (its kept faces' listed and small
+/// records), the counters (faces dropped for each cause and left to the host, at their codes),
+/// and the faces left to the host in face order.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AssemblyCount {
+    pub group_counts: Vec<u32>,
+    pub counters: [u32; ASSEMBLY_COUNTERS],
+    pub clipped: Vec<u32>,
+}
+
+impl AssemblyCount {
+    /// The records the kept faces put out.
+    pub fn kept(&self) -> u64 {
+        self.group_counts.iter().map(|&c| c as u64).sum()
+    }
+}
+
+/// The faces the host clipped, for `assemble_scan` and `assemble_fill` to patch in at their
+/// places: one entry per face, in face order, and its pieces' records in that order.
+#[derive(Debug, Clone, Default)]
+pub struct AssemblyPatches {
+    pub patches: Vec<AssemblyPatch>,
+    pub inputs: Vec<TriangleInput>,
+    pub shading: Vec<TriangleShading>,
+}
+
+/// Where `assemble_fill` writes a placed mesh's records: exactly its records' room (from its
+/// first slot on), and its entries of the listed and small lists where asked for.
+pub struct AssembledRecords<'a> {
+    pub inputs: &'a mut [TriangleInput],
+    pub shading: &'a mut [TriangleShading],
+    pub lists: Option<(&'a mut [u32], &'a mut [u32])>,
+}
 
 /// Whether the kernels assemble a frame's faces: faces alone (the wireframe and vertices views
 /// take their vertices in `f64`).
@@ -91,6 +143,79 @@ impl VertexAttributes {
     }
 }
 
+/// The frame's records as the kernels' assembly leaves them: for setup, for shading, and each
+/// one's face.
+pub(super) struct AssembledFrame {
+    pub(super) triangles: Vec<TriangleInput>,
+    pub(super) shading: Vec<TriangleShading>,
+    pub(super) faces: Vec<u32>,
+}
+
+/// The frame's faces through the kernels' assembly, placed mesh by placed mesh: counted
+/// (`assemble_count`), the faces it leaves to the host clipped there, then ranked and written
+/// (`assemble_scan`, `assemble_fill`) with the clipped faces' pieces in their places, so that
+/// the records are in face order. `split_small`: the plan lists small triangles apart (the
+/// stages' lists follow it). `memory`: an earlier frame's arrays, whose pages are mapped.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn assemble_frame(
+    meshes: &[MeshFaces<'_>],
+    split_small: bool,
+    viewport: &Viewport,
+    target: &Target,
+    kernels: &mut dyn GeometryKernels,
+    memory: AssembledFrame,
+    counts: &mut GeometryCounts,
+    observe: &mut dyn FnMut(GeometryPass),
+) -> Result<AssembledFrame, Error> {
+    let lights: Vec<Vec<LitFace>> = meshes.iter().map(MeshFaces::lit_faces).collect();
+    let mut counted = Vec::with_capacity(meshes.len());
+    let (mut listed, mut small) = (0u64, 0u64);
+    for (faces, lights) in meshes.iter().zip(&lights) {
+        let mut mesh = faces.assembly(target, split_small, lights, (0, 0), 0);
+        let count = kernels.assemble_count(&mesh)?;
+        let (patches, clipped) = faces.patches(&count.clipped, &mesh, viewport, target);
+        *counts = counts.add(clipped);
+        let c = &count.counters;
+        counts.culled_zero_area += c[DROPPED_ZERO_AREA as usize] as u64;
+        counts.culled_back += c[DROPPED_BACK as usize] as u64;
+        counts.culled_front += c[DROPPED_FRONT as usize] as u64;
+        counts.culled_no_centre += c[DROPPED_NO_CENTRE as usize] as u64;
+        counts.culled_frustum += c[DROPPED_FRUSTUM as usize] as u64;
+        mesh.params.first_listed = listed.min(u32::MAX as u64) as u32;
+        mesh.params.first_small = small.min(u32::MAX as u64) as u32;
+        mesh.params.patches = patches.patches.len() as u32;
+        listed += count.group_counts.iter().step_by(2).map(|&n| n as u64).sum::<u64>() + patches.patches.iter().map(|p| p.listed as u64).sum::<u64>();
+        small += count.group_counts.iter().skip(1).step_by(2).map(|&n| n as u64).sum::<u64>() + patches.patches.iter().map(|p| p.small as u64).sum::<u64>();
+        counted.push((mesh.params, count, patches));
+    }
+    observe(GeometryPass::AssembleCount);
+    let total = listed + small;
+    if total >= u32::MAX as u64 {
+        return Err(Error::RasterTooLarge {
+            width: target.assembly.width as u64,
+            height: target.assembly.height as u64,
+            reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
+        });
+    }
+    let total = total as usize;
+    let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
+    let mut triangles = crate::raster::reuse_cells(Some(memory.triangles), total).map_err(out_of_memory)?;
+    let mut shading = crate::raster::reuse_cells(Some(memory.shading), total).map_err(out_of_memory)?;
+    let mut faces = crate::raster::reuse_cells(Some(memory.faces), total).map_err(out_of_memory)?;
+    let (mut rest_t, mut rest_s) = (&mut triangles[..], &mut shading[..]);
+    for (((params, count, patches), mesh_faces), lights) in counted.iter().zip(meshes).zip(&lights) {
+        let first = (params.first_listed, params.first_small);
+        let mesh = AssemblyMesh { params: *params, ..mesh_faces.assembly(target, split_small, lights, first, 0) };
+        let n = count.kept() as usize + patches.inputs.len();
+        let (t, tail_t) = rest_t.split_at_mut(n);
+        let (s, tail_s) = rest_s.split_at_mut(n);
+        (rest_t, rest_s) = (tail_t, tail_s);
+        kernels.assemble_fill(&mesh, count, patches, AssembledRecords { inputs: t, shading: s, lists: None })?;
+    }
+    faces.par_iter_mut().zip(&shading).for_each(|(f, s)| *f = s.face);
+    Ok(AssembledFrame { triangles, shading, faces })
+}
+
 /// A mesh's faces as the kernels assemble them.
 pub(super) struct MeshFaces<'a> {
     pub(super) placement: &'a Placement<'a>,
@@ -106,26 +231,90 @@ pub(super) struct MeshFaces<'a> {
     pub(super) view_projection: &'a [[f64; 4]; 4],
 }
 
-impl MeshFaces<'_> {
-    /// Face `k` of the mesh (tagged `tag`): culled and counted, kept and put, or clipped on the host.
-    pub(super) fn face(&self, k: usize, tag: FaceTag, viewport: &Viewport, target: &Target, emit: &mut Emit<'_>, counts: &mut GeometryCounts) {
-        let tri = self.placement.mesh.triangles[k];
-        let tri = if self.placement.mirrored { [tri[0], tri[2], tri[1]] } else { tri }.map(|v| v as usize);
-        let corners = tri.map(|v| self.projected[v]);
-        let t = assemble_face(corners, &target.assembly);
-        match t.dropped {
-            KEPT => emit.put(|| {
-                let attributes = |v: usize| if self.attributes.is_empty() { [0.0; ATTRIBUTES] } else { self.attributes[v] };
-                let mut attributes = if self.flat { [attributes(tri[0]); 3] } else { tri.map(attributes) };
-                if let Some(light) = self.face_light(tri) {
-                    attributes.iter_mut().for_each(|a| light.apply_f32(a));
-                }
-                triangle_records(&t, &corners.map(|c| c.depth), &corners.map(|c| c.inverse_w), &attributes, tag.id, tag.texture)
-            }),
-            DROPPED_FRUSTUM => counts.culled_frustum += 1,
-            CLIPPED_ON_HOST => self.clip_on_host(tri, tag, viewport, target, emit, counts),
-            dropped => count_dropped(dropped, counts),
+impl<'a> MeshFaces<'a> {
+    /// The mesh's faces as the assembly stages take them, their records' slots after
+    /// `first_listed` and `first_small` of the frame's earlier placements'; `lights` per face
+    /// under flat shading (else empty).
+    fn assembly(&self, target: &Target, split_small: bool, lights: &'a [LitFace], first: (u32, u32), dispatch_width: u32) -> AssemblyMesh<'a> {
+        let (p, a) = (self.placement, &target.assembly);
+        let faces = p.mesh.triangles.len() as u32;
+        let (face_textures, textures) = match &p.mesh.face_textures {
+            Some(t) => (1, &t[..]),
+            None => (0, &[][..]),
+        };
+        let params = AssembleParams {
+            faces,
+            first_face: p.first_face,
+            cull: a.cull,
+            front_counter_clockwise: a.front_counter_clockwise,
+            width: a.width,
+            height: a.height,
+            snap_bits: a.snap_bits,
+            reach: a.reach as u32,
+            mirrored: u32::from(p.mirrored),
+            attributes: u32::from(!self.attributes.is_empty()),
+            flat: u32::from(self.flat),
+            face_lights: u32::from(!lights.is_empty()),
+            face_textures,
+            first_texture: p.first_texture,
+            texture: if p.mesh.textures.is_empty() { NO_TEXTURE } else { p.first_texture },
+            split_small: u32::from(split_small),
+            patches: 0,
+            groups: faces.div_ceil(FACE_GROUP),
+            dispatch_width,
+            first_listed: first.0,
+            first_small: first.1,
+            _pad: [0; 3],
+        };
+        AssemblyMesh { params, faces: bytemuck::cast_slice(&p.mesh.triangles), projected: self.projected, attributes: self.attributes, lights, textures }
+    }
+
+    /// Under flat shading, every face's colour and normal as the assembly writes them over its
+    /// corners' (`FaceLight::apply_f32`); else none.
+    fn lit_faces(&self) -> Vec<LitFace> {
+        if self.shaded.shading != Shading::Flat {
+            return Vec::new();
         }
+        let p = self.placement;
+        (0..p.mesh.triangles.len()).into_par_iter().map(|k| self.face_light(self.drawn(k)).expect("flat shading").to_lit_face()).collect()
+    }
+
+    /// Face `k`'s vertices in drawing order (a mirroring placement turns it).
+    fn drawn(&self, k: usize) -> [usize; 3] {
+        let tri = self.placement.mesh.triangles[k];
+        if self.placement.mirrored { [tri[0], tri[2], tri[1]] } else { tri }.map(|v| v as usize)
+    }
+
+    /// The faces `assemble_count` left to the host, clipped: their patches and their pieces'
+    /// records, and what the clipping counted.
+    fn patches(&self, clipped: &[u32], mesh: &AssemblyMesh<'_>, viewport: &Viewport, target: &Target) -> (AssemblyPatches, GeometryCounts) {
+        let p = self.placement;
+        let pieces: Vec<(Vec<TriangleInput>, Vec<TriangleShading>, GeometryCounts)> = clipped
+            .par_iter()
+            .map(|&f| {
+                let (k, tri) = (f as usize, self.drawn(f as usize));
+                let tag = FaceTag { id: p.first_face + f, texture: super::face_texture(p.mesh, k, p.first_texture) };
+                let mut counts = GeometryCounts::default();
+                let mut emit = Emit::Count(0);
+                self.clip_on_host(tri, tag, viewport, target, &mut emit, &mut counts);
+                let n = emit.count();
+                let (mut inputs, mut shading, mut faces) = (vec![TriangleInput::default(); n], vec![TriangleShading::default(); n], vec![0; n]);
+                let mut emit = Emit::Fill { triangles: &mut inputs, shading: &mut shading, faces: &mut faces, next: 0, first_slot: 0, small_edges: true };
+                self.clip_on_host(tri, tag, viewport, target, &mut emit, &mut GeometryCounts::default());
+                (inputs, shading, counts)
+            })
+            .collect();
+        let mut patches = AssemblyPatches::default();
+        let mut counts = GeometryCounts::default();
+        for (&face, (inputs, shading, c)) in clipped.iter().zip(pieces) {
+            let small = inputs.iter().filter(|t| goes_small(&mesh.params, &t.rect)).count() as u32;
+            let first = patches.inputs.len() as u32;
+            patches.patches.push(AssemblyPatch { face, first, listed: inputs.len() as u32 - small, small });
+            patches.inputs.extend(inputs);
+            patches.shading.extend(shading);
+            counts = counts.add(c);
+        }
+        (patches, counts)
     }
 
     /// A face with a corner the vertex stage left to the host, through the host's clipping.

@@ -5,7 +5,7 @@
 use super::params::{Eye, Light, RenderParams, Shading};
 use super::vector::{cross, dot, sub, unit};
 use crate::Error;
-use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, DepthTest, MAX_LIGHTS, ShadeMode, ShadeParams};
+use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, DepthTest, LitFace, MAX_LIGHTS, ShadeMode, ShadeParams};
 
 /// A face's values under flat shading ([`Lighting::light_face`]).
 pub(super) struct FaceLight {
@@ -20,11 +20,11 @@ impl FaceLight {
         attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&self.normal);
     }
 
-    /// [`Self::apply`] to a corner's attributes in `f32` (each value rounded once, as the
-    /// `f64` corner's are on their way to the kernels).
-    pub(super) fn apply_f32(&self, attributes: &mut [f32; ATTRIBUTES]) {
-        attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&self.colour.map(|v| v as f32));
-        attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&self.normal.map(|v| v as f32));
+    /// What the kernels' assembly writes over a face's corners: [`Self::apply`]'s values, each rounded
+    /// to `f32` once (as an `f64` corner's are on their way to the kernels).
+    pub(super) fn to_lit_face(&self) -> LitFace {
+        let (c, n) = (self.colour.map(|v| v as f32), self.normal.map(|v| v as f32));
+        LitFace { values: [c[0], c[1], c[2], c[3], n[0], n[1], n[2], 0.0] }
     }
 }
 

@@ -52,7 +52,8 @@ mod vector;
 mod vertex;
 mod viewport;
 
-use assemble::{MeshFaces, VertexAttributes};
+use assemble::{AssembledFrame, MeshFaces, VertexAttributes};
+pub use assemble::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches};
 use clip::geometry;
 use emit::{Emit, FaceTag};
 pub use fragment::{FragmentConstants, FragmentStage};
@@ -79,6 +80,7 @@ use viewport::{Target, Viewport};
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
 use tileraster_kernels::abi::{DepthTest, Interpolation, TriangleInput, TriangleShading};
+use tileraster_kernels::stages::setup::edges_fit_i32;
 
 /// Faces per task of the geometry stages; tasks keep face order.
 const CHUNK: usize = 1 << 12;
@@ -392,9 +394,8 @@ pub(crate) fn prepare_instances_in(
     // lines and the points likewise.
     let face_chunks = placements
         .iter()
-        .enumerate()
-        .filter(|_| params.faces)
-        .flat_map(|(k, p)| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces(k))));
+        .filter(|_| params.faces && kernel_stage.is_none())
+        .flat_map(|p| (0..p.mesh.triangles.len()).step_by(CHUNK).map(move |start| (p, start, Work::Faces)));
     let line_chunks = placements
         .iter()
         .filter(|_| params.wireframe.is_some())
@@ -438,14 +439,6 @@ pub(crate) fn prepare_instances_in(
         }
         let mesh = p.mesh;
         let end = (start + CHUNK).min(mesh.triangles.len());
-        if let (Work::Faces(placed), Some(_)) = (work, kernel_stage) {
-            let faces = &mesh_faces[placed];
-            for k in start..end {
-                let tag = FaceTag { id: p.first_face + k as u32, texture: face_texture(mesh, k, p.first_texture) };
-                faces.face(k, tag, &viewport, &target, emit, counts);
-            }
-            return;
-        }
         let faces = &mesh.triangles[start..end];
         for (k, tri) in faces.iter().enumerate() {
             let face = p.first_face + (start + k) as u32;
@@ -469,53 +462,71 @@ pub(crate) fn prepare_instances_in(
             geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, &viewport, &target, emit, counts);
         }
     };
-    // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,
-    // the second writes them straight into their place, on all cores.
-    let counted: Vec<(usize, GeometryCounts)> = chunks
-        .par_iter()
-        .map(|c| {
-            let (mut emit, mut counts) = (Emit::Count(0), GeometryCounts::default());
-            chunk(c, &mut emit, &mut counts);
-            (emit.count(), counts)
-        })
-        .collect();
-    observe(GeometryPass::AssembleCount);
-    let counts = counted.iter().fold(counts, |sum, p| sum.add(p.1));
-    let total: usize = counted.iter().map(|p| p.0).sum();
-    if total >= u32::MAX as usize {
-        return Err(Error::RasterTooLarge {
-            width: w as u64,
-            height: h as u64,
-            reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
-        });
-    }
-    let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
-    let mut triangles = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.triangles)), total).map_err(out_of_memory)?;
-    let mut shading = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.shading)), total).map_err(out_of_memory)?;
-    let mut faces = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.faces)), total).map_err(out_of_memory)?;
-    let mut parts = Vec::with_capacity(counted.len());
-    let (mut rest_t, mut rest_s, mut rest_f, mut first_slot) = (&mut triangles[..], &mut shading[..], &mut faces[..], 0);
-    for &(n, _) in &counted {
-        let (t, tail_t) = rest_t.split_at_mut(n);
-        let (s, tail_s) = rest_s.split_at_mut(n);
-        let (f, tail_f) = rest_f.split_at_mut(n);
-        parts.push(Emit::Fill { triangles: t, shading: s, faces: f, next: 0, first_slot, small_edges: true });
-        (rest_t, rest_s, rest_f, first_slot) = (tail_t, tail_s, tail_f, first_slot + n);
-    }
-    // (Folded with `reduce`, which fills every chunk, where `all` would stop at the first false.)
-    let small_edges = chunks
-        .par_iter()
-        .enumerate()
-        .zip(parts)
-        .map(|((c, piece), mut emit)| {
-            chunk(piece, &mut emit, &mut GeometryCounts::default());
-            debug_assert_eq!(emit.count(), counted[c].0, "the filling pass puts what the counting pass counted");
-            emit.small_edges()
-        })
-        .reduce(|| true, |a, b| a && b);
+    let (triangles, shading, faces, small_edges) = match kernel_stage {
+        Some(_) => {
+            // The plan lists small triangles apart in a single-sample depth-tested frame that
+            // does not blend and counts no tile's triangles (`Prepared::splits_small_triangles`).
+            let split_small = params.skips.small_triangles && params.samples == 1 && !params.blend && !params.count_tiles;
+            let spare = AssembledFrame {
+                triangles: std::mem::take(&mut memory.triangles),
+                shading: std::mem::take(&mut memory.shading),
+                faces: std::mem::take(&mut memory.faces),
+            };
+            let frame = assemble::assemble_frame(&mesh_faces, split_small, &viewport, &target, kernels, spare, &mut counts, observe)?;
+            let small_edges = frame.triangles.par_iter().all(|t| edges_fit_i32(t, RENDER_SNAP_BITS));
+            counts.rasterised = frame.triangles.len() as u64;
+            (frame.triangles, frame.shading, frame.faces, small_edges)
+        }
+        None => {
+            // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,
+            // the second writes them straight into their place, on all cores.
+            let counted: Vec<(usize, GeometryCounts)> = chunks
+                .par_iter()
+                .map(|c| {
+                    let (mut emit, mut counts) = (Emit::Count(0), GeometryCounts::default());
+                    chunk(c, &mut emit, &mut counts);
+                    (emit.count(), counts)
+                })
+                .collect();
+            observe(GeometryPass::AssembleCount);
+            counts = counted.iter().fold(counts, |sum, p| sum.add(p.1));
+            let total: usize = counted.iter().map(|p| p.0).sum();
+            if total >= u32::MAX as usize {
+                return Err(Error::RasterTooLarge {
+                    width: w as u64,
+                    height: h as u64,
+                    reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
+                });
+            }
+            let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
+            let mut triangles = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.triangles)), total).map_err(out_of_memory)?;
+            let mut shading = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.shading)), total).map_err(out_of_memory)?;
+            let mut faces = crate::raster::reuse_cells(Some(std::mem::take(&mut memory.faces)), total).map_err(out_of_memory)?;
+            let mut parts = Vec::with_capacity(counted.len());
+            let (mut rest_t, mut rest_s, mut rest_f, mut first_slot) = (&mut triangles[..], &mut shading[..], &mut faces[..], 0);
+            for &(n, _) in &counted {
+                let (t, tail_t) = rest_t.split_at_mut(n);
+                let (s, tail_s) = rest_s.split_at_mut(n);
+                let (f, tail_f) = rest_f.split_at_mut(n);
+                parts.push(Emit::Fill { triangles: t, shading: s, faces: f, next: 0, first_slot, small_edges: true });
+                (rest_t, rest_s, rest_f, first_slot) = (tail_t, tail_s, tail_f, first_slot + n);
+            }
+            // (Folded with `reduce`, which fills every chunk, where `all` would stop at the first false.)
+            let small_edges = chunks
+                .par_iter()
+                .enumerate()
+                .zip(parts)
+                .map(|((c, piece), mut emit)| {
+                    chunk(piece, &mut emit, &mut GeometryCounts::default());
+                    debug_assert_eq!(emit.count(), counted[c].0, "the filling pass puts what the counting pass counted");
+                    emit.small_edges()
+                })
+                .reduce(|| true, |a, b| a && b);
+            counts.rasterised = total as u64;
+            (triangles, shading, faces, small_edges)
+        }
+    };
     observe(GeometryPass::AssembleFill);
-    let mut counts = counts;
-    counts.rasterised = total as u64;
     let depths = match kernel_stage {
         Some(_) => vertex::projected_depth_range(memory.vertex_stage.projected()),
         None => depth_range(vertices),
@@ -577,8 +588,7 @@ fn face_texture(mesh: &Mesh, k: usize, first_texture: u32) -> u32 {
 /// What a chunk of the geometry stages takes.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Work {
-    /// The faces of the placement of that index.
-    Faces(usize),
+    Faces,
     Lines,
     Points,
 }

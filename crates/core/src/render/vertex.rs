@@ -1,6 +1,7 @@
 //! The vertex stage: positions to clip space, normals to the world, and what each vertex
 //! carries to the stages after it.
 
+use super::assemble::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches};
 use super::instances::{self, Placement};
 use super::lighting::{FaceLight, Lighting};
 use super::params::{GREY, IDENTITY, Mesh, Shading, face_normals};
@@ -22,6 +23,16 @@ pub trait GeometryKernels {
     /// stage: its parameters, and the positions unless it holds them already (a mesh's kept
     /// positions, [`Positions::kept`], that it was handed before).
     fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error>;
+
+    /// The `assemble_count` stage (`tileraster_kernels::stages::assemble`) over a placed mesh's
+    /// faces (whose vertices went through `vertex` last): what it leaves, its faces left to the
+    /// host in face order.
+    fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error>;
+
+    /// The `assemble_scan` and `assemble_fill` stages over the same faces, given what
+    /// `assemble_count` left and the host's `patches` for the faces it left (the mesh's
+    /// `params.patches` of them): the mesh's records into `out`.
+    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<(), Error>;
 }
 
 /// The positions a vertex stage runs over.

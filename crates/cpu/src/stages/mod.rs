@@ -1,7 +1,8 @@
 //! One twin per kernel stage, with the stage's name, in files named as the kernel crate's
-//! `stages/` (`vertex`, `setup`, `bin`, `scan`, `small`, `fine`, `shade`), and `multisample` for the stage its
+//! `stages/` (`vertex`, `assemble`, `setup`, `bin`, `scan`, `small`, `fine`, `shade`), and `multisample` for the stage its
 //! program of that name makes (`fine_samples`).
 
+mod assemble;
 mod bin;
 mod fine;
 mod multisample;
@@ -13,6 +14,7 @@ mod shade;
 mod small;
 mod vertex;
 
+pub use assemble::{assemble_count, assemble_fill, assemble_scan};
 pub use bin::{bin_count, bin_fill};
 pub use fine::{FinePath, fine_depth, fine_raster};
 pub use multisample::fine_samples;

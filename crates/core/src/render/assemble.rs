@@ -1,14 +1,14 @@
-//! The kernels' assembly of a frame's faces (`stages::assemble::assemble_face`), for a frame
-//! that draws faces alone: what happens to a face (culled wholly outside the frustum, for zero
-//! area, by facing, for having no pixel centre; kept; clipped) is decided by the vertex stage's
-//! bits alone, and a kept face's records come from its corners as the stage projected them and
-//! its vertices' attributes in `f32` (lit on the host in `f64` per vertex for Gouraud shading
-//! and per face for flat shading, as the host's path lights them). No vertex is computed in
-//! `f64` but the corners of the faces the stage leaves to the host's clipping
-//! (`CLIPPED_ON_HOST`), and those take the stage's word for every corner it projected, so that
-//! a vertex shared by a kept face and a clipped one lies where both say. These are the
-//! decisions and records the device's assembly stages will make; here the host runs them, on
-//! the stage's output.
+//! The kernels' assembly of a frame's faces (`stages::assemble`), for a frame that draws faces
+//! alone: what happens to a face (culled wholly outside the frustum, for zero area, by facing,
+//! for having no pixel centre; kept; clipped) is decided by the vertex stage's bits alone, and
+//! a kept face's records come from its corners as the stage projected them and its vertices'
+//! attributes in `f32` (lit on the host in `f64` per vertex for Gouraud shading and per face
+//! for flat shading, as the host's path lights them). The backend runs the stages
+//! ([`GeometryKernels`]: `assemble_count`, then `assemble_scan` and `assemble_fill`) placed mesh
+//! by placed mesh; between them the host clips the faces the count leaves it
+//! (`CLIPPED_ON_HOST`), the only vertices it computes in `f64`, each taking the stage's word for
+//! every corner the stage projected, so that a vertex shared by a kept face and a clipped one
+//! lies where both say, and the fill patches their pieces in at their places.
 
 use super::GeometryPass;
 use super::clip::geometry;

@@ -21,10 +21,11 @@
 //! - `cull`: whole triangles outside one frustum plane (in `clip`); back or front faces
 //!   (orientation from the snapped vertices, Vulkan's sign rule); zero-area pieces.
 //! - `assemble`: for a frame drawing faces alone (one mesh or a world of instances), the kernels'
-//!   assembly (`stages::assemble::assemble_face`) decides every face from the vertex stage's
-//!   bits and makes the kept faces' records from `f32` attributes (kept with a prepared mesh
-//!   unless lit per vertex); only the faces it leaves to the host go through `clip` and `cull`,
-//!   and no other vertex is computed in `f64`.
+//!   assembly stages (`assemble_count`, `assemble_scan`, `assemble_fill`, run by the backend)
+//!   decide every face from the vertex stage's bits and write the kept faces' records from `f32`
+//!   attributes (kept with a prepared mesh unless lit per vertex); only the faces they leave to
+//!   the host go through `clip` and `cull`, patched in at their places, and no other vertex is
+//!   computed in `f64`.
 //! - `viewport`: pixel centres at `+0.5`, vertices rounded to 8 sub-pixel bits (16.8 fixed
 //!   point, as Direct3D 11 and Vulkan's 2022 roadmap require), the clipping planes.
 //! - `lines` and `points`: the wireframe and vertices views; `lighting`: the viewer, flat and
@@ -189,12 +190,13 @@ pub enum GeometryPass {
     /// (lit where shading is per vertex); where the host assembles the frame, every vertex to
     /// clip space in `f64` too.
     Vertex,
-    /// `clip`, `cull` and `viewport` over every face (and line and point), or the kernels'
-    /// assembly (`assemble`), counting what each chunk puts out: a face that needs no clipping
-    /// is counted from its corners' 24 bytes each (`vertex::Corner`; the kernels' assembly
-    /// reads the vertex stage's 20), its vertices left unread.
+    /// `clip`, `cull` and `viewport` over every face (and line and point), counting what each
+    /// chunk puts out: a face that needs no clipping is counted from its corners' 24 bytes each
+    /// (`vertex::Corner`), its vertices left unread. Or the kernels' `assemble_count` (which
+    /// reads the vertex stage's 20) and the host's clipping of the faces it leaves.
     AssembleCount,
-    /// The same, writing the triangles into their places.
+    /// The same, writing the triangles into their places (the kernels' `assemble_scan` and
+    /// `assemble_fill`).
     AssembleFill,
     /// The frame's shade parameters and the kernels' 32-bit check.
     Finish,

@@ -609,12 +609,12 @@ fn a_prepared_mesh_renders_what_render_does() {
             let name = format!("frame {k}");
             let expected = cpu(&mesh, &params);
             let first = prepared.render(&params, Backend::Cpu).unwrap();
-            assert_same_frame(&format!("{name}: prepared mesh vs render"), &as_one_shot(first, &mesh, k > 0), &expected);
+            assert_same_frame(&format!("{name}: prepared mesh vs render"), &as_one_shot(first, &expected, &mesh, k > 0), &expected);
             prepared.render_into(&params, Backend::Cpu, &mut reused).unwrap();
-            assert_same_frame(&format!("{name}: prepared mesh into a reused frame vs render"), &as_one_shot(reused.clone(), &mesh, true), &expected);
+            assert_same_frame(&format!("{name}: prepared mesh into a reused frame vs render"), &as_one_shot(reused.clone(), &expected, &mesh, true), &expected);
             if gpu {
                 prepared.render_into(&params, Backend::Gpu, &mut reused).unwrap();
-                let frame = as_one_shot(reused.clone(), &mesh, k > 0);
+                let frame = as_one_shot(reused.clone(), &expected, &mesh, k > 0);
                 assert_same_frame(&format!("{name}: prepared mesh on the GPU vs render on the CPU"), &frame, &expected);
             }
             if k == 3 {
@@ -650,16 +650,23 @@ fn a_mesh_behind_the_camera_draws_nothing() {
     assert!(frame.ids.iter().all(|&id| id == NO_FACE) && frame.depth.iter().all(|&d| d == 1.0));
 }
 
-/// A prepared mesh's `frame` with its upload counted as a one-shot frame's: where `kept`
-/// (not its first frame on that backend), it did not hand its positions to the vertex stage
-/// again, and saved exactly their bytes.
-fn as_one_shot(mut frame: Frame, mesh: &Mesh, kept: bool) -> Frame {
+/// A prepared mesh's `frame` with its upload counted as the one-shot frame `once`'s. Where
+/// `kept` (not its first frame on that backend) it handed neither its positions nor its faces
+/// again, and its vertex attributes neither where the frame before made them for the same
+/// placement and did not light them; else it hands over what `once` does.
+fn as_one_shot(mut frame: Frame, once: &Frame, mesh: &Mesh, kept: bool) -> Frame {
+    use tileraster_kernels::abi::{ATTRIBUTES, RelativePosition};
+    let (prepared, one_shot) = (frame.stats.geometry.bytes_uploaded, once.stats.geometry.bytes_uploaded);
     if kept {
-        let positions = (mesh.positions.len() * std::mem::size_of::<tileraster_kernels::abi::RelativePosition>()) as u64;
-        assert_eq!(frame.stats.geometry.bytes_uploaded, std::mem::size_of::<tileraster_kernels::abi::VertexParams>() as u64, "a kept mesh's upload");
-        frame.stats.geometry.bytes_uploaded += positions;
-        frame.stats.raster.bytes_uploaded += positions;
+        let saved = (mesh.positions.len() * std::mem::size_of::<RelativePosition>() + std::mem::size_of_val(mesh.triangles.as_slice())) as u64;
+        let attributes = (mesh.positions.len() * ATTRIBUTES * 4) as u64;
+        let differs = one_shot.checked_sub(prepared);
+        assert!(differs == Some(saved) || differs == Some(saved + attributes), "a kept mesh's upload: {prepared}, {one_shot} at once");
+    } else {
+        assert_eq!(prepared, one_shot, "a first frame's upload");
     }
+    frame.stats.geometry.bytes_uploaded = one_shot;
+    frame.stats.raster.bytes_uploaded += one_shot - prepared;
     frame
 }
 
@@ -683,7 +690,7 @@ fn frames_return_the_layers_asked_for() {
                 let params = RenderParams { return_colour: colour, return_depth: depth, ..full.clone() };
                 let once = render(&mesh, &params, backend).unwrap_or_else(|e| panic!("{what}: {e}"));
                 prepared.render_into(&params, backend, &mut reused).unwrap_or_else(|e| panic!("{what}, prepared: {e}"));
-                let kept = as_one_shot(reused.clone(), &mesh, call > 0);
+                let kept = as_one_shot(reused.clone(), &once, &mesh, call > 0);
                 for (form, frame) in [("render", &once), ("prepared", &kept)] {
                     let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<u32>>();
                     assert_eq!(frame.colour, if colour { reference.colour.clone() } else { Vec::new() }, "{what}, {form}: colour");
@@ -812,44 +819,61 @@ fn camera_facing_the_square() -> Camera {
     Camera { eye: [0.0, 0.0, 3.0], target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 1.0, far: 20.0 }
 }
 
-/// `Stats::bytes_uploaded` of a frame, worked out by hand: its triangles' inputs and shading
-/// records, the slots listed for the window (one word each) and the shade parameters (no
-/// textures here). On the GPU the call writes exactly that and one `FrameParams` uniform per
-/// dispatch (the setup's and the window's), measured where it writes them.
+/// `Stats::bytes_uploaded` of a frame, worked out by hand: the vertex stage's parameters and
+/// positions, the assembly's parameters (the count's and the fill's), faces and vertex
+/// attributes, and the shade parameters (no textures here); the assembly writes the records
+/// and lists where the raster stages read them. On the GPU the call writes exactly the
+/// raster's share and one `FrameParams` uniform per dispatch (the setup's and the window's),
+/// measured where it writes them; a frame assembled apart from the device hands its records
+/// and lists over whole.
 #[test]
 fn a_frames_upload_is_counted_whole() {
-    use tileraster_kernels::abi::{FrameParams, RelativePosition, TriangleInput, TriangleShading, VertexParams};
+    use tileraster_kernels::abi::{ATTRIBUTES, AssembleParams, FrameParams, RelativePosition, TriangleInput, TriangleShading, VertexParams};
     let square = square_facing_the_viewer();
     let camera = camera_facing_the_square();
     let params = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap()) };
     assert_eq!(std::mem::size_of::<FrameParams>(), 72, "the README's figure");
-    let per_triangle = std::mem::size_of::<TriangleInput>() + std::mem::size_of::<TriangleShading>() + 4;
-    let raster = (2 * per_triangle + std::mem::size_of::<ShadeParams>()) as u64;
-    // The vertex stage's: its parameters and the square's four positions.
-    let geometry = (std::mem::size_of::<VertexParams>() + 4 * std::mem::size_of::<RelativePosition>()) as u64;
+    let raster = std::mem::size_of::<ShadeParams>() as u64;
+    // The vertex stage's (its parameters and the square's four positions), and the assembly's.
+    let vertex = (std::mem::size_of::<VertexParams>() + 4 * std::mem::size_of::<RelativePosition>()) as u64;
+    let faces = 2 * 3 * 4;
+    let attributes = (4 * ATTRIBUTES * 4) as u64;
+    let assembly = 2 * std::mem::size_of::<AssembleParams>() as u64 + faces + attributes;
+    let geometry = vertex + assembly;
     assert_eq!(square.positions.len(), 4);
     let frame = cpu(&square, &params);
     assert_eq!(frame.stats.geometry.bytes_uploaded, geometry);
     assert_eq!(frame.stats.raster.bytes_uploaded, raster + geometry);
-    let expected = raster;
     if gpu_or_skip("a_frames_upload_is_counted_whole") {
         let g = render(&square, &params, Backend::Gpu).unwrap();
         assert_eq!(g.stats.raster.bytes_uploaded, raster + geometry);
-        let (prepared, _) = prepare_render(&square, &params).unwrap();
+        let mut device = tileraster_gpu::GeometryDevice::default();
+        let (prepared, _) = tileraster_core::render::prepare_render(&square, &params, &mut device).unwrap();
         let plan = prepared.plan(prepared.window, false).unwrap();
-        let (_, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, false).unwrap();
-        assert_eq!(profile.bytes_up, expected + 2 * std::mem::size_of::<FrameParams>() as u64, "{profile:?}");
+        let (_, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, false, Some(&device)).unwrap();
+        assert_eq!(profile.bytes_up, raster + 2 * std::mem::size_of::<FrameParams>() as u64, "{profile:?}");
+        let records = 2 * (std::mem::size_of::<TriangleInput>() + std::mem::size_of::<TriangleShading>() + 4) as u64;
+        let (_, apart) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, false, None).unwrap();
+        assert_eq!(apart.bytes_up, records + raster + 2 * std::mem::size_of::<FrameParams>() as u64, "{apart:?}");
     }
-    // A prepared mesh hands its positions to the vertex stage once: its later frames hand over
-    // the stage's parameters alone, on either backend.
+    // A prepared mesh hands its positions, faces and attributes over once: its later frames
+    // hand over the stages' parameters alone, on either backend, and the attributes again
+    // where they are lit per vertex (Gouraud shading, this frame's).
     let backends: &[Backend] = if gpu_or_skip("a_frames_upload_is_counted_whole (prepared)") { &[Backend::Cpu, Backend::Gpu] } else { &[Backend::Cpu] };
+    let parameters = (std::mem::size_of::<VertexParams>() + 2 * std::mem::size_of::<AssembleParams>()) as u64;
+    assert_eq!(params.shading, Shading::Smooth);
     for &backend in backends {
         let mut prepared = tileraster::render::PreparedMesh::new(square.clone()).unwrap();
         let first = prepared.render(&params, backend).unwrap();
         let later = prepared.render(&params, backend).unwrap();
+        let unlit = RenderParams { shading: Shading::Unlit, ..params.clone() };
+        let (first_unlit, later_unlit) = (prepared.render(&unlit, backend).unwrap(), prepared.render(&unlit, backend).unwrap());
         assert_eq!(first.stats.geometry.bytes_uploaded, geometry, "{backend:?}");
-        assert_eq!(later.stats.geometry.bytes_uploaded, std::mem::size_of::<VertexParams>() as u64, "{backend:?}");
+        assert_eq!(later.stats.geometry.bytes_uploaded, parameters + attributes, "{backend:?}");
+        assert_eq!(first_unlit.stats.geometry.bytes_uploaded, parameters + attributes, "{backend:?}");
+        assert_eq!(later_unlit.stats.geometry.bytes_uploaded, parameters, "{backend:?}");
         assert_eq!((first.ids, first.depth), (later.ids, later.depth), "{backend:?}");
+        assert_eq!((first_unlit.colour, first_unlit.depth), (later_unlit.colour, later_unlit.depth), "{backend:?}");
     }
 }
 

@@ -145,7 +145,7 @@ impl tileraster::render::GeometryKernels for Recorded {
         count: &tileraster_core::render::AssemblyCount,
         patches: &tileraster_core::render::AssemblyPatches,
         out: tileraster_core::render::AssembledRecords<'_>,
-    ) -> Result<(), tileraster::Error> {
+    ) -> Result<u64, tileraster::Error> {
         let offsets = tileraster_cpu::assemble_scan(&mesh.params, &count.group_counts, &patches.patches);
         let tileraster_core::render::AssembledRecords { inputs, shading, .. } = out;
         tileraster_cpu::assemble_fill(mesh, &offsets, patches, tileraster_core::render::AssembledRecords { inputs, shading, lists: None });
@@ -161,7 +161,7 @@ impl tileraster::render::GeometryKernels for Recorded {
             inputs: inputs.to_vec(),
             shading: shading.to_vec(),
         });
-        Ok(())
+        Ok(0)
     }
 }
 
@@ -284,6 +284,7 @@ fn the_assembly_stages_are_the_same_bits_on_both_backends() {
             attributes: &one.attributes,
             lights: &one.lights,
             textures: &one.textures,
+            kept: Default::default(),
         };
         let device = tileraster_gpu::assemble_rows(&input, &one.patches).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(device.count, one.count, "{name}: assemble_count");

@@ -994,7 +994,10 @@ pub struct AssembleParams {
     /// mesh's records follow theirs (slot = listed rank + small rank).
     pub first_listed: u32,
     pub first_small: u32,
-    pub _pad: [u32; 3],
+    /// The mesh's first vertex in the frame's vertices (`Projected`, `VertexAttributes`: the
+    /// placements' one after the other); its faces index its own.
+    pub first_vertex: u32,
+    pub _pad: [u32; 2],
 }
 
 /// A face the host clipped, patched into the assembly's output in its place: its pieces'

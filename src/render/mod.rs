@@ -200,6 +200,29 @@ fn geometry_kernels(backend: Backend) -> Box<dyn GeometryKernels> {
     }
 }
 
+/// One frame's geometry kernels, kept for its raster call: the GPU's hold the frame's records
+/// where its assembly wrote them.
+enum FrameKernels {
+    Cpu(tileraster_cpu::GeometryTwins),
+    Gpu(Box<tileraster_gpu::GeometryDevice>),
+}
+
+impl FrameKernels {
+    fn of(backend: Backend) -> Self {
+        match backend {
+            Backend::Cpu => FrameKernels::Cpu(Default::default()),
+            Backend::Gpu => FrameKernels::Gpu(Box::default()),
+        }
+    }
+
+    fn stages(&mut self) -> &mut dyn GeometryKernels {
+        match self {
+            FrameKernels::Cpu(k) => k,
+            FrameKernels::Gpu(k) => k.as_mut(),
+        }
+    }
+}
+
 /// The geometry stages over `mesh`: the prepared scene the kernels rasterise, and what the
 /// stages did. The kernels' geometry stages run as their CPU twins, which give every
 /// backend's bits.
@@ -243,8 +266,9 @@ pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Fr
 /// in the memory the last call left and keeps its own ([`release_memory`]).
 pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
     with_call_memory(|memory| {
-        let (prepared, geometry) = tileraster_core::render::prepare_world_in(world, params, &mut memory.geometry, geometry_kernels(backend).as_mut())?;
-        memory.rasterise(prepared, geometry, params, backend)
+        let mut kernels = FrameKernels::of(backend);
+        let (prepared, geometry) = tileraster_core::render::prepare_world_in(world, params, &mut memory.geometry, kernels.stages())?;
+        memory.rasterise(prepared, geometry, params, &kernels)
     })
 }
 
@@ -287,15 +311,23 @@ pub fn release_memory() {
 impl CallMemory {
     /// [`render`] of a checked mesh in this memory.
     fn render(&mut self, mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(mesh, params, &mut self.geometry, geometry_kernels(backend).as_mut())?;
-        self.rasterise(prepared, geometry, params, backend)
+        let mut kernels = FrameKernels::of(backend);
+        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(mesh, params, &mut self.geometry, kernels.stages())?;
+        self.rasterise(prepared, geometry, params, &kernels)
     }
 
-    /// Rasterise and shade `prepared` on `backend`, and take its arrays back.
-    fn rasterise(&mut self, prepared: tileraster_core::Prepared, geometry: GeometryCounts, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-        let raster = match backend {
-            Backend::Cpu => tileraster_cpu::rasterise_in(&prepared, &mut self.cpu),
-            Backend::Gpu => crate::rasterise_prepared(&prepared, backend),
+    /// Rasterise and shade `prepared` on the backend whose `kernels` prepared it, and take its
+    /// arrays back.
+    fn rasterise(
+        &mut self,
+        prepared: tileraster_core::Prepared,
+        geometry: GeometryCounts,
+        params: &RenderParams,
+        kernels: &FrameKernels,
+    ) -> Result<Frame, Error> {
+        let raster = match kernels {
+            FrameKernels::Cpu(_) => tileraster_cpu::rasterise_in(&prepared, &mut self.cpu),
+            FrameKernels::Gpu(device) => tileraster_gpu::rasterise_frame(&prepared, Layers::default(), device, None),
         };
         self.geometry.recycle(prepared);
         Ok(frame_of(raster?, geometry, params))
@@ -401,7 +433,7 @@ impl PreparedMesh {
                 memory.cpu.recycle(layers);
                 tileraster_cpu::rasterise_in(&prepared, &mut memory.cpu)
             }
-            Backend::Gpu => tileraster_gpu::rasterise_keeping_texels(&prepared, layers, &mut memory.gpu_texels),
+            Backend::Gpu => tileraster_gpu::rasterise_frame(&prepared, layers, &memory.gpu_geometry, Some(&mut memory.gpu_texels)),
         };
         memory.geometry.recycle(prepared);
         *frame = frame_of(raster?, geometry, params);

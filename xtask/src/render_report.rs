@@ -90,13 +90,14 @@ pub fn run(quick: bool) -> Result<String, String> {
          peer; no per-pixel fragment counts, which the peer does not make either) and, in its own columns, Phong shading; \"prepared\" is `PreparedMesh::render_into`, which keeps the frames' memory and \
          output layers between calls as the peer keeps its render target and buffers (on either backend); the render pipeline is wgpu's on {adapter} with a Depth32Float buffer and the `Less` \
          test, writing R32Uint triangle ids. Both read the ids back to the host, and nothing else (tileraster's ids frames turn `return_colour` and `return_depth` off; its Phong frames return all three layers). \"ids agree\" is the share of pixels where \
-         tileraster's CPU frame and the render pipeline name the same triangle.\n"
+         tileraster's CPU frame and the render pipeline name the same triangle. \"bytes handed over\" is `Stats::bytes_uploaded` (the \
+         same figure on both backends) of a one-shot ids frame, of a prepared mesh's later ids frame and of its later Phong frame.\n"
     );
     let _ = writeln!(
         s,
-        "| scene | tileraster cpu | cpu, prepared | cpu, phong | cpu, phong, prepared | tileraster gpu | gpu, prepared | render pipeline | cpu vs render pipeline (prepared) | gpu vs render pipeline (prepared) | cpu = gpu | ids agree |"
+        "| scene | tileraster cpu | cpu, prepared | cpu, phong | cpu, phong, prepared | tileraster gpu | gpu, prepared | render pipeline | cpu vs render pipeline (prepared) | gpu vs render pipeline (prepared) | cpu = gpu | ids agree | bytes handed over: once, prepared, prepared phong |"
     );
-    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: |");
     let mut notes = Vec::new();
     for scene in scenes(quick)? {
         // The ids alone come back, as the peer's: the colour and depth stay with the stages.
@@ -114,7 +115,10 @@ pub fn run(quick: bool) -> Result<String, String> {
         if frame.ids != cpu.ids || frame.colour != cpu.colour {
             return Err(format!("{}: the prepared frame differs from render's", scene.name));
         }
+        // What a later frame hands over (the same figure on both backends), and a one-shot frame.
+        let uploads = [cpu.stats.raster.bytes_uploaded, frame.stats.raster.bytes_uploaded];
         let (prepared_phong_time, ()) = into(&phong, &mut frame)?;
+        let uploads = [uploads[0], uploads[1], frame.stats.raster.bytes_uploaded];
         // A frame the GPU backend refuses (its limits) is reported, not fatal.
         let gpu_result = gpu.as_ref().map(|_| timed(runs, || render(&scene.mesh, &ids, Backend::Gpu).map_err(|e| e.to_string())));
         let mut gpu_frame = Frame::default();
@@ -144,7 +148,7 @@ pub fn run(quick: bool) -> Result<String, String> {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2}× ({:.2}×) | {} | {} | {:.4} % |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2}× ({:.2}×) | {} | {} | {:.4} % | {}, {}, {} |",
             scene.name,
             ms(&cpu_time),
             ms(&prepared_time),
@@ -160,7 +164,10 @@ pub fn run(quick: bool) -> Result<String, String> {
                 _ => "–".into(),
             },
             same,
-            100.0 * agree
+            100.0 * agree,
+            uploads[0],
+            uploads[1],
+            uploads[2]
         );
         eprintln!("render-report: {} done", scene.name);
     }

@@ -29,7 +29,9 @@ enum Case {
 impl Case {
     /// The prepared scene, a mesh's geometry stages run on `backend`, and the time of each pass
     /// of [`Self::preparation`] (ms).
-    fn prepare_timed(&self, backend: Backend) -> Result<(Prepared, Vec<f64>), String> {
+    /// The case prepared on `backend` (a render's geometry stages on the backend's kernels,
+    /// returned: the GPU's hold the frame's records for its call), with each pass's time (ms).
+    fn prepare_timed(&self, backend: Backend) -> Result<(Prepared, Option<tileraster_gpu::GeometryDevice>, Vec<f64>), String> {
         let text = |e: tileraster::Error| e.to_string();
         let mut clock = Instant::now();
         let mut laps = Vec::new();
@@ -37,9 +39,14 @@ impl Case {
             laps.push(clock.elapsed().as_secs_f64() * 1e3);
             clock = Instant::now();
         };
-        let prepared = match self {
-            Case::Height(scene, grid) => tileraster::prepare(scene, &Params::new(*grid), None).map_err(text)?,
-            Case::Render(mesh, params) => prepare_render_observed(mesh, params, backend, &mut |_| lap()).map(|(p, _)| p).map_err(text)?,
+        let mut device = None;
+        let prepared = match (self, backend) {
+            (Case::Height(scene, grid), _) => tileraster::prepare(scene, &Params::new(*grid), None).map_err(text)?,
+            (Case::Render(mesh, params), Backend::Cpu) => prepare_render_observed(mesh, params, backend, &mut |_| lap()).map(|(p, _)| p).map_err(text)?,
+            (Case::Render(mesh, params), Backend::Gpu) => {
+                let kernels = device.insert(tileraster_gpu::GeometryDevice::default());
+                tileraster_core::render::prepare_render_observed(mesh, params, kernels, &mut |_| lap()).map(|(p, _)| p).map_err(text)?
+            }
         };
         if let Case::Height(..) = self {
             lap();
@@ -47,7 +54,7 @@ impl Case {
         if laps.len() != self.preparation().len() {
             return Err(format!("the preparation reported {} passes of {}", laps.len(), self.preparation().len()));
         }
-        Ok((prepared, laps))
+        Ok((prepared, device, laps))
     }
 
     /// The columns of the host's preparation: the geometry stages' passes for a mesh, one for a
@@ -151,7 +158,7 @@ fn report_cases(terrain: &Mesh, base: &RenderParams) -> Result<Vec<(String, Case
 fn one_call(case: &Case) -> Result<Vec<f64>, String> {
     let text = |e: tileraster::Error| e.to_string();
     let rows: Vec<_> = raster_stages(case.pipeline()).map(|info| info.stage).collect();
-    let (prepared, mut laps) = case.prepare_timed(Backend::Cpu)?;
+    let (prepared, _, mut laps) = case.prepare_timed(Backend::Cpu)?;
     let mut clock = Instant::now();
     let mut lap = || {
         let ms = clock.elapsed().as_secs_f64() * 1e3;
@@ -179,10 +186,10 @@ fn one_call(case: &Case) -> Result<Vec<f64>, String> {
 /// One GPU call: its profile, the host's preparation pass by pass ([`Case::preparation`]) and
 /// the call's wall time (ms).
 fn one_gpu_call(case: &Case) -> Result<(tileraster_gpu::CallProfile, Vec<f64>, f64), String> {
-    let (prepared, laps) = case.prepare_timed(Backend::Gpu)?;
+    let (prepared, device, laps) = case.prepare_timed(Backend::Gpu)?;
     let plan = prepared.plan(prepared.window, false).map_err(|e| e.to_string())?;
     let start = Instant::now();
-    let (raster, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, true).map_err(|e| e.to_string())?;
+    let (raster, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, true, device.as_ref()).map_err(|e| e.to_string())?;
     let ms = start.elapsed().as_secs_f64() * 1e3;
     drop(raster);
     Ok((profile, laps, ms))

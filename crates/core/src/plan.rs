@@ -103,12 +103,15 @@ pub struct Stats {
     /// Bytes of scene and frame data the call hands the device: the prepared triangles (and a
     /// render's shading records) the first time a prepared scene is rasterised, and on every
     /// call the lists of the window's triangles and a render's shade parameters, textures and
-    /// texels (those a prepared mesh's earlier frame left on the backend excepted). The GPU
-    /// backend writes these and, besides, one `FrameParams` uniform per dispatch window (one
-    /// more where it sets the scene up); a scene too large for one binding goes up part by
-    /// part, each window's triangles with its own lists, and a call in an `f32` mode first
-    /// checks the adapter on probe scenes of its own, neither in this figure. The CPU backend
-    /// reads everything where it is, and reports the same figure.
+    /// texels (those a prepared mesh's earlier frame left on the backend excepted). A frame the
+    /// kernels assembled (`RenderInputs::records_held`) hands over neither its records nor its
+    /// lists: the assembly wrote them where setup and binning read them. The GPU backend
+    /// writes these and, besides, one `FrameParams` uniform per dispatch window (one more
+    /// where it sets the scene up); a scene too large for one binding goes up part by part,
+    /// each window's triangles with its own lists, a frame's records assembled apart from the
+    /// device that rasterises it go up whole, and a call in an `f32` mode first checks the
+    /// adapter on probe scenes of its own, none of them in this figure. The CPU backend reads
+    /// everything where it is, and reports the same figure.
     pub bytes_uploaded: u64,
 }
 
@@ -235,10 +238,15 @@ impl Prepared {
         let tiles_total = tiles(&window);
         let mut passes = Vec::new();
         let mut bytes_uploaded = 0;
+        // Records the kernels assembled are where the stages read them, and so are their lists.
+        let held = self.render.as_ref().is_some_and(|r| r.records_held.is_some());
         if active.is_some() && !resident {
-            passes.extend([Pass::Upload, Stage::Setup.into()]);
-            bytes_uploaded += std::mem::size_of_val(self.triangles.as_slice()) as u64;
-            bytes_uploaded += self.render.as_ref().map_or(0, |r| std::mem::size_of_val(r.triangles.as_slice()) as u64);
+            if !held {
+                passes.push(Pass::Upload);
+                bytes_uploaded += std::mem::size_of_val(self.triangles.as_slice()) as u64;
+                bytes_uploaded += self.render.as_ref().map_or(0, |r| std::mem::size_of_val(r.triangles.as_slice()) as u64);
+            }
+            passes.push(Stage::Setup.into());
         }
         if skips.cull_window {
             passes.push(Pass::Cull);
@@ -251,7 +259,9 @@ impl Prepared {
             if !overlap_free {
                 passes.push(Pass::Ownership);
             }
-            bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64 + std::mem::size_of_val(small.as_slice()) as u64;
+            if !held {
+                bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64 + std::mem::size_of_val(small.as_slice()) as u64;
+            }
             bytes_uploaded += self.render.as_ref().map_or(0, |r| {
                 let texels = if r.texels_resident { 0 } else { std::mem::size_of_val(r.texels.as_slice()) };
                 (std::mem::size_of::<ShadeParams>() + std::mem::size_of_val(r.textures.as_slice()) + texels) as u64

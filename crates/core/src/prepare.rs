@@ -108,6 +108,11 @@ pub struct RenderInputs {
     /// Whether the backend holds these texels from an earlier frame (a prepared mesh's): the
     /// call hands it none of them (`Stats::bytes_uploaded`).
     pub texels_resident: bool,
+    /// Where the backend that assembled the frame keeps its records itself (the GPU, on the
+    /// device, where `assemble_fill` wrote them), the key it gave them
+    /// (`GeometryKernels::hold_records`): its raster call sets them up there rather than take
+    /// `triangles` and the shading again. `triangles` hold the same records.
+    pub records_held: Option<u64>,
     /// The frame's fragment shader; `None`: the built-in shadings.
     pub fragment: Option<crate::render::fragment::FragmentStage>,
     /// Whether the call returns the colour layer, and the depth layer (the values): the stages

@@ -12,7 +12,7 @@ pub use stages::{
 };
 pub use tileraster_kernels::pipeline::StageBuffers;
 
-use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, Positions};
+use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs, Positions};
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{Counter, ProjectedVertex, TriangleSetup, VertexParams};
 use tileraster_kernels::pipeline::{Stage, raster_stages};
@@ -103,12 +103,15 @@ struct WindowBuffers {
 }
 
 /// The geometry stages' twins, which the host's preparation of a frame runs
-/// (`tileraster_core::render::GeometryKernels`). They read a mesh's kept positions where the
-/// host keeps them, and count them handed over once, as the GPU does.
+/// (`tileraster_core::render::GeometryKernels`). They read a mesh's kept positions, faces and
+/// attributes where the host keeps them, and count them handed over once, as the GPU does;
+/// their records are written where the raster stages read them.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct GeometryTwins {
     /// The key of the kept positions handed over last.
     held: Option<u64>,
+    /// The keys of the kept assembly inputs handed over last.
+    held_inputs: KeptInputs,
 }
 
 impl tileraster_core::render::GeometryKernels for GeometryTwins {
@@ -122,10 +125,15 @@ impl tileraster_core::render::GeometryKernels for GeometryTwins {
         Ok(assemble_count(mesh))
     }
 
-    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<(), Error> {
+    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<u64, Error> {
         let offsets = assemble_scan(&mesh.params, &count.group_counts, &patches.patches);
         assemble_fill(mesh, &offsets, patches, out);
-        Ok(())
+        Ok(mesh.bytes(patches, KeptHanded::of(&mesh.kept, &mut self.held_inputs)))
+    }
+
+    /// The records are written into the host's arrays, where setup reads them.
+    fn hold_records(&mut self, _records: u64, _listed: u64, _small: u64) -> Result<Option<u64>, Error> {
+        Ok(Some(0))
     }
 }
 

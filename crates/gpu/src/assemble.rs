@@ -1,15 +1,242 @@
-//! The assembly's rows on the device (`assemble_count`, `assemble_scan`, `assemble_fill`,
-//! `stages::assemble`). A frame's preparation runs their CPU twins for now: the records they
-//! write are the ones the raster stages read, so the device's rows pay once those records stay
-//! on the device (docs/kernels.md, "The assembly on the device"). Until then [`assemble_rows`]
-//! runs them over what a preparation handed its twins, for the comparison of the backends.
+//! The geometry stages on the device, as the host prepares a frame (`GeometryKernels`): the
+//! vertex stage, and the assembly's rows (`assemble_count`, `assemble_scan`, `assemble_fill`,
+//! `stages::assemble`). The projected vertices stay where the vertex stage wrote them, a
+//! prepared mesh's faces, face textures and attributes stay on the device between its frames,
+//! and the fill writes the frame's records and lists where setup and binning read them
+//! ([`HeldRecords`]). The count comes back (a few words a group of faces, and the faces left to
+//! the host's clipping), and so do the records, for the host's plan (its pass over them is
+//! next to move to the device: docs/kernels.md).
 
-use super::{GpuContext, MAX_GROUPS, context};
-use tileraster_core::Error;
-use tileraster_core::render::{AssemblyCount, AssemblyMesh, AssemblyPatches};
-use tileraster_kernels::abi::{AssembleParams, TriangleInput, TriangleShading};
+use super::{GpuContext, KeptPositions, MAX_GROUPS, context, storage_buffer};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicU64, Ordering};
+use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, GeometryKernels, KeptHanded, KeptInputs, Positions};
+use tileraster_core::{Error, Mode, Prepared};
+use tileraster_kernels::abi::{AssembleParams, ProjectedVertex, TriangleInput, TriangleShading, VertexParams};
 use tileraster_kernels::pipeline::{Buffer, Pipeline, STAGES, Scope, Stage};
-use tileraster_kernels::stages::assemble::{ASSEMBLY_COUNTERS, FACE_GROUP};
+use tileraster_kernels::stages::assemble::{ASSEMBLY_COUNTERS, CLIPPED_ON_HOST, FACE_GROUP};
+
+/// The kernels' geometry stages on the device. One `GeometryDevice` a prepared mesh: what it
+/// keeps on the device (positions, faces, attributes) serves that mesh's later frames, and it
+/// holds each frame's records from its assembly to its raster call
+/// (`tileraster_gpu::rasterise_frame`).
+#[derive(Debug, Default)]
+pub struct GeometryDevice {
+    kept: Option<KeptPositions>,
+    /// The frame's projected vertices where the vertex stage left them (`None` after a stage in
+    /// parts: the twins assemble that frame).
+    projected: Option<wgpu::Buffer>,
+    /// A prepared mesh's faces and face textures, and the frame's vertex attributes, on the
+    /// device by their keys (`KeptInputs`).
+    faces: Option<(u64, wgpu::Buffer, wgpu::Buffer)>,
+    attributes: Option<(u64, wgpu::Buffer)>,
+    /// The keys the byte count takes as handed over (`KeptHanded`, the figure both backends
+    /// report).
+    counted: KeptInputs,
+    /// The record buffers, grown as frames need and reused.
+    room: RecordRoom,
+    frame: DeviceFrame,
+}
+
+/// The frame in progress on a [`GeometryDevice`], from its vertex stage to its raster call.
+#[derive(Debug, Default)]
+struct DeviceFrame {
+    /// Whether the twins assemble it (the device's buffers could not hold it).
+    on_twins: bool,
+    /// What each placed mesh's count left on the device for its fill, in the placements' order,
+    /// and what each was counted as handed.
+    counted: VecDeque<CountedMesh>,
+    handed: VecDeque<KeptHanded>,
+    records: Option<HeldRecords>,
+}
+
+#[derive(Debug, Default)]
+struct RecordRoom {
+    inputs: Option<wgpu::Buffer>,
+    shading: Option<wgpu::Buffer>,
+    listed: Option<wgpu::Buffer>,
+    small: Option<wgpu::Buffer>,
+}
+
+/// A frame's records where `assemble_fill` wrote them: setup reads `inputs`, the shade stages
+/// `shading`, binning and `fine_small` the lists. `key` is the prepared frame's
+/// (`RenderInputs::records_held`).
+#[derive(Debug, Clone)]
+pub(super) struct HeldRecords {
+    pub(super) key: u64,
+    pub(super) records: u64,
+    pub(super) listed: u64,
+    pub(super) small: u64,
+    pub(super) inputs: wgpu::Buffer,
+    pub(super) shading: wgpu::Buffer,
+    pub(super) listed_slots: wgpu::Buffer,
+    pub(super) small_slots: wgpu::Buffer,
+}
+
+/// One placed mesh's inputs on the device, as its count left them for its fill.
+#[derive(Debug, Clone)]
+struct CountedMesh {
+    faces: wgpu::Buffer,
+    textures: wgpu::Buffer,
+    projected: wgpu::Buffer,
+    attributes: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    group_counts: wgpu::Buffer,
+}
+
+/// Where a fill writes: the frame's records and lists.
+struct RecordBuffers {
+    inputs: wgpu::Buffer,
+    shading: wgpu::Buffer,
+    listed: wgpu::Buffer,
+    small: wgpu::Buffer,
+}
+
+impl GeometryDevice {
+    /// The records this device's assembly wrote for `prepared` (the frame it prepared last).
+    pub(super) fn records_of(&self, prepared: &Prepared) -> Option<HeldRecords> {
+        let held = self.frame.records.as_ref()?;
+        let key = prepared.render.as_ref()?.records_held?;
+        (held.key == key && held.records == prepared.triangles.len() as u64).then(|| held.clone())
+    }
+
+    /// The buffers of a mesh's kept (or this frame's) inputs, uploaded where not held by key.
+    fn mesh_buffers(&mut self, ctx: &GpuContext, mesh: &AssemblyMesh<'_>, projected: wgpu::Buffer) -> CountedMesh {
+        let faces = match (&self.faces, mesh.kept.faces) {
+            (Some((held, faces, textures)), Some(key)) if *held == key => (faces.clone(), textures.clone()),
+            _ => {
+                self.faces = None;
+                let faces = ctx.storage_with("face indices", bytemuck::cast_slice(mesh.faces), 0);
+                let textures = ctx.storage_with("face textures", bytemuck::cast_slice(mesh.textures), 0);
+                if let Some(key) = mesh.kept.faces {
+                    self.faces = Some((key, faces.clone(), textures.clone()));
+                }
+                (faces, textures)
+            }
+        };
+        let attributes = match (&self.attributes, mesh.kept.attributes) {
+            (Some((held, attributes)), Some(key)) if *held == key => attributes.clone(),
+            _ => {
+                self.attributes = None;
+                let attributes = ctx.storage_with("vertex attributes", bytemuck::cast_slice(mesh.attributes), 0);
+                if let Some(key) = mesh.kept.attributes {
+                    self.attributes = Some((key, attributes.clone()));
+                }
+                attributes
+            }
+        };
+        let lights = ctx.storage_with("lit faces", bytemuck::cast_slice(mesh.lights), 0);
+        let group_counts = ctx.storage_with("group counts", &[], 8 * mesh.params.faces.div_ceil(FACE_GROUP) as u64);
+        CountedMesh { faces: faces.0, textures: faces.1, projected, attributes, lights, group_counts }
+    }
+}
+
+/// Whether each of a mesh's assembly inputs fits one binding of the device.
+fn fits_one_binding(ctx: &GpuContext, mesh: &AssemblyMesh<'_>) -> bool {
+    let largest =
+        [std::mem::size_of_val(mesh.faces), std::mem::size_of_val(mesh.projected), std::mem::size_of_val(mesh.attributes), std::mem::size_of_val(mesh.lights)];
+    largest.into_iter().all(|b| b as u64 <= ctx.max_binding())
+}
+
+impl GeometryKernels for GeometryDevice {
+    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error> {
+        // A new frame: the last one's records go.
+        self.frame = DeviceFrame::default();
+        let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+        // The stage's pairs rest on what the `f32` modes rest on: correctly rounded `f32`
+        // arithmetic, no contraction, subnormals kept.
+        ctx.check_float_modes(Mode::Barycentric)?;
+        ctx.vertex_unchecked(params, positions, &mut self.kept, &mut self.projected, projected)
+    }
+
+    fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
+        self.frame.handed.push_back(KeptHanded::of(&mesh.kept, &mut self.counted));
+        let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+        let projected = self.projected.clone().filter(|p| p.size() >= std::mem::size_of_val(mesh.projected) as u64);
+        let (false, Some(projected), true) = (self.frame.on_twins, projected, fits_one_binding(&ctx, mesh)) else {
+            self.frame.on_twins = true;
+            return tileraster_cpu::GeometryTwins::default().assemble_count(mesh);
+        };
+        let scope = ctx.gpu.error_scope();
+        let buffers = self.mesh_buffers(&ctx, mesh, projected);
+        let count = ctx.count_rows(mesh, &buffers);
+        if let Some(e) = scope.finish() {
+            return Err(Error::Gpu(format!("the assembly's count: {e}")));
+        }
+        self.frame.counted.push_back(buffers);
+        count
+    }
+
+    fn hold_records(&mut self, records: u64, listed: u64, small: u64) -> Result<Option<u64>, Error> {
+        static KEYS: AtomicU64 = AtomicU64::new(1);
+        let key = KEYS.fetch_add(1, Ordering::Relaxed);
+        let ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+        let inputs = records * std::mem::size_of::<TriangleInput>() as u64;
+        let shading = records * std::mem::size_of::<TriangleShading>() as u64;
+        if self.frame.on_twins || inputs.max(shading) > ctx.max_binding() {
+            self.frame.on_twins = true;
+        } else {
+            let room = &mut self.room;
+            let grown = |slot: &mut Option<wgpu::Buffer>, label, bytes: u64| {
+                if slot.as_ref().is_none_or(|b| b.size() < bytes.max(16)) {
+                    *slot = None;
+                    *slot = Some(storage_buffer(&ctx.gpu.device, label, bytes));
+                }
+                slot.clone().expect("grown above")
+            };
+            self.frame.records = Some(HeldRecords {
+                key,
+                records,
+                listed,
+                small,
+                inputs: grown(&mut room.inputs, "triangle inputs", inputs),
+                shading: grown(&mut room.shading, "triangle shading", shading),
+                listed_slots: grown(&mut room.listed, "listed", 4 * listed),
+                small_slots: grown(&mut room.small, "small listed", 4 * small),
+            });
+        }
+        // (A frame its twins assemble is counted as the device would hand it over: its
+        // records are uploaded whole by its raster call, as `Stats::bytes_uploaded` says.)
+        Ok(Some(key))
+    }
+
+    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<u64, Error> {
+        let handed = self.frame.handed.pop_front().ok_or_else(|| Error::Gpu("a fill without its count".into()))?;
+        let bytes = mesh.bytes(patches, handed);
+        let (false, Some(records), Some(counted)) = (self.frame.on_twins, &self.frame.records, self.frame.counted.pop_front()) else {
+            tileraster_cpu::GeometryTwins::default().assemble_fill(mesh, count, patches, out)?;
+            return Ok(bytes);
+        };
+        let target = RecordBuffers {
+            inputs: records.inputs.clone(),
+            shading: records.shading.clone(),
+            listed: records.listed_slots.clone(),
+            small: records.small_slots.clone(),
+        };
+        let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+        let scope = ctx.gpu.error_scope();
+        let filled = ctx.fill_rows(mesh, &counted, count, patches, &target).and_then(|(encoder, _)| {
+            // This mesh's records back, for the host's plan.
+            let first = (mesh.params.first_listed + mesh.params.first_small) as u64;
+            let at = |size: usize| first * size as u64;
+            let input_bytes = std::mem::size_of_val(out.inputs) as u64;
+            let shading_bytes = std::mem::size_of_val(out.shading) as u64;
+            let parts = [
+                (&target.inputs, at(std::mem::size_of::<TriangleInput>()), input_bytes),
+                (&target.shading, at(std::mem::size_of::<TriangleShading>()), shading_bytes),
+            ];
+            let read = ctx.read_parts(encoder, &parts)?;
+            bytemuck::cast_slice_mut::<_, u8>(out.inputs).copy_from_slice(&read[0]);
+            bytemuck::cast_slice_mut::<_, u8>(out.shading).copy_from_slice(&read[1]);
+            Ok(())
+        });
+        if let Some(e) = scope.finish() {
+            return Err(Error::Gpu(format!("the assembly's fill: {e}")));
+        }
+        filled?;
+        Ok(bytes)
+    }
+}
 
 /// What the assembly's rows leave on the device for one placed mesh, read back: what
 /// `assemble_count` counted (its faces left to the host sorted into face order: the device
@@ -24,12 +251,13 @@ pub struct AssembledOnDevice {
     pub small: Vec<u32>,
 }
 
-/// Run the assembly's rows on the device over `mesh` (the first of a frame's placements: its
-/// records from slot 0), `patches` standing for the host's clipping of the faces the count
-/// leaves it (they must be the ones it leaves).
+/// Run the assembly's rows on the device over `mesh` alone (its records from slot 0, whatever
+/// its `first_listed` and `first_small`), `patches` standing for the host's clipping of the
+/// faces the count leaves it (they must be the ones it leaves): each row's output read back,
+/// for the comparison of the backends stage by stage.
 pub fn assemble_rows(mesh: &AssemblyMesh<'_>, patches: &AssemblyPatches) -> Result<AssembledOnDevice, Error> {
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
-    ctx.check_float_modes(tileraster_core::Mode::Barycentric)?;
+    ctx.check_float_modes(Mode::Barycentric)?;
     let scope = ctx.gpu.error_scope();
     let result = ctx.assemble_rows(mesh, patches);
     if let Some(e) = scope.finish() {
@@ -66,29 +294,24 @@ impl GpuContext {
         rows
     }
 
-    /// A storage buffer holding `data` (at least 16 bytes, as bindings want an element).
+    /// A storage buffer holding `data`, of at least `room` bytes.
     fn storage_with(&self, label: &str, data: &[u8], room: u64) -> wgpu::Buffer {
-        let size = (data.len() as u64).max(room).max(16).next_multiple_of(16);
-        let buffer = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        let buffer = storage_buffer(&self.gpu.device, label, (data.len() as u64).max(room));
         if !data.is_empty() {
             self.recorder.upload(&self.gpu.queue, &buffer, data);
         }
         buffer
     }
 
-    /// Copy `parts` (buffer, bytes) out of the device in one submission after `encoder`'s work.
-    fn read_parts(&mut self, mut encoder: wgpu::CommandEncoder, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>, Error> {
-        let total: u64 = parts.iter().map(|p| p.1).sum();
+    /// Copy `parts` (buffer, offset, bytes) out of the device in one submission after
+    /// `encoder`'s work.
+    fn read_parts(&mut self, mut encoder: wgpu::CommandEncoder, parts: &[(&wgpu::Buffer, u64, u64)]) -> Result<Vec<Vec<u8>>, Error> {
+        let total: u64 = parts.iter().map(|p| p.2).sum();
         let readback = self.buffers.readback.get(&self.gpu.device, total.max(4));
         let mut at = 0;
-        for &(buffer, bytes) in parts {
+        for &(buffer, offset, bytes) in parts {
             if bytes > 0 {
-                encoder.copy_buffer_to_buffer(buffer, 0, &readback, at, bytes);
+                encoder.copy_buffer_to_buffer(buffer, offset, &readback, at, bytes);
             }
             at += bytes;
         }
@@ -97,7 +320,7 @@ impl GpuContext {
         let mut out = Vec::new();
         let split = |b: &[u8]| {
             let mut at = 0;
-            for &(_, bytes) in parts {
+            for &(_, _, bytes) in parts {
                 out.push(b[at as usize..(at + bytes) as usize].to_vec());
                 at += bytes;
             }
@@ -106,93 +329,127 @@ impl GpuContext {
         Ok(out)
     }
 
-    fn assemble_rows(&mut self, mesh: &AssemblyMesh<'_>, patches: &AssemblyPatches) -> Result<AssembledOnDevice, Error> {
-        let faces = mesh.params.faces;
-        let groups = faces.div_ceil(FACE_GROUP).max(1);
+    /// Workgroups for `faces`, in 2D past [`MAX_GROUPS`], and `params` with their shape.
+    fn face_dispatch(params: &AssembleParams) -> ((u32, u32), AssembleParams) {
+        let groups = params.faces.div_ceil(FACE_GROUP).max(1);
         let (x, y) = (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS));
-        let params = AssembleParams {
-            groups: faces.div_ceil(FACE_GROUP),
-            dispatch_width: x * FACE_GROUP,
-            patches: patches.patches.len() as u32,
-            first_listed: 0,
-            first_small: 0,
-            ..mesh.params
-        };
-        let params_buf = self.storage_with("assemble params", bytemuck::bytes_of(&params), 0);
-        let faces_buf = self.storage_with("face indices", bytemuck::cast_slice(mesh.faces), 0);
-        let projected = self.storage_with("projected vertices", bytemuck::cast_slice(mesh.projected), 0);
-        let attributes = self.storage_with("vertex attributes", bytemuck::cast_slice(mesh.attributes), 0);
-        let lights = self.storage_with("lit faces", bytemuck::cast_slice(mesh.lights), 0);
-        let textures = self.storage_with("face textures", bytemuck::cast_slice(mesh.textures), 0);
-        let patch_buf = self.storage_with("patches", bytemuck::cast_slice(&patches.patches), 0);
-        let pieces = self.storage_with("pieces", bytemuck::cast_slice(&patches.inputs), 0);
-        let piece_shading = self.storage_with("piece shading", bytemuck::cast_slice(&patches.shading), 0);
-        let count_bytes = 8 * params.groups as u64;
-        let group_counts = self.storage_with("group counts", &[], count_bytes);
-        let counters = self.storage_with("assembly counters", &[], 4 * ASSEMBLY_COUNTERS as u64);
-        let clipped = self.storage_with("clipped faces", &[], 4 * faces as u64);
+        ((x, y), AssembleParams { groups: params.faces.div_ceil(FACE_GROUP), dispatch_width: x * FACE_GROUP, ..*params })
+    }
 
-        // The count, read back: the host sizes the records by it (as it clips by it).
+    /// `assemble_count` over `mesh`'s faces in `buffers`, its count read back: its group
+    /// counts and counters, then the faces it left to the host (where it left any), in face
+    /// order.
+    fn count_rows(&mut self, mesh: &AssemblyMesh<'_>, buffers: &CountedMesh) -> Result<AssemblyCount, Error> {
+        let (groups, params) = Self::face_dispatch(&mesh.params);
+        let params_buf = self.storage_with("assemble params", bytemuck::bytes_of(&params), 0);
+        let count_bytes = 8 * params.groups as u64;
+        let counters = self.storage_with("assembly counters", &[], 4 * ASSEMBLY_COUNTERS as u64);
+        let clipped = self.storage_with("clipped faces", &[], 4 * params.faces as u64);
         let rows = self.frame_rows(&[Stage::AssembleCount]);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        encoder.clear_buffer(&group_counts, 0, None);
+        encoder.clear_buffer(&buffers.group_counts, 0, None);
         encoder.clear_buffer(&counters, 0, None);
         let bound = |buffer| match buffer {
             Buffer::AssembleParams => Some(params_buf.clone()),
-            Buffer::FaceIndices => Some(faces_buf.clone()),
-            Buffer::Projected => Some(projected.clone()),
-            Buffer::GroupCounts => Some(group_counts.clone()),
+            Buffer::FaceIndices => Some(buffers.faces.clone()),
+            Buffer::Projected => Some(buffers.projected.clone()),
+            Buffer::GroupCounts => Some(buffers.group_counts.clone()),
             Buffer::AssemblyCounters => Some(counters.clone()),
             Buffer::ClippedFaces => Some(clipped.clone()),
             _ => None,
         };
-        let frame = Default::default();
-        self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &frame, (x, y), &bound)?;
-        let read = self.read_parts(encoder, &[(&group_counts, count_bytes), (&counters, 4 * ASSEMBLY_COUNTERS as u64), (&clipped, 4 * faces as u64)])?;
-        let group_counts_host: Vec<u32> = bytemuck::pod_collect_to_vec(&read[0]);
+        self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &Default::default(), groups, &bound)?;
+        let read = self.read_parts(encoder, &[(&buffers.group_counts, 0, count_bytes), (&counters, 0, 4 * ASSEMBLY_COUNTERS as u64)])?;
+        let group_counts: Vec<u32> = bytemuck::pod_collect_to_vec(&read[0]);
         let counters_host: Vec<u32> = bytemuck::pod_collect_to_vec(&read[1]);
         let counters_host: [u32; ASSEMBLY_COUNTERS] = counters_host.try_into().expect("the counters' words");
-        let left = counters_host[tileraster_kernels::stages::assemble::CLIPPED_ON_HOST as usize] as usize;
-        let mut clipped_host: Vec<u32> = bytemuck::pod_collect_to_vec(&read[2]);
-        clipped_host.truncate(left);
-        clipped_host.sort_unstable();
-        let count = AssemblyCount { group_counts: group_counts_host, counters: counters_host, clipped: clipped_host };
+        let left = counters_host[CLIPPED_ON_HOST as usize] as u64;
+        let mut clipped_host: Vec<u32> = Vec::new();
+        if left > 0 {
+            let encoder = self.gpu.device.create_command_encoder(&Default::default());
+            clipped_host = bytemuck::pod_collect_to_vec(&self.read_parts(encoder, &[(&clipped, 0, 4 * left)])?[0]);
+            clipped_host.sort_unstable();
+        }
+        Ok(AssemblyCount { group_counts, counters: counters_host, clipped: clipped_host })
+    }
+
+    /// `assemble_scan` and `assemble_fill` over `mesh`'s faces in `buffers`, `count` being
+    /// what `count_rows` read back, into `target` (at the mesh's `first_listed` and
+    /// `first_small`): recorded into the returned encoder, not yet submitted, with the group
+    /// offsets' buffer.
+    fn fill_rows(
+        &mut self,
+        mesh: &AssemblyMesh<'_>,
+        buffers: &CountedMesh,
+        count: &AssemblyCount,
+        patches: &AssemblyPatches,
+        target: &RecordBuffers,
+    ) -> Result<(wgpu::CommandEncoder, wgpu::Buffer), Error> {
+        debug_assert_eq!(count.group_counts.len() as u32, 2 * mesh.params.faces.div_ceil(FACE_GROUP));
+        let (groups, params) = Self::face_dispatch(&AssembleParams { patches: patches.patches.len() as u32, ..mesh.params });
+        let params_buf = self.storage_with("assemble params", bytemuck::bytes_of(&params), 0);
+        let patch_buf = self.storage_with("patches", bytemuck::cast_slice(&patches.patches), 0);
+        let pieces = self.storage_with("pieces", bytemuck::cast_slice(&patches.inputs), 0);
+        let piece_shading = self.storage_with("piece shading", bytemuck::cast_slice(&patches.shading), 0);
+        let offsets = self.storage_with("group offsets", &[], 8 * params.groups as u64 + 8);
+        let rows = self.frame_rows(&[Stage::AssembleScan, Stage::AssembleFill]);
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let bound = |buffer| match buffer {
+            Buffer::AssembleParams => Some(params_buf.clone()),
+            Buffer::FaceIndices => Some(buffers.faces.clone()),
+            Buffer::Projected => Some(buffers.projected.clone()),
+            Buffer::VertexAttributes => Some(buffers.attributes.clone()),
+            Buffer::LitFaces => Some(buffers.lights.clone()),
+            Buffer::FaceTextures => Some(buffers.textures.clone()),
+            Buffer::GroupCounts => Some(buffers.group_counts.clone()),
+            Buffer::Patches => Some(patch_buf.clone()),
+            Buffer::Pieces => Some(pieces.clone()),
+            Buffer::PieceShading => Some(piece_shading.clone()),
+            Buffer::GroupOffsets => Some(offsets.clone()),
+            Buffer::Inputs => Some(target.inputs.clone()),
+            Buffer::Shading => Some(target.shading.clone()),
+            Buffer::Listed => Some(target.listed.clone()),
+            Buffer::SmallListed => Some(target.small.clone()),
+            _ => None,
+        };
+        self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &Default::default(), groups, &bound)?;
+        Ok((encoder, offsets))
+    }
+
+    fn assemble_rows(&mut self, mesh: &AssemblyMesh<'_>, patches: &AssemblyPatches) -> Result<AssembledOnDevice, Error> {
+        let mesh = AssemblyMesh { params: AssembleParams { first_listed: 0, first_small: 0, ..mesh.params }, ..*mesh };
+        let buffers = CountedMesh {
+            faces: self.storage_with("face indices", bytemuck::cast_slice(mesh.faces), 0),
+            textures: self.storage_with("face textures", bytemuck::cast_slice(mesh.textures), 0),
+            projected: self.storage_with("projected vertices", bytemuck::cast_slice(mesh.projected), 0),
+            attributes: self.storage_with("vertex attributes", bytemuck::cast_slice(mesh.attributes), 0),
+            lights: self.storage_with("lit faces", bytemuck::cast_slice(mesh.lights), 0),
+            group_counts: self.storage_with("group counts", &[], 8 * mesh.params.faces.div_ceil(FACE_GROUP) as u64),
+        };
+        let count = self.count_rows(&mesh, &buffers)?;
 
         // The ranks and the records.
         let sum = |k: usize| count.group_counts.iter().skip(k).step_by(2).map(|&n| n as u64).sum::<u64>();
         let listed = sum(0) + patches.patches.iter().map(|p| p.listed as u64).sum::<u64>();
         let small = sum(1) + patches.patches.iter().map(|p| p.small as u64).sum::<u64>();
         let records = listed + small;
-        let offsets_bytes = 8 * params.groups as u64 + 8;
-        let offsets = self.storage_with("group offsets", &[], offsets_bytes);
         let input_bytes = records * std::mem::size_of::<TriangleInput>() as u64;
         let shading_bytes = records * std::mem::size_of::<TriangleShading>() as u64;
-        let inputs = self.storage_with("triangle inputs", &[], input_bytes);
-        let shading = self.storage_with("triangle shading", &[], shading_bytes);
-        let listed_buf = self.storage_with("listed", &[], 4 * listed);
-        let small_buf = self.storage_with("small listed", &[], 4 * small);
-        let rows = self.frame_rows(&[Stage::AssembleScan, Stage::AssembleFill]);
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        let bound = |buffer| match buffer {
-            Buffer::AssembleParams => Some(params_buf.clone()),
-            Buffer::FaceIndices => Some(faces_buf.clone()),
-            Buffer::Projected => Some(projected.clone()),
-            Buffer::VertexAttributes => Some(attributes.clone()),
-            Buffer::LitFaces => Some(lights.clone()),
-            Buffer::FaceTextures => Some(textures.clone()),
-            Buffer::GroupCounts => Some(group_counts.clone()),
-            Buffer::Patches => Some(patch_buf.clone()),
-            Buffer::Pieces => Some(pieces.clone()),
-            Buffer::PieceShading => Some(piece_shading.clone()),
-            Buffer::GroupOffsets => Some(offsets.clone()),
-            Buffer::Inputs => Some(inputs.clone()),
-            Buffer::Shading => Some(shading.clone()),
-            Buffer::Listed => Some(listed_buf.clone()),
-            Buffer::SmallListed => Some(small_buf.clone()),
-            _ => None,
+        let target = RecordBuffers {
+            inputs: self.storage_with("triangle inputs", &[], input_bytes),
+            shading: self.storage_with("triangle shading", &[], shading_bytes),
+            listed: self.storage_with("listed", &[], 4 * listed),
+            small: self.storage_with("small listed", &[], 4 * small),
         };
-        self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &frame, (x, y), &bound)?;
-        let parts = [(&offsets, offsets_bytes), (&inputs, input_bytes), (&shading, shading_bytes), (&listed_buf, 4 * listed), (&small_buf, 4 * small)];
+        let (encoder, offsets) = self.fill_rows(&mesh, &buffers, &count, patches, &target)?;
+        let offsets_bytes = 8 * mesh.params.faces.div_ceil(FACE_GROUP) as u64 + 8;
+        let parts = [
+            (&offsets, 0, offsets_bytes),
+            (&target.inputs, 0, input_bytes),
+            (&target.shading, 0, shading_bytes),
+            (&target.listed, 0, 4 * listed),
+            (&target.small, 0, 4 * small),
+        ];
         let read = self.read_parts(encoder, &parts)?;
         Ok(AssembledOnDevice {
             count,

@@ -1,6 +1,7 @@
 #[path = "assemble.rs"]
 mod assemble;
-pub use assemble::{AssembledOnDevice, assemble_rows};
+use assemble::HeldRecords;
+pub use assemble::{AssembledOnDevice, GeometryDevice, assemble_rows};
 
 use crate::device::{Gpu, Grown};
 use crate::float_controls::{self, FloatControls};
@@ -10,7 +11,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
-use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, FragmentStage, GeometryKernels, Positions};
+use tileraster_core::render::{FragmentStage, Positions};
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
     Counter, FrameFlags, FrameParams, OutputSet, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup,
@@ -147,17 +148,27 @@ pub fn rasterise_into(prepared: &Prepared, spare: Layers) -> Result<Raster, Erro
     ctx.rasterise(prepared, &prepared.plan(prepared.window, false)?, &mut None, spare)
 }
 
-/// [`rasterise_into`] for a frame of a prepared mesh: its texels from `texels` where it holds
-/// them (the frame's `texels_resident` says so), else uploaded into a buffer of their own and
-/// kept there for the next frame.
-pub fn rasterise_keeping_texels(prepared: &Prepared, spare: Layers, texels: &mut Option<ResidentTexels>) -> Result<Raster, Error> {
+/// [`rasterise_into`] for a frame whose geometry stages ran on `geometry`: its records set up
+/// where the assembly wrote them on the device (where it did: `RenderInputs::records_held`).
+/// With `texels` (a prepared mesh's frame), its texels from there where it holds them (the
+/// frame's `texels_resident` says so), else uploaded into a buffer of their own and kept there
+/// for the next frame.
+pub fn rasterise_frame(prepared: &Prepared, spare: Layers, geometry: &GeometryDevice, texels: Option<&mut Option<ResidentTexels>>) -> Result<Raster, Error> {
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     let plan = prepared.plan(prepared.window, false)?;
-    ctx.kept_texels = Some(texels.take());
-    let raster = ctx.rasterise(prepared, &plan, &mut None, spare);
-    let kept = ctx.kept_texels.take().flatten();
-    // A failed call may have left its new buffer unwritten: the next frame uploads afresh.
-    *texels = if raster.is_ok() { kept } else { None };
+    ctx.held_records = geometry.records_of(prepared);
+    let raster = match texels {
+        Some(texels) => {
+            ctx.kept_texels = Some(texels.take());
+            let raster = ctx.rasterise(prepared, &plan, &mut None, spare);
+            let kept = ctx.kept_texels.take().flatten();
+            // A failed call may have left its new buffer unwritten: the next frame uploads afresh.
+            *texels = if raster.is_ok() { kept } else { None };
+            raster
+        }
+        None => ctx.rasterise(prepared, &plan, &mut None, spare),
+    };
+    ctx.held_records = None;
     raster
 }
 
@@ -169,23 +180,34 @@ pub fn rasterise_planned(prepared: &Prepared, plan: &Plan, resident: &mut Option
 
 /// [`rasterise_planned`], and what the call did on the device: its dispatches, submissions,
 /// waits and bytes moved each way, and with `time_stages` (where the adapter writes
-/// timestamps) the device time of each stage.
-pub fn rasterise_profiled(prepared: &Prepared, plan: &Plan, resident: &mut Option<Resident>, time_stages: bool) -> Result<(Raster, CallProfile), Error> {
+/// timestamps) the device time of each stage. With `geometry` (whose stages prepared the
+/// frame), its records are set up where its assembly wrote them, as [`rasterise_frame`] does.
+pub fn rasterise_profiled(
+    prepared: &Prepared,
+    plan: &Plan,
+    resident: &mut Option<Resident>,
+    time_stages: bool,
+    geometry: Option<&GeometryDevice>,
+) -> Result<(Raster, CallProfile), Error> {
     let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
     let timing = time_stages && ctx.timestamps;
     ctx.recorder.start(timing);
+    ctx.held_records = geometry.and_then(|g| g.records_of(prepared));
     let raster = ctx.rasterise(prepared, plan, resident, Layers::default());
+    ctx.held_records = None;
     let profile = ctx.recorder.finish(&ctx.gpu.device, ctx.gpu.queue.get_timestamp_period()).map_err(Error::Gpu)?;
     Ok((raster?, profile))
 }
 
-/// The kernels' geometry stages on the device, as the host prepares a frame
-/// (`tileraster_core::render::GeometryKernels`): each stage's output is read back for the host's
-/// clipping and assembly. A mesh's kept positions stay on the device between calls (one
-/// `GeometryDevice` a prepared mesh).
-#[derive(Debug, Default)]
-pub struct GeometryDevice {
-    kept: Option<KeptPositions>,
+/// A storage buffer of at least `bytes` (and 16) bytes, that kernels read and write and the
+/// host fills and copies from.
+fn storage_buffer(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(16).next_multiple_of(16),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    })
 }
 
 /// A mesh's kept positions on the device, in parts of `per_part` positions (each fits one
@@ -195,27 +217,6 @@ struct KeptPositions {
     key: u64,
     per_part: usize,
     buffers: Vec<wgpu::Buffer>,
-}
-
-impl GeometryKernels for GeometryDevice {
-    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error> {
-        let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
-        // The stage's pairs rest on what the `f32` modes rest on: correctly rounded `f32`
-        // arithmetic, no contraction, subnormals kept.
-        ctx.check_float_modes(Mode::Barycentric)?;
-        ctx.vertex_unchecked(params, positions, &mut self.kept, projected)
-    }
-
-    // The assembly runs as the CPU's twins until its records stay on the device for the
-    // raster stages (docs/kernels.md, "The assembly on the device"); `assemble_rows` runs the
-    // device's rows.
-    fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
-        tileraster_cpu::GeometryTwins::default().assemble_count(mesh)
-    }
-
-    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<(), Error> {
-        tileraster_cpu::GeometryTwins::default().assemble_fill(mesh, count, patches, out)
-    }
 }
 
 /// The buffers the stages before fine raster leave for the preparation's window (see
@@ -298,6 +299,8 @@ struct GpuContext {
     /// During a prepared mesh's frame, the texels it keeps on the device (`Some`: it keeps
     /// them; inside, what it held before the call and holds after it).
     kept_texels: Option<Option<ResidentTexels>>,
+    /// During a frame whose records the assembly wrote on the device, those records.
+    held_records: Option<HeldRecords>,
     /// Whether the device writes timestamps (`TIMESTAMP_QUERY`).
     timestamps: bool,
 }
@@ -421,6 +424,7 @@ impl GpuContext {
             buffers,
             recorder: Recorder::default(),
             kept_texels: None,
+            held_records: None,
             timestamps,
         })
     }
@@ -504,12 +508,15 @@ impl GpuContext {
 
     /// The vertex stage over `positions` into `projected`, without the check of its arithmetic.
     /// Its pipeline is built on first use; its buffers are kept between calls, and a mesh's
-    /// kept positions (`Positions::kept`) stay on the device in `kept`.
+    /// kept positions (`Positions::kept`) stay on the device in `kept`. Where the stage runs in
+    /// one part, its output stays on the device too, in `on_device` (grown as needed; `None`
+    /// after a stage in parts).
     fn vertex_unchecked(
         &mut self,
         params: &VertexParams,
         positions: Positions<'_>,
         kept: &mut Option<KeptPositions>,
+        on_device: &mut Option<wgpu::Buffer>,
         projected: &mut Vec<ProjectedVertex>,
     ) -> Result<u64, Error> {
         projected.clear();
@@ -520,13 +527,28 @@ impl GpuContext {
         let per_part = (self.max_binding() / std::mem::size_of::<RelativePosition>() as u64).min(MAX_GROUPS as u64 * MAX_GROUPS as u64) as usize;
         let per_part = per_part.max(TRIANGLE_GROUP as usize);
         let parts: Vec<&[RelativePosition]> = positions.pairs.chunks(per_part).collect();
+        let out_bytes = (positions.pairs.len() * std::mem::size_of::<ProjectedVertex>()) as u64;
+        let mut out = match parts.len() {
+            1 => {
+                // (Grown as `Grown` grows its buffers: the old one dropped first.)
+                if on_device.as_ref().is_none_or(|b| b.size() < out_bytes) {
+                    *on_device = None;
+                    *on_device = Some(storage_buffer(&self.gpu.device, "projected vertices", out_bytes));
+                }
+                on_device.clone()
+            }
+            _ => {
+                *on_device = None;
+                None
+            }
+        };
         if let (Some(key), Some(held)) = (positions.kept, kept.as_ref())
             && held.key == key
             && held.per_part == per_part
         {
             let buffers = held.buffers.clone();
             for (part, buffer) in parts.iter().zip(&buffers) {
-                self.vertex_part(params, part.len() as u64, buffer, projected)?;
+                self.vertex_part(params, part.len() as u64, buffer, out.take(), projected)?;
             }
             return Ok(positions.bytes(false));
         }
@@ -549,7 +571,7 @@ impl GpuContext {
                     None => self.buffers.positions.get(&self.gpu.device, bytes),
                 };
                 self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(part));
-                self.vertex_part(params, part.len() as u64, &buffer, projected)?;
+                self.vertex_part(params, part.len() as u64, &buffer, out.take(), projected)?;
                 own.push(buffer);
             }
             Ok(())
@@ -566,8 +588,16 @@ impl GpuContext {
     }
 
     /// The vertex stage over the first `n` positions of `positions` (which fit one binding),
-    /// its results appended to `projected`.
-    fn vertex_part(&mut self, params: &VertexParams, n: u64, positions: &wgpu::Buffer, projected: &mut Vec<ProjectedVertex>) -> Result<(), Error> {
+    /// its results written to `out` (else to a buffer of the context's) and appended to
+    /// `projected`.
+    fn vertex_part(
+        &mut self,
+        params: &VertexParams,
+        n: u64,
+        positions: &wgpu::Buffer,
+        out: Option<wgpu::Buffer>,
+        projected: &mut Vec<ProjectedVertex>,
+    ) -> Result<(), Error> {
         let out_bytes = n * std::mem::size_of::<ProjectedVertex>() as u64;
         let scope = self.gpu.error_scope();
         let rows = self.frame_rows(&[Stage::Vertex]);
@@ -576,7 +606,7 @@ impl GpuContext {
         let params = VertexParams { vertices: n as u32, dispatch_width: x * TRIANGLE_GROUP, ..*params };
         let device = &self.gpu.device;
         let params_buf = self.buffers.vertex_params.get(device, std::mem::size_of::<VertexParams>() as u64);
-        let projected_buf = self.buffers.projected.get(device, out_bytes);
+        let projected_buf = out.unwrap_or_else(|| self.buffers.projected.get(device, out_bytes));
         self.recorder.upload(&self.gpu.queue, &params_buf, bytemuck::bytes_of(&params));
         let mut encoder = device.create_command_encoder(&Default::default());
         let buffers = |buffer| match buffer {
@@ -634,8 +664,22 @@ impl GpuContext {
         let rows = self.stage_pipelines_of(prepared)?;
         let max_pixels = self.max_window_pixels(prepared);
         let whole = self.scene_fits(prepared, prepared.triangles.len() as u64);
+        // Records the assembly wrote on the device are set up there, with its lists (which
+        // are the plan's: every record the assembly keeps reaches the frame's window).
+        let held = self.held_records.clone().filter(|_| whole);
+        if let Some(h) = &held
+            && (h.listed != plan.listed.len() as u64 || h.small != plan.small.len() as u64)
+        {
+            return Err(Error::Gpu(format!(
+                "the assembly listed {} and {} small records on the device, the plan {} and {}",
+                h.listed,
+                h.small,
+                plan.listed.len(),
+                plan.small.len()
+            )));
+        }
         if whole && resident.is_none() {
-            *resident = Some(self.upload_and_setup(prepared, &rows, None)?);
+            *resident = Some(self.upload_and_setup(prepared, &rows, None, held.as_ref())?);
         }
         let shade_params = prepared.render.as_ref().map(|s| {
             let buf = self.buffers.shade_params.get(&self.gpu.device, std::mem::size_of::<ShadeParams>() as u64);
@@ -688,8 +732,10 @@ impl GpuContext {
             None => None,
         };
         // The window's list of triangles, once for all its dispatches (a resident scene's).
-        let listed_buf = whole.then(|| self.upload_list(ListBuffer::Listed, &plan.listed));
-        let small_buf = whole.then(|| self.upload_list(ListBuffer::Small, &plan.small));
+        let (listed_buf, small_buf) = match &held {
+            Some(h) => (Some(h.listed_slots.clone()), Some(h.small_slots.clone())),
+            None => (whole.then(|| self.upload_list(ListBuffer::Listed, &plan.listed)), whole.then(|| self.upload_list(ListBuffer::Small, &plan.small))),
+        };
         let mut pending = windows(&active, max_pixels);
         pending.reverse();
         while let Some(window) = pending.pop() {
@@ -729,7 +775,7 @@ impl GpuContext {
                     self.rasterise_window(&frame, entries, &scene, lists, None, raster)?
                 }
                 Some(part) => {
-                    let r = self.upload_and_setup(prepared, &rows, Some(&part.slots))?;
+                    let r = self.upload_and_setup(prepared, &rows, Some(&part.slots), None)?;
                     let scene = SceneBuffers::of(prepared, &rows, &r, shade_params.as_ref(), materials.as_ref());
                     // The part's setups are its own slots 0, 1, ...: the stages take them by those.
                     let listed_buf = self.upload_list(ListBuffer::Listed, &part.local_listed);
@@ -935,14 +981,14 @@ impl GpuContext {
     }
 
     /// Upload the prepared triangles (all of them, or the setup slots `part` lists, which then
-    /// take the slots 0, 1, ... in that order) and run the scene stages over them: the setups
-    /// stay on the device.
+    /// take the slots 0, 1, ... in that order; none where `held` has them all on the device)
+    /// and run the scene stages over them: the setups stay on the device.
     ///
     /// In a part, the render pipeline's triangles carry their new slot as their index (its
     /// shade stage reads the setups by the owner layer, see `programs::depth`): the order of
     /// the slots is the scene's, so depth ties and blending go the same way, and the owner
     /// layer is mapped back to the scene's slots as it is read.
-    fn upload_and_setup(&mut self, prepared: &Prepared, rows: &[Option<usize>], part: Option<&[u32]>) -> Result<Resident, Error> {
+    fn upload_and_setup(&mut self, prepared: &Prepared, rows: &[Option<usize>], part: Option<&[u32]>, held: Option<&HeldRecords>) -> Result<Resident, Error> {
         let n = part.map_or(prepared.triangles.len(), <[u32]>::len) as u64;
         let renumber = prepared.pipeline().renders();
         let inputs_part: Option<Vec<TriangleInput>> = part.map(|slots| {
@@ -973,14 +1019,20 @@ impl GpuContext {
                 mapped_at_creation: false,
             })
         };
-        let inputs = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
-        self.recorder.upload(&self.gpu.queue, &inputs, bytemuck::cast_slice(inputs_part.as_deref().unwrap_or(&prepared.triangles)));
         let setups = storage("triangle setups", slots * std::mem::size_of::<TriangleSetup>() as u64);
-        let shading = prepared.render.as_ref().map(|s| {
-            let buf = storage("triangle shading", slots * std::mem::size_of::<TriangleShading>() as u64);
-            self.recorder.upload(&self.gpu.queue, &buf, bytemuck::cast_slice(shading_part.as_deref().unwrap_or(&s.triangles)));
-            buf
-        });
+        let (inputs, shading) = match held.filter(|_| part.is_none()) {
+            Some(h) => (h.inputs.clone(), Some(h.shading.clone())),
+            None => {
+                let inputs = storage("triangle inputs", slots * std::mem::size_of::<TriangleInput>() as u64);
+                self.recorder.upload(&self.gpu.queue, &inputs, bytemuck::cast_slice(inputs_part.as_deref().unwrap_or(&prepared.triangles)));
+                let shading = prepared.render.as_ref().map(|s| {
+                    let buf = storage("triangle shading", slots * std::mem::size_of::<TriangleShading>() as u64);
+                    self.recorder.upload(&self.gpu.queue, &buf, bytemuck::cast_slice(shading_part.as_deref().unwrap_or(&s.triangles)));
+                    buf
+                });
+                (inputs, shading)
+            }
+        };
         let mut encoder = device.create_command_encoder(&Default::default());
         let buffers = |buffer| match buffer {
             Buffer::Frame => Some(frame_buf.clone()),

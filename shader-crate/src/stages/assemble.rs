@@ -204,12 +204,12 @@ pub fn assembly_of(p: &AssembleParams) -> Assembly {
     }
 }
 
-/// Face `f`'s vertices (three indices a face in `faces`), in drawing order: a mirroring
-/// placement swaps the second and third, so that facing stays the mesh's.
+/// Face `f`'s vertices (three indices a face in `faces`) in the frame's vertices, in drawing
+/// order: a mirroring placement swaps the second and third, so that facing stays the mesh's.
 #[inline]
 pub fn face_vertices(p: &AssembleParams, faces: &[u32], f: u32) -> [u32; 3] {
     let base = 3 * f as usize;
-    let (a, b, c) = (faces[base], faces[base + 1], faces[base + 2]);
+    let (a, b, c) = (p.first_vertex + faces[base], p.first_vertex + faces[base + 1], p.first_vertex + faces[base + 2]);
     if p.mirrored == 1 { [a, c, b] } else { [a, b, c] }
 }
 

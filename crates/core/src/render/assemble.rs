@@ -29,9 +29,10 @@ use tileraster_kernels::stages::assemble::{
 use tileraster_kernels::stages::vertex::UNASSEMBLED;
 
 /// One placed mesh's faces as the kernels' assembly stages take them (`stages::assemble`):
-/// their parameters, the mesh's faces (three vertex indices each) and its vertices through the
-/// vertex stage, and what the records carry (each read where `params` says so): per vertex its
-/// attributes in `f32`, per face its colour and normal under flat shading and its texture.
+/// their parameters, the mesh's faces (three vertex indices each), the frame's vertices through
+/// the vertex stage (the mesh's from `params.first_vertex` on), and what the records carry
+/// (each read where `params` says so): per vertex of the frame its attributes in `f32`, per
+/// face its colour and normal under flat shading and its texture.
 pub struct AssemblyMesh<'a> {
     pub params: AssembleParams,
     pub faces: &'a [u32],
@@ -39,6 +40,54 @@ pub struct AssemblyMesh<'a> {
     pub attributes: &'a [[f32; ATTRIBUTES]],
     pub lights: &'a [LitFace],
     pub textures: &'a [u32],
+    /// Which of these a backend may keep between calls (as it keeps a mesh's positions).
+    pub kept: KeptInputs,
+}
+
+/// Keys of an assembly's inputs that stay the same between calls: `Some(key)`, the same
+/// arrays in every call that names the key.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct KeptInputs {
+    /// The faces and the face textures (a prepared mesh's: its positions' key).
+    pub faces: Option<u64>,
+    /// The frame's vertex attributes (the same for each of its placements, and for the frames
+    /// of a prepared mesh at one placement that are not lit per vertex).
+    pub attributes: Option<u64>,
+}
+
+impl AssemblyMesh<'_> {
+    /// The bytes handed to the assembly's stages for this mesh: their parameters (the count's
+    /// and the fill's), its lit faces and the host's `patches`, and its faces and face
+    /// textures and the frame's vertex attributes where `handed` says so (a backend holds no
+    /// earlier call's). The vertices come from the vertex stage, where they are.
+    pub fn bytes(&self, patches: &AssemblyPatches, handed: KeptHanded) -> u64 {
+        use std::mem::size_of_val as size;
+        let mut bytes = 2 * std::mem::size_of::<AssembleParams>() + size(self.lights);
+        bytes += size(patches.patches.as_slice()) + size(patches.inputs.as_slice()) + size(patches.shading.as_slice());
+        if handed.faces {
+            bytes += size(self.faces) + size(self.textures);
+        }
+        if handed.attributes {
+            bytes += size(self.attributes);
+        }
+        bytes as u64
+    }
+}
+
+/// Whether a call hands over the inputs of [`KeptInputs`] (the backend holds none of an
+/// earlier call's under their keys).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct KeptHanded {
+    pub faces: bool,
+    pub attributes: bool,
+}
+
+impl KeptHanded {
+    /// What a backend that held `held` (and now holds `kept`'s) is handed.
+    pub fn of(kept: &KeptInputs, held: &mut KeptInputs) -> KeptHanded {
+        let hand = |key: Option<u64>, held: &mut Option<u64>| key.is_none_or(|k| held.replace(k) != Some(k));
+        KeptHanded { faces: hand(kept.faces, &mut held.faces), attributes: hand(kept.attributes, &mut held.attributes) }
+    }
 }
 
 /// What `assemble_count` leaves: two words per group of faces (its kept faces' listed and small
@@ -92,6 +141,9 @@ pub(super) struct VertexAttributes {
     to_world: [[f64; 4]; 4],
     used: bool,
     lit: bool,
+    /// The key they are kept by (`KeptInputs::attributes`): a fresh one each time they are
+    /// made, so that a frame's placements share them and a prepared mesh's frames keep them.
+    pub(super) key: u64,
     pub(super) normals: Vec<[f32; 3]>,
     pub(super) values: Vec<[f32; ATTRIBUTES]>,
 }
@@ -131,15 +183,17 @@ impl VertexAttributes {
                     normals.extend_from_slice(&turned);
                 }
             }
-            *slot = Some(VertexAttributes { to_world, used, lit, normals, values });
+            static KEYS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+            let key = KEYS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            *slot = Some(VertexAttributes { to_world, used, lit, key, normals, values });
         }
         slot.as_ref().expect("made above")
     }
 
-    /// The attributes and normals of the placement whose vertices start at `first` (of `n`);
-    /// empty where none is read.
-    pub(super) fn of_placement(&self, first: usize, n: usize) -> (&[[f32; ATTRIBUTES]], &[[f32; 3]]) {
-        if self.used { (&self.values[first..first + n], &self.normals[first..first + n]) } else { (&[], &[]) }
+    /// The normals of the placement whose vertices start at `first` (of `n`); empty where no
+    /// attribute is read.
+    pub(super) fn normals_of(&self, first: usize, n: usize) -> &[[f32; 3]] {
+        if self.used { &self.normals[first..first + n] } else { &[] }
     }
 }
 
@@ -149,6 +203,8 @@ pub(super) struct AssembledFrame {
     pub(super) triangles: Vec<TriangleInput>,
     pub(super) shading: Vec<TriangleShading>,
     pub(super) faces: Vec<u32>,
+    /// The key the backend holds the records by (`GeometryKernels::hold_records`).
+    pub(super) held: Option<u64>,
 }
 
 /// The frame's faces through the kernels' assembly, placed mesh by placed mesh: counted
@@ -171,7 +227,7 @@ pub(super) fn assemble_frame(
     let mut counted = Vec::with_capacity(meshes.len());
     let (mut listed, mut small) = (0u64, 0u64);
     for (faces, lights) in meshes.iter().zip(&lights) {
-        let mut mesh = faces.assembly(target, split_small, lights, (0, 0), 0);
+        let mut mesh = faces.assembly(target, split_small, lights, (0, 0));
         let count = kernels.assemble_count(&mesh)?;
         let (patches, clipped) = faces.patches(&count.clipped, &mesh, viewport, target);
         *counts = counts.add(clipped);
@@ -197,6 +253,7 @@ pub(super) fn assemble_frame(
             reason: format!("clipping left {total} triangles, more than the 2^32 − 1 a frame indexes"),
         });
     }
+    let held = kernels.hold_records(total, listed, small)?;
     let total = total as usize;
     let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
     let mut triangles = crate::raster::reuse_cells(Some(memory.triangles), total).map_err(out_of_memory)?;
@@ -205,24 +262,26 @@ pub(super) fn assemble_frame(
     let (mut rest_t, mut rest_s) = (&mut triangles[..], &mut shading[..]);
     for (((params, count, patches), mesh_faces), lights) in counted.iter().zip(meshes).zip(&lights) {
         let first = (params.first_listed, params.first_small);
-        let mesh = AssemblyMesh { params: *params, ..mesh_faces.assembly(target, split_small, lights, first, 0) };
+        let mesh = AssemblyMesh { params: *params, ..mesh_faces.assembly(target, split_small, lights, first) };
         let n = count.kept() as usize + patches.inputs.len();
         let (t, tail_t) = rest_t.split_at_mut(n);
         let (s, tail_s) = rest_s.split_at_mut(n);
         (rest_t, rest_s) = (tail_t, tail_s);
-        kernels.assemble_fill(&mesh, count, patches, AssembledRecords { inputs: t, shading: s, lists: None })?;
+        counts.bytes_uploaded += kernels.assemble_fill(&mesh, count, patches, AssembledRecords { inputs: t, shading: s, lists: None })?;
     }
     faces.par_iter_mut().zip(&shading).for_each(|(f, s)| *f = s.face);
-    Ok(AssembledFrame { triangles, shading, faces })
+    Ok(AssembledFrame { triangles, shading, faces, held })
 }
 
 /// A mesh's faces as the kernels assemble them.
 pub(super) struct MeshFaces<'a> {
     pub(super) placement: &'a Placement<'a>,
-    /// The mesh's vertices through the vertex stage.
+    /// The frame's vertices through the vertex stage (the placement's from its `first_vertex`).
     pub(super) projected: &'a [ProjectedVertex],
     /// Their attributes in `f32` (empty where none is read).
     pub(super) attributes: &'a [[f32; ATTRIBUTES]],
+    /// Which inputs a backend may keep between frames.
+    pub(super) kept: KeptInputs,
     /// Flat interpolation: every corner takes the face's first vertex's attributes.
     pub(super) flat: bool,
     /// What the host's clipping computes a corner from: the attributes' recipe and the frame's
@@ -235,7 +294,7 @@ impl<'a> MeshFaces<'a> {
     /// The mesh's faces as the assembly stages take them, their records' slots after
     /// `first_listed` and `first_small` of the frame's earlier placements'; `lights` per face
     /// under flat shading (else empty).
-    fn assembly(&self, target: &Target, split_small: bool, lights: &'a [LitFace], first: (u32, u32), dispatch_width: u32) -> AssemblyMesh<'a> {
+    fn assembly(&self, target: &Target, split_small: bool, lights: &'a [LitFace], first: (u32, u32)) -> AssemblyMesh<'a> {
         let (p, a) = (self.placement, &target.assembly);
         let faces = p.mesh.triangles.len() as u32;
         let (face_textures, textures) = match &p.mesh.face_textures {
@@ -261,12 +320,14 @@ impl<'a> MeshFaces<'a> {
             split_small: u32::from(split_small),
             patches: 0,
             groups: faces.div_ceil(FACE_GROUP),
-            dispatch_width,
+            dispatch_width: 0,
             first_listed: first.0,
             first_small: first.1,
-            _pad: [0; 3],
+            first_vertex: p.first_vertex as u32,
+            _pad: [0; 2],
         };
-        AssemblyMesh { params, faces: bytemuck::cast_slice(&p.mesh.triangles), projected: self.projected, attributes: self.attributes, lights, textures }
+        let faces = bytemuck::cast_slice(&p.mesh.triangles);
+        AssemblyMesh { params, faces, projected: self.projected, attributes: self.attributes, lights, textures, kept: self.kept }
     }
 
     /// Under flat shading, every face's colour and normal as the assembly writes them over its
@@ -347,7 +408,7 @@ impl<'a> MeshFaces<'a> {
         let p = self.placement;
         let world = transform_point(&p.to_world, &p.mesh.positions[v]);
         let mut c = self.shaded.clip_vertex(v, world, self.view_projection, viewport);
-        let k = &self.projected[v];
+        let k = &self.projected[p.first_vertex + v];
         if k.planes & UNASSEMBLED == 0 {
             c = ClipVertex::new(viewport.onto_planes(&c.clip), c.attributes, viewport);
             debug_assert_eq!(c.outside, 0, "on the planes");

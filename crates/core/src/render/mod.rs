@@ -54,7 +54,7 @@ mod vertex;
 mod viewport;
 
 use assemble::{AssembledFrame, MeshFaces, VertexAttributes};
-pub use assemble::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches};
+pub use assemble::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs};
 use clip::geometry;
 use emit::{Emit, FaceTag};
 pub use fragment::{FragmentConstants, FragmentStage};
@@ -342,21 +342,24 @@ pub(crate) fn prepare_instances_in(
     match kernel_stage {
         Some(bytes) => {
             counts.bytes_uploaded = bytes;
+            // A prepared mesh's faces are the same in each of its frames: kept by its positions'.
+            let faces_key = kept.as_deref().and_then(|k| k.positions.as_ref()).filter(|_| placements.len() == 1).map(MeshPositions::key);
             let (slot, keeps) = match kept {
                 Some(k) if placements.len() == 1 => (&mut k.attributes, true),
                 _ => (&mut memory.attributes, false),
             };
             let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, slot, keeps);
             let projected = memory.vertex_stage.projected();
+            let kept_inputs = KeptInputs { faces: faces_key, attributes: Some(attributes.key) };
             mesh_faces = placements
                 .iter()
                 .map(|p| {
-                    let n = p.mesh.positions.len();
-                    let (values, normals) = attributes.of_placement(p.first_vertex, n);
+                    let normals = attributes.normals_of(p.first_vertex, p.mesh.positions.len());
                     MeshFaces {
                         placement: p,
-                        projected: &projected[p.first_vertex..p.first_vertex + n],
-                        attributes: values,
+                        projected,
+                        attributes: &attributes.values,
+                        kept: kept_inputs,
                         flat: params.interpolation == Interpolation::Flat,
                         shaded: Shaded { mesh: p.mesh, normals, shading, lighting: &lighting },
                         view_projection: m,
@@ -464,7 +467,7 @@ pub(crate) fn prepare_instances_in(
             geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, &viewport, &target, emit, counts);
         }
     };
-    let (triangles, shading, faces, small_edges) = match kernel_stage {
+    let (triangles, shading, faces, small_edges, records_held) = match kernel_stage {
         Some(_) => {
             // The plan lists small triangles apart in a single-sample depth-tested frame that
             // does not blend and counts no tile's triangles (`Prepared::splits_small_triangles`).
@@ -473,11 +476,12 @@ pub(crate) fn prepare_instances_in(
                 triangles: std::mem::take(&mut memory.triangles),
                 shading: std::mem::take(&mut memory.shading),
                 faces: std::mem::take(&mut memory.faces),
+                held: None,
             };
             let frame = assemble::assemble_frame(&mesh_faces, split_small, &viewport, &target, kernels, spare, &mut counts, observe)?;
             let small_edges = frame.triangles.par_iter().all(|t| edges_fit_i32(t, RENDER_SNAP_BITS));
             counts.rasterised = frame.triangles.len() as u64;
-            (frame.triangles, frame.shading, frame.faces, small_edges)
+            (frame.triangles, frame.shading, frame.faces, small_edges, frame.held)
         }
         None => {
             // Count, prefix sum, fill (as binning does): the first pass counts each chunk's triangles,
@@ -525,7 +529,7 @@ pub(crate) fn prepare_instances_in(
                 })
                 .reduce(|| true, |a, b| a && b);
             counts.rasterised = total as u64;
-            (triangles, shading, faces, small_edges)
+            (triangles, shading, faces, small_edges, None)
         }
     };
     observe(GeometryPass::AssembleFill);
@@ -567,6 +571,7 @@ pub(crate) fn prepare_instances_in(
             textures: texture_infos,
             texels,
             texels_resident: false,
+            records_held,
             fragment: params.fragment,
             returns_colour: params.return_colour,
             returns_depth: params.return_depth,

@@ -31,8 +31,19 @@ pub trait GeometryKernels {
 
     /// The `assemble_scan` and `assemble_fill` stages over the same faces, given what
     /// `assemble_count` left and the host's `patches` for the faces it left (the mesh's
-    /// `params.patches` of them): the mesh's records into `out`.
-    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<(), Error>;
+    /// `params.patches` of them): the mesh's records into `out`. Returns the bytes the mesh's
+    /// assembly handed the stages (its count's and its fill's).
+    fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<u64, Error>;
+
+    /// Called once a frame's counts are in, before its fills: where the backend keeps the
+    /// frame's records itself (`records` of them, `listed` and `small` in its lists), it makes
+    /// room for them and returns the key the prepared frame carries
+    /// (`RenderInputs::records_held`); `None` where it keeps none (the fills' `out` alone
+    /// holds them).
+    fn hold_records(&mut self, records: u64, listed: u64, small: u64) -> Result<Option<u64>, Error> {
+        let _ = (records, listed, small);
+        Ok(None)
+    }
 }
 
 /// The positions a vertex stage runs over.
@@ -62,6 +73,11 @@ pub struct MeshPositions {
 }
 
 impl MeshPositions {
+    /// The key the positions are kept by ([`Positions::kept`]).
+    pub(super) fn key(&self) -> u64 {
+        self.key
+    }
+
     pub(super) fn of(positions: &[[f64; 3]]) -> Self {
         static KEYS: AtomicU64 = AtomicU64::new(0);
         let origin = box_centre(positions);

@@ -104,8 +104,9 @@ pub struct Stats {
     /// render's shading records) the first time a prepared scene is rasterised, and on every
     /// call the lists of the window's triangles and a render's shade parameters, textures and
     /// texels (those a prepared mesh's earlier frame left on the backend excepted). A frame the
-    /// kernels assembled (`RenderInputs::records_held`) hands over neither its records nor its
-    /// lists: the assembly wrote them where setup and binning read them. The GPU backend
+    /// kernels assembled (`RenderInputs::records_held`) hands over neither its records nor, in
+    /// a call over its whole window, its lists: the assembly wrote them where setup and
+    /// binning read them. The GPU backend
     /// writes these and, besides, one `FrameParams` uniform per dispatch window (one more
     /// where it sets the scene up); a scene too large for one binding goes up part by part,
     /// each window's triangles with its own lists, a frame's records assembled apart from the
@@ -238,8 +239,10 @@ impl Prepared {
         let tiles_total = tiles(&window);
         let mut passes = Vec::new();
         let mut bytes_uploaded = 0;
-        // Records the kernels assembled are where the stages read them, and so are their lists.
+        // Records the kernels assembled are where the stages read them, and so are their lists
+        // (the frame's window's).
         let held = self.render.as_ref().is_some_and(|r| r.records_held.is_some());
+        let held_lists = held && window == self.window;
         if active.is_some() && !resident {
             if !held {
                 passes.push(Pass::Upload);
@@ -259,7 +262,7 @@ impl Prepared {
             if !overlap_free {
                 passes.push(Pass::Ownership);
             }
-            if !held {
+            if !held_lists {
                 bytes_uploaded += std::mem::size_of_val(listed.as_slice()) as u64 + std::mem::size_of_val(small.as_slice()) as u64;
             }
             bytes_uploaded += self.render.as_ref().map_or(0, |r| {

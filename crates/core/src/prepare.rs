@@ -108,10 +108,12 @@ pub struct RenderInputs {
     /// Whether the backend holds these texels from an earlier frame (a prepared mesh's): the
     /// call hands it none of them (`Stats::bytes_uploaded`).
     pub texels_resident: bool,
-    /// Where the backend that assembled the frame keeps its records itself (the GPU, on the
-    /// device, where `assemble_fill` wrote them), the key it gave them
-    /// (`GeometryKernels::hold_records`): its raster call sets them up there rather than take
-    /// `triangles` and the shading again. `triangles` hold the same records.
+    /// Where the kernels' assembly wrote the frame's records and lists where its backend's
+    /// raster stages read them (the host's arrays on the CPU, the device's buffers on the GPU),
+    /// the key the backend gave them (`GeometryKernels::hold_records`): the GPU's raster call
+    /// sets up the records it holds under this key rather than take `triangles` and the
+    /// shading again, and `Stats::bytes_uploaded` counts neither. `triangles` hold the same
+    /// records.
     pub records_held: Option<u64>,
     /// The frame's fragment shader; `None`: the built-in shadings.
     pub fragment: Option<crate::render::fragment::FragmentStage>,

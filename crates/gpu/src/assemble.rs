@@ -43,10 +43,8 @@ pub struct GeometryDevice {
 struct DeviceFrame {
     /// Whether the twins assemble it (the device's buffers could not hold it).
     on_twins: bool,
-    /// What each placed mesh's count left on the device for its fill, in the placements' order,
-    /// and what each was counted as handed.
+    /// What each placed mesh's count left on the device for its fill, in the placements' order.
     counted: VecDeque<CountedMesh>,
-    handed: VecDeque<KeptHanded>,
     records: Option<HeldRecords>,
 }
 
@@ -150,7 +148,6 @@ impl GeometryKernels for GeometryDevice {
     }
 
     fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
-        self.frame.handed.push_back(KeptHanded::of(&mesh.kept, &mut self.counted));
         let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
         let projected = self.projected.clone().filter(|p| p.size() >= std::mem::size_of_val(mesh.projected) as u64);
         let (false, Some(projected), true) = (self.frame.on_twins, projected, fits_one_binding(&ctx, mesh)) else {
@@ -160,7 +157,12 @@ impl GeometryKernels for GeometryDevice {
         let scope = ctx.gpu.error_scope();
         let buffers = self.mesh_buffers(&ctx, mesh, projected);
         let count = ctx.count_rows(mesh, &buffers);
-        if let Some(e) = scope.finish() {
+        let raised = scope.finish();
+        if raised.is_some() || count.is_err() {
+            // What a failed call may have left unwritten is handed over again.
+            (self.faces, self.attributes) = (None, None);
+        }
+        if let Some(e) = raised {
             return Err(Error::Gpu(format!("the assembly's count: {e}")));
         }
         self.frame.counted.push_back(buffers);
@@ -201,9 +203,11 @@ impl GeometryKernels for GeometryDevice {
     }
 
     fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<u64, Error> {
-        let handed = self.frame.handed.pop_front().ok_or_else(|| Error::Gpu("a fill without its count".into()))?;
-        let bytes = mesh.bytes(patches, handed);
+        // (Counted as the twins count it: the figure is the backends' common one.)
+        let bytes = mesh.bytes(patches, KeptHanded::of(&mesh.kept, &mut self.counted));
         let (false, Some(records), Some(counted)) = (self.frame.on_twins, &self.frame.records, self.frame.counted.pop_front()) else {
+            // The frame's records are then the host's alone.
+            (self.frame.on_twins, self.frame.records) = (true, None);
             tileraster_cpu::GeometryTwins::default().assemble_fill(mesh, count, patches, out)?;
             return Ok(bytes);
         };
@@ -230,7 +234,11 @@ impl GeometryKernels for GeometryDevice {
             bytemuck::cast_slice_mut::<_, u8>(out.shading).copy_from_slice(&read[1]);
             Ok(())
         });
-        if let Some(e) = scope.finish() {
+        let raised = scope.finish();
+        if raised.is_some() || filled.is_err() {
+            self.frame.records = None;
+        }
+        if let Some(e) = raised {
             return Err(Error::Gpu(format!("the assembly's fill: {e}")));
         }
         filled?;

@@ -194,7 +194,10 @@ pub fn rasterise_profiled(
     ctx.recorder.start(timing);
     ctx.held_records = geometry.and_then(|g| g.records_of(prepared));
     let raster = ctx.rasterise(prepared, plan, resident, Layers::default());
-    ctx.held_records = None;
+    if ctx.held_records.take().is_some() {
+        // Its setups are of records in the geometry's buffers, which its next frame reuses.
+        *resident = None;
+    }
     let profile = ctx.recorder.finish(&ctx.gpu.device, ctx.gpu.queue.get_timestamp_period()).map_err(Error::Gpu)?;
     Ok((raster?, profile))
 }
@@ -664,20 +667,13 @@ impl GpuContext {
         let rows = self.stage_pipelines_of(prepared)?;
         let max_pixels = self.max_window_pixels(prepared);
         let whole = self.scene_fits(prepared, prepared.triangles.len() as u64);
-        // Records the assembly wrote on the device are set up there, with its lists (which
-        // are the plan's: every record the assembly keeps reaches the frame's window).
-        let held = self.held_records.clone().filter(|_| whole);
-        if let Some(h) = &held
-            && (h.listed != plan.listed.len() as u64 || h.small != plan.small.len() as u64)
-        {
-            return Err(Error::Gpu(format!(
-                "the assembly listed {} and {} small records on the device, the plan {} and {}",
-                h.listed,
-                h.small,
-                plan.listed.len(),
-                plan.small.len()
-            )));
-        }
+        // Records the assembly wrote on the device are set up there, with its lists where they
+        // are the plan's (a plan of the frame's window: every record the assembly keeps
+        // reaches it, in order; a plan of a part of it lists its own).
+        let held = self
+            .held_records
+            .clone()
+            .filter(|h| whole && plan.window == prepared.window && h.listed == plan.listed.len() as u64 && h.small == plan.small.len() as u64);
         if whole && resident.is_none() {
             *resident = Some(self.upload_and_setup(prepared, &rows, None, held.as_ref())?);
         }

@@ -135,18 +135,31 @@ pub fn triangle_records(
 ) -> (TriangleInput, TriangleShading) {
     // Entry k of the kernels' per-vertex data belongs to the vertex opposite edge k.
     let opposite = [t.order[2], t.order[0], t.order[1]];
-    let coeffs = FloatCoeffs { c: [depth[opposite[0]], depth[opposite[1]], depth[opposite[2]], recip_u64(t.area)] };
+    let coeffs = FloatCoeffs { c: [pick(depth, opposite[0]), pick(depth, opposite[1]), pick(depth, opposite[2]), recip_u64(t.area)] };
     (
         TriangleInput { x: t.x, y: t.y, rect: t.rect, coeffs, ..Default::default() },
         TriangleShading {
-            attributes: [attributes[opposite[0]], attributes[opposite[1]], attributes[opposite[2]]],
-            inv_w: [inv_w[opposite[0]], inv_w[opposite[1]], inv_w[opposite[2]], 0.0],
+            attributes: [pick(attributes, opposite[0]), pick(attributes, opposite[1]), pick(attributes, opposite[2])],
+            inv_w: [pick(inv_w, opposite[0]), pick(inv_w, opposite[1]), pick(inv_w, opposite[2]), 0.0],
             face,
             texture,
             flags: 0,
             _pad: 0,
         },
     )
+}
+
+/// Entry `k` (0, 1 or 2) of `v`, chosen rather than indexed: a private array indexed by a
+/// value the compiler cannot see is kept in memory and read lane by lane on a CPU device.
+#[inline]
+fn pick<T: Copy>(v: &[T; 3], k: usize) -> T {
+    if k == 0 {
+        v[0]
+    } else if k == 1 {
+        v[1]
+    } else {
+        v[2]
+    }
 }
 
 /// The pixels a triangle of snapped vertices `x`, `y` may cover: those whose centre lies in its

@@ -35,11 +35,13 @@ pub trait GeometryKernels {
     /// assembly handed the stages (its count's and its fill's).
     fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<u64, Error>;
 
-    /// Called once a frame's counts are in, before its fills: where the backend keeps the
-    /// frame's records itself (`records` of them, `listed` and `small` in its lists), it makes
-    /// room for them and returns the key the prepared frame carries
-    /// (`RenderInputs::records_held`); `None` where it keeps none (the fills' `out` alone
-    /// holds them).
+    /// Called once a frame's counts are in, before its fills: the backend makes room for the
+    /// frame's records where its raster stages read them (`records` of them, `listed` and
+    /// `small` in its lists; on the CPU, the fills' `out` is that room) and returns the key
+    /// the prepared frame carries (`RenderInputs::records_held`). A backend that assembles a
+    /// frame apart from its raster stages' buffers (the GPU past its binding limits) returns
+    /// a key too: such a frame is counted as if held (`Stats::bytes_uploaded`). `None`: the
+    /// records are handed over as a heightfield's are.
     fn hold_records(&mut self, records: u64, listed: u64, small: u64) -> Result<Option<u64>, Error> {
         let _ = (records, listed, small);
         Ok(None)

@@ -1,11 +1,12 @@
 //! Times a prepared mesh's frames: `render-report`'s 100k-triangle terrain (its camera, face ids
-//! or Phong shading, no fragment counts) drawn again and again by one `PreparedMesh`, as a viewer
-//! draws it; or, with `one-shot`, by `render` calls, each a whole frame from the mesh.
-//! A loop of frames and nothing else, for a profiler (`perf record`) and for before/after runs
-//! of two builds.
+//! or Phong shading, no fragment counts; `N` = 708 gives its 1M-triangle terrain) drawn again
+//! and again by one `PreparedMesh`, as a viewer draws it; or, with `one-shot`, by `render`
+//! calls, each a whole frame from the mesh. A loop of frames and nothing else, for a profiler
+//! (`perf record`) and for before/after runs of two builds. It prints the frames' times and the
+//! bytes the last one handed over (`Stats::bytes_uploaded`).
 //!
 //! ```text
-//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong] [prepared|one-shot]
+//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong] [prepared|one-shot] [N]
 //! ```
 
 use std::time::Instant;
@@ -31,8 +32,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("one-shot") => true,
         Some(other) => return Err(format!("calls {other:?}: prepared or one-shot").into()),
     };
+    let n: u32 = args.next().map_or(Ok(224), |a| a.parse())?;
     let (w, h) = (1920, 1080);
-    let mesh = meshes::terrain(224, 1000.0, 60.0);
+    let mesh = meshes::terrain(n, 1000.0, 60.0);
     let camera = Camera::framing(&mesh, w as f64 / h as f64, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
     let params = RenderParams {
         eye: Some(camera.viewer()),
@@ -43,11 +45,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..RenderParams::new(w, h, camera.view_projection(w, h)?)
     };
     let triangles = mesh.triangles.len();
+    let uploaded = std::rc::Rc::new(std::cell::Cell::new(0));
+    let last = uploaded.clone();
     let mut frame_ms: Box<dyn FnMut() -> Result<f64, tileraster::Error>> = if one_shot {
         Box::new(move || {
             let start = Instant::now();
             render(&mesh, &params, backend).map(|frame| {
                 let ms = start.elapsed().as_secs_f64() * 1e3;
+                last.set(frame.stats.raster.bytes_uploaded);
                 drop(frame);
                 ms
             })
@@ -57,7 +62,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut frame = Frame::default();
         Box::new(move || {
             let start = Instant::now();
-            prepared.render_into(&params, backend, &mut frame).map(|()| start.elapsed().as_secs_f64() * 1e3)
+            prepared.render_into(&params, backend, &mut frame).map(|()| {
+                last.set(frame.stats.raster.bytes_uploaded);
+                start.elapsed().as_secs_f64() * 1e3
+            })
         })
     };
     frame_ms()?;
@@ -65,12 +73,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ms.sort_by(f64::total_cmp);
     let n = ms.len();
     println!(
-        "{triangles} triangles, {w}×{h}, {}, {backend:?}, {}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames",
+        "{triangles} triangles, {w}×{h}, {}, {backend:?}, {}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames; the last handed over {} bytes",
         shading.name(),
         if one_shot { "one-shot" } else { "prepared" },
         ms[n / 2],
         ms[0],
-        ms[n - 1]
+        ms[n - 1],
+        uploaded.get()
     );
     Ok(())
 }

@@ -137,7 +137,8 @@ impl PreparedScene {
 }
 
 pub use tileraster_gpu::{
-    Adapter, FineWalk, set_binding_limit as set_gpu_binding_limit, set_fine_walk as set_gpu_fine_walk, set_window_limit as set_gpu_window_limit,
+    Adapter, AssemblyOn as GpuAssemblyOn, FineWalk, set_assembly_on as set_gpu_assembly_on, set_binding_limit as set_gpu_binding_limit,
+    set_fine_walk as set_gpu_fine_walk, set_window_limit as set_gpu_window_limit,
 };
 
 /// The Vulkan adapter [`Backend::Gpu`] uses, or why there is none.

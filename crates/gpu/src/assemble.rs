@@ -150,7 +150,8 @@ impl GeometryKernels for GeometryDevice {
     fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
         let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
         let projected = self.projected.clone().filter(|p| p.size() >= std::mem::size_of_val(mesh.projected) as u64);
-        let (false, Some(projected), true) = (self.frame.on_twins, projected, fits_one_binding(&ctx, mesh)) else {
+        let here = super::assembles_on_device(ctx.gpu.info.device_type) && fits_one_binding(&ctx, mesh);
+        let (false, Some(projected), true) = (self.frame.on_twins, projected, here) else {
             self.frame.on_twins = true;
             return tileraster_cpu::GeometryTwins::default().assemble_count(mesh);
         };

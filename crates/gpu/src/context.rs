@@ -70,6 +70,41 @@ pub fn set_fine_walk(walk: FineWalk) {
     FINE_WALK.store(walk as u8, Ordering::Relaxed);
 }
 
+/// Where a GPU frame's assembly runs (`assemble_count`, `assemble_scan`, `assemble_fill`).
+/// Both give the same bits, counts and `Stats::bytes_uploaded`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AssemblyOn {
+    /// Where it pays (`assembles_on_device`): the device's rows on a GPU, the host's twins on a
+    /// CPU implementation of Vulkan.
+    Auto,
+    /// The device's rows, their records set up where they wrote them.
+    Device,
+    /// The host's twins, their records uploaded for setup.
+    Host,
+}
+
+static ASSEMBLY_ON: AtomicU8 = AtomicU8::new(AssemblyOn::Auto as u8);
+
+/// Choose where GPU frames' assembly runs from now on (a test runs the device's rows on every
+/// device; a benchmark compares the two).
+pub fn set_assembly_on(on: AssemblyOn) {
+    ASSEMBLY_ON.store(on as u8, Ordering::Relaxed);
+}
+
+/// Whether a frame's assembly runs on `device`'s rows rather than the host's twins, unless
+/// told (`set_assembly_on`): on a GPU. On a CPU implementation of Vulkan the twins on all
+/// cores, their records uploaded, beat the rows and the read-back of their records: on
+/// lavapipe, a prepared frame of the 100k-triangle terrain at 1080p (face ids) took 92–102 ms
+/// with the twins and 156–218 ms with the rows (`examples/prepared_frames`, 2026-11-28). A GPU
+/// runs the rows until a device measures them against the twins.
+pub(crate) fn assembles_on_device(device: wgpu::DeviceType) -> bool {
+    match ASSEMBLY_ON.load(Ordering::Relaxed) {
+        on if on == AssemblyOn::Device as u8 => true,
+        on if on == AssemblyOn::Host as u8 => false,
+        _ => device != wgpu::DeviceType::Cpu,
+    }
+}
+
 static CONTEXT: OnceLock<Result<Mutex<GpuContext>, Error>> = OnceLock::new();
 
 fn context() -> Result<&'static Mutex<GpuContext>, Error> {

@@ -6,8 +6,10 @@
 //! bytes the last one handed over (`Stats::bytes_uploaded`).
 //!
 //! ```text
-//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong] [prepared|one-shot] [N]
+//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong] [prepared|one-shot] [N] [auto|device|host]
 //! ```
+//!
+//! The last says where a GPU frame's assembly runs (`set_gpu_assembly_on`).
 
 use std::time::Instant;
 use tileraster::Backend;
@@ -33,6 +35,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(other) => return Err(format!("calls {other:?}: prepared or one-shot").into()),
     };
     let n: u32 = args.next().map_or(Ok(224), |a| a.parse())?;
+    let assembly = match args.next().as_deref() {
+        None | Some("auto") => tileraster::GpuAssemblyOn::Auto,
+        Some("device") => tileraster::GpuAssemblyOn::Device,
+        Some("host") => tileraster::GpuAssemblyOn::Host,
+        Some(other) => return Err(format!("assembly {other:?}: auto, device or host").into()),
+    };
+    tileraster::set_gpu_assembly_on(assembly);
     let (w, h) = (1920, 1080);
     let mesh = meshes::terrain(n, 1000.0, 60.0);
     let camera = Camera::framing(&mesh, w as f64 / h as f64, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
@@ -73,7 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ms.sort_by(f64::total_cmp);
     let n = ms.len();
     println!(
-        "{triangles} triangles, {w}×{h}, {}, {backend:?}, {}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames; the last handed over {} bytes",
+        "{triangles} triangles, {w}×{h}, {}, {backend:?} (assembly {assembly:?}), {}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames; the last handed over {} bytes",
         shading.name(),
         if one_shot { "one-shot" } else { "prepared" },
         ms[n / 2],

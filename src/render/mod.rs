@@ -208,13 +208,6 @@ enum FrameKernels {
 }
 
 impl FrameKernels {
-    fn of(backend: Backend) -> Self {
-        match backend {
-            Backend::Cpu => FrameKernels::Cpu(Default::default()),
-            Backend::Gpu => FrameKernels::Gpu(Box::default()),
-        }
-    }
-
     fn stages(&mut self) -> &mut dyn GeometryKernels {
         match self {
             FrameKernels::Cpu(k) => k,
@@ -266,21 +259,25 @@ pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Fr
 /// in the memory the last call left and keeps its own ([`release_memory`]).
 pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
     with_call_memory(|memory| {
-        let mut kernels = FrameKernels::of(backend);
-        let (prepared, geometry) = tileraster_core::render::prepare_world_in(world, params, &mut memory.geometry, kernels.stages())?;
-        memory.rasterise(prepared, geometry, params, &kernels)
+        let mut kernels = memory.frame_kernels(backend);
+        let frame = tileraster_core::render::prepare_world_in(world, params, &mut memory.geometry, kernels.stages())
+            .and_then(|(prepared, geometry)| memory.rasterise(prepared, geometry, params, &kernels));
+        memory.keep(kernels);
+        frame
     })
 }
 
 /// The memory [`render`] and [`render_world`] work in, kept for the next call: the geometry
-/// stages' arrays, and the CPU's triangle setups and the layers its stages wrote that a frame
-/// did not return (a frame's returned layers are the caller's). A frame drawn in pages already
-/// mapped skips faulting tens of megabytes in (the 100k-triangle terrain at 1080p); its bits
-/// are the same.
+/// stages' arrays, the CPU's triangle setups and the layers its stages wrote that a frame did
+/// not return (a frame's returned layers are the caller's), and the GPU's geometry stages with
+/// their buffers on the device (the projected vertices, the records). A frame drawn in pages
+/// already mapped skips faulting tens of megabytes in (the 100k-triangle terrain at 1080p); its
+/// bits are the same.
 #[derive(Default)]
 struct CallMemory {
     geometry: GeometryMemory,
     cpu: tileraster_cpu::Workspace,
+    gpu_geometry: Option<Box<tileraster_gpu::GeometryDevice>>,
 }
 
 /// The kept [`CallMemory`], `None` until a call leaves it, while a call works in it, and after
@@ -311,9 +308,26 @@ pub fn release_memory() {
 impl CallMemory {
     /// [`render`] of a checked mesh in this memory.
     fn render(&mut self, mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-        let mut kernels = FrameKernels::of(backend);
-        let (prepared, geometry) = tileraster_core::render::prepare_checked_mesh_in(mesh, params, &mut self.geometry, kernels.stages())?;
-        self.rasterise(prepared, geometry, params, &kernels)
+        let mut kernels = self.frame_kernels(backend);
+        let frame = tileraster_core::render::prepare_checked_mesh_in(mesh, params, &mut self.geometry, kernels.stages())
+            .and_then(|(prepared, geometry)| self.rasterise(prepared, geometry, params, &kernels));
+        self.keep(kernels);
+        frame
+    }
+
+    /// The geometry kernels of a frame on `backend`: the GPU's those the last call kept.
+    fn frame_kernels(&mut self, backend: Backend) -> FrameKernels {
+        match backend {
+            Backend::Cpu => FrameKernels::Cpu(Default::default()),
+            Backend::Gpu => FrameKernels::Gpu(self.gpu_geometry.take().unwrap_or_default()),
+        }
+    }
+
+    /// Keep a frame's GPU geometry kernels (their buffers) for the next call.
+    fn keep(&mut self, kernels: FrameKernels) {
+        if let FrameKernels::Gpu(device) = kernels {
+            self.gpu_geometry = Some(device);
+        }
     }
 
     /// Rasterise and shade `prepared` on the backend whose `kernels` prepared it, and take its

@@ -156,4 +156,22 @@ fn the_device_keeps_the_records() {
     let whole = records * (std::mem::size_of::<TriangleInput>() + std::mem::size_of::<TriangleShading>()) as u64;
     assert_eq!(profile.bytes_up, raster + whole + lists, "{profile:?}");
     assert!(held.colours == apart.colours && held.faces == apart.faces, "the same frame either way");
+
+    // A world of three placements: each one's records after the last's, all held.
+    let world = World {
+        meshes: vec![mesh.clone()],
+        instances: vec![
+            Instance::of(0),
+            Instance { mesh: 0, transform: [[1.0, 0.0, 0.0, 2.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]] },
+            Instance { mesh: 0, transform: [[-1.0, 0.0, 0.0, 400.0], [0.0, 1.0, 0.0, -3.0], [0.0, 0.0, 1.0, 0.5], [0.0, 0.0, 0.0, 1.0]] },
+        ],
+    };
+    let mut device = tileraster_gpu::GeometryDevice::default();
+    let (prepared, counts) = tileraster_core::render::prepare_world(&world, &params, &mut device).unwrap();
+    assert_eq!(counts.instances_drawn, 3);
+    let plan = prepared.plan(prepared.window, false).unwrap();
+    let (held, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, false, Some(&device)).unwrap();
+    assert_eq!(profile.bytes_up, raster, "the world: {profile:?}");
+    let cpu = tileraster::render::render_world(&world, &params, Backend::Cpu).unwrap();
+    assert!(held.colours.as_ref() == Some(&cpu.colour) && held.faces.as_ref() == Some(&cpu.ids), "the world's frame is the CPU's");
 }

@@ -262,7 +262,9 @@ pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> R
         let mut kernels = memory.frame_kernels(backend);
         let frame = tileraster_core::render::prepare_world_in(world, params, &mut memory.geometry, kernels.stages())
             .and_then(|(prepared, geometry)| memory.rasterise(prepared, geometry, params, &kernels));
-        memory.keep(kernels);
+        if frame.is_ok() {
+            memory.keep(kernels);
+        }
         frame
     })
 }
@@ -298,7 +300,8 @@ fn with_call_memory<T>(f: impl FnOnce(&mut CallMemory) -> T) -> T {
 }
 
 /// Free the memory that [`render`] and [`render_world`] keep between calls (as much as the
-/// largest frame since needed: a few hundred megabytes after a frame of a million triangles).
+/// largest frame since needed: a few hundred megabytes after a frame of a million triangles,
+/// and on the GPU the device buffers of its geometry stages).
 /// The next call maps fresh memory again. A call in progress keeps working in its own memory,
 /// and keeps it when it ends.
 pub fn release_memory() {
@@ -311,7 +314,9 @@ impl CallMemory {
         let mut kernels = self.frame_kernels(backend);
         let frame = tileraster_core::render::prepare_checked_mesh_in(mesh, params, &mut self.geometry, kernels.stages())
             .and_then(|(prepared, geometry)| self.rasterise(prepared, geometry, params, &kernels));
-        self.keep(kernels);
+        if frame.is_ok() {
+            self.keep(kernels);
+        }
         frame
     }
 
@@ -323,7 +328,8 @@ impl CallMemory {
         }
     }
 
-    /// Keep a frame's GPU geometry kernels (their buffers) for the next call.
+    /// Keep a frame's GPU geometry kernels (their buffers) for the next call: only a frame's
+    /// that was drawn (a failed call may leave a buffer the device could not make).
     fn keep(&mut self, kernels: FrameKernels) {
         if let FrameKernels::Gpu(device) = kernels {
             self.gpu_geometry = Some(device);

@@ -110,8 +110,10 @@ pub struct Stats {
     /// writes these and, besides, one `FrameParams` uniform per dispatch window (one more
     /// where it sets the scene up); a scene too large for one binding goes up part by part,
     /// each window's triangles with its own lists, a frame's records assembled apart from the
-    /// device that rasterises it go up whole, and a call in an `f32` mode first checks the
-    /// adapter on probe scenes of its own, none of them in this figure. The CPU backend reads
+    /// device that rasterises it go up whole (every frame on a CPU implementation of Vulkan,
+    /// where the host's twins assemble: `tileraster_gpu::AssemblyOn`; `passes` then lists no
+    /// `upload` either), and a call in an `f32` mode first checks the adapter on probe scenes
+    /// of its own, none of them in this figure. The CPU backend reads
     /// everything where it is, and reports the same figure.
     pub bytes_uploaded: u64,
 }

@@ -41,7 +41,8 @@ pub struct GeometryDevice {
 /// The frame in progress on a [`GeometryDevice`], from its vertex stage to its raster call.
 #[derive(Debug, Default)]
 struct DeviceFrame {
-    /// Whether the twins assemble it (the device's buffers could not hold it).
+    /// Whether the twins assemble it (`assembles_on_device` says so, or the device's buffers
+    /// could not hold it).
     on_twins: bool,
     /// What each placed mesh's count left on the device for its fill, in the placements' order.
     counted: VecDeque<CountedMesh>,

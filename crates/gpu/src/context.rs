@@ -94,8 +94,9 @@ pub fn set_assembly_on(on: AssemblyOn) {
 /// Whether a frame's assembly runs on `device`'s rows rather than the host's twins, unless
 /// told (`set_assembly_on`): on a GPU. On a CPU implementation of Vulkan the twins on all
 /// cores, their records uploaded, beat the rows and the read-back of their records: on
-/// lavapipe, a prepared frame of the 100k-triangle terrain at 1080p (face ids) took 92–102 ms
-/// with the twins and 156–218 ms with the rows (`examples/prepared_frames`, 2026-11-28). A GPU
+/// lavapipe, a prepared frame of the 100k-triangle terrain at 1080p (face ids) took 98.5 and
+/// 101.4 ms with the twins, 217.6 and 156.4 ms with the rows (`examples/prepared_frames`, two
+/// rounds, 2026-11-28). A GPU
 /// runs the rows until a device measures them against the twins.
 pub(crate) fn assembles_on_device(device: wgpu::DeviceType) -> bool {
     match ASSEMBLY_ON.load(Ordering::Relaxed) {

@@ -39,7 +39,8 @@ pub trait GeometryKernels {
     /// frame's records where its raster stages read them (`records` of them, `listed` and
     /// `small` in its lists; on the CPU, the fills' `out` is that room) and returns the key
     /// the prepared frame carries (`RenderInputs::records_held`). A backend that assembles a
-    /// frame apart from its raster stages' buffers (the GPU past its binding limits) returns
+    /// frame apart from its raster stages' buffers (the GPU on a CPU device, or past its binding
+    /// limits, where the host's twins assemble) returns
     /// a key too: such a frame is counted as if held (`Stats::bytes_uploaded`). `None`: the
     /// records are handed over as a heightfield's are.
     fn hold_records(&mut self, records: u64, listed: u64, small: u64) -> Result<Option<u64>, Error> {

@@ -258,15 +258,7 @@ pub fn render(mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Fr
 /// ([`World::flattened`] gives that mesh, and the same frame). Like [`render`], the call works
 /// in the memory the last call left and keeps its own ([`release_memory`]).
 pub fn render_world(world: &World, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-    with_call_memory(|memory| {
-        let mut kernels = memory.frame_kernels(backend);
-        let frame = tileraster_core::render::prepare_world_in(world, params, &mut memory.geometry, kernels.stages())
-            .and_then(|(prepared, geometry)| memory.rasterise(prepared, geometry, params, &kernels));
-        if frame.is_ok() {
-            memory.keep(kernels);
-        }
-        frame
-    })
+    with_call_memory(|memory| memory.frame(params, backend, |geometry, kernels| tileraster_core::render::prepare_world_in(world, params, geometry, kernels)))
 }
 
 /// The memory [`render`] and [`render_world`] work in, kept for the next call: the geometry
@@ -311,29 +303,27 @@ pub fn release_memory() {
 impl CallMemory {
     /// [`render`] of a checked mesh in this memory.
     fn render(&mut self, mesh: &Mesh, params: &RenderParams, backend: Backend) -> Result<Frame, Error> {
-        let mut kernels = self.frame_kernels(backend);
-        let frame = tileraster_core::render::prepare_checked_mesh_in(mesh, params, &mut self.geometry, kernels.stages())
-            .and_then(|(prepared, geometry)| self.rasterise(prepared, geometry, params, &kernels));
-        if frame.is_ok() {
-            self.keep(kernels);
-        }
-        frame
+        self.frame(params, backend, |geometry, kernels| tileraster_core::render::prepare_checked_mesh_in(mesh, params, geometry, kernels))
     }
 
-    /// The geometry kernels of a frame on `backend`: the GPU's those the last call kept.
-    fn frame_kernels(&mut self, backend: Backend) -> FrameKernels {
-        match backend {
+    /// A frame on `backend` that `prepare` prepares in this memory's arrays with the frame's
+    /// geometry kernels (the GPU's those the last call kept, and kept again after a frame that
+    /// was drawn: a failed call may leave a buffer the device could not make).
+    fn frame(
+        &mut self,
+        params: &RenderParams,
+        backend: Backend,
+        prepare: impl FnOnce(&mut GeometryMemory, &mut dyn GeometryKernels) -> Result<(tileraster_core::Prepared, GeometryCounts), Error>,
+    ) -> Result<Frame, Error> {
+        let mut kernels = match backend {
             Backend::Cpu => FrameKernels::Cpu(Default::default()),
             Backend::Gpu => FrameKernels::Gpu(self.gpu_geometry.take().unwrap_or_default()),
-        }
-    }
-
-    /// Keep a frame's GPU geometry kernels (their buffers) for the next call: only a frame's
-    /// that was drawn (a failed call may leave a buffer the device could not make).
-    fn keep(&mut self, kernels: FrameKernels) {
-        if let FrameKernels::Gpu(device) = kernels {
+        };
+        let frame = prepare(&mut self.geometry, kernels.stages()).and_then(|(prepared, geometry)| self.rasterise(prepared, geometry, params, &kernels));
+        if let (Ok(_), FrameKernels::Gpu(device)) = (&frame, kernels) {
             self.gpu_geometry = Some(device);
         }
+        frame
     }
 
     /// Rasterise and shade `prepared` on the backend whose `kernels` prepared it, and take its

@@ -1,12 +1,12 @@
 //! Times a prepared mesh's frames: `render-report`'s 100k-triangle terrain (its camera, face ids
-//! or Phong shading, no fragment counts; `N` = 708 gives its 1M-triangle terrain) drawn again
+//! or another shading, no fragment counts; `N` = 708 gives its 1M-triangle terrain) drawn again
 //! and again by one `PreparedMesh`, as a viewer draws it; or, with `one-shot`, by `render`
 //! calls, each a whole frame from the mesh. A loop of frames and nothing else, for a profiler
 //! (`perf record`) and for before/after runs of two builds. It prints the frames' times and the
 //! bytes the last one handed over (`Stats::bytes_uploaded`).
 //!
 //! ```text
-//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong] [prepared|one-shot] [N] [auto|device|host]
+//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong|smooth|flat|unlit|...] [prepared|one-shot] [N] [auto|device|host]
 //! ```
 //!
 //! The last says where a GPU frame's assembly runs (`set_gpu_assembly_on`).
@@ -25,9 +25,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(other) => return Err(format!("backend {other:?}: cpu or gpu").into()),
     };
     let shading = match args.next().as_deref() {
-        None | Some("ids") => Shading::Ids,
-        Some("phong") => Shading::Phong,
-        Some(other) => return Err(format!("shading {other:?}: ids or phong").into()),
+        None => Shading::Ids,
+        Some(name) => match Shading::ALL.into_iter().find(|s| s.name() == name) {
+            Some(shading) => shading,
+            None => return Err(format!("shading {name:?}: one of {}", Shading::ALL.map(Shading::name).join(", ")).into()),
+        },
     };
     let one_shot = match args.next().as_deref() {
         None | Some("prepared") => false,

@@ -588,8 +588,8 @@ fn a_prepared_mesh_renders_what_render_does() {
             (131, 97, [2.0, 2.5, -1.5], tileraster::render::IDENTITY, Shading::Smooth, [9, 8, 7, 255], false),
             (64, 48, [12.0, 9.0, 6.0], tileraster::render::IDENTITY, Shading::Ids, [1, 2, 3, 4], false),
             (90, 70, [2.5, -2.0, 1.0], model, Shading::Unlit, [0, 0, 40, 255], true),
-            // Lit per vertex, then per face, then not at all, at one placement: attributes lit
-            // for one frame are not kept for the next.
+            // Lit per vertex, then per face, then not at all, at one placement: the kernels
+            // light the kept attributes, and flat shading keeps its face normals with them.
             (70, 50, [3.0, 1.0, 2.0], model, Shading::Smooth, [0, 0, 0, 255], false),
             (70, 50, [1.0, 3.0, 2.0], model, Shading::Flat, [0, 0, 0, 255], false),
             (70, 50, [1.0, 3.0, -2.0], model, Shading::Unlit, [0, 0, 0, 255], false),
@@ -652,16 +652,19 @@ fn a_mesh_behind_the_camera_draws_nothing() {
 
 /// A prepared mesh's `frame` with its upload counted as the one-shot frame `once`'s. Where
 /// `kept` (not its first frame on that backend) it handed neither its positions nor its faces
-/// again, and its vertex attributes neither where the frame before made them for the same
-/// placement and did not light them; else it hands over what `once` does.
+/// again, and its vertex attributes (with its face normals under flat shading) neither where
+/// the frame before made them for the same placement and shading; else it hands over what
+/// `once` does.
 fn as_one_shot(mut frame: Frame, once: &Frame, mesh: &Mesh, kept: bool) -> Frame {
-    use tileraster_kernels::abi::{ATTRIBUTES, RelativePosition};
+    use tileraster_kernels::abi::{ATTRIBUTES, FaceNormal, RelativePosition};
     let (prepared, one_shot) = (frame.stats.geometry.bytes_uploaded, once.stats.geometry.bytes_uploaded);
     if kept {
         let saved = (mesh.positions.len() * std::mem::size_of::<RelativePosition>() + std::mem::size_of_val(mesh.triangles.as_slice())) as u64;
         let attributes = (mesh.positions.len() * ATTRIBUTES * 4) as u64;
+        let face_normals = (mesh.triangles.len() * std::mem::size_of::<FaceNormal>()) as u64;
         let differs = one_shot.checked_sub(prepared);
-        assert!(differs == Some(saved) || differs == Some(saved + attributes), "a kept mesh's upload: {prepared}, {one_shot} at once");
+        let expected = [saved, saved + attributes, saved + attributes + face_normals].map(Some);
+        assert!(expected.contains(&differs), "a kept mesh's upload: {prepared}, {one_shot} at once");
     } else {
         assert_eq!(prepared, one_shot, "a first frame's upload");
     }
@@ -838,7 +841,11 @@ fn a_frames_upload_is_counted_whole() {
     let vertex = (std::mem::size_of::<VertexParams>() + 4 * std::mem::size_of::<RelativePosition>()) as u64;
     let faces = 2 * 3 * 4;
     let attributes = (4 * ATTRIBUTES * 4) as u64;
-    let assembly = 2 * std::mem::size_of::<AssembleParams>() as u64 + faces + attributes;
+    // (The default shading, Gouraud, hands the light stage its parameters and the frame's lights.)
+    assert_eq!(params.shading, Shading::Smooth);
+    let light = tileraster_core::render::light_bytes();
+    assert_eq!(light, (std::mem::size_of::<tileraster_kernels::abi::LightParams>() + std::mem::size_of::<ShadeParams>()) as u64);
+    let assembly = 2 * std::mem::size_of::<AssembleParams>() as u64 + light + faces + attributes;
     let geometry = vertex + assembly;
     assert_eq!(square.positions.len(), 4);
     let frame = cpu(&square, &params);
@@ -856,10 +863,13 @@ fn a_frames_upload_is_counted_whole() {
         assert_eq!(apart.bytes_up, records + raster + 2 * std::mem::size_of::<FrameParams>() as u64, "{apart:?}");
     }
     // A prepared mesh hands its positions, faces and attributes over once: its later frames
-    // hand over the stages' parameters alone, on either backend, and the attributes again
-    // where they are lit per vertex (Gouraud shading, this frame's).
+    // hand over the stages' parameters alone, on either backend (with the frame's lights where
+    // the kernels light: the light stage's under Gouraud shading, this frame's, and the fill's
+    // under flat shading, whose face normals go over with the attributes the first time).
     let backends: &[Backend] = if gpu_or_skip("a_frames_upload_is_counted_whole (prepared)") { &[Backend::Cpu, Backend::Gpu] } else { &[Backend::Cpu] };
     let parameters = (std::mem::size_of::<VertexParams>() + 2 * std::mem::size_of::<AssembleParams>()) as u64;
+    let lights = std::mem::size_of::<ShadeParams>() as u64;
+    let face_normals = 2 * std::mem::size_of::<tileraster_kernels::abi::FaceNormal>() as u64;
     assert_eq!(params.shading, Shading::Smooth);
     for &backend in backends {
         let mut prepared = tileraster::render::PreparedMesh::new(square.clone()).unwrap();
@@ -867,12 +877,18 @@ fn a_frames_upload_is_counted_whole() {
         let later = prepared.render(&params, backend).unwrap();
         let unlit = RenderParams { shading: Shading::Unlit, ..params.clone() };
         let (first_unlit, later_unlit) = (prepared.render(&unlit, backend).unwrap(), prepared.render(&unlit, backend).unwrap());
+        let flat = RenderParams { shading: Shading::Flat, ..params.clone() };
+        let (first_flat, later_flat) = (prepared.render(&flat, backend).unwrap(), prepared.render(&flat, backend).unwrap());
         assert_eq!(first.stats.geometry.bytes_uploaded, geometry, "{backend:?}");
-        assert_eq!(later.stats.geometry.bytes_uploaded, parameters + attributes, "{backend:?}");
-        assert_eq!(first_unlit.stats.geometry.bytes_uploaded, parameters + attributes, "{backend:?}");
+        assert_eq!(later.stats.geometry.bytes_uploaded, parameters + light, "{backend:?}");
+        assert_eq!(first_unlit.stats.geometry.bytes_uploaded, parameters, "{backend:?}");
         assert_eq!(later_unlit.stats.geometry.bytes_uploaded, parameters, "{backend:?}");
-        assert_eq!((first.ids, first.depth), (later.ids, later.depth), "{backend:?}");
+        assert_eq!(first_flat.stats.geometry.bytes_uploaded, parameters + lights + attributes + face_normals, "{backend:?}");
+        assert_eq!(later_flat.stats.geometry.bytes_uploaded, parameters + lights, "{backend:?}");
+        assert_eq!((first.colour, first.ids, first.depth), (later.colour, later.ids, later.depth), "{backend:?}");
+        assert_ne!(first_flat.colour, first_unlit.colour, "{backend:?}: flat shading lights the square");
         assert_eq!((first_unlit.colour, first_unlit.depth), (later_unlit.colour, later_unlit.depth), "{backend:?}");
+        assert_eq!((first_flat.colour, first_flat.depth), (later_flat.colour, later_flat.depth), "{backend:?}");
     }
 }
 

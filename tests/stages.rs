@@ -106,6 +106,8 @@ struct Recorded {
     params: Option<tileraster_kernels::abi::VertexParams>,
     positions: Vec<tileraster_kernels::abi::RelativePosition>,
     assembled: Vec<RecordedMesh>,
+    /// Vertices the light stage lit on both backends.
+    lit_compared: usize,
 }
 
 /// A placed mesh's faces as the host handed them to the assembly stages, and what the twins made.
@@ -114,7 +116,9 @@ struct RecordedMesh {
     faces: Vec<u32>,
     projected: Vec<tileraster_kernels::abi::ProjectedVertex>,
     attributes: Vec<[f32; tileraster_kernels::abi::ATTRIBUTES]>,
-    lights: Vec<tileraster_kernels::abi::LitFace>,
+    lit: Vec<[f32; 4]>,
+    face_normals: Vec<tileraster_kernels::abi::FaceNormal>,
+    shade: tileraster_kernels::abi::ShadeParams,
     textures: Vec<u32>,
     count: tileraster_core::render::AssemblyCount,
     patches: tileraster_core::render::AssemblyPatches,
@@ -133,6 +137,21 @@ impl tileraster::render::GeometryKernels for Recorded {
         self.positions = positions.pairs.to_vec();
         tileraster_cpu::vertex(params, positions.pairs, projected);
         Ok(positions.bytes(true))
+    }
+
+    fn light(
+        &mut self,
+        shade: &tileraster_kernels::abi::ShadeParams,
+        attributes: &[[f32; tileraster_kernels::abi::ATTRIBUTES]],
+        _kept: Option<u64>,
+        lit: &mut Vec<[f32; 4]>,
+    ) -> Result<u64, tileraster::Error> {
+        tileraster_cpu::light(shade, attributes, lit);
+        // The device's light stage writes the twin's bytes.
+        let device = tileraster_gpu::light_rows(shade, attributes)?;
+        assert!(bytemuck::cast_slice::<_, u8>(&device) == bytemuck::cast_slice::<_, u8>(lit), "the light stage differs between the backends");
+        self.lit_compared += lit.len();
+        Ok(0)
     }
 
     fn assemble_count(&mut self, mesh: &tileraster_core::render::AssemblyMesh<'_>) -> Result<tileraster_core::render::AssemblyCount, tileraster::Error> {
@@ -154,7 +173,9 @@ impl tileraster::render::GeometryKernels for Recorded {
             faces: mesh.faces.to_vec(),
             projected: mesh.projected.to_vec(),
             attributes: mesh.attributes.to_vec(),
-            lights: mesh.lights.to_vec(),
+            lit: mesh.lit.to_vec(),
+            face_normals: mesh.face_normals.to_vec(),
+            shade: *mesh.shade,
             textures: mesh.textures.to_vec(),
             count: count.clone(),
             patches: patches.clone(),
@@ -272,17 +293,22 @@ fn the_assembly_stages_are_the_same_bits_on_both_backends() {
         ("Phong shading, four samples", RenderParams { samples: 4, ..base.clone() }),
         ("ids", RenderParams { shading: Shading::Ids, ..base.clone() }),
     ];
-    let (mut compared, mut patched) = (0, 0);
+    let (mut compared, mut patched, mut lit_compared) = (0, 0, 0);
     for (name, params) in cases {
         let mut recorded = Recorded::default();
         let (prepared, _) = tileraster_core::render::prepare_render(&mesh, &params, &mut recorded).unwrap();
         let [one] = &recorded.assembled[..] else { panic!("{name}: one placed mesh, {} assembled", recorded.assembled.len()) };
+        let lit = params.shading == Shading::Smooth;
+        assert_eq!(recorded.lit_compared > 0, lit, "{name}: the light stage runs for Gouraud shading alone");
+        lit_compared += recorded.lit_compared;
         let input = AssemblyMesh {
             params: one.params,
             faces: &one.faces,
             projected: &one.projected,
             attributes: &one.attributes,
-            lights: &one.lights,
+            lit: &one.lit,
+            face_normals: &one.face_normals,
+            shade: &one.shade,
             textures: &one.textures,
             kept: Default::default(),
         };
@@ -324,6 +350,6 @@ fn the_assembly_stages_are_the_same_bits_on_both_backends() {
     assert_eq!((second.params.first_listed + second.params.first_small) as usize, first.inputs.len());
     let records: Vec<u8> = [bytemuck::cast_slice::<_, u8>(&first.inputs), bytemuck::cast_slice(&second.inputs)].concat();
     assert!(records == bytemuck::cast_slice::<_, u8>(&prepared.triangles), "the world's records are its placements' in turn");
-    println!("{compared} records compared, {patched} of them pieces of faces clipped on the host");
+    println!("{compared} records compared, {patched} of them pieces of faces clipped on the host; {lit_compared} vertices lit");
     assert!(patched > 20, "{patched} pieces");
 }

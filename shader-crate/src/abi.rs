@@ -462,7 +462,7 @@ impl DepthTest {
 #[cfg_attr(not(target_arch = "spirv"), derive(Debug, Hash))]
 pub enum ShadeMode {
     /// The interpolated vertex colour as it is (flat and Gouraud shading: lit per face or per
-    /// vertex on the host).
+    /// vertex by the assembly, `programs::shade::lit_face` and `lit_vertex`).
     #[default]
     Colour = 0,
     /// Lambert diffuse and Blinn-Phong specular per pixel, from the interpolated normal.
@@ -976,8 +976,11 @@ pub struct AssembleParams {
     pub attributes: u32,
     /// 1 for flat interpolation: every corner takes the face's first vertex's attributes.
     pub flat: u32,
-    /// 1 where each face's colour and normal come from its `LitFace` (flat shading).
-    pub face_lights: u32,
+    /// How the assembly lights the corners' colours: `LIGHT_NONE`, `LIGHT_VERTICES` (Gouraud
+    /// shading: each corner takes its vertex's colour as the light stage lit it) or `LIGHT_FACES`
+    /// (flat shading: each face's first vertex's colour lit with its `FaceNormal`, both written
+    /// over every corner), with the frame's `ShadeParams`.
+    pub lighting: u32,
     /// 1 where each face names its texture (`FaceTextures`, offset by `first_texture` unless
     /// `NO_TEXTURE`); else every face takes `texture`.
     pub face_textures: u32,
@@ -997,7 +1000,10 @@ pub struct AssembleParams {
     /// The mesh's first vertex in the frame's vertices (`Projected`, `VertexAttributes`: the
     /// placements' one after the other); its faces index its own.
     pub first_vertex: u32,
-    pub _pad: [u32; 2],
+    /// The mesh's first face in the frame's `FaceNormal`s (the placements' one after the
+    /// other), under flat shading.
+    pub first_face_normal: u32,
+    pub _pad: u32,
 }
 
 /// A face the host clipped, patched into the assembly's output in its place: its pieces'
@@ -1013,11 +1019,30 @@ pub struct AssemblyPatch {
     pub small: u32,
 }
 
-/// A face's colour and normal under flat shading, written over its corners' (colour in
-/// `[0..4]`, normal in `[4..7]`).
+/// The light stage's parameters (`stages::light`).
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
-pub struct LitFace {
-    pub values: [f32; 8],
+pub struct LightParams {
+    /// Vertices of the frame.
+    pub vertices: u32,
+    /// Invocations per row of the 2D dispatch that stands for a 1D one.
+    pub dispatch_width: u32,
+    pub _pad: [u32; 2],
+}
+
+/// `AssembleParams::lighting`: the corners' colours as the vertices give them.
+pub const LIGHT_NONE: u32 = 0;
+/// Gouraud shading: each vertex lit by the light stage (`stages::light`).
+pub const LIGHT_VERTICES: u32 = 1;
+/// Flat shading: each face lit (`programs::shade::lit_face`).
+pub const LIGHT_FACES: u32 = 2;
+
+/// A face's unit normal in the world under flat shading (`normal[3]` is 0), which the
+/// assembly writes over its corners' and lights the face with (`programs::shade::lit_face`).
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct FaceNormal {
+    pub normal: [f32; 4],
 }

@@ -7,7 +7,7 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, LitFace, TriangleShading};
+use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, LightParams, TriangleShading};
 use crate::abi::{
     Counter, Coverage, FrameParams, OutputSet, ProjectedVertex, RelativePosition, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput,
     TriangleSetup, VertexParams,
@@ -48,6 +48,21 @@ pub fn vertex(
     let v = gid.y * params.dispatch_width + gid.x;
     if v < params.vertices {
         projected[v as usize] = crate::stages::vertex::vertex(params, &positions[v as usize]);
+    }
+}
+
+#[cfg(feature = "entry-points")]
+#[spirv(compute(threads(64)))]
+pub fn light(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &LightParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] shade: &ShadeParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] attributes: &[[f32; ATTRIBUTES]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] lit: &mut [[f32; 4]],
+) {
+    let v = gid.y * params.dispatch_width + gid.x;
+    if v < params.vertices {
+        lit[v as usize] = crate::stages::light::light(shade, attributes, v);
     }
 }
 
@@ -103,16 +118,18 @@ pub fn assemble_fill(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] faces: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] projected: &[ProjectedVertex],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] attributes: &[[f32; ATTRIBUTES]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[LitFace],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] textures: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] patches: &[AssemblyPatch],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] piece_inputs: &[TriangleInput],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] piece_shading: &[TriangleShading],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] inputs: &mut [TriangleInput],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] shading: &mut [TriangleShading],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] listed: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] small: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lit: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] normals: &[FaceNormal],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] shade: &ShadeParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] textures: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] patches: &[AssemblyPatch],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] piece_inputs: &[TriangleInput],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] piece_shading: &[TriangleShading],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] inputs: &mut [TriangleInput],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] shading: &mut [TriangleShading],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] listed: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] small: &mut [u32],
     #[spirv(workgroup)] shared: &mut [u32; FACE_GROUP as usize],
 ) {
     let f = gid.y * params.dispatch_width + gid.x;
@@ -122,7 +139,25 @@ pub fn assemble_fill(
     assemble::fill_ranks(lid, shared);
     barrier();
     let rank = shared[lid as usize];
-    assemble::fill_face(params, attributes, lights, textures, patches, piece_inputs, piece_shading, f, &face, offsets, rank, inputs, shading, listed, small);
+    assemble::fill_face(
+        params,
+        attributes,
+        lit,
+        normals,
+        shade,
+        textures,
+        patches,
+        piece_inputs,
+        piece_shading,
+        f,
+        &face,
+        offsets,
+        rank,
+        inputs,
+        shading,
+        listed,
+        small,
+    );
 }
 
 #[cfg(feature = "entry-points")]

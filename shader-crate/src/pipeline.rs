@@ -18,11 +18,13 @@
 //!
 //! ```text
 //!  frame:   vertex params, positions ─▶ vertex ─▶ projected
+//!           light params, shade params, vertex attributes ─▶ light ─▶ lit colours (Gouraud)
 //!           assemble params, face indices, projected ─▶ assemble_count ─▶ group counts,
 //!               assembly counters, clipped faces (read back: the host clips those)
 //!           group counts, patches ─▶ assemble_scan ─▶ group offsets
-//!           face indices, projected, vertex attributes, lit faces, face textures, patches,
-//!               pieces, group offsets ─▶ assemble_fill ─▶ inputs, shading, listed, small listed
+//!           face indices, projected, vertex attributes, lit colours, face normals, shade
+//!               params, face textures, patches, pieces, group offsets ─▶ assemble_fill
+//!               ─▶ inputs, shading, listed, small listed
 //!  scene:   inputs ─▶ setup ─▶ setups (kept for every later window)
 //!  window:  setups, listed ─▶ bin_count ─▶ counts ─▶ bin_scan ─▶ offsets
 //!           setups, listed, offsets ─▶ bin_fill ─▶ bins, bin keys (cursors: its atomics)
@@ -42,6 +44,7 @@ use crate::{SCAN_GROUP, SHADE_PASSES, TILE, TRIANGLE_GROUP};
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
     Vertex,
+    Light,
     AssembleCount,
     AssembleScan,
     AssembleFill,
@@ -93,8 +96,13 @@ pub enum Buffer {
     FaceIndices,
     /// The mesh's vertices' attributes, `[f32; ATTRIBUTES]` each (where they carry any).
     VertexAttributes,
-    /// `LitFace` per face of the mesh (flat shading).
-    LitFaces,
+    /// `LightParams` of the frame (`stages::light`).
+    LightParams,
+    /// Per vertex of the frame, its colour as the light stage lit it, `[f32; 4]` (Gouraud
+    /// shading).
+    LitColours,
+    /// `FaceNormal` per face of the frame's placed meshes, one after the other (flat shading).
+    FaceNormals,
     /// The texture of each face of the mesh, `u32` (where the faces name theirs).
     FaceTextures,
     /// Per workgroup of faces, its kept faces' listed and small records (`u32` each).
@@ -305,7 +313,7 @@ const fn appended<const N: usize, const M: usize>(bindings: [Binding; N], last: 
 }
 
 /// The stages in the order they run.
-pub const STAGES: [StageInfo; 13] = [
+pub const STAGES: [StageInfo; 14] = [
     StageInfo {
         stage: Stage::Vertex,
         name: "vertex",
@@ -314,6 +322,16 @@ pub const STAGES: [StageInfo; 13] = [
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerVertex,
         bindings: &[read(Buffer::VertexParams), read(Buffer::Positions), write(Buffer::Projected)],
+        pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
+    },
+    StageInfo {
+        stage: Stage::Light,
+        name: "light",
+        entry_point: "entry::light",
+        scope: Scope::Frame,
+        workgroup: [TRIANGLE_GROUP, 1, 1],
+        dispatch: Dispatch::PerVertex,
+        bindings: &[read(Buffer::LightParams), read(Buffer::ShadeParams), read(Buffer::VertexAttributes), write(Buffer::LitColours)],
         pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
     },
     StageInfo {
@@ -355,7 +373,9 @@ pub const STAGES: [StageInfo; 13] = [
             read(Buffer::FaceIndices),
             read(Buffer::Projected),
             read(Buffer::VertexAttributes),
-            read(Buffer::LitFaces),
+            read(Buffer::LitColours),
+            read(Buffer::FaceNormals),
+            read(Buffer::ShadeParams),
             read(Buffer::FaceTextures),
             read(Buffer::Patches),
             read(Buffer::Pieces),
@@ -502,8 +522,9 @@ pub const STAGES: [StageInfo; 13] = [
 ];
 
 impl Stage {
-    pub const ALL: [Stage; 13] = [
+    pub const ALL: [Stage; 14] = [
         Stage::Vertex,
+        Stage::Light,
         Stage::AssembleCount,
         Stage::AssembleScan,
         Stage::AssembleFill,

@@ -8,13 +8,13 @@ mod stages;
 
 pub use stages::{
     FinePath, SmallBins, SmallSeeds, SmallTriangles, assemble_count, assemble_fill, assemble_scan, bin_count, bin_fill, bin_scan, fine_depth, fine_raster,
-    fine_samples, fine_small, fine_small_for, setup, setup_into, shade, vertex,
+    fine_samples, fine_small, fine_small_for, light, setup, setup_into, shade, vertex,
 };
 pub use tileraster_kernels::pipeline::StageBuffers;
 
 use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs, Positions};
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
-use tileraster_kernels::abi::{Counter, ProjectedVertex, TriangleSetup, VertexParams};
+use tileraster_kernels::abi::{ATTRIBUTES, Counter, ProjectedVertex, ShadeParams, TriangleSetup, VertexParams};
 use tileraster_kernels::pipeline::{Stage, raster_stages};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
@@ -131,6 +131,11 @@ impl tileraster_core::render::GeometryKernels for GeometryTwins {
         Ok(mesh.bytes(patches, KeptHanded::of(&mesh.kept, &mut self.held_inputs)))
     }
 
+    fn light(&mut self, shade: &ShadeParams, attributes: &[[f32; ATTRIBUTES]], _kept: Option<u64>, lit: &mut Vec<[f32; 4]>) -> Result<u64, Error> {
+        light(shade, attributes, lit);
+        Ok(tileraster_core::render::light_bytes())
+    }
+
     /// The records are written into the host's arrays, where setup reads them.
     fn hold_records(&mut self, _records: u64, _listed: u64, _small: u64) -> Result<Option<u64>, Error> {
         Ok(Some(0))
@@ -167,7 +172,7 @@ fn rasterise_planned_with(
         for info in raster_stages(prepared.pipeline()).filter(|s| s.runs_for(frame.flags)) {
             let setups = resident.as_ref().map(|r| r.setups.as_slice()).unwrap_or_default();
             match info.stage {
-                Stage::Vertex | Stage::AssembleCount | Stage::AssembleScan | Stage::AssembleFill => {
+                Stage::Vertex | Stage::Light | Stage::AssembleCount | Stage::AssembleScan | Stage::AssembleFill => {
                     unreachable!("the geometry stages run as the host prepares the frame")
                 }
                 Stage::Setup => {

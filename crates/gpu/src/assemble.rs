@@ -1,7 +1,7 @@
 //! The geometry stages on the device, as the host prepares a frame (`GeometryKernels`): the
 //! vertex stage, and the assembly's rows (`assemble_count`, `assemble_scan`, `assemble_fill`,
 //! `stages::assemble`). The projected vertices stay where the vertex stage wrote them, a
-//! prepared mesh's faces, face textures and attributes stay on the device between its frames,
+//! prepared mesh's faces, face textures, attributes and face normals stay on the device between its frames,
 //! and the fill writes the frame's records and lists where setup and binning read them
 //! ([`HeldRecords`]). The count comes back (a few words a group of faces, and the faces left to
 //! the host's clipping), and so do the records, for the host's plan (its pass over them is
@@ -12,7 +12,10 @@ use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, Ordering};
 use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, GeometryKernels, KeptHanded, KeptInputs, Positions};
 use tileraster_core::{Error, Mode, Prepared};
-use tileraster_kernels::abi::{AssembleParams, ProjectedVertex, TriangleInput, TriangleShading, VertexParams};
+use tileraster_kernels::TRIANGLE_GROUP;
+use tileraster_kernels::abi::{
+    ATTRIBUTES, AssembleParams, LIGHT_FACES, LightParams, ProjectedVertex, ShadeParams, TriangleInput, TriangleShading, VertexParams,
+};
 use tileraster_kernels::pipeline::{Buffer, Pipeline, STAGES, Scope, Stage};
 use tileraster_kernels::stages::assemble::{ASSEMBLY_COUNTERS, CLIPPED_ON_HOST, FACE_GROUP};
 
@@ -26,10 +29,10 @@ pub struct GeometryDevice {
     /// The frame's projected vertices where the vertex stage left them (`None` after a stage in
     /// parts: the twins assemble that frame).
     projected: Option<wgpu::Buffer>,
-    /// A prepared mesh's faces and face textures, and the frame's vertex attributes, on the
-    /// device by their keys (`KeptInputs`).
+    /// A prepared mesh's faces and face textures, and the frame's vertex attributes and face
+    /// normals, on the device by their keys (`KeptInputs`).
     faces: Option<(u64, wgpu::Buffer, wgpu::Buffer)>,
-    attributes: Option<(u64, wgpu::Buffer)>,
+    attributes: Option<(u64, wgpu::Buffer, wgpu::Buffer)>,
     /// The keys the byte count takes as handed over (`KeptHanded`, the figure both backends
     /// report).
     counted: KeptInputs,
@@ -47,6 +50,8 @@ struct DeviceFrame {
     /// What each placed mesh's count left on the device for its fill, in the placements' order.
     counted: VecDeque<CountedMesh>,
     records: Option<HeldRecords>,
+    /// The light stage's colours where it left them (Gouraud shading), for the fills.
+    lit: Option<wgpu::Buffer>,
 }
 
 #[derive(Debug, Default)]
@@ -55,6 +60,7 @@ struct RecordRoom {
     shading: Option<wgpu::Buffer>,
     listed: Option<wgpu::Buffer>,
     small: Option<wgpu::Buffer>,
+    lit: Option<wgpu::Buffer>,
 }
 
 /// A frame's records where `assemble_fill` wrote them: setup reads `inputs`, the shade stages
@@ -79,7 +85,7 @@ struct CountedMesh {
     textures: wgpu::Buffer,
     projected: wgpu::Buffer,
     attributes: wgpu::Buffer,
-    lights: wgpu::Buffer,
+    face_normals: wgpu::Buffer,
     group_counts: wgpu::Buffer,
 }
 
@@ -113,27 +119,36 @@ impl GeometryDevice {
                 (faces, textures)
             }
         };
-        let attributes = match (&self.attributes, mesh.kept.attributes) {
-            (Some((held, attributes)), Some(key)) if *held == key => attributes.clone(),
+        let (attributes, face_normals) = match (&self.attributes, mesh.kept.attributes) {
+            (Some((held, attributes, normals)), Some(key)) if *held == key => (attributes.clone(), normals.clone()),
             _ => {
                 self.attributes = None;
                 let attributes = ctx.storage_with("vertex attributes", bytemuck::cast_slice(mesh.attributes), 0);
+                let normals = ctx.storage_with("face normals", bytemuck::cast_slice(mesh.face_normals), 0);
                 if let Some(key) = mesh.kept.attributes {
-                    self.attributes = Some((key, attributes.clone()));
+                    self.attributes = Some((key, attributes.clone(), normals.clone()));
                 }
-                attributes
+                (attributes, normals)
             }
         };
-        let lights = ctx.storage_with("lit faces", bytemuck::cast_slice(mesh.lights), 0);
         let group_counts = ctx.storage_with("group counts", &[], 8 * mesh.params.faces.div_ceil(FACE_GROUP) as u64);
-        CountedMesh { faces: faces.0, textures: faces.1, projected, attributes, lights, group_counts }
+        CountedMesh { faces: faces.0, textures: faces.1, projected, attributes, face_normals, group_counts }
     }
+}
+
+/// `slot`'s buffer, grown to at least `bytes` where smaller (the old one dropped first).
+fn grown(device: &wgpu::Device, slot: &mut Option<wgpu::Buffer>, label: &str, bytes: u64) -> wgpu::Buffer {
+    if slot.as_ref().is_none_or(|b| b.size() < bytes.max(16)) {
+        *slot = None;
+        *slot = Some(storage_buffer(device, label, bytes));
+    }
+    slot.clone().expect("grown above")
 }
 
 /// Whether each of a mesh's assembly inputs fits one binding of the device.
 fn fits_one_binding(ctx: &GpuContext, mesh: &AssemblyMesh<'_>) -> bool {
-    let largest =
-        [std::mem::size_of_val(mesh.faces), std::mem::size_of_val(mesh.projected), std::mem::size_of_val(mesh.attributes), std::mem::size_of_val(mesh.lights)];
+    use std::mem::size_of_val as size;
+    let largest = [size(mesh.faces), size(mesh.projected), size(mesh.attributes), size(mesh.face_normals)];
     largest.into_iter().all(|b| b as u64 <= ctx.max_binding())
 }
 
@@ -180,28 +195,50 @@ impl GeometryKernels for GeometryDevice {
         if self.frame.on_twins || inputs.max(shading) > ctx.max_binding() {
             self.frame.on_twins = true;
         } else {
-            let room = &mut self.room;
-            let grown = |slot: &mut Option<wgpu::Buffer>, label, bytes: u64| {
-                if slot.as_ref().is_none_or(|b| b.size() < bytes.max(16)) {
-                    *slot = None;
-                    *slot = Some(storage_buffer(&ctx.gpu.device, label, bytes));
-                }
-                slot.clone().expect("grown above")
-            };
+            let (room, device) = (&mut self.room, &ctx.gpu.device);
             self.frame.records = Some(HeldRecords {
                 key,
                 records,
                 listed,
                 small,
-                inputs: grown(&mut room.inputs, "triangle inputs", inputs),
-                shading: grown(&mut room.shading, "triangle shading", shading),
-                listed_slots: grown(&mut room.listed, "listed", 4 * listed),
-                small_slots: grown(&mut room.small, "small listed", 4 * small),
+                inputs: grown(device, &mut room.inputs, "triangle inputs", inputs),
+                shading: grown(device, &mut room.shading, "triangle shading", shading),
+                listed_slots: grown(device, &mut room.listed, "listed", 4 * listed),
+                small_slots: grown(device, &mut room.small, "small listed", 4 * small),
             });
         }
         // (A frame its twins assemble is counted as the device would hand it over: its
         // records are uploaded whole by its raster call, as `Stats::bytes_uploaded` says.)
         Ok(Some(key))
+    }
+
+    fn light(&mut self, shade: &ShadeParams, attributes: &[[f32; ATTRIBUTES]], kept: Option<u64>, lit: &mut Vec<[f32; 4]>) -> Result<u64, Error> {
+        let fills_here = !self.frame.on_twins && self.frame.records.is_some();
+        let held = match (&self.attributes, kept) {
+            (Some((held, attributes, _)), Some(key)) if *held == key => Some(attributes.clone()),
+            _ => None,
+        };
+        let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+        let scope = ctx.gpu.error_scope();
+        let colours = (attributes.len() * std::mem::size_of::<[f32; 4]>()) as u64;
+        let out = grown(&ctx.gpu.device, &mut self.room.lit, "lit colours", colours);
+        match (fills_here, held) {
+            (true, Some(attributes_buffer)) => ctx.light_rows(shade, attributes.len() as u32, &attributes_buffer, &out)?,
+            _ => {
+                // The twins fill, or the attributes are not on the device (then the colours go
+                // up for the device's fills).
+                tileraster_cpu::light(shade, attributes, lit);
+                if fills_here {
+                    ctx.recorder.upload(&ctx.gpu.queue, &out, bytemuck::cast_slice(lit));
+                }
+            }
+        }
+        if let Some(e) = scope.finish() {
+            self.frame.lit = None;
+            return Err(Error::Gpu(format!("the light stage: {e}")));
+        }
+        self.frame.lit = fills_here.then_some(out);
+        Ok(tileraster_core::render::light_bytes())
     }
 
     fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<u64, Error> {
@@ -221,7 +258,8 @@ impl GeometryKernels for GeometryDevice {
         };
         let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
         let scope = ctx.gpu.error_scope();
-        let filled = ctx.fill_rows(mesh, &counted, count, patches, &target).and_then(|(encoder, _)| {
+        let lit = self.frame.lit.clone();
+        let filled = ctx.fill_rows(mesh, &counted, lit, count, patches, &target).and_then(|(encoder, _)| {
             // This mesh's records back, for the host's plan.
             let first = (mesh.params.first_listed + mesh.params.first_small) as u64;
             let at = |size: usize| first * size as u64;
@@ -274,6 +312,25 @@ pub fn assemble_rows(mesh: &AssemblyMesh<'_>, patches: &AssemblyPatches) -> Resu
         return Err(Error::Gpu(format!("the assembly stages: {e}")));
     }
     result
+}
+
+/// Run the light stage on the device over `attributes` with the lights of `shade`, its
+/// colours read back: for the comparison of the backends stage by stage.
+pub fn light_rows(shade: &ShadeParams, attributes: &[[f32; ATTRIBUTES]]) -> Result<Vec<[f32; 4]>, Error> {
+    let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
+    ctx.check_float_modes(Mode::Barycentric)?;
+    let scope = ctx.gpu.error_scope();
+    let bytes = (attributes.len() * std::mem::size_of::<[f32; 4]>()) as u64;
+    let buffer = ctx.storage_with("vertex attributes", bytemuck::cast_slice(attributes), 0);
+    let out = ctx.storage_with("lit colours", &[], bytes);
+    let read = ctx.light_rows(shade, attributes.len() as u32, &buffer, &out).and_then(|()| {
+        let encoder = ctx.gpu.device.create_command_encoder(&Default::default());
+        ctx.read_parts(encoder, &[(&out, 0, bytes)])
+    });
+    if let Some(e) = scope.finish() {
+        return Err(Error::Gpu(format!("the light stage: {e}")));
+    }
+    Ok(bytemuck::pod_collect_to_vec(&read?[0]))
 }
 
 impl GpuContext {
@@ -346,6 +403,29 @@ impl GpuContext {
         ((x, y), AssembleParams { groups: params.faces.div_ceil(FACE_GROUP), dispatch_width: x * FACE_GROUP, ..*params })
     }
 
+    /// The light stage over the frame's `vertices` (their `attributes` on the device) into
+    /// `out`, submitted: the fills that read the colours are submitted after it.
+    fn light_rows(&mut self, shade: &ShadeParams, vertices: u32, attributes: &wgpu::Buffer, out: &wgpu::Buffer) -> Result<(), Error> {
+        let groups = vertices.div_ceil(TRIANGLE_GROUP).max(1);
+        let (x, y) = (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS));
+        let params = LightParams { vertices, dispatch_width: x * TRIANGLE_GROUP, _pad: [0; 2] };
+        let params_buf = self.storage_with("light params", bytemuck::bytes_of(&params), 0);
+        let shade_buf = self.storage_with("shade params", bytemuck::bytes_of(shade), 0);
+        let rows = self.frame_rows(&[Stage::Light]);
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let bound = |buffer| match buffer {
+            Buffer::LightParams => Some(params_buf.clone()),
+            Buffer::ShadeParams => Some(shade_buf.clone()),
+            Buffer::VertexAttributes => Some(attributes.clone()),
+            Buffer::LitColours => Some(out.clone()),
+            _ => None,
+        };
+        self.encode_stages(&mut encoder, Pipeline::Render, &rows, Scope::Frame, &Default::default(), (x, y), &bound)?;
+        self.recorder.submit();
+        self.gpu.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
     /// `assemble_count` over `mesh`'s faces in `buffers`, its count read back: its group
     /// counts and counters, then the faces it left to the host (where it left any), in face
     /// order.
@@ -387,10 +467,12 @@ impl GpuContext {
     /// what `count_rows` read back, into `target` (at the mesh's `first_listed` and
     /// `first_small`): recorded into the returned encoder, not yet submitted, with the group
     /// offsets' buffer.
+    #[allow(clippy::too_many_arguments)]
     fn fill_rows(
         &mut self,
         mesh: &AssemblyMesh<'_>,
         buffers: &CountedMesh,
+        lit: Option<wgpu::Buffer>,
         count: &AssemblyCount,
         patches: &AssemblyPatches,
         target: &RecordBuffers,
@@ -402,6 +484,11 @@ impl GpuContext {
         let pieces = self.storage_with("pieces", bytemuck::cast_slice(&patches.inputs), 0);
         let piece_shading = self.storage_with("piece shading", bytemuck::cast_slice(&patches.shading), 0);
         let offsets = self.storage_with("group offsets", &[], 8 * params.groups as u64 + 8);
+        // The frame's lights, handed over where the fill lights faces; the light stage's
+        // colours where it lit the vertices (else the mesh's, or none).
+        let lights = if params.lighting == LIGHT_FACES { bytemuck::bytes_of(mesh.shade) } else { &[][..] };
+        let shade = self.storage_with("shade params", lights, std::mem::size_of::<ShadeParams>() as u64);
+        let lit = lit.unwrap_or_else(|| self.storage_with("lit colours", bytemuck::cast_slice(mesh.lit), 0));
         let rows = self.frame_rows(&[Stage::AssembleScan, Stage::AssembleFill]);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         let bound = |buffer| match buffer {
@@ -409,7 +496,9 @@ impl GpuContext {
             Buffer::FaceIndices => Some(buffers.faces.clone()),
             Buffer::Projected => Some(buffers.projected.clone()),
             Buffer::VertexAttributes => Some(buffers.attributes.clone()),
-            Buffer::LitFaces => Some(buffers.lights.clone()),
+            Buffer::LitColours => Some(lit.clone()),
+            Buffer::FaceNormals => Some(buffers.face_normals.clone()),
+            Buffer::ShadeParams => Some(shade.clone()),
             Buffer::FaceTextures => Some(buffers.textures.clone()),
             Buffer::GroupCounts => Some(buffers.group_counts.clone()),
             Buffer::Patches => Some(patch_buf.clone()),
@@ -433,7 +522,7 @@ impl GpuContext {
             textures: self.storage_with("face textures", bytemuck::cast_slice(mesh.textures), 0),
             projected: self.storage_with("projected vertices", bytemuck::cast_slice(mesh.projected), 0),
             attributes: self.storage_with("vertex attributes", bytemuck::cast_slice(mesh.attributes), 0),
-            lights: self.storage_with("lit faces", bytemuck::cast_slice(mesh.lights), 0),
+            face_normals: self.storage_with("face normals", bytemuck::cast_slice(mesh.face_normals), 0),
             group_counts: self.storage_with("group counts", &[], 8 * mesh.params.faces.div_ceil(FACE_GROUP) as u64),
         };
         let count = self.count_rows(&mesh, &buffers)?;
@@ -451,7 +540,7 @@ impl GpuContext {
             listed: self.storage_with("listed", &[], 4 * listed),
             small: self.storage_with("small listed", &[], 4 * small),
         };
-        let (encoder, offsets) = self.fill_rows(&mesh, &buffers, &count, patches, &target)?;
+        let (encoder, offsets) = self.fill_rows(&mesh, &buffers, None, &count, patches, &target)?;
         let offsets_bytes = 8 * mesh.params.faces.div_ceil(FACE_GROUP) as u64 + 8;
         let parts = [
             (&offsets, 0, offsets_bytes),

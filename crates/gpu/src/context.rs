@@ -1,7 +1,7 @@
 #[path = "assemble.rs"]
 mod assemble;
 use assemble::HeldRecords;
-pub use assemble::{AssembledOnDevice, GeometryDevice, assemble_rows};
+pub use assemble::{AssembledOnDevice, GeometryDevice, assemble_rows, light_rows};
 
 use crate::device::{Gpu, Grown};
 use crate::float_controls::{self, FloatControls};
@@ -1182,7 +1182,9 @@ impl GpuContext {
                 | Buffer::AssembleParams
                 | Buffer::FaceIndices
                 | Buffer::VertexAttributes
-                | Buffer::LitFaces
+                | Buffer::FaceNormals
+                | Buffer::LightParams
+                | Buffer::LitColours
                 | Buffer::FaceTextures
                 | Buffer::GroupCounts
                 | Buffer::AssemblyCounters

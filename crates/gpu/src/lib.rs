@@ -14,7 +14,7 @@ mod specialise;
 pub mod survey;
 
 pub use context::{
-    Adapter, AssembledOnDevice, AssemblyOn, FineWalk, GeometryDevice, Resident, ResidentTexels, adapter, assemble_rows, rasterise, rasterise_frame,
+    Adapter, AssembledOnDevice, AssemblyOn, FineWalk, GeometryDevice, Resident, ResidentTexels, adapter, assemble_rows, light_rows, rasterise, rasterise_frame,
     rasterise_into, rasterise_planned, rasterise_profiled, set_assembly_on, set_binding_limit, set_fine_walk, set_window_limit, stage_buffers,
 };
 pub use float_controls::{FloatControls, f32_probe};

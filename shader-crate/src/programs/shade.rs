@@ -210,6 +210,24 @@ pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> 
     [base[0] * diffuse[0] + sc[0] * specular[0], base[1] * diffuse[1] + sc[1] * specular[1], base[2] * diffuse[2] + sc[2] * specular[2], base[3]]
 }
 
+/// Gouraud shading's colour of a vertex (`a`, its attributes as the assembly reads them): its
+/// colour lit with its normal, normalised, at its position in the world. A vertex shared by
+/// several faces is lit alike in each: the colour is a function of its attributes alone.
+#[inline]
+pub fn lit_vertex(params: &ShadeParams, a: &[f32; ATTRIBUTES]) -> [f32; 4] {
+    let colour = [a[ATTR_COLOUR], a[ATTR_COLOUR + 1], a[ATTR_COLOUR + 2], a[ATTR_COLOUR + 3]];
+    let n = normalise([a[ATTR_NORMAL], a[ATTR_NORMAL + 1], a[ATTR_NORMAL + 2]]);
+    phong(params, colour, n, [a[ATTR_POSITION], a[ATTR_POSITION + 1], a[ATTR_POSITION + 2]])
+}
+
+/// Flat shading's colour of a face: its first vertex's colour (`first`, that vertex's
+/// attributes) lit with the face's unit `normal` at that vertex.
+#[inline]
+pub fn lit_face(params: &ShadeParams, first: &[f32; ATTRIBUTES], normal: [f32; 3]) -> [f32; 4] {
+    let colour = [first[ATTR_COLOUR], first[ATTR_COLOUR + 1], first[ATTR_COLOUR + 2], first[ATTR_COLOUR + 3]];
+    phong(params, colour, normal, [first[ATTR_POSITION], first[ATTR_POSITION + 1], first[ATTR_POSITION + 2]])
+}
+
 /// The shaded pixel `(i, j)` owned by setup slot `slot` (`NO_OWNER`: the background), whose
 /// depth is `depth_bits`, coloured by `program`.
 #[inline]

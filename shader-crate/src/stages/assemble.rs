@@ -7,11 +7,15 @@
 //! Range: snapped coordinates within the guard band (below `2^28` in magnitude), so that
 //! differences stay below `2^29` and the doubled area below `2^59`.
 
-use crate::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, AssembleParams, AssemblyPatch, FloatCoeffs, LitFace, NO_TEXTURE, PixelRect, ProjectedVertex};
+use crate::abi::{
+    ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, FloatCoeffs, NO_TEXTURE, PixelRect, ProjectedVertex, ShadeParams,
+};
+use crate::abi::{LIGHT_FACES, LIGHT_VERTICES};
 use crate::abi::{TriangleInput, TriangleShading};
 use crate::math::fixed::{ceil_shr, floor_shr};
 use crate::math::float::recip_u64;
 use crate::memory::Slots;
+use crate::programs::shade::lit_face;
 use crate::stages::small::is_small;
 use crate::stages::vertex::{FRUSTUM, UNASSEMBLED};
 use crate::{SCAN_GROUP, TRIANGLE_GROUP};
@@ -404,8 +408,10 @@ pub fn fill_ranks(lid: u32, shared: &mut [u32; FACE_GROUP as usize]) {
 
 /// Phase 3: face `f`'s records (decided `face`), its group's first ranks `offsets[2g..]` plus its own `rank`
 /// (phase 2's, packed): a kept face's made from its corners and, per vertex of the mesh, its
-/// `attributes` (empty where `AssembleParams::attributes` is 0), per face its colour and
-/// normal under flat shading (`lights`) and its texture (`textures`); a clipped face's pieces
+/// `attributes` (empty where `AssembleParams::attributes` is 0), lit as `AssembleParams::lighting`
+/// says (per vertex of the frame, its colour as the light stage lit it: `lit`; per face of the
+/// frame, its normal under flat shading, `normals`, lit with the frame's `shade` parameters),
+/// and per face its texture (`textures`); a clipped face's pieces
 /// copied from `piece_inputs` and `piece_shading` in their order. (Slices apart, not structs
 /// of them: the kernels' compiler keeps no reference in a struct.) Slot = listed rank + small rank: the frame's records are in
 /// face order, and each list in slot order.
@@ -414,7 +420,9 @@ pub fn fill_ranks(lid: u32, shared: &mut [u32; FACE_GROUP as usize]) {
 pub fn fill_face<I: Slots<TriangleInput> + ?Sized, S: Slots<TriangleShading> + ?Sized, L: Slots + ?Sized>(
     p: &AssembleParams,
     attributes: &[[f32; ATTRIBUTES]],
-    lights: &[LitFace],
+    lit: &[[f32; 4]],
+    normals: &[FaceNormal],
+    shade: &ShadeParams,
     textures: &[u32],
     patches: &[AssemblyPatch],
     piece_inputs: &[TriangleInput],
@@ -436,7 +444,7 @@ pub fn fill_face<I: Slots<TriangleInput> + ?Sized, S: Slots<TriangleShading> + ?
     let mut small = p.first_small + offsets[2 * g + 1] + (rank >> SMALL_SHIFT);
     let (tri, corners, t) = (face.tri, &face.corners, &face.t);
     if t.dropped == KEPT {
-        let attributes = face_attributes(p, attributes, lights, tri, f);
+        let attributes = face_attributes(p, attributes, lit, normals, shade, tri, f);
         let depth = [corners[0].depth, corners[1].depth, corners[2].depth];
         let inv_w = [corners[0].inverse_w, corners[1].inverse_w, corners[2].inverse_w];
         let (mut input, shading) = triangle_records(t, &depth, &inv_w, &attributes, p.first_face + f, face_texture(p, textures, f));
@@ -471,10 +479,19 @@ pub fn fill_face<I: Slots<TriangleInput> + ?Sized, S: Slots<TriangleShading> + ?
 }
 
 /// A kept face's corners' attributes: its vertices' (every corner its first vertex's under
-/// flat interpolation), with its colour and normal over them under flat shading; all 0 where
-/// the vertices carry none.
+/// flat interpolation), lit as `p.lighting` says (Gouraud: each corner its vertex's lit colour;
+/// flat: the face's colour and normal written over every corner); all 0 where the vertices
+/// carry none.
 #[inline]
-fn face_attributes(p: &AssembleParams, attributes: &[[f32; ATTRIBUTES]], lights: &[LitFace], tri: [u32; 3], f: u32) -> [[f32; ATTRIBUTES]; 3] {
+fn face_attributes(
+    p: &AssembleParams,
+    attributes: &[[f32; ATTRIBUTES]],
+    lit: &[[f32; 4]],
+    normals: &[FaceNormal],
+    shade: &ShadeParams,
+    tri: [u32; 3],
+    f: u32,
+) -> [[f32; ATTRIBUTES]; 3] {
     let mut a = [[0.0; ATTRIBUTES]; 3];
     if p.attributes == 1 {
         let flat = p.flat == 1;
@@ -482,24 +499,37 @@ fn face_attributes(p: &AssembleParams, attributes: &[[f32; ATTRIBUTES]], lights:
         a[1] = attributes[if flat { tri[0] } else { tri[1] } as usize];
         a[2] = attributes[if flat { tri[0] } else { tri[2] } as usize];
     }
-    if p.face_lights == 1 {
-        let light = &lights[f as usize].values;
+    if p.lighting == LIGHT_VERTICES {
+        let flat = p.flat == 1;
+        set_colour(&mut a[0], lit[tri[0] as usize]);
+        set_colour(&mut a[1], lit[if flat { tri[0] } else { tri[1] } as usize]);
+        set_colour(&mut a[2], lit[if flat { tri[0] } else { tri[2] } as usize]);
+    } else if p.lighting == LIGHT_FACES {
+        let n = normals[(p.first_face_normal + f) as usize].normal;
+        let normal = [n[0], n[1], n[2]];
+        let colour = lit_face(shade, &a[0], normal);
         let mut k = 0;
         while k < 3 {
-            let mut c = 0;
-            while c < 4 {
-                a[k][ATTR_COLOUR + c] = light[c];
-                c += 1;
-            }
+            set_colour(&mut a[k], colour);
             let mut c = 0;
             while c < 3 {
-                a[k][ATTR_NORMAL + c] = light[4 + c];
+                a[k][ATTR_NORMAL + c] = normal[c];
                 c += 1;
             }
             k += 1;
         }
     }
     a
+}
+
+/// Write `colour` over a corner's.
+#[inline]
+fn set_colour(a: &mut [f32; ATTRIBUTES], colour: [f32; 4]) {
+    let mut c = 0;
+    while c < 4 {
+        a[ATTR_COLOUR + c] = colour[c];
+        c += 1;
+    }
 }
 
 /// Face `f`'s texture in the frame's textures.

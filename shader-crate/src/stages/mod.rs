@@ -4,6 +4,7 @@
 pub mod assemble;
 pub mod bin;
 pub mod fine;
+pub mod light;
 pub mod scan;
 pub mod setup;
 pub mod small;

@@ -2,8 +2,8 @@
 //! alone: what happens to a face (culled wholly outside the frustum, for zero area, by facing,
 //! for having no pixel centre; kept; clipped) is decided by the vertex stage's bits alone, and
 //! a kept face's records come from its corners as the stage projected them and its vertices'
-//! attributes in `f32` (lit on the host in `f64` per vertex for Gouraud shading and per face
-//! for flat shading, as the host's path lights them). The backend runs the stages
+//! attributes in `f32`, lit per vertex by the `light` stage for Gouraud shading and per face by
+//! the fill for flat shading (`programs::shade`, as the host's path lights them). The backend runs the stages
 //! ([`GeometryKernels`]: `assemble_count`, then `assemble_scan` and `assemble_fill`) placed mesh
 //! by placed mesh; between them the host clips the faces the count leaves it
 //! (`CLIPPED_ON_HOST`), the only vertices it computes in `f64`, each taking the stage's word for
@@ -14,7 +14,7 @@ use super::GeometryPass;
 use super::clip::geometry;
 use super::emit::{Emit, FaceTag};
 use super::instances::{Placement, transform_point};
-use super::lighting::{FaceLight, Lighting};
+use super::lighting::{FaceLight, Lighting, face_normal};
 use super::params::{GREY, GeometryCounts, IDENTITY, RenderParams, Shading};
 use super::vertex::GeometryKernels;
 use super::vertex::{ClipVertex, Corner, Projected, Shaded, computed_normals, flattened, placed_normals};
@@ -22,7 +22,8 @@ use super::viewport::{Target, Viewport};
 use crate::Error;
 use rayon::prelude::*;
 use tileraster_kernels::abi::NO_TEXTURE;
-use tileraster_kernels::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, LitFace, ProjectedVertex, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, ProjectedVertex, ShadeParams, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{LIGHT_FACES, LIGHT_NONE, LIGHT_VERTICES};
 use tileraster_kernels::stages::assemble::{
     ASSEMBLY_COUNTERS, DROPPED_BACK, DROPPED_FRONT, DROPPED_FRUSTUM, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, FACE_GROUP, goes_small,
 };
@@ -32,13 +33,18 @@ use tileraster_kernels::stages::vertex::UNASSEMBLED;
 /// their parameters, the mesh's faces (three vertex indices each), the frame's vertices through
 /// the vertex stage (the mesh's from `params.first_vertex` on), and what the records carry
 /// (each read where `params` says so): per vertex of the frame its attributes in `f32`, per
-/// face its colour and normal under flat shading and its texture.
+/// vertex of the frame its colour as the light stage lit it (Gouraud shading; empty where the
+/// backend keeps the colours on its device), per face of the frame its normal under flat
+/// shading and the frame's lights (`shade`, read where `params.lighting` lights faces), and per
+/// face its texture.
 pub struct AssemblyMesh<'a> {
     pub params: AssembleParams,
     pub faces: &'a [u32],
     pub projected: &'a [ProjectedVertex],
     pub attributes: &'a [[f32; ATTRIBUTES]],
-    pub lights: &'a [LitFace],
+    pub lit: &'a [[f32; 4]],
+    pub face_normals: &'a [FaceNormal],
+    pub shade: &'a ShadeParams,
     pub textures: &'a [u32],
     /// Which of these a backend may keep between calls (as it keeps a mesh's positions).
     pub kept: KeptInputs,
@@ -50,25 +56,29 @@ pub struct AssemblyMesh<'a> {
 pub struct KeptInputs {
     /// The faces and the face textures (a prepared mesh's: its positions' key).
     pub faces: Option<u64>,
-    /// The frame's vertex attributes (the same for each of its placements, and for the frames
-    /// of a prepared mesh at one placement that are not lit per vertex).
+    /// The frame's vertex attributes and face normals (the same for each of its placements, and
+    /// for the frames of a prepared mesh at one placement).
     pub attributes: Option<u64>,
 }
 
 impl AssemblyMesh<'_> {
     /// The bytes handed to the assembly's stages for this mesh: their parameters (the count's
-    /// and the fill's), its lit faces and the host's `patches`, and its faces and face
-    /// textures and the frame's vertex attributes where `handed` says so (a backend holds no
-    /// earlier call's). The vertices come from the vertex stage, where they are.
+    /// and the fill's, and the frame's lights where the fill lights faces), the host's
+    /// `patches`, and its faces and face textures and the frame's vertex attributes and face
+    /// normals where `handed` says so (a backend holds no earlier call's). The vertices come
+    /// from the vertex stage, where they are.
     pub fn bytes(&self, patches: &AssemblyPatches, handed: KeptHanded) -> u64 {
         use std::mem::size_of_val as size;
-        let mut bytes = 2 * std::mem::size_of::<AssembleParams>() + size(self.lights);
+        let mut bytes = 2 * std::mem::size_of::<AssembleParams>();
+        if self.params.lighting == LIGHT_FACES {
+            bytes += std::mem::size_of::<ShadeParams>();
+        }
         bytes += size(patches.patches.as_slice()) + size(patches.inputs.as_slice()) + size(patches.shading.as_slice());
         if handed.faces {
             bytes += size(self.faces) + size(self.textures);
         }
         if handed.attributes {
-            bytes += size(self.attributes);
+            bytes += size(self.attributes) + size(self.face_normals);
         }
         bytes as u64
     }
@@ -124,6 +134,12 @@ pub struct AssembledRecords<'a> {
     pub lists: Option<(&'a mut [u32], &'a mut [u32])>,
 }
 
+/// Face `k` of a placed mesh, its vertices in drawing order (a mirroring placement turns it).
+fn drawn(p: &Placement, k: usize) -> [usize; 3] {
+    let tri = p.mesh.triangles[k];
+    if p.mirrored { [tri[0], tri[2], tri[1]] } else { tri }.map(|v| v as usize)
+}
+
 /// Whether the kernels assemble a frame's faces: faces alone (the wireframe and vertices views
 /// take their vertices in `f64`).
 pub(super) fn assembles(params: &RenderParams) -> bool {
@@ -131,21 +147,23 @@ pub(super) fn assembles(params: &RenderParams) -> bool {
 }
 
 /// The visible instances' vertex attributes in `f32`, one after the other in the placements'
-/// order, as the kernels' assembly reads them, and their normals in the world (for the corners
-/// the host clips): the same for every frame of one mesh at one placement, so a prepared mesh
-/// keeps them, unless they are lit per vertex (Gouraud shading: lit afresh every frame, for its
-/// viewer and lights).
+/// order, as the kernels' assembly reads them (unlit: the fill lights them), their normals in
+/// the world (for the corners the host clips), and under flat shading their faces' normals:
+/// the same for every frame of one mesh at one placement, so a prepared mesh keeps them.
 pub(super) struct VertexAttributes {
     /// The placement they were made for (a prepared mesh's one), whether any is read (none:
-    /// both empty), and whether they were lit.
+    /// all empty), and whether the faces' normals were made.
     to_world: [[f64; 4]; 4],
     used: bool,
-    lit: bool,
+    faces_lit: bool,
     /// The key they are kept by (`KeptInputs::attributes`): a fresh one each time they are
     /// made, so that a frame's placements share them and a prepared mesh's frames keep them.
     pub(super) key: u64,
     pub(super) normals: Vec<[f32; 3]>,
     pub(super) values: Vec<[f32; ATTRIBUTES]>,
+    /// Under flat shading, each face's unit normal in the world ([`face_normal`], its corners
+    /// in drawing order), the placements' faces one after the other; else empty.
+    pub(super) face_normals: Vec<FaceNormal>,
 }
 
 impl VertexAttributes {
@@ -161,16 +179,17 @@ impl VertexAttributes {
         slot: &'a mut Option<VertexAttributes>,
         keeps: bool,
     ) -> &'a VertexAttributes {
-        let (used, lit) = (shading.reads_attributes(), shading == Shading::Smooth);
+        let (used, faces_lit) = (shading.reads_attributes(), shading == Shading::Flat);
         let to_world = match placements {
             [only] => only.to_world,
             _ => IDENTITY,
         };
-        let same = |k: &VertexAttributes| keeps && placements.len() == 1 && k.to_world == to_world && k.used == used && !k.lit;
-        if lit || !slot.as_ref().is_some_and(same) {
-            let (mut normals, mut values) = slot.take().map_or_else(Default::default, |k| (k.normals, k.values));
+        let same = |k: &VertexAttributes| keeps && placements.len() == 1 && k.to_world == to_world && k.used == used && k.faces_lit == faces_lit;
+        if !slot.as_ref().is_some_and(same) {
+            let (mut normals, mut values, mut face_normals) = slot.take().map_or_else(Default::default, |k| (k.normals, k.values, k.face_normals));
             normals.clear();
             values.clear();
+            face_normals.clear();
             if used {
                 let computed = computed_normals(placements);
                 normals.reserve_exact(count);
@@ -183,9 +202,15 @@ impl VertexAttributes {
                     normals.extend_from_slice(&turned);
                 }
             }
+            if faces_lit {
+                for p in placements {
+                    let world = |v: usize| transform_point(&p.to_world, &p.mesh.positions[v]);
+                    face_normals.par_extend((0..p.mesh.triangles.len()).into_par_iter().map(|k| face_normal(drawn(p, k).map(world))));
+                }
+            }
             static KEYS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
             let key = KEYS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            *slot = Some(VertexAttributes { to_world, used, lit, key, normals, values });
+            *slot = Some(VertexAttributes { to_world, used, faces_lit, key, normals, values, face_normals });
         }
         slot.as_ref().expect("made above")
     }
@@ -203,6 +228,8 @@ pub(super) struct AssembledFrame {
     pub(super) triangles: Vec<TriangleInput>,
     pub(super) shading: Vec<TriangleShading>,
     pub(super) faces: Vec<u32>,
+    /// The light stage's colours, where the host keeps them (Gouraud shading).
+    pub(super) lit: Vec<[f32; 4]>,
     /// The key the backend holds the records by (`GeometryKernels::hold_records`).
     pub(super) held: Option<u64>,
 }
@@ -223,11 +250,10 @@ pub(super) fn assemble_frame(
     counts: &mut GeometryCounts,
     observe: &mut dyn FnMut(GeometryPass),
 ) -> Result<AssembledFrame, Error> {
-    let lights: Vec<Vec<LitFace>> = meshes.iter().map(MeshFaces::lit_faces).collect();
     let mut counted = Vec::with_capacity(meshes.len());
     let (mut listed, mut small) = (0u64, 0u64);
-    for (faces, lights) in meshes.iter().zip(&lights) {
-        let mut mesh = faces.assembly(target, split_small, lights, (0, 0));
+    for faces in meshes {
+        let mut mesh = faces.assembly(target, split_small, (0, 0));
         let count = kernels.assemble_count(&mesh)?;
         let (patches, clipped) = faces.patches(&count.clipped, &mesh, viewport, target);
         *counts = counts.add(clipped);
@@ -254,15 +280,21 @@ pub(super) fn assemble_frame(
         });
     }
     let held = kernels.hold_records(total, listed, small)?;
+    // Gouraud shading: the frame's vertices lit once, before the fills copy their colours.
+    let mut lit = memory.lit;
+    lit.clear();
+    if let Some(first) = meshes.first().filter(|m| m.shaded.shading == Shading::Smooth) {
+        counts.bytes_uploaded += kernels.light(first.shaded.lighting.params(), first.attributes, first.kept.attributes, &mut lit)?;
+    }
     let total = total as usize;
     let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
     let mut triangles = crate::raster::reuse_cells(Some(memory.triangles), total).map_err(out_of_memory)?;
     let mut shading = crate::raster::reuse_cells(Some(memory.shading), total).map_err(out_of_memory)?;
     let mut faces = crate::raster::reuse_cells(Some(memory.faces), total).map_err(out_of_memory)?;
     let (mut rest_t, mut rest_s) = (&mut triangles[..], &mut shading[..]);
-    for (((params, count, patches), mesh_faces), lights) in counted.iter().zip(meshes).zip(&lights) {
+    for ((params, count, patches), mesh_faces) in counted.iter().zip(meshes) {
         let first = (params.first_listed, params.first_small);
-        let mesh = AssemblyMesh { params: *params, ..mesh_faces.assembly(target, split_small, lights, first) };
+        let mesh = AssemblyMesh { params: *params, lit: &lit, ..mesh_faces.assembly(target, split_small, first) };
         let n = count.kept() as usize + patches.inputs.len();
         let (t, tail_t) = rest_t.split_at_mut(n);
         let (s, tail_s) = rest_s.split_at_mut(n);
@@ -270,7 +302,7 @@ pub(super) fn assemble_frame(
         counts.bytes_uploaded += kernels.assemble_fill(&mesh, count, patches, AssembledRecords { inputs: t, shading: s, lists: None })?;
     }
     faces.par_iter_mut().zip(&shading).for_each(|(f, s)| *f = s.face);
-    Ok(AssembledFrame { triangles, shading, faces, held })
+    Ok(AssembledFrame { triangles, shading, faces, lit, held })
 }
 
 /// A mesh's faces as the kernels assemble them.
@@ -280,6 +312,10 @@ pub(super) struct MeshFaces<'a> {
     pub(super) projected: &'a [ProjectedVertex],
     /// Their attributes in `f32` (empty where none is read).
     pub(super) attributes: &'a [[f32; ATTRIBUTES]],
+    /// The frame's face normals under flat shading (else empty), the placement's from
+    /// `first_face_normal`.
+    pub(super) face_normals: &'a [FaceNormal],
+    pub(super) first_face_normal: u32,
     /// Which inputs a backend may keep between frames.
     pub(super) kept: KeptInputs,
     /// Flat interpolation: every corner takes the face's first vertex's attributes.
@@ -292,9 +328,8 @@ pub(super) struct MeshFaces<'a> {
 
 impl<'a> MeshFaces<'a> {
     /// The mesh's faces as the assembly stages take them, their records' slots after
-    /// `first_listed` and `first_small` of the frame's earlier placements'; `lights` per face
-    /// under flat shading (else empty).
-    fn assembly(&self, target: &Target, split_small: bool, lights: &'a [LitFace], first: (u32, u32)) -> AssemblyMesh<'a> {
+    /// `first_listed` and `first_small` of the frame's earlier placements'.
+    fn assembly(&self, target: &Target, split_small: bool, first: (u32, u32)) -> AssemblyMesh<'a> {
         let (p, a) = (self.placement, &target.assembly);
         let faces = p.mesh.triangles.len() as u32;
         let (face_textures, textures) = match &p.mesh.face_textures {
@@ -313,7 +348,11 @@ impl<'a> MeshFaces<'a> {
             mirrored: u32::from(p.mirrored),
             attributes: u32::from(!self.attributes.is_empty()),
             flat: u32::from(self.flat),
-            face_lights: u32::from(!lights.is_empty()),
+            lighting: match self.shaded.shading {
+                Shading::Smooth => LIGHT_VERTICES,
+                Shading::Flat => LIGHT_FACES,
+                _ => LIGHT_NONE,
+            },
             face_textures,
             first_texture: p.first_texture,
             texture: if p.mesh.textures.is_empty() { NO_TEXTURE } else { p.first_texture },
@@ -324,26 +363,17 @@ impl<'a> MeshFaces<'a> {
             first_listed: first.0,
             first_small: first.1,
             first_vertex: p.first_vertex as u32,
-            _pad: [0; 2],
+            first_face_normal: self.first_face_normal,
+            _pad: 0,
         };
         let faces = bytemuck::cast_slice(&p.mesh.triangles);
-        AssemblyMesh { params, faces, projected: self.projected, attributes: self.attributes, lights, textures, kept: self.kept }
+        let (projected, attributes, face_normals, shade) = (self.projected, self.attributes, self.face_normals, self.shaded.lighting.params());
+        AssemblyMesh { params, faces, projected, attributes, lit: &[], face_normals, shade, textures, kept: self.kept }
     }
 
-    /// Under flat shading, every face's colour and normal as the assembly writes them over its
-    /// corners' (`FaceLight::apply_f32`); else none.
-    fn lit_faces(&self) -> Vec<LitFace> {
-        if self.shaded.shading != Shading::Flat {
-            return Vec::new();
-        }
-        let p = self.placement;
-        (0..p.mesh.triangles.len()).into_par_iter().map(|k| self.face_light(self.drawn(k)).expect("flat shading").to_lit_face()).collect()
-    }
-
-    /// Face `k`'s vertices in drawing order (a mirroring placement turns it).
+    /// Face `k`'s vertices in drawing order.
     fn drawn(&self, k: usize) -> [usize; 3] {
-        let tri = self.placement.mesh.triangles[k];
-        if self.placement.mirrored { [tri[0], tri[2], tri[1]] } else { tri }.map(|v| v as usize)
+        drawn(self.placement, k)
     }
 
     /// The faces `assemble_count` left to the host, clipped: their patches and their pieces'

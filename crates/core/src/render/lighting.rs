@@ -1,76 +1,89 @@
-//! Lighting on the host: the viewer ([`Eye`]), Lambert + Blinn-Phong in `f64` for flat and
-//! Gouraud shading (the kernels' per-pixel version is `programs::shade`), and the shade
-//! stage's parameters for a frame.
+//! The frame's lighting: the viewer ([`Eye`]), the lights, and the shade stage's parameters
+//! that carry them. Flat and Gouraud shading are lit by the kernels' functions
+//! (`programs::shade::lit_face` and `lit_vertex`, Lambert + Blinn-Phong in `f32`), which the
+//! assembly runs on every backend and the host's clipping and its path for lines and points
+//! call natively, so a colour is the same bits wherever it is lit.
 
 use super::params::{Eye, Light, RenderParams, Shading};
-use super::vector::{cross, dot, sub, unit};
+use super::vector::{cross, sub, unit};
 use crate::Error;
-use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, DepthTest, LitFace, MAX_LIGHTS, ShadeMode, ShadeParams};
+use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTRIBUTES, DepthTest, FaceNormal, MAX_LIGHTS, ShadeMode, ShadeParams};
+use tileraster_kernels::programs::shade::{lit_face, lit_vertex};
 
 /// A face's values under flat shading ([`Lighting::light_face`]).
 pub(super) struct FaceLight {
-    colour: [f64; 4],
-    normal: [f64; 3],
+    colour: [f32; 4],
+    normal: [f32; 3],
 }
 
 impl FaceLight {
     /// Written over a corner's colour and normal.
     pub(super) fn apply(&self, attributes: &mut [f64; ATTRIBUTES]) {
-        attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&self.colour);
-        attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&self.normal);
-    }
-
-    /// What the kernels' assembly writes over a face's corners: [`Self::apply`]'s values, each rounded
-    /// to `f32` once (as an `f64` corner's are on their way to the kernels).
-    pub(super) fn to_lit_face(&self) -> LitFace {
-        let (c, n) = (self.colour.map(|v| v as f32), self.normal.map(|v| v as f32));
-        LitFace { values: [c[0], c[1], c[2], c[3], n[0], n[1], n[2], 0.0] }
+        attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&self.colour.map(f64::from));
+        attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&self.normal.map(f64::from));
     }
 }
 
-/// A frame's lighting as the host's stages take it: the viewer, homogeneous (`[x, y, z, 1]`
-/// for a point, `[x, y, z, 0]` for a direction at infinity), and the lights, normalised.
-pub(super) struct Lighting<'a> {
-    params: &'a RenderParams,
-    eye: [f64; 4],
-    lights: Vec<Light>,
+/// The unit normal of a face whose corners lie at `q` in the world (in drawing order), from
+/// its corners in `f64`, rounded to `f32` once: what flat shading lights the face with.
+pub(super) fn face_normal(q: [[f64; 3]; 3]) -> FaceNormal {
+    let n = unit(cross(sub(q[1], q[0]), sub(q[2], q[0]))).map(|c| c as f32);
+    FaceNormal { normal: [n[0], n[1], n[2], 0.0] }
 }
 
-impl<'a> Lighting<'a> {
+/// A frame's lighting: the shade stage's parameters, whose viewer (homogeneous: `[x, y, z, 1]`
+/// for a point, `[x, y, z, 0]` for a direction at infinity) and lights (normalised) the
+/// kernels' lighting reads.
+pub(super) struct Lighting {
+    shade: ShadeParams,
+}
+
+impl Lighting {
     /// The frame's viewer (given, or the view-projection's: [`Eye::of`]) and its first
     /// `MAX_LIGHTS` lights.
-    pub(super) fn of(params: &'a RenderParams) -> Result<Lighting<'a>, Error> {
+    pub(super) fn of(params: &RenderParams) -> Result<Lighting, Error> {
         let eye = match params.eye {
             Some(e) => e.homogeneous(),
             None => Eye::of(&params.view_projection, params.depth_func).map(Eye::homogeneous).ok_or_else(|| Error::SingularCamera {
                 reason: "the view-projection matrix has neither a centre of projection (x = y = w = 0 has no single solution) nor a single viewing direction; give the eye".into(),
             })?,
         };
-        let lights = params.lights.iter().take(MAX_LIGHTS).map(|l| Light { direction: unit(l.direction), colour: l.colour }).collect();
-        Ok(Lighting { params, eye, lights })
+        let lights: Vec<Light> = params.lights.iter().take(MAX_LIGHTS).map(|l| Light { direction: unit(l.direction), colour: l.colour }).collect();
+        Ok(Lighting { shade: shade_params(params, &lights, eye) })
     }
 
-    /// `base` lit at the point `p` with unit normal `n` (Lambert + Blinn-Phong in `f64`: flat
-    /// and Gouraud shading; the kernels' per-pixel version is `programs::shade`).
-    pub(super) fn lit(&self, base: [f64; 4], n: [f64; 3], p: [f64; 3]) -> [f64; 4] {
-        blinn_phong(self.params, &self.lights, self.eye, base, n, p)
+    /// The shade parameters the assembly lights with (their depth view is not the frame's).
+    pub(super) fn params(&self) -> &ShadeParams {
+        &self.shade
+    }
+
+    /// Gouraud shading: the colour of a vertex of attributes `a` (in `f64`; the kernels take
+    /// them rounded to `f32`, as here), lit by `programs::shade::lit_vertex`.
+    pub(super) fn lit_vertex(&self, a: &[f64; ATTRIBUTES]) -> [f64; 4] {
+        lit_vertex(&self.shade, &a.map(|v| v as f32)).map(f64::from)
     }
 
     /// Flat shading's values for a face whose corners lie at `q` in the world and whose first
-    /// vertex has colour `base`: its normal, and that colour lit with it at the first corner.
+    /// vertex has colour `base`: its normal ([`face_normal`]), and that colour lit with it at
+    /// the first corner by `programs::shade::lit_face` (the corner and colour rounded to `f32`,
+    /// as the kernels take them).
     pub(super) fn light_face(&self, base: [f64; 4], q: [[f64; 3]; 3]) -> FaceLight {
-        let normal = unit(cross(sub(q[1], q[0]), sub(q[2], q[0])));
-        FaceLight { colour: self.lit(base, normal, q[0]), normal }
+        let n = face_normal(q).normal;
+        let normal = [n[0], n[1], n[2]];
+        let mut first = [0.0f32; ATTRIBUTES];
+        first[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&base.map(|c| c as f32));
+        first[ATTR_POSITION..ATTR_POSITION + 3].copy_from_slice(&q[0].map(|c| c as f32));
+        FaceLight { colour: lit_face(&self.shade, &first, normal), normal }
     }
 
-    /// The kernels' shade parameters for the frame, the depth view spanning `depths`.
-    pub(super) fn shade_params(&self, depths: (f64, f64)) -> ShadeParams {
-        shade_params(self.params, &self.lights, self.eye, depths)
+    /// The kernels' shade parameters for the frame, the depth view spanning `(near, far)`.
+    pub(super) fn shade_params(&self, (near, far): (f64, f64)) -> ShadeParams {
+        ShadeParams { depth_view: [near as f32, (1.0 / (far - near).max(1e-6)) as f32, 0.0, 0.0], ..self.shade }
     }
 }
 
-/// The kernels' shade parameters for a frame.
-fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4], (near, far): (f64, f64)) -> ShadeParams {
+/// The kernels' shade parameters for a frame but its depth view.
+fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4]) -> ShadeParams {
     let mode = match params.shading {
         Shading::Unlit | Shading::Flat | Shading::Smooth => ShadeMode::Colour,
         Shading::Phong => ShadeMode::Phong,
@@ -90,7 +103,6 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4], (near, f
         ambient: f4(params.ambient),
         specular: f4(params.specular),
         eye: eye.map(|c| c as f32),
-        depth_view: [near as f32, (1.0 / (far - near).max(1e-6)) as f32, 0.0, 0.0],
         samples: params.samples,
         layer_sample: params.layer_sample,
         constants: params.fragment_constants,
@@ -101,24 +113,4 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4], (near, f
         s.light_colour[k] = f4(l.colour);
     }
     s
-}
-
-/// Lambert + Blinn-Phong in `f64`.
-fn blinn_phong(params: &RenderParams, lights: &[Light], eye: [f64; 4], base: [f64; 4], n: [f64; 3], p: [f64; 3]) -> [f64; 4] {
-    let v = unit(std::array::from_fn(|c| eye[c] - p[c] * eye[3]));
-    let mut diffuse = params.ambient;
-    let mut specular = [0.0; 3];
-    for l in lights {
-        let ndl = dot(n, l.direction);
-        if ndl > 0.0 {
-            let h = unit([l.direction[0] + v[0], l.direction[1] + v[1], l.direction[2] + v[2]]);
-            let s = dot(n, h).max(0.0).powi(params.shininess as i32);
-            for c in 0..3 {
-                diffuse[c] += ndl * l.colour[c];
-                specular[c] += s * l.colour[c];
-            }
-        }
-    }
-    let channel = |c: usize| base[c] * diffuse[c] + params.specular[c] * specular[c];
-    [channel(0), channel(1), channel(2), base[3]]
 }

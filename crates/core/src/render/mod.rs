@@ -11,7 +11,8 @@
 //!
 //! - `vertex`: positions to clip space by the view-projection matrix (Vulkan conventions:
 //!   `0 ≤ z ≤ w` is visible, NDC `y` points down the image); per-vertex colour, normal, world
-//!   position and texture coordinates carried along; Gouraud lighting per vertex (`lighting`).
+//!   position and texture coordinates carried along (Gouraud shading lights them per vertex,
+//!   flat shading per face, with the kernels' functions: `lighting`).
 //! - `clip`: in homogeneous space against the near (`z = 0`) and far (`z = w`) planes, a plane
 //!   `w = W_MIN` that keeps `w ≤ 0` from the rasteriser, and a guard band [`GUARD_PX`] pixels
 //!   beyond the viewport on each side, so that every snapped edge function fits the kernels'
@@ -23,13 +24,13 @@
 //! - `assemble`: for a frame drawing faces alone (one mesh or a world of instances), the kernels'
 //!   assembly stages (`assemble_count`, `assemble_scan`, `assemble_fill`, run by the backend)
 //!   decide every face from the vertex stage's bits and write the kept faces' records from `f32`
-//!   attributes (kept with a prepared mesh unless lit per vertex); only the faces they leave to
+//!   attributes (kept with a prepared mesh), lit where the shading lights them; only the faces they leave to
 //!   the host go through `clip` and `cull`, patched in at their places, and no other vertex is
 //!   computed in `f64`.
 //! - `viewport`: pixel centres at `+0.5`, vertices rounded to 8 sub-pixel bits (16.8 fixed
 //!   point, as Direct3D 11 and Vulkan's 2022 roadmap require), the clipping planes.
-//! - `lines` and `points`: the wireframe and vertices views; `lighting`: the viewer, flat and
-//!   Gouraud lighting and the shade stage's parameters; `instances`: placements and object
+//! - `lines` and `points`: the wireframe and vertices views; `lighting`: the viewer, the
+//!   lights and the shade stage's parameters, flat and Gouraud lighting for the host's path; `instances`: placements and object
 //!   culling; `texture`: textures laid out for the kernels; `emit`: where triangles go.
 //! - `params` (what a frame is made of and asked for), `validate` (bad input as typed errors)
 //!   and `vector` sit below them all.
@@ -75,7 +76,7 @@ use validate::validate_params;
 pub use vector::{multiply, normal_matrix, transform_normal};
 use vertex::depth_range;
 use vertex::{ClipVertex, Corner, Shaded, VertexStageMemory, flattened};
-pub use vertex::{GeometryKernels, MeshPositions, Positions};
+pub use vertex::{GeometryKernels, MeshPositions, Positions, light_bytes};
 use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
@@ -111,6 +112,8 @@ pub struct GeometryMemory {
     triangles: Vec<TriangleInput>,
     shading: Vec<TriangleShading>,
     faces: Vec<u32>,
+    /// The light stage's colours, where the host keeps them.
+    lit: Vec<[f32; 4]>,
     vertex_stage: VertexStageMemory,
     /// The kernels' assembly's attributes of a frame that keeps none (`assemble`).
     attributes: Option<VertexAttributes>,
@@ -139,8 +142,8 @@ pub fn prepare_checked_mesh_in(
 
 /// What a mesh's frames keep between them for the next: its textures as laid out for the
 /// kernels, its positions as the vertex stage takes them (which a backend that keeps them, the
-/// GPU, is handed once), and its vertex attributes as the kernels' assembly reads them (unless
-/// lit per vertex).
+/// GPU, is handed once), and its vertex attributes (and face normals) as the kernels' assembly
+/// reads them.
 #[derive(Default)]
 pub struct KeptMesh {
     textures: Option<LaidOutTextures>,
@@ -351,14 +354,21 @@ pub(crate) fn prepare_instances_in(
             let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, slot, keeps);
             let projected = memory.vertex_stage.projected();
             let kept_inputs = KeptInputs { faces: faces_key, attributes: Some(attributes.key) };
+            let mut first_face_normal = 0;
             mesh_faces = placements
                 .iter()
                 .map(|p| {
                     let normals = attributes.normals_of(p.first_vertex, p.mesh.positions.len());
+                    let first = first_face_normal;
+                    if !attributes.face_normals.is_empty() {
+                        first_face_normal += p.mesh.triangles.len() as u32;
+                    }
                     MeshFaces {
                         placement: p,
                         projected,
                         attributes: &attributes.values,
+                        face_normals: &attributes.face_normals,
+                        first_face_normal: first,
                         kept: kept_inputs,
                         flat: params.interpolation == Interpolation::Flat,
                         shaded: Shaded { mesh: p.mesh, normals, shading, lighting: &lighting },
@@ -476,9 +486,11 @@ pub(crate) fn prepare_instances_in(
                 triangles: std::mem::take(&mut memory.triangles),
                 shading: std::mem::take(&mut memory.shading),
                 faces: std::mem::take(&mut memory.faces),
+                lit: std::mem::take(&mut memory.lit),
                 held: None,
             };
-            let frame = assemble::assemble_frame(&mesh_faces, split_small, &viewport, &target, kernels, spare, &mut counts, observe)?;
+            let mut frame = assemble::assemble_frame(&mesh_faces, split_small, &viewport, &target, kernels, spare, &mut counts, observe)?;
+            memory.lit = std::mem::take(&mut frame.lit);
             let small_edges = frame.triangles.par_iter().all(|t| edges_fit_i32(t, RENDER_SNAP_BITS));
             counts.rasterised = frame.triangles.len() as u64;
             (frame.triangles, frame.shading, frame.faces, small_edges, frame.held)

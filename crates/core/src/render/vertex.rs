@@ -6,12 +6,14 @@ use super::instances::{self, Placement};
 use super::lighting::{FaceLight, Lighting};
 use super::params::{GREY, IDENTITY, Mesh, Shading, face_normals};
 use super::params::{GUARD_PX, RENDER_SNAP_BITS};
-use super::vector::{multiply, normal_matrix, transform_normal, unit};
+use super::vector::{multiply, normal_matrix, transform_normal};
 use super::viewport::{Viewport, distance};
 use crate::Error;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, ProjectedVertex, RelativePosition, VertexParams};
+use tileraster_kernels::abi::{
+    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, LightParams, ProjectedVertex, RelativePosition, ShadeParams, VertexParams,
+};
 use tileraster_kernels::math::double::Double;
 use tileraster_kernels::stages::vertex::{FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
 
@@ -35,6 +37,15 @@ pub trait GeometryKernels {
     /// assembly handed the stages (its count's and its fill's).
     fn assemble_fill(&mut self, mesh: &AssemblyMesh<'_>, count: &AssemblyCount, patches: &AssemblyPatches, out: AssembledRecords<'_>) -> Result<u64, Error>;
 
+    /// The `light` stage (`stages::light`, Gouraud shading) over the frame's vertex `attributes`
+    /// (the assembly's, kept as `KeptInputs::attributes` says by `kept`), with the frame's
+    /// lights in `shade`: each vertex's colour into `lit` (one per vertex, its memory reused).
+    /// Called once a frame's counts are in (after [`Self::hold_records`]), before its fills; a
+    /// backend whose fills run on its device keeps the colours there and leaves `lit` empty.
+    /// Returns the bytes handed to the stage: its parameters and the lights (the attributes
+    /// are counted with the assembly's inputs).
+    fn light(&mut self, shade: &ShadeParams, attributes: &[[f32; ATTRIBUTES]], kept: Option<u64>, lit: &mut Vec<[f32; 4]>) -> Result<u64, Error>;
+
     /// Called once a frame's counts are in, before its fills: the backend makes room for the
     /// frame's records where its raster stages read them (`records` of them, `listed` and
     /// `small` in its lists; on the CPU, the fills' `out` is that room) and returns the key
@@ -47,6 +58,11 @@ pub trait GeometryKernels {
         let _ = (records, listed, small);
         Ok(None)
     }
+}
+
+/// The bytes handed to the light stage: its parameters and the frame's lights.
+pub fn light_bytes() -> u64 {
+    (std::mem::size_of::<LightParams>() + std::mem::size_of::<ShadeParams>()) as u64
 }
 
 /// The positions a vertex stage runs over.
@@ -215,20 +231,25 @@ pub(super) struct Shaded<'a> {
     pub(super) mesh: &'a Mesh,
     pub(super) normals: &'a [[f32; 3]],
     pub(super) shading: Shading,
-    pub(super) lighting: &'a Lighting<'a>,
+    pub(super) lighting: &'a Lighting,
 }
 
 impl Shaded<'_> {
     /// Vertex `v` of the mesh, at `world` in the world, through `m` to clip space with its
-    /// attributes (colour, normal, world position, texture coordinates; lit per vertex for
-    /// Gouraud shading), in `f64`.
+    /// attributes in `f64` (colour, normal, world position, texture coordinates), lit for
+    /// Gouraud shading ([`Lighting::lit_vertex`], as the kernels' assembly lights it).
     pub(super) fn clip_vertex(&self, v: usize, world: [f64; 3], m: &[[f64; 4]; 4], viewport: &Viewport) -> ClipVertex {
         let p = world;
         let clip = [0, 1, 2, 3].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
-        ClipVertex::new(clip, self.attributes(v, p), viewport)
+        let mut attributes = self.attributes(v, p);
+        if self.shading == Shading::Smooth {
+            let lit = self.lighting.lit_vertex(&attributes);
+            attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&lit);
+        }
+        ClipVertex::new(clip, attributes, viewport)
     }
 
-    /// The attributes of vertex `v` at `p` in the world (zeros where none is read).
+    /// The attributes of vertex `v` at `p` in the world, unlit (zeros where none is read).
     pub(super) fn attributes(&self, v: usize, p: [f64; 3]) -> [f64; ATTRIBUTES] {
         let mesh = self.mesh;
         let mut attributes = [0.0; ATTRIBUTES];
@@ -236,10 +257,7 @@ impl Shaded<'_> {
             return attributes;
         }
         let n = self.normals[v].map(f64::from);
-        let mut colour = mesh.colours.as_ref().map_or(GREY, |c| c[v]).map(f64::from);
-        if self.shading == Shading::Smooth {
-            colour = self.lighting.lit(colour, unit(n), p);
-        }
+        let colour = mesh.colours.as_ref().map_or(GREY, |c| c[v]).map(f64::from);
         let uv = mesh.uvs.as_ref().map_or([0.0; 2], |t| t[v]).map(f64::from);
         attributes[ATTR_COLOUR..ATTR_COLOUR + 4].copy_from_slice(&colour);
         attributes[ATTR_NORMAL..ATTR_NORMAL + 3].copy_from_slice(&n);

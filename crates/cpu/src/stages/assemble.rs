@@ -113,9 +113,11 @@ pub fn assemble_fill(mesh: &AssemblyMesh<'_>, offsets: &[u32], patches: &Assembl
             fill_ranks(0, &mut shared);
             for lid in 0..FACE_GROUP {
                 let (f, rank, face) = (first + lid, shared[lid as usize], &fates[lid as usize]);
-                let (a, lights, textures) = (mesh.attributes, mesh.lights, mesh.textures);
+                let (a, normals, textures) = (mesh.attributes, mesh.face_normals, mesh.textures);
                 let (entries, pieces) = (&patches.patches, (&patches.inputs[..], &patches.shading[..]));
-                fill_face(params, a, lights, textures, entries, pieces.0, pieces.1, f, face, offsets, rank, &mut i, &mut s, &mut l, &mut sm);
+                fill_face(
+                    params, a, mesh.lit, normals, mesh.shade, textures, entries, pieces.0, pieces.1, f, face, offsets, rank, &mut i, &mut s, &mut l, &mut sm,
+                );
             }
         }
     });

@@ -5,6 +5,7 @@
 mod assemble;
 mod bin;
 mod fine;
+mod light;
 mod multisample;
 #[cfg(test)]
 mod occlusion;
@@ -17,6 +18,7 @@ mod vertex;
 pub use assemble::{assemble_count, assemble_fill, assemble_scan};
 pub use bin::{bin_count, bin_fill};
 pub use fine::{FinePath, fine_depth, fine_raster};
+pub use light::light;
 pub use multisample::fine_samples;
 pub use scan::bin_scan;
 pub use setup::{setup, setup_into};

@@ -6,21 +6,13 @@
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTRIBUTES, MAX_LIGHTS, ShadeParams};
 use tileraster_kernels::programs::shade::{lit_face, lit_vertex};
 
-/// SplitMix64: a fixed sequence of inputs.
-struct Rng(u64);
+/// A fixed sequence of inputs, rounded to `f32`.
+struct Rng(tileraster_testkit::scenes::Rng);
 
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
     /// Uniform in `[lo, hi)`, rounded to `f32`.
     fn uniform(&mut self, lo: f64, hi: f64) -> f32 {
-        (lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64) as f32
+        self.0.range(lo, hi) as f32
     }
 
     fn vector(&mut self, r: f64) -> [f32; 3] {
@@ -99,7 +91,7 @@ fn params(rng: &mut Rng, lights: u32, shininess: u32, centre: [f32; 3], at_infin
 #[test]
 fn flat_and_gouraud_lighting_lie_within_the_contract_of_f64() {
     assert_eq!(MAX_LIGHTS, 2, "the cases below light with one and with both lights");
-    let mut rng = Rng(0x05EE_D0F1_1687);
+    let mut rng = Rng(tileraster_testkit::scenes::Rng::new(0x05EE_D0F1_1687));
     let (mut checked, mut grazing_skipped) = (0u64, 0u64);
     let mut worst = [0.0f64; 5];
     for (s, &shininess) in [1u32, 8, 32, 128, 1024].iter().enumerate() {

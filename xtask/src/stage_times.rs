@@ -89,7 +89,7 @@ fn cases() -> Result<Vec<(String, Case)>, String> {
     let mesh = meshes::terrain(224, 1000.0, 60.0);
     let camera = Camera::framing(&mesh, 1920.0 / 1080.0, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
     let base = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(1920, 1080, camera.view_projection(1920, 1080).map_err(|e| e.to_string())?) };
-    for shading in [Shading::Ids, Shading::Phong] {
+    for shading in [Shading::Ids, Shading::Smooth, Shading::Phong] {
         cases.push((
             format!("render: terrain mesh, 100352 triangles, 1920×1080, {}", shading.name()),
             Case::Render(mesh.clone(), Box::new(RenderParams { shading, ..base.clone() })),

@@ -286,6 +286,7 @@ pub(super) fn assemble_frame(
     if let Some(first) = meshes.first().filter(|m| m.shaded.shading == Shading::Smooth) {
         counts.bytes_uploaded += kernels.light(first.shaded.lighting.params(), first.attributes, first.kept.attributes, &mut lit)?;
     }
+    observe(GeometryPass::Light);
     let total = total as usize;
     let out_of_memory = |reason| Error::OutOfMemory { what: "the frame's triangles", reason };
     let mut triangles = crate::raster::reuse_cells(Some(memory.triangles), total).map_err(out_of_memory)?;

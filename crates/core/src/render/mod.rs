@@ -189,15 +189,18 @@ pub enum GeometryPass {
     /// The frame's parameters checked, the instances culled and placed, the textures laid out,
     /// the wireframe's edges found.
     Frame,
-    /// `vertex`: every placed vertex through the kernels' vertex stage, and its attributes
-    /// (lit where shading is per vertex); where the host assembles the frame, every vertex to
-    /// clip space in `f64` too.
+    /// `vertex`: every placed vertex through the kernels' vertex stage, and its attributes;
+    /// where the host assembles the frame, every vertex to clip space in `f64` too (lit there
+    /// under Gouraud shading).
     Vertex,
     /// `clip`, `cull` and `viewport` over every face (and line and point), counting what each
     /// chunk puts out: a face that needs no clipping is counted from its corners' 24 bytes each
     /// (`vertex::Corner`), its vertices left unread. Or the kernels' `assemble_count` (which
     /// reads the vertex stage's 20) and the host's clipping of the faces it leaves.
     AssembleCount,
+    /// `light`: under Gouraud shading, the kernels' light stage over the frame's vertices
+    /// (nothing in other shadings, nor where the host assembles the frame: it lit them above).
+    Light,
     /// The same, writing the triangles into their places (the kernels' `assemble_scan` and
     /// `assemble_fill`).
     AssembleFill,
@@ -206,14 +209,15 @@ pub enum GeometryPass {
 }
 
 impl GeometryPass {
-    pub const ALL: [GeometryPass; 5] =
-        [GeometryPass::Frame, GeometryPass::Vertex, GeometryPass::AssembleCount, GeometryPass::AssembleFill, GeometryPass::Finish];
+    pub const ALL: [GeometryPass; 6] =
+        [GeometryPass::Frame, GeometryPass::Vertex, GeometryPass::AssembleCount, GeometryPass::Light, GeometryPass::AssembleFill, GeometryPass::Finish];
 
     pub fn name(self) -> &'static str {
         match self {
             GeometryPass::Frame => "frame",
             GeometryPass::Vertex => "vertex",
             GeometryPass::AssembleCount => "assemble (count)",
+            GeometryPass::Light => "light",
             GeometryPass::AssembleFill => "assemble (fill)",
             GeometryPass::Finish => "finish",
         }
@@ -507,6 +511,7 @@ pub(crate) fn prepare_instances_in(
                 })
                 .collect();
             observe(GeometryPass::AssembleCount);
+            observe(GeometryPass::Light);
             counts = counted.iter().fold(counts, |sum, p| sum.add(p.1));
             let total: usize = counted.iter().map(|p| p.0).sum();
             if total >= u32::MAX as usize {

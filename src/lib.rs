@@ -27,6 +27,9 @@ pub use auto::{BackendChoice, GPU_MIN_PIXELS, choose_backend};
 /// that `tileraster-build` compiled in the build script: see `examples/procedural`.
 pub use tileraster_core::fragment_stage;
 pub use tileraster_core::kernels::pipeline::Stage;
+/// A vertex shader compiled for both backends (`render::VertexStage`), from a shader crate
+/// that `tileraster-build` compiled in the build script: see `examples/waves`.
+pub use tileraster_core::vertex_stage;
 pub use tileraster_core::{Error, Grid, MAX_GRID_DIM, Mode, Outputs, Params, Pass, Prepared, Raster, Scene, Skip, Skips, Stats, Window};
 
 /// Where the kernels run.

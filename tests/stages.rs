@@ -8,6 +8,7 @@ mod common;
 
 use tileraster::{Grid, Params, Scene, Skips, prepare};
 use tileraster_cpu::StageBuffers;
+use tileraster_kernels::programs::vertex::Builtin;
 use tileraster_testkit::scenes;
 
 /// The first index where `a` and `b` differ, with both values.
@@ -131,11 +132,12 @@ impl tileraster::render::GeometryKernels for Recorded {
         &mut self,
         params: &tileraster_kernels::abi::VertexParams,
         positions: tileraster_core::render::Positions<'_>,
+        program: Option<&tileraster::render::VertexStage>,
         projected: &mut Vec<tileraster_kernels::abi::ProjectedVertex>,
     ) -> Result<u64, tileraster::Error> {
         self.params = Some(*params);
         self.positions = positions.pairs.to_vec();
-        tileraster_cpu::vertex(params, positions.pairs, projected);
+        tileraster_cpu::GeometryTwins::default().vertex(params, positions, program, projected)?;
         Ok(positions.bytes(true))
     }
 
@@ -214,9 +216,9 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
     positions.push(RelativePosition { hi: [0.0; 3], lo: [f32::from_bits(1); 3] });
     let stage = tileraster_kernels::abi::VertexParams { vertices: positions.len() as u32, ..stage };
     let (mut cpu, mut gpu) = (Vec::new(), Vec::new());
-    tileraster_cpu::vertex(&stage, &positions, &mut cpu);
+    tileraster_cpu::vertex(&Builtin, &stage, &positions, &mut cpu);
     let handed = Positions { pairs: &positions, kept: None };
-    tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, &mut gpu).unwrap();
+    tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, None, &mut gpu).unwrap();
     let projected = cpu.iter().filter(|p| p.is_projected()).count();
     let refused = cpu.len() - projected;
     println!("{} vertices: {projected} projected, {refused} outside the stage's domain", cpu.len());
@@ -235,26 +237,26 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
     let mut device = tileraster_gpu::GeometryDevice::default();
     let kept = Positions { pairs: &positions, kept: Some(7) };
     for (call, handed) in [(1, true), (2, false)] {
-        assert_eq!(device.vertex(&stage, kept, &mut gpu).unwrap(), kept.bytes(handed), "call {call}");
+        assert_eq!(device.vertex(&stage, kept, None, &mut gpu).unwrap(), kept.bytes(handed), "call {call}");
         same(&format!("kept, call {call}"), &gpu);
     }
     let reversed: Vec<RelativePosition> = positions.iter().rev().copied().collect();
     let other = Positions { pairs: &reversed, kept: Some(8) };
-    assert_eq!(device.vertex(&stage, other, &mut gpu).unwrap(), other.bytes(true));
+    assert_eq!(device.vertex(&stage, other, None, &mut gpu).unwrap(), other.bytes(true));
     let mut cpu_reversed = Vec::new();
-    tileraster_cpu::vertex(&stage, &reversed, &mut cpu_reversed);
+    tileraster_cpu::vertex(&Builtin, &stage, &reversed, &mut cpu_reversed);
     assert!(bytes(&gpu) == bytes(&cpu_reversed), "another mesh's kept positions: the stage read stale ones");
     // A device that binds fewer positions at once runs the stage in parts: the same bytes.
     let limit = 10_000 * std::mem::size_of::<RelativePosition>() as u64;
     let parts = {
         let _turn = BINDING_LIMIT.lock().unwrap_or_else(|e| e.into_inner());
         tileraster::set_gpu_binding_limit(limit);
-        let parts = tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, &mut gpu);
+        let parts = tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, None, &mut gpu);
         // Kept in parts: handed over once too.
         let mut device = tileraster_gpu::GeometryDevice::default();
         let kept_parts = [true, false].map(|handed| {
             let mut out = Vec::new();
-            let counted = device.vertex(&stage, kept, &mut out).map(|b| b == kept.bytes(handed));
+            let counted = device.vertex(&stage, kept, None, &mut out).map(|b| b == kept.bytes(handed));
             (counted, out)
         });
         tileraster::set_gpu_binding_limit(u64::MAX);

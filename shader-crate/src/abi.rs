@@ -903,8 +903,27 @@ pub struct VertexParams {
     /// The guard band in snapped units: a projected vertex the assembly may take lies within
     /// `[band_low, band_high]` on both axes (`stages::vertex::UNASSEMBLED`).
     pub band_low: i32,
-    pub _pad: u32,
+    /// 1: pose each position by the frame's vertex program (`programs::vertex`) before the
+    /// matrix; 0: take it as it is (the built-in program, or positions the host posed).
+    pub posed: u32,
     pub band_high: [i32; 2],
+    /// What the frame hands its vertex program.
+    pub uniforms: VertexUniforms,
+}
+
+/// Values a frame hands its vertex program (`VertexParams::uniforms`).
+pub const VERTEX_CONSTANTS: usize = 8;
+
+/// What a vertex program reads of the frame besides its vertex: the user's constants and the
+/// frame's time.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct VertexUniforms {
+    pub constants: [f32; VERTEX_CONSTANTS],
+    /// Seconds (`RenderParams::time`).
+    pub time: f32,
+    pub _pad: [u32; 3],
 }
 
 /// A vertex's position relative to the stage's origin, each coordinate as the double-`f32`

@@ -9,8 +9,7 @@
 
 use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, LightParams, TriangleShading};
 use crate::abi::{
-    Counter, Coverage, FrameParams, OutputSet, ProjectedVertex, RelativePosition, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput,
-    TriangleSetup, VertexParams,
+    Counter, Coverage, FrameParams, OutputSet, ProjectedVertex, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput, TriangleSetup,
 };
 use crate::memory::{Counters, LaneValue, Lanes};
 use crate::programs::depth::DepthProgram;
@@ -37,19 +36,10 @@ fn triangle_slot(gid: UVec3, frame: &FrameParams) -> u32 {
     gid.y * frame.dispatch_width + gid.x
 }
 
+// The vertex stage with the built-in program (`programs::vertex`); a vertex shader crate
+// makes its own.
 #[cfg(feature = "entry-points")]
-#[spirv(compute(threads(64)))]
-pub fn vertex(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &VertexParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] positions: &[RelativePosition],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] projected: &mut [ProjectedVertex],
-) {
-    let v = gid.y * params.dispatch_width + gid.x;
-    if v < params.vertices {
-        projected[v as usize] = crate::stages::vertex::vertex(params, &positions[v as usize]);
-    }
-}
+crate::vertex_entry_points!(crate::programs::vertex::Builtin);
 
 #[cfg(feature = "entry-points")]
 #[spirv(compute(threads(64)))]

@@ -145,6 +145,14 @@ fn report_cases(terrain: &Mesh, base: &RenderParams) -> Result<Vec<(String, Case
     let marble_mesh = procedural::scene();
     let marble = procedural::params(&marble_mesh, 1920, 1080).map_err(|e| e.to_string())?;
     cases.push((format!("render: marble fragment shader, {} triangles", marble_mesh.triangles.len()), Case::Render(marble_mesh, Box::new(marble))));
+    // The waves posed by the vertex shader, beside the same sea posed beforehand and drawn
+    // without one: what posing costs each stage.
+    let sea = waves::sea(384);
+    let posing = waves::params(&sea, 1920, 1080, 4.0).map_err(|e| e.to_string())?;
+    let posed = Mesh { positions: tileraster::render::posed_positions(&sea, &posing).map_err(|e| e.to_string())?, ..sea.clone() };
+    let triangles = sea.triangles.len();
+    cases.push((format!("render: waves vertex shader, {triangles} triangles"), Case::Render(sea, Box::new(posing.clone()))));
+    cases.push((format!("render: waves posed beforehand, {triangles} triangles"), Case::Render(posed, Box::new(RenderParams { vertex: None, ..posing }))));
     for shading in [Shading::Ids, Shading::Phong] {
         let msaa = RenderParams { shading, samples: 4, ..base.clone() };
         cases.push((format!("render: terrain mesh, 4 samples, {}", shading.name()), Case::Render(terrain.clone(), Box::new(msaa))));

@@ -3,6 +3,7 @@
 //! buffer uniform, read-only or read-write, workgroup size), and it holds no arithmetic whose bits differ between
 //! devices. Each check returns its problems, one line each; none means the module passes.
 
+use crate::Role;
 use rspirv::dr::{Instruction, Module, Operand, load_words};
 use rspirv::spirv::{Decoration, ExecutionMode, Op, StorageClass};
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -62,11 +63,17 @@ const NOT_ARITHMETIC: [Op; 19] = [
 ];
 
 /// Every check a fragment shader's module (`bytes`) must pass before the GPU backend runs it:
-/// its entry points are the stages that colour fragments, binding what the stage table says;
-/// its arithmetic is portable; every float arithmetic result is marked `NoContraction`.
+/// [`program_module`] as a `Role::Fragment` one.
 pub fn fragment_module(bytes: &[u8]) -> Result<(), Vec<String>> {
+    program_module(bytes, Role::Fragment)
+}
+
+/// Every check a user's shader module (`bytes`, of `role`) must pass before the GPU backend
+/// runs it: its entry points are its role's stages, binding what the stage table says; its
+/// arithmetic is portable; every float arithmetic result is marked `NoContraction`.
+pub fn program_module(bytes: &[u8], role: Role) -> Result<(), Vec<String>> {
     let m = load(bytes).map_err(|e| vec![format!("  not a SPIR-V module: {e}")])?;
-    let mut problems = entry_points(&m, |info| info.stage.colours_fragments());
+    let mut problems = entry_points(&m, |info| role.has(info));
     problems.extend(portable(&m));
     problems.extend(contraction(&m).1);
     if problems.is_empty() { Ok(()) } else { Err(problems) }

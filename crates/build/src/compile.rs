@@ -21,6 +21,12 @@ impl Shader {
         Shader { crate_path: crate_path.as_ref().to_path_buf(), role: Role::Fragment, prefix: "TILERASTER_FRAGMENT".into() }
     }
 
+    /// A vertex shader crate at `crate_path`, its modules named by `TILERASTER_VERTEX_SPV` and
+    /// `TILERASTER_VERTEX_FLOAT_CONTROLS_SPV`.
+    pub fn vertex(crate_path: impl AsRef<Path>) -> Shader {
+        Shader { crate_path: crate_path.as_ref().to_path_buf(), role: Role::Vertex, prefix: "TILERASTER_VERTEX".into() }
+    }
+
     /// tileraster's kernels at `crate_path`, named by `TILERASTER_KERNELS_SPV` and
     /// `TILERASTER_KERNELS_FLOAT_CONTROLS_SPV`.
     pub fn kernels(crate_path: impl AsRef<Path>) -> Shader {

@@ -21,7 +21,9 @@
 //! }
 //! ```
 //!
-//! and takes it with `tileraster::fragment_stage!(my_shader)`.
+//! and takes it with `tileraster::fragment_stage!(my_shader)`. A vertex shader crate
+//! (`programs::vertex`) is the same with `vertex_shader!`, `Shader::vertex` and
+//! `tileraster::vertex_stage!`.
 
 pub mod check;
 #[cfg(feature = "compile")]
@@ -33,7 +35,7 @@ pub use compile::Shader;
 use rspirv::dr::{Instruction, Module, Operand};
 use rspirv::spirv::{Capability as SpirvCapability, Decoration, ExecutionMode, Op};
 use std::path::PathBuf;
-use tileraster_kernels::pipeline::StageInfo;
+use tileraster_kernels::pipeline::{Stage, StageInfo};
 
 /// Why a crate could not be made into a module.
 #[derive(Debug, thiserror::Error)]
@@ -59,6 +61,8 @@ pub enum Role {
     Kernels,
     /// The stages that colour fragments, around a user's fragment shader.
     Fragment,
+    /// The vertex stage, around a user's vertex shader.
+    Vertex,
 }
 
 impl Role {
@@ -67,6 +71,7 @@ impl Role {
         match self {
             Role::Kernels => true,
             Role::Fragment => info.stage.colours_fragments(),
+            Role::Vertex => info.stage == Stage::Vertex,
         }
     }
 }

@@ -123,4 +123,12 @@ pub enum Error {
 
     #[error("the fragment shader {name}'s module cannot run on the GPU backend:\n{}\nbuild its crate with tileraster-build (fragment_shader! in the crate, tileraster::fragment_stage! in the host) against this version of tileraster-kernels", .problems.join("\n"))]
     FragmentShader { name: String, problems: Vec<String> },
+
+    #[error("the vertex shader {name}'s module cannot run on the GPU backend:\n{}\nbuild its crate with tileraster-build (vertex_shader! in the crate, tileraster::vertex_stage! in the host) against this version of tileraster-kernels", .problems.join("\n"))]
+    VertexShader { name: String, problems: Vec<String> },
+
+    #[error(
+        "the vertex shader {name} put vertex {vertex} at {position:?}, which is not a finite position: make it return finite coordinates for every vertex and constant the frame hands it"
+    )]
+    VertexPosedBeyond { name: String, vertex: usize, position: [f64; 3] },
 }

@@ -116,7 +116,7 @@ pub struct RenderInputs {
     /// records.
     pub records_held: Option<u64>,
     /// The frame's fragment shader; `None`: the built-in shadings.
-    pub fragment: Option<crate::render::fragment::FragmentStage>,
+    pub fragment: Option<crate::render::FragmentStage>,
     /// Whether the call returns the colour layer, and the depth layer (the values): the stages
     /// write both in any case.
     pub returns_colour: bool,

@@ -12,10 +12,11 @@ pub use stages::{
 };
 pub use tileraster_kernels::pipeline::StageBuffers;
 
-use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs, Positions};
+use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs, Positions, VertexStage};
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{ATTRIBUTES, Counter, ProjectedVertex, ShadeParams, TriangleSetup, VertexParams};
 use tileraster_kernels::pipeline::{Stage, raster_stages};
+use tileraster_kernels::programs::vertex::{Builtin, VertexProgram};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
 /// twin of the GPU backend's resident buffers).
@@ -115,8 +116,15 @@ pub struct GeometryTwins {
 }
 
 impl tileraster_core::render::GeometryKernels for GeometryTwins {
-    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error> {
-        vertex(params, positions.pairs, projected);
+    fn vertex(
+        &mut self,
+        params: &VertexParams,
+        positions: Positions<'_>,
+        program: Option<&VertexStage>,
+        projected: &mut Vec<ProjectedVertex>,
+    ) -> Result<u64, Error> {
+        let program: &(dyn VertexProgram + Sync) = program.map_or(&Builtin, |stage| stage.program());
+        vertex(program, params, positions.pairs, projected);
         let handed = positions.kept.is_none_or(|key| self.held.replace(key) != Some(key));
         Ok(positions.bytes(handed))
     }

@@ -10,7 +10,10 @@
 use super::{GpuContext, KeptPositions, MAX_GROUPS, context, storage_buffer};
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, Ordering};
-use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, GeometryKernels, KeptHanded, KeptInputs, Positions};
+use tileraster_build::Role;
+use tileraster_core::render::{
+    AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, GeometryKernels, KeptHanded, KeptInputs, Positions, VertexStage,
+};
 use tileraster_core::{Error, Mode, Prepared};
 use tileraster_kernels::TRIANGLE_GROUP;
 use tileraster_kernels::abi::{
@@ -153,14 +156,21 @@ fn fits_one_binding(ctx: &GpuContext, mesh: &AssemblyMesh<'_>) -> bool {
 }
 
 impl GeometryKernels for GeometryDevice {
-    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error> {
+    fn vertex(
+        &mut self,
+        params: &VertexParams,
+        positions: Positions<'_>,
+        program: Option<&VertexStage>,
+        projected: &mut Vec<ProjectedVertex>,
+    ) -> Result<u64, Error> {
         // A new frame: the last one's records go.
         self.frame = DeviceFrame::default();
         let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
         // The stage's pairs rest on what the `f32` modes rest on: correctly rounded `f32`
         // arithmetic, no contraction, subnormals kept.
         ctx.check_float_modes(Mode::Barycentric)?;
-        ctx.vertex_unchecked(params, positions, &mut self.kept, &mut self.projected, projected)
+        let program = program.map(|stage| ctx.program_index(stage.modules(), Role::Vertex)).transpose()?;
+        ctx.vertex_unchecked(params, positions, program, &mut self.kept, &mut self.projected, projected)
     }
 
     fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
@@ -336,14 +346,20 @@ pub fn light_rows(shade: &ShadeParams, attributes: &[[f32; ATTRIBUTES]]) -> Resu
 impl GpuContext {
     /// The index in `self.pipelines` of the pipeline of frame stage `stage`, built on first use.
     pub(super) fn frame_row(&mut self, stage: Stage) -> usize {
+        self.frame_row_of(stage, None)
+    }
+
+    /// [`Self::frame_row`] from the module of the user's shader `program` (an index into
+    /// `programs`), else the kernels'.
+    pub(super) fn frame_row_of(&mut self, stage: Stage, program: Option<usize>) -> usize {
         let row = STAGES.iter().position(|s| s.stage == stage).expect("every stage has a row");
-        let build = super::Build { row, fragment: None, spec: [None; 2] };
+        let build = super::Build { row, program, spec: [None; 2] };
         if let Some(k) = self.pipelines.iter().position(|(b, _)| *b == build) {
             return k;
         }
         let info = &STAGES[row];
-        let label = format!("tileraster kernels, {}", info.name);
-        let module = super::passthrough_module(&self.gpu.device, &label, self.kernels, &build.spec, |other| other.stage == info.stage);
+        let (module, label) = self.module_of(&build);
+        let module = super::passthrough_module(&self.gpu.device, &label, module, &build.spec, |other| other.stage == info.stage);
         let cache = self.pipeline_cache.as_ref().map(|c| &c.cache);
         self.pipelines.push((build, super::stage_pipeline(&self.gpu.device, &module, info, cache)));
         if let Some(cache) = &self.pipeline_cache {

@@ -11,7 +11,8 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
-use tileraster_core::render::{FragmentStage, Positions};
+use tileraster_build::Role;
+use tileraster_core::render::{Positions, ShaderModules};
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
     Counter, FrameFlags, FrameParams, OutputSet, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup,
@@ -324,8 +325,8 @@ struct GpuContext {
     float_modes: Option<Result<(), String>>,
     /// The kernels' module, as the device gets it (with float controls where declared).
     kernels: &'static [u8],
-    /// The fragment shaders seen so far (their modules checked).
-    fragments: Vec<FragmentStage>,
+    /// The user's shaders (fragment and vertex) seen so far, their modules checked.
+    programs: Vec<ShaderModules>,
     /// Every pipeline built so far, with what it was built from: each row of the stage table
     /// is built when a frame first runs it (a driver compiles each: a heightfield never pays
     /// for the render pipeline's), once per module and specialisation (`Build`).
@@ -345,7 +346,8 @@ struct GpuContext {
 }
 
 /// What a stage's pipeline is built from: its row of the stage table, the module (the
-/// kernels', or fragment shader `fragment`'s for the rows that colour fragments), and the
+/// kernels', or the user's shader `program`'s: a fragment shader's for the rows that colour
+/// fragments, a vertex shader's for the vertex stage), and the
 /// specialisation constant (`SpecId`, value) written into it, so that the driver compiles only
 /// the branches a frame takes: the frame's `ShadeVariant` for the rows that colour fragments,
 /// the way through the bins for the fine-raster rows (`fine::WALK_SPEC_ID`), with the
@@ -353,7 +355,8 @@ struct GpuContext {
 #[derive(Copy, Clone, PartialEq, Eq)]
 struct Build {
     row: usize,
-    fragment: Option<usize>,
+    /// An index into `GpuContext::programs`.
+    program: Option<usize>,
     /// Specialisation constants set in its module: `(SpecId, value)`.
     spec: [Option<(u32, u32)>; 2],
 }
@@ -457,7 +460,7 @@ impl GpuContext {
             float_controls_declared: declared,
             float_modes: None,
             kernels,
-            fragments: Vec::new(),
+            programs: Vec::new(),
             pipelines: Vec::new(),
             pipeline_cache,
             buffers,
@@ -554,6 +557,7 @@ impl GpuContext {
         &mut self,
         params: &VertexParams,
         positions: Positions<'_>,
+        program: Option<usize>,
         kept: &mut Option<KeptPositions>,
         on_device: &mut Option<wgpu::Buffer>,
         projected: &mut Vec<ProjectedVertex>,
@@ -587,7 +591,7 @@ impl GpuContext {
         {
             let buffers = held.buffers.clone();
             for (part, buffer) in parts.iter().zip(&buffers) {
-                self.vertex_part(params, part.len() as u64, buffer, out.take(), projected)?;
+                self.vertex_part(params, program, part.len() as u64, buffer, out.take(), projected)?;
             }
             return Ok(positions.bytes(false));
         }
@@ -610,7 +614,7 @@ impl GpuContext {
                     None => self.buffers.positions.get(&self.gpu.device, bytes),
                 };
                 self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(part));
-                self.vertex_part(params, part.len() as u64, &buffer, out.take(), projected)?;
+                self.vertex_part(params, program, part.len() as u64, &buffer, out.take(), projected)?;
                 own.push(buffer);
             }
             Ok(())
@@ -626,12 +630,14 @@ impl GpuContext {
         Ok(positions.bytes(true))
     }
 
-    /// The vertex stage over the first `n` positions of `positions` (which fit one binding),
-    /// its results written to `out` (else to a buffer of the context's) and appended to
-    /// `projected`.
+    /// The vertex stage (its module the user's shader `program`'s, else the kernels') over the
+    /// first `n` positions of `positions` (which fit one binding), its results written to `out`
+    /// (else to a buffer of the context's) and appended to `projected`.
+    #[allow(clippy::too_many_arguments)]
     fn vertex_part(
         &mut self,
         params: &VertexParams,
+        program: Option<usize>,
         n: u64,
         positions: &wgpu::Buffer,
         out: Option<wgpu::Buffer>,
@@ -639,7 +645,8 @@ impl GpuContext {
     ) -> Result<(), Error> {
         let out_bytes = n * std::mem::size_of::<ProjectedVertex>() as u64;
         let scope = self.gpu.error_scope();
-        let rows = self.frame_rows(&[Stage::Vertex]);
+        let mut rows = vec![None; STAGES.len()];
+        rows[Stage::Vertex as usize] = Some(self.frame_row_of(Stage::Vertex, program));
         let groups = (n as u32).div_ceil(TRIANGLE_GROUP).max(1);
         let (x, y) = (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS));
         let params = VertexParams { vertices: n as u32, dispatch_width: x * TRIANGLE_GROUP, ..*params };
@@ -849,7 +856,7 @@ impl GpuContext {
     /// use.
     fn stage_pipelines_of(&mut self, prepared: &Prepared) -> Result<Vec<Option<usize>>, Error> {
         let fragment = match prepared.render.as_ref().and_then(|r| r.fragment.as_ref()) {
-            Some(stage) => Some(self.fragment_index(stage)?),
+            Some(stage) => Some(self.program_index(stage.modules(), Role::Fragment)?),
             None => None,
         };
         let shade_variant = prepared.render.as_ref().map(|r| if ShadeVariant::holds(&r.params) { ShadeVariant::of(&r.params) } else { ShadeVariant::GENERIC });
@@ -878,7 +885,7 @@ impl GpuContext {
                     // Both test depth (the shade stage resolves the tiles fine raster leaves
                     // to it); the multisampled stage walks its bins where the others do.
                     let way = if info.stage == Stage::FineSamples { walk | depth } else { depth | no_tiles_left };
-                    Build { row, fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), Some((fine::WALK_SPEC_ID, way))] }
+                    Build { row, program: fragment, spec: [shade_variant.map(|v| (ShadeVariant::SPEC_ID, v.0)), Some((fine::WALK_SPEC_ID, way))] }
                 }
                 // Binning writes its entries' span masks where the fine stage walks
                 // (`stages::bin::entry_spans`), and their keys where `fine_depth`'s walk
@@ -889,24 +896,21 @@ impl GpuContext {
                     // (Binning's keys take no edge function at a pixel: the small-edge bit
                     // stays out of its constant, and out of its pipeline variants.)
                     let keys = if keys { bin::WRITE_KEYS | depth & !DepthProgram::SMALL_EDGES } else { 0 };
-                    Build { row, fragment: None, spec: [Some((bin::KEYS_SPEC_ID, spans | keys)), None] }
+                    Build { row, program: None, spec: [Some((bin::KEYS_SPEC_ID, spans | keys)), None] }
                 }
                 // The small triangles' depth test is `fine_depth`'s.
-                Stage::FineSmall => Build { row, fragment: None, spec: [Some((fine::WALK_SPEC_ID, depth)), None] },
+                Stage::FineSmall => Build { row, program: None, spec: [Some((fine::WALK_SPEC_ID, depth)), None] },
                 Stage::FineRaster | Stage::FineDepth => {
                     // `fine_raster`'s value mode shares the constant, as `fine_depth`'s depth test.
                     let mode = if info.stage == Stage::FineRaster { prepared.params.mode as u32 + 1 } else { depth };
-                    Build { row, fragment: None, spec: [Some((fine::WALK_SPEC_ID, mode | walk)), None] }
+                    Build { row, program: None, spec: [Some((fine::WALK_SPEC_ID, mode | walk)), None] }
                 }
-                _ => Build { row, fragment: None, spec: [None; 2] },
+                _ => Build { row, program: None, spec: [None; 2] },
             };
             rows[row] = Some(match self.pipelines.iter().position(|(b, _)| *b == build) {
                 Some(k) => k,
                 None => {
-                    let (module, label) = match build.fragment {
-                        Some(f) => (self.fragments[f].module(self.float_controls_declared), format!("fragment shader {}", self.fragments[f].name())),
-                        None => (self.kernels, format!("tileraster kernels, {}", info.name)),
-                    };
+                    let (module, label) = self.module_of(&build);
                     let module = passthrough_module(&self.gpu.device, &label, module, &build.spec, |other| other.stage == info.stage);
                     self.pipelines.push((build, stage_pipeline(&self.gpu.device, &module, info, cache)));
                     self.pipelines.len() - 1
@@ -926,16 +930,30 @@ impl GpuContext {
         }
     }
 
-    /// The index in `self.fragments` of fragment shader `stage`, its module checked on first
-    /// use by `tileraster-build`'s checks again (the bytes are handed to the driver unvalidated).
-    fn fragment_index(&mut self, stage: &FragmentStage) -> Result<usize, Error> {
-        if let Some(k) = self.fragments.iter().position(|f| f == stage) {
+    /// The index in `self.programs` of the user's shader `modules` (a `role` one), its module
+    /// checked on first use by `tileraster-build`'s checks again (the bytes are handed to the
+    /// driver unvalidated).
+    pub(super) fn program_index(&mut self, modules: ShaderModules, role: Role) -> Result<usize, Error> {
+        if let Some(k) = self.programs.iter().position(|m| *m == modules) {
             return Ok(k);
         }
-        let module = stage.module(self.float_controls_declared);
-        tileraster_build::check::fragment_module(module).map_err(|problems| Error::FragmentShader { name: stage.name().into(), problems })?;
-        self.fragments.push(*stage);
-        Ok(self.fragments.len() - 1)
+        let module = modules.module(self.float_controls_declared);
+        let name = modules.name().into();
+        tileraster_build::check::program_module(module, role).map_err(|problems| match role {
+            Role::Vertex => Error::VertexShader { name, problems },
+            _ => Error::FragmentShader { name, problems },
+        })?;
+        self.programs.push(modules);
+        Ok(self.programs.len() - 1)
+    }
+
+    /// The module a pipeline is built from, and its label.
+    pub(super) fn module_of(&self, build: &Build) -> (&'static [u8], String) {
+        let info = &STAGES[build.row];
+        match build.program {
+            Some(k) => (self.programs[k].module(self.float_controls_declared), format!("shader {}, {}", self.programs[k].name(), info.name)),
+            None => (self.kernels, format!("tileraster kernels, {}", info.name)),
+        }
     }
 
     /// Record the stages of `scope`, in the stage table's order, each with its bindings looked

@@ -2,7 +2,8 @@
 //! triangles over it (`stages::fine::PixelProgram`), one module per pipeline, and what the
 //! render pipeline's shade stage computes from the pixel's owner (`shade`); multisampled
 //! frames test, key and shade their samples in one stage (`multisample`). What colours a
-//! fragment is a program of its own (`fragment`): the built-in shadings or a user's.
+//! fragment is a program of its own (`fragment`): the built-in shadings or a user's; so is
+//! where the vertex stage puts a vertex (`vertex`).
 
 pub mod depth;
 pub mod fragment;
@@ -11,3 +12,4 @@ pub mod multisample;
 pub mod occlusion;
 pub mod shade;
 pub mod texture;
+pub mod vertex;

@@ -10,6 +10,7 @@
 
 use crate::abi::{ProjectedVertex, RelativePosition, VertexParams};
 use crate::math::double::Double;
+use crate::programs::vertex::VertexProgram;
 use crate::stages::viewport;
 
 /// `m · (r, 1)`: a position relative to the stage's origin (the host's choice: the centre of
@@ -70,7 +71,8 @@ pub fn frustum_planes(clip: &[Double; 4]) -> u32 {
         | bit((w - z).hi < 0.0, BEYOND_FAR)
 }
 
-/// One vertex through the stage: projected where its position lies within [`POSITION_LIMIT`] and
+/// Vertex `index` through the stage: posed by `program` where `params.posed` says so, then
+/// projected where its position (before and after the pose) lies within [`POSITION_LIMIT`] and
 /// it lies in front of the camera (`w` in `[2^-60, 2^100]`), within `params.reach` of the view in
 /// `x` and `y` and within `[-w, 2w]` in `z`, else [`ProjectedVertex::none`] (the host then
 /// projects it in `f64` if it lies inside the clipping planes at all). Its [`FRUSTUM`] bits are
@@ -79,10 +81,11 @@ pub fn frustum_planes(clip: &[Double; 4]) -> u32 {
 #[inline]
 // Plain comparisons, as the CPU twin's `f64` path mirrors them.
 #[allow(clippy::manual_range_contains)]
-pub fn vertex(params: &VertexParams, position: &RelativePosition) -> ProjectedVertex {
-    let p = &position.hi;
-    let bounded = |v: f32| v < POSITION_LIMIT && v > -POSITION_LIMIT;
-    if !(bounded(p[0]) && bounded(p[1]) && bounded(p[2])) {
+pub fn vertex<P: VertexProgram + ?Sized>(program: &P, params: &VertexParams, index: u32, position: &RelativePosition) -> ProjectedVertex {
+    let bounded = |p: [f32; 3]| {
+        p[0] < POSITION_LIMIT && p[0] > -POSITION_LIMIT && p[1] < POSITION_LIMIT && p[1] > -POSITION_LIMIT && p[2] < POSITION_LIMIT && p[2] > -POSITION_LIMIT
+    };
+    if !bounded(position.hi) {
         return ProjectedVertex::NONE;
     }
     let mut m = [[Double::ZERO; 4]; 4];
@@ -100,6 +103,11 @@ pub fn vertex(params: &VertexParams, position: &RelativePosition) -> ProjectedVe
         Double { hi: position.hi[1], lo: position.lo[1] },
         Double { hi: position.hi[2], lo: position.lo[2] },
     ];
+    let r = if params.posed != 0 { program.pose(&params.uniforms, index, r) } else { r };
+    // (A NaN fails every comparison: a pose to NaN is not projected.)
+    if !bounded([r[0].hi, r[1].hi, r[2].hi]) {
+        return ProjectedVertex::NONE;
+    }
     let clip = to_clip(&m, &r);
     let planes = frustum_planes(&clip);
     let w = clip[3].hi;

@@ -197,14 +197,14 @@ impl VertexAttributes {
                 for p in placements {
                     let turned = placed_normals(p, &computed);
                     let shaded = Shaded { mesh: p.mesh, normals: &turned, shading, lighting };
-                    let positions = p.mesh.positions.par_iter().enumerate();
+                    let positions = p.positions.par_iter().enumerate();
                     values.par_extend(positions.map(|(v, q)| shaded.attributes(v, transform_point(&p.to_world, q)).map(|a| a as f32)));
                     normals.extend_from_slice(&turned);
                 }
             }
             if faces_lit {
                 for p in placements {
-                    let world = |v: usize| transform_point(&p.to_world, &p.mesh.positions[v]);
+                    let world = |v: usize| transform_point(&p.to_world, &p.positions[v]);
                     face_normals.par_extend((0..p.mesh.triangles.len()).into_par_iter().map(|k| face_normal(drawn(p, k).map(world))));
                 }
             }
@@ -426,7 +426,7 @@ impl<'a> MeshFaces<'a> {
             return None;
         }
         let p = self.placement;
-        let q = tri.map(|v| transform_point(&p.to_world, &p.mesh.positions[v]));
+        let q = tri.map(|v| transform_point(&p.to_world, &p.positions[v]));
         let base = p.mesh.colours.as_ref().map_or(GREY, |c| c[tri[0]]).map(f64::from);
         Some(self.shaded.lighting.light_face(base, q))
     }
@@ -437,7 +437,7 @@ impl<'a> MeshFaces<'a> {
     /// on the host if it lies inside the planes.
     fn corner(&self, v: usize, viewport: &Viewport) -> ClipVertex {
         let p = self.placement;
-        let world = transform_point(&p.to_world, &p.mesh.positions[v]);
+        let world = transform_point(&p.to_world, &p.positions[v]);
         let mut c = self.shaded.clip_vertex(v, world, self.view_projection, viewport);
         let k = &self.projected[p.first_vertex + v];
         if k.planes & UNASSEMBLED == 0 {

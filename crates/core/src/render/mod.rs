@@ -42,12 +42,12 @@ mod assemble;
 mod clip;
 mod cull;
 mod emit;
-pub(crate) mod fragment;
 mod instances;
 mod lighting;
 mod lines;
 mod params;
 mod points;
+pub(crate) mod program;
 mod texture;
 mod validate;
 mod vector;
@@ -58,7 +58,6 @@ use assemble::{AssembledFrame, MeshFaces, VertexAttributes};
 pub use assemble::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs};
 use clip::geometry;
 use emit::{Emit, FaceTag};
-pub use fragment::{FragmentConstants, FragmentStage};
 pub use instances::{Instance, World};
 use instances::{Placement, validate_world};
 use lighting::Lighting;
@@ -69,6 +68,7 @@ pub use params::{
     RenderParams, Shading, Wireframe, centre_of_projection, face_normals,
 };
 use points::{point, surface_bias};
+pub use program::{FragmentConstants, FragmentStage, ProgramStage, ShaderModules, VertexConstants, VertexStage};
 pub use texture::{LaidOutTextures, MAX_TEXTURE_DIM, Texture};
 pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 pub use validate::validate_mesh;
@@ -166,6 +166,16 @@ pub fn prepare_mesh_frame(
     prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(kept), kernels, &mut |_| {})
 }
 
+/// `mesh`'s positions as the vertex shader of `params` poses them for a frame, in `f64` as the
+/// host's stages take them (clipping, normals, the culling of instances), or its own where the
+/// frame has no vertex shader: the bounds a camera that frames the posed mesh needs.
+pub fn posed_positions(mesh: &Mesh, params: &RenderParams) -> Result<Vec<[f64; 3]>, Error> {
+    match vertex::Posing::of(params) {
+        Some(posing) => vertex::posed_positions(mesh, &posing, None),
+        None => Ok(mesh.positions.clone()),
+    }
+}
+
 /// Runs the geometry stages over every instance of `world`.
 pub fn prepare_world(world: &World, params: &RenderParams, kernels: &mut dyn GeometryKernels) -> Result<(Prepared, GeometryCounts), Error> {
     prepare_world_in(world, params, &mut GeometryMemory::default(), kernels)
@@ -252,22 +262,36 @@ pub(crate) fn prepare_instances_in(
     let m = &params.view_projection;
     let lighting = Lighting::of(params)?;
     let viewport = Viewport::new(w, h);
+    let mut placed = vec![false; meshes.len()];
+    instances.iter().for_each(|i| placed[i.mesh as usize] = true);
+
+    // A vertex shader poses each placed mesh in its own coordinates (`vertex::posed_positions`;
+    // the kernels' vertex stage poses a mesh drawn once with the same function).
+    let posing = vertex::Posing::of(params);
+    let posed: Vec<Option<Vec<[f64; 3]>>> = match &posing {
+        Some(posing) => {
+            let mut kept_positions = kept.as_deref_mut().filter(|_| instances.len() == 1).map(|k| &mut k.positions);
+            let mut posed = Vec::with_capacity(meshes.len());
+            for (mesh, &placed) in meshes.iter().zip(&placed) {
+                posed.push(if placed { Some(vertex::posed_positions(mesh, posing, kept_positions.take())?) } else { None });
+            }
+            posed
+        }
+        None => Vec::new(),
+    };
+    let drawn_positions = |k: usize| posed.get(k).and_then(|p| p.as_deref()).unwrap_or(&meshes[k].positions);
 
     // Object culling: instances whose bounding box lies outside the view frustum get no vertex
     // work (`instances`: it changes no bit).
     let mut counts = GeometryCounts::default();
     let bounds: Vec<Option<[[f64; 3]; 2]>> = if params.skips.cull_instances && instances.len() > 1 {
-        let mut used = vec![false; meshes.len()];
-        instances.iter().for_each(|i| used[i.mesh as usize] = true);
-        meshes.par_iter().zip(used).map(|(mesh, used)| used.then(|| instances::bounding_box(mesh))).collect()
+        (0..meshes.len()).into_par_iter().map(|k| placed[k].then(|| instances::bounds(drawn_positions(k)))).collect()
     } else {
         Vec::new()
     };
     // The frame's textures: every placed mesh's, once.
     let mut first_textures = vec![0u32; meshes.len()];
     let mut textures: Vec<&Texture> = Vec::new();
-    let mut placed = vec![false; meshes.len()];
-    instances.iter().for_each(|i| placed[i.mesh as usize] = true);
     for (k, mesh) in meshes.iter().enumerate().filter(|(k, _)| placed[*k]) {
         first_textures[k] = textures.len() as u32;
         textures.extend(mesh.textures.iter());
@@ -310,6 +334,8 @@ pub(crate) fn prepare_instances_in(
             placements.push(Placement {
                 mesh,
                 mesh_index: instance.mesh as usize,
+                positions: drawn_positions(instance.mesh as usize),
+                normals: mesh.normals.as_deref().filter(|_| posing.is_none()),
                 to_world,
                 mirrored: instances::mirrors(&instance.transform),
                 first_vertex,
@@ -341,6 +367,7 @@ pub(crate) fn prepare_instances_in(
             &mut memory.world,
             &mut memory.vertex_stage,
             kept.as_deref_mut().map(|k| &mut k.positions),
+            posing.as_ref(),
             kernels,
         )?,
         false => None,
@@ -352,7 +379,8 @@ pub(crate) fn prepare_instances_in(
             // A prepared mesh's faces are the same in each of its frames: kept by its positions'.
             let faces_key = kept.as_deref().and_then(|k| k.positions.as_ref()).filter(|_| placements.len() == 1).map(MeshPositions::key);
             let (slot, keeps) = match kept {
-                Some(k) if placements.len() == 1 => (&mut k.attributes, true),
+                // (A vertex shader's frame makes its attributes afresh: its pose may differ.)
+                Some(k) if placements.len() == 1 => (&mut k.attributes, posing.is_none()),
                 _ => (&mut memory.attributes, false),
             };
             let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, slot, keeps);
@@ -394,6 +422,7 @@ pub(crate) fn prepare_instances_in(
                 &mut memory.vertex_stage,
                 instances.len() == 1,
                 kept.map(|k| &mut k.positions),
+                posing.as_ref(),
                 kernels,
             )?;
             memory.vertices.par_iter().map(Corner::of).collect_into_vec(&mut memory.corners);

@@ -1,7 +1,7 @@
 //! What a frame is made of and asked for: the mesh, the render parameters, and what the
 //! geometry stages report.
 
-use super::fragment::{FragmentConstants, FragmentStage};
+use super::program::{FragmentConstants, FragmentStage, VertexConstants, VertexStage};
 use super::texture::Texture;
 use super::vector::{cross, dot, sub, unit};
 use crate::Skips;
@@ -184,6 +184,15 @@ pub struct RenderParams {
     pub fragment: Option<FragmentStage>,
     /// Values the fragment shader reads (`ShadeParams::constants`); zeros by default.
     pub fragment_constants: FragmentConstants,
+    /// A vertex shader that poses every vertex of the frame's meshes in their own coordinates
+    /// before the camera sees them ([`vertex_stage!`](crate::vertex_stage)); `None`: the mesh as
+    /// it is. The frame's normals are then computed from its posed faces (a mesh's own normals
+    /// are the unposed surface's).
+    pub vertex: Option<VertexStage>,
+    /// Values the vertex shader reads (`VertexUniforms::constants`); zeros by default.
+    pub vertex_constants: VertexConstants,
+    /// Seconds, for the vertex shader (`VertexUniforms::time`); 0 by default.
+    pub time: f32,
 }
 
 impl RenderParams {
@@ -221,6 +230,9 @@ impl RenderParams {
             skips: Skips::ALL,
             fragment: None,
             fragment_constants: [0.0; tileraster_kernels::abi::FRAGMENT_CONSTANTS],
+            vertex: None,
+            vertex_constants: [0.0; tileraster_kernels::abi::VERTEX_CONSTANTS],
+            time: 0.0,
         }
     }
 }
@@ -391,9 +403,15 @@ pub struct Wireframe {
 /// Area-weighted face normals summed per vertex, in the mesh's coordinates and in face order
 /// (so the same on every run), normalised: the normals of a mesh that has none.
 pub fn face_normals(mesh: &Mesh) -> Vec<[f32; 3]> {
-    let mut sum = vec![[0.0f64; 3]; mesh.positions.len()];
-    for tri in &mesh.triangles {
-        let p = tri.map(|v| mesh.positions[v as usize]);
+    surface_normals(&mesh.positions, &mesh.triangles)
+}
+
+/// [`face_normals`] of the faces `triangles` over `positions` (a mesh's, or as a vertex shader
+/// posed them).
+pub(super) fn surface_normals(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
+    let mut sum = vec![[0.0f64; 3]; positions.len()];
+    for tri in triangles {
+        let p = tri.map(|v| positions[v as usize]);
         let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
         for &v in tri {
             for c in 0..3 {

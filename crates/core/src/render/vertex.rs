@@ -4,15 +4,16 @@
 use super::assemble::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches};
 use super::instances::{self, Placement};
 use super::lighting::{FaceLight, Lighting};
-use super::params::{GREY, IDENTITY, Mesh, Shading, face_normals};
-use super::params::{GUARD_PX, RENDER_SNAP_BITS};
+use super::params::{GREY, IDENTITY, Mesh, Shading, surface_normals};
+use super::params::{GUARD_PX, RENDER_SNAP_BITS, RenderParams};
+use super::program::VertexStage;
 use super::vector::{multiply, normal_matrix, transform_normal};
 use super::viewport::{Viewport, distance};
 use crate::Error;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use tileraster_kernels::abi::{
-    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, LightParams, ProjectedVertex, RelativePosition, ShadeParams, VertexParams,
+    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, LightParams, ProjectedVertex, RelativePosition, ShadeParams, VertexParams, VertexUniforms,
 };
 use tileraster_kernels::math::double::Double;
 use tileraster_kernels::stages::vertex::{FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
@@ -21,10 +22,17 @@ use tileraster_kernels::stages::vertex::{FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
 /// CPU backend's twins, or the device's dispatches, to the same bits.
 pub trait GeometryKernels {
     /// The `vertex` stage (`tileraster_kernels::stages::vertex`) over `positions`, into
-    /// `projected` (one per position; its memory reused). Returns the bytes handed to the
-    /// stage: its parameters, and the positions unless it holds them already (a mesh's kept
-    /// positions, [`Positions::kept`], that it was handed before).
-    fn vertex(&mut self, params: &VertexParams, positions: Positions<'_>, projected: &mut Vec<ProjectedVertex>) -> Result<u64, Error>;
+    /// `projected` (one per position; its memory reused), with the vertex shader `program`
+    /// where `params.posed` says the stage poses them (else the built-in program). Returns the
+    /// bytes handed to the stage: its parameters, and the positions unless it holds them
+    /// already (a mesh's kept positions, [`Positions::kept`], that it was handed before).
+    fn vertex(
+        &mut self,
+        params: &VertexParams,
+        positions: Positions<'_>,
+        program: Option<&VertexStage>,
+        projected: &mut Vec<ProjectedVertex>,
+    ) -> Result<u64, Error>;
 
     /// The `assemble_count` stage (`tileraster_kernels::stages::assemble`) over a placed mesh's
     /// faces (whose vertices went through `vertex` last): what it leaves, its faces left to the
@@ -178,6 +186,52 @@ pub(super) struct Projected {
     pub(super) attributes: [f32; ATTRIBUTES],
 }
 
+/// A frame's vertex shader and what it hands the shader.
+#[derive(Clone, Copy)]
+pub(super) struct Posing<'a> {
+    pub(super) stage: &'a VertexStage,
+    pub(super) uniforms: VertexUniforms,
+}
+
+impl<'a> Posing<'a> {
+    /// The frame's, where it has a vertex shader.
+    pub(super) fn of(params: &'a RenderParams) -> Option<Self> {
+        let uniforms = VertexUniforms { constants: params.vertex_constants, time: params.time, ..VertexUniforms::default() };
+        params.vertex.as_ref().map(|stage| Posing { stage, uniforms })
+    }
+}
+
+/// `mesh`'s positions as the frame's vertex shader poses them, in `f64` for the host's stages
+/// (clipping, normals, culling of instances): the shader called natively on the pairs the
+/// kernels' vertex stage poses (`MeshPositions`; `kept`'s, where the mesh keeps them), each
+/// posed pair added to their origin. A coordinate the shader leaves as it is keeps the mesh's
+/// own value, and so does a vertex beyond the stage's range (which the stage does not project).
+pub(super) fn posed_positions(mesh: &Mesh, posing: &Posing<'_>, kept: Option<&mut Option<MeshPositions>>) -> Result<Vec<[f64; 3]>, Error> {
+    let fresh;
+    let stage = match kept {
+        Some(kept) => &*kept.get_or_insert_with(|| MeshPositions::of(&mesh.positions)),
+        None => {
+            fresh = MeshPositions::of(&mesh.positions);
+            &fresh
+        }
+    };
+    let program = posing.stage.program();
+    let pose = |(v, (pair, own)): (usize, (&RelativePosition, &[f64; 3]))| {
+        if !pair.hi.iter().all(|c| c.abs() < POSITION_LIMIT) {
+            return *own;
+        }
+        let r: [Double; 3] = std::array::from_fn(|k| Double { hi: pair.hi[k], lo: pair.lo[k] });
+        let posed = program.pose(&posing.uniforms, v as u32, r);
+        let unmoved = |k: usize| posed[k].hi.to_bits() == r[k].hi.to_bits() && posed[k].lo.to_bits() == r[k].lo.to_bits();
+        std::array::from_fn(|k| if unmoved(k) { own[k] } else { stage.origin[k] + posed[k].to_f64() })
+    };
+    let posed: Vec<[f64; 3]> = stage.pairs.par_iter().zip(mesh.positions.par_iter()).enumerate().map(pose).collect();
+    match posed.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        Some(vertex) => Err(Error::VertexPosedBeyond { name: posing.stage.name().into(), vertex, position: posed[vertex] }),
+        None => Ok(posed),
+    }
+}
+
 /// The mesh's normals in the world: its own, or (where it has none) [`face_normals`], turned by
 /// the model matrix's inverse transpose (its cofactors, with the determinant's sign) and
 /// normalised.
@@ -194,8 +248,8 @@ pub(super) fn vertex_normals(n: &[[f32; 3]], model: &[[f64; 4]; 4]) -> Vec<[f32;
 pub(super) fn computed_normals(placements: &[Placement]) -> Vec<Option<Vec<[f32; 3]>>> {
     let mut computed: Vec<Option<Vec<[f32; 3]>>> = vec![None; placements.iter().map(|p| p.mesh_index + 1).max().unwrap_or(0)];
     for p in placements {
-        if p.mesh.normals.is_none() && computed[p.mesh_index].is_none() {
-            computed[p.mesh_index] = Some(face_normals(p.mesh));
+        if p.normals.is_none() && computed[p.mesh_index].is_none() {
+            computed[p.mesh_index] = Some(surface_normals(p.positions, &p.mesh.triangles));
         }
     }
     computed
@@ -204,7 +258,7 @@ pub(super) fn computed_normals(placements: &[Placement]) -> Vec<Option<Vec<[f32;
 /// A placement's normals in the world: its mesh's own or `computed` ([`computed_normals`]),
 /// turned by its transform ([`vertex_normals`]).
 pub(super) fn placed_normals(p: &Placement, computed: &[Option<Vec<[f32; 3]>>]) -> Vec<[f32; 3]> {
-    let own = p.mesh.normals.as_deref().or(computed[p.mesh_index].as_deref()).expect("normals of every placed mesh");
+    let own = p.normals.or(computed[p.mesh_index].as_deref()).expect("normals of every placed mesh");
     vertex_normals(own, &p.to_world)
 }
 
@@ -287,6 +341,7 @@ pub(super) fn transform_vertices(
     stage: &mut VertexStageMemory,
     one_instance: bool,
     kept: Option<&mut Option<MeshPositions>>,
+    posing: Option<&Posing<'_>>,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<u64, Error> {
     // Every entry is overwritten below: the last frame's are kept as they are, and only the
@@ -307,7 +362,7 @@ pub(super) fn transform_vertices(
     let mut pieces = Vec::with_capacity(placements.len());
     let (mut rest_w, mut rest_v) = (&mut world[..], &mut vertices[..]);
     for p in placements {
-        let n = p.mesh.positions.len();
+        let n = p.positions.len();
         let (w, tail_w) = rest_w.split_at_mut(n);
         let (v, tail_v) = rest_v.split_at_mut(n);
         pieces.push((p, w, v));
@@ -315,7 +370,7 @@ pub(super) fn transform_vertices(
     }
     pieces.into_par_iter().for_each(|(p, world, vertices)| {
         let (mesh, model) = (p.mesh, &p.to_world);
-        mesh.positions.par_iter().zip(world.par_iter_mut()).for_each(|(v, out)| *out = instances::transform_point(model, v));
+        p.positions.par_iter().zip(world.par_iter_mut()).for_each(|(v, out)| *out = instances::transform_point(model, v));
         let world = &*world;
         let normals = if attributes_used { placed_normals(p, &computed) } else { Vec::new() };
         vertices.par_iter_mut().enumerate().for_each(|(v, out)| {
@@ -324,8 +379,8 @@ pub(super) fn transform_vertices(
         });
     });
     let VertexStageMemory { positions, projected } = stage;
-    let (handed, origin, matrix) = stage_input(placements, one_instance, m, world, kept, positions);
-    project_vertices(handed, origin, &matrix, vertices, viewport, projected, kernels)
+    let (handed, origin, matrix, posed) = stage_input(placements, one_instance, m, world, kept, posing, positions);
+    project_vertices(handed, origin, &matrix, posed, vertices, viewport, projected, kernels)
 }
 
 /// What the vertex stage takes for a frame: its positions, their origin, and the matrix from
@@ -334,28 +389,34 @@ pub(super) fn transform_vertices(
 /// that a prepared mesh (`kept`) hands them to the stage once. Several instances hand the
 /// world's positions (`world`), relative to their box's centre, however many the culling keeps
 /// (which changes no bit). `pairs` holds the positions a prepared mesh does not keep.
-fn stage_input<'a>(
+///
+/// With a vertex shader (`posing`), a mesh's own positions are handed unposed and the stage
+/// poses them (the last value returned: whether it does, with the uniforms `posing` holds);
+/// the world's positions of several instances are handed as the host posed them
+/// ([`posed_positions`], the same function on the same pairs).
+fn stage_input<'a, 'p>(
     placements: &[Placement],
     one_instance: bool,
     m: &[[f64; 4]; 4],
     world: &[[f64; 3]],
     kept: Option<&'a mut Option<MeshPositions>>,
+    posing: Option<&'p Posing<'p>>,
     pairs: &'a mut Vec<RelativePosition>,
-) -> (Positions<'a>, [f64; 3], [[f64; 4]; 4]) {
-    let (points, matrix) = match placements {
+) -> (Positions<'a>, [f64; 3], [[f64; 4]; 4], Option<&'p Posing<'p>>) {
+    let (points, matrix, posing) = match placements {
         [only] if one_instance => {
             let matrix = if only.to_world == IDENTITY { *m } else { multiply(m, &only.to_world) };
             if let Some(kept) = kept {
                 let mesh = kept.get_or_insert_with(|| MeshPositions::of(&only.mesh.positions));
-                return (Positions { pairs: &mesh.pairs, kept: Some(mesh.key) }, mesh.origin, matrix);
+                return (Positions { pairs: &mesh.pairs, kept: Some(mesh.key) }, mesh.origin, matrix, posing);
             }
-            (&only.mesh.positions[..], matrix)
+            (&only.mesh.positions[..], matrix, posing)
         }
-        _ => (world, *m),
+        _ => (world, *m, None),
     };
     let origin = box_centre(points);
     relative_pairs(points, origin, pairs);
-    (Positions { pairs, kept: None }, origin, matrix)
+    (Positions { pairs, kept: None }, origin, matrix, posing)
 }
 
 /// The centre of the points' box (the origin their pairs are taken from).
@@ -411,6 +472,7 @@ pub(super) fn project_for_assembly(
     world: &mut Vec<[f64; 3]>,
     stage: &mut VertexStageMemory,
     kept: Option<&mut Option<MeshPositions>>,
+    posing: Option<&Posing<'_>>,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<Option<u64>, Error> {
     let vertices = u32::try_from(count).map_err(|_| Error::TooManyFaces { faces: count as u64 })?;
@@ -418,14 +480,14 @@ pub(super) fn project_for_assembly(
         world.clear();
         let reserved = world.try_reserve_exact(count);
         reserved.map_err(|e| Error::OutOfMemory { what: "the visible instances' vertices", reason: format!("{count} vertices ({e})") })?;
-        world.par_extend(placements.par_iter().flat_map(|p| p.mesh.positions.par_iter().map(|v| instances::transform_point(&p.to_world, v))));
+        world.par_extend(placements.par_iter().flat_map(|p| p.positions.par_iter().map(|v| instances::transform_point(&p.to_world, v))));
     }
     let VertexStageMemory { positions, projected } = stage;
-    let (handed, origin, matrix) = stage_input(placements, one_instance, m, world, kept, positions);
-    let Some(params) = vertex_params(&matrix, origin, viewport) else {
+    let (handed, origin, matrix, posed) = stage_input(placements, one_instance, m, world, kept, posing, positions);
+    let Some(params) = vertex_params(&matrix, origin, posed, viewport) else {
         return Ok(None);
     };
-    let bytes = kernels.vertex(&VertexParams { vertices, ..params }, handed, projected)?;
+    let bytes = kernels.vertex(&VertexParams { vertices, ..params }, handed, posed.map(|p| p.stage), projected)?;
     if projected.len() != count {
         return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {count}", projected.len())));
     }
@@ -435,25 +497,27 @@ pub(super) fn project_for_assembly(
 /// The vertex stage proper, on the frame's backend (`kernels`): every vertex inside the clipping
 /// planes gets its snapped position, depth and `1/w` from `stages::vertex`. The kernels take
 /// positions relative to an origin in double-`f32` pairs (`positions`, one per vertex), and
-/// `matrix` (from the positions' space to clip space) with the origin composed in. Returns the
-/// bytes handed to the stage.
+/// `matrix` (from the positions' space to clip space) with the origin composed in, posed by
+/// `posed`'s shader where given. Returns the bytes handed to the stage.
+#[allow(clippy::too_many_arguments)]
 fn project_vertices(
     positions: Positions<'_>,
     origin: [f64; 3],
     matrix: &[[f64; 4]; 4],
+    posed: Option<&Posing<'_>>,
     vertices: &mut [ClipVertex],
     viewport: &Viewport,
     projected: &mut Vec<ProjectedVertex>,
     kernels: &mut dyn GeometryKernels,
 ) -> Result<u64, Error> {
     let count = u32::try_from(vertices.len()).map_err(|_| Error::TooManyFaces { faces: vertices.len() as u64 })?;
-    let Some(params) = vertex_params(matrix, origin, viewport) else {
+    let Some(params) = vertex_params(matrix, origin, posed, viewport) else {
         // A matrix beyond the stage's range (a camera of absurd scale): every vertex on the host.
         vertices.par_iter_mut().filter(|v| v.outside == 0).for_each(|v| v.projected = v.project(viewport));
         return Ok(0);
     };
     let params = VertexParams { vertices: count, ..params };
-    let bytes = kernels.vertex(&params, positions, projected)?;
+    let bytes = kernels.vertex(&params, positions, posed.map(|p| p.stage), projected)?;
     if projected.len() != vertices.len() {
         return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {}", projected.len(), vertices.len())));
     }
@@ -472,9 +536,10 @@ fn project_vertices(
     Ok(bytes)
 }
 
-/// The vertex stage's parameters: `m · T(origin)` in pairs, the viewport in snapped units;
-/// `None` where an entry lies beyond the stage's range.
-fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], viewport: &Viewport) -> Option<VertexParams> {
+/// The vertex stage's parameters: `m · T(origin)` in pairs, the viewport in snapped units, and
+/// where the stage poses the positions (`posed`) the shader's uniforms; `None` where an entry
+/// lies beyond the stage's range.
+fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], posed: Option<&Posing<'_>>, viewport: &Viewport) -> Option<VertexParams> {
     let mut composed = *m;
     for row in &mut composed {
         row[3] += row[0] * origin[0] + row[1] * origin[1] + row[2] * origin[2];
@@ -492,6 +557,8 @@ fn vertex_params(m: &[[f64; 4]; 4], origin: [f64; 3], viewport: &Viewport) -> Op
         reach: viewport.guard.map(|g| (2.0 * g) as f32),
         band_low: low,
         band_high: high,
+        posed: u32::from(posed.is_some()),
+        uniforms: posed.map_or_else(VertexUniforms::default, |p| p.uniforms),
         ..VertexParams::default()
     })
 }

@@ -5,18 +5,40 @@
 //! both the pairs' result and its own may lie from the exact value; where no rounding boundary
 //! (of `f32`, or of the snapping to an integer) lies within that bound, both round alike and the
 //! `f64` result is the kernel's bits. Near a boundary, or outside the range the bound covers,
-//! it runs the kernel's own function ([`exact_in_f64`] says which).
+//! it runs the kernel's own function ([`exact_in_f64`] says which). A frame's vertex program
+//! poses each position first, as the kernel does, with the same function ([`posed`]).
 
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ProjectedVertex, RelativePosition, VertexParams};
+use tileraster_kernels::math::double::Double;
+use tileraster_kernels::programs::vertex::{Builtin, VertexProgram};
 use tileraster_kernels::stages::vertex::{
     BEYOND_BOTTOM, BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, BEYOND_RIGHT, BEYOND_TOP, POSITION_LIMIT, assembly_bit, vertex as project,
 };
 
-/// The frame's vertices through the vertex stage, into `projected` (its memory reused).
-pub fn vertex(params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) {
+/// The frame's vertices through the vertex stage with the vertex program `program`, into
+/// `projected` (its memory reused).
+pub fn vertex(program: &(dyn VertexProgram + Sync), params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) {
     let matrix = Matrix::of(params);
-    positions.par_iter().with_min_len(1 << 10).map(|p| exact_in_f64(params, &matrix, p).unwrap_or_else(|| project(params, p))).collect_into_vec(projected);
+    let one = |(v, p): (usize, &RelativePosition)| {
+        let p = &posed(program, params, v as u32, p);
+        // Posed already: the kernel's function with the program that moves nothing.
+        exact_in_f64(params, &matrix, p).unwrap_or_else(|| project(&Builtin, params, v as u32, p))
+    };
+    positions.par_iter().enumerate().with_min_len(1 << 10).map(one).collect_into_vec(projected);
+}
+
+/// Vertex `index` at `position` as the kernel poses it before its matrix (`stages::vertex`):
+/// by `program` where `params.posed` says so and the position lies within the stage's range,
+/// else as it is.
+pub fn posed(program: &(dyn VertexProgram + Sync), params: &VertexParams, index: u32, position: &RelativePosition) -> RelativePosition {
+    let bounded = position.hi.iter().all(|&v| v < POSITION_LIMIT && v > -POSITION_LIMIT);
+    if params.posed == 0 || !bounded {
+        return *position;
+    }
+    let pairs = std::array::from_fn(|k| Double { hi: position.hi[k], lo: position.lo[k] });
+    let r = program.pose(&params.uniforms, index, pairs);
+    RelativePosition { hi: r.map(|d| d.hi), lo: r.map(|d| d.lo) }
 }
 
 /// The frame's matrix in `f64`: the value of each pair (exact, or within `2^-53` of it where
@@ -283,7 +305,7 @@ mod tests {
         for _ in 0..400_000 {
             let v = [next() * 20_000.0 - 5_000.0, next() * 20_000.0 - 10_000.0, next() * 300.0];
             let position = pairs(v);
-            let kernel = project(&p, &position);
+            let kernel = project(&Builtin, &p, 0, &position);
             total += 1;
             projected += usize::from(kernel.is_projected());
             assembled += usize::from(kernel.planes & UNASSEMBLED == 0);
@@ -309,7 +331,7 @@ mod tests {
             let hair = (next() - 0.5) * 2f64.powi(-30);
             let x = (step + hair) / half - 1.0;
             let position = pairs([x, 0.25 * next(), next() - 0.5]);
-            let kernel = project(&p, &position);
+            let kernel = project(&Builtin, &p, 0, &position);
             total += 1;
             if let Some(fast) = exact_in_f64(&p, &Matrix::of(&p), &position) {
                 answered += 1;
@@ -335,7 +357,7 @@ mod tests {
                 _ => [(next() * 1.6 - 0.8), (next() * 1.6 - 0.8), 1.5 + hair],
             };
             let position = pairs(v);
-            let kernel = project(&p, &position);
+            let kernel = project(&Builtin, &p, 0, &position);
             total += 1;
             for b in 0..6 {
                 if kernel.planes & (1 << b) != 0 { set[b] += 1 } else { clear[b] += 1 }

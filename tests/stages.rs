@@ -132,12 +132,12 @@ impl tileraster::render::GeometryKernels for Recorded {
         &mut self,
         params: &tileraster_kernels::abi::VertexParams,
         positions: tileraster_core::render::Positions<'_>,
-        program: Option<&tileraster::render::VertexStage>,
+        posing: Option<&tileraster_core::render::Posing<'_>>,
         projected: &mut Vec<tileraster_kernels::abi::ProjectedVertex>,
     ) -> Result<u64, tileraster::Error> {
         self.params = Some(*params);
         self.positions = positions.pairs.to_vec();
-        tileraster_cpu::GeometryTwins::default().vertex(params, positions, program, projected)?;
+        tileraster_cpu::GeometryTwins::default().vertex(params, positions, posing, projected)?;
         Ok(positions.bytes(true))
     }
 
@@ -216,7 +216,7 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
     positions.push(RelativePosition { hi: [0.0; 3], lo: [f32::from_bits(1); 3] });
     let stage = tileraster_kernels::abi::VertexParams { vertices: positions.len() as u32, ..stage };
     let (mut cpu, mut gpu) = (Vec::new(), Vec::new());
-    tileraster_cpu::vertex(&Builtin, &stage, &positions, &mut cpu);
+    tileraster_cpu::vertex(&Builtin, &stage, &[], &positions, &mut cpu);
     let handed = Positions { pairs: &positions, kept: None };
     tileraster_gpu::GeometryDevice::default().vertex(&stage, handed, None, &mut gpu).unwrap();
     let projected = cpu.iter().filter(|p| p.is_projected()).count();
@@ -244,7 +244,7 @@ fn the_vertex_stage_is_the_same_bits_on_both_backends() {
     let other = Positions { pairs: &reversed, kept: Some(8) };
     assert_eq!(device.vertex(&stage, other, None, &mut gpu).unwrap(), other.bytes(true));
     let mut cpu_reversed = Vec::new();
-    tileraster_cpu::vertex(&Builtin, &stage, &reversed, &mut cpu_reversed);
+    tileraster_cpu::vertex(&Builtin, &stage, &[], &reversed, &mut cpu_reversed);
     assert!(bytes(&gpu) == bytes(&cpu_reversed), "another mesh's kept positions: the stage read stale ones");
     // A device that binds fewer positions at once runs the stage in parts: the same bytes.
     let limit = 10_000 * std::mem::size_of::<RelativePosition>() as u64;

@@ -909,13 +909,16 @@ pub struct VertexParams {
     pub band_high: [i32; 2],
     /// What the frame hands its vertex program.
     pub uniforms: VertexUniforms,
+    /// The index in the frame of the dispatch's first vertex (a frame dispatched in parts).
+    pub first_vertex: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Values a frame hands its vertex program (`VertexParams::uniforms`).
 pub const VERTEX_CONSTANTS: usize = 8;
 
-/// What a vertex program reads of the frame besides its vertex: the user's constants and the
-/// frame's time.
+/// What a vertex program reads of the frame besides its vertex: the user's constants, the
+/// frame's time and the size of its vertex texture (`programs::vertex::texel`).
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
@@ -923,7 +926,11 @@ pub struct VertexUniforms {
     pub constants: [f32; VERTEX_CONSTANTS],
     /// Seconds (`RenderParams::time`).
     pub time: f32,
-    pub _pad: [u32; 3],
+    /// The vertex texture's columns and rows (0 × 0 where the frame has none).
+    pub texture_size: [u32; 2],
+    /// Which built-in program the kernels' own vertex stage runs (`programs::vertex::Builtin`):
+    /// `BUILTIN_NONE` or `BUILTIN_HEIGHTS`; a user's shader ignores it.
+    pub builtin: u32,
 }
 
 /// A vertex's position relative to the stage's origin, each coordinate as the double-`f32`

@@ -87,6 +87,8 @@ pub enum Buffer {
     VertexParams,
     /// `RelativePosition` per vertex of the frame.
     Positions,
+    /// The frame's vertex texture: `f32` texels row by row (`programs::vertex::texel`).
+    VertexTexture,
     /// `ProjectedVertex` per vertex of the frame, read back by the host's clipping and
     /// assembly.
     Projected,
@@ -321,7 +323,7 @@ pub const STAGES: [StageInfo; 14] = [
         scope: Scope::Frame,
         workgroup: [TRIANGLE_GROUP, 1, 1],
         dispatch: Dispatch::PerVertex,
-        bindings: &[read(Buffer::VertexParams), read(Buffer::Positions), write(Buffer::Projected)],
+        bindings: &[read(Buffer::VertexParams), read(Buffer::Positions), write(Buffer::Projected), read(Buffer::VertexTexture)],
         pipelines: &[Pipeline::Render, Pipeline::RenderMultisampled],
     },
     StageInfo {

@@ -130,8 +130,13 @@ fn measure(points: &[[f64; 3]], m: &Matrix, width: u32, height: u32) -> Agreemen
         a.vertices += 1;
         let r = sub(p, origin);
         let pairs = r.map(Double::from_f64);
-        let projected =
-            vertex::vertex(&tileraster_kernels::programs::vertex::Builtin, &params, 0, &RelativePosition { hi: pairs.map(|d| d.hi), lo: pairs.map(|d| d.lo) });
+        let projected = vertex::vertex(
+            &tileraster_kernels::programs::vertex::Builtin,
+            &params,
+            &[],
+            0,
+            &RelativePosition { hi: pairs.map(|d| d.hi), lo: pairs.map(|d| d.lo) },
+        );
         assert!(projected.is_projected(), "a vertex in view is projected: {p:?}");
         let kernel = projected.screen.map(i64::from);
         let (kernel_depth, kernel_inverse_w) = (projected.depth, projected.inverse_w);

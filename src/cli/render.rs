@@ -4,11 +4,12 @@ use super::progress::{note, set_quiet};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 use tileraster::dem::InputKind;
 use tileraster::render::{
-    Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Projection, RenderParams, Shading, Up, Wireframe, World, format_up,
-    read_mesh_at, read_world_at, render_world,
+    Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Projection, RenderParams, Shading, Up, VertexStage, Wireframe,
+    World, format_up, is_geotiff, posed_positions, read_dem_grid, read_mesh_at, read_world_at, render_world,
 };
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
@@ -324,10 +325,21 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         }
         (None, None) => (1280, 720),
     };
-    let world = match &instances {
-        Some(file) => World::instanced(read_mesh_at(&input, time).map_err(|e| e.to_string())?, &read_transforms(file)?),
-        None => read_world_at(&input, time).map_err(|e| e.to_string())?,
+    // A DEM is drawn by the kernels' built-in heightfield program: its flat grid, lifted in the
+    // vertex stage by its heights as a vertex texture (the same frame as its mesh's). Its points
+    // would include the cells without a height, and `--z-scale` scales about the lowest height:
+    // both take the mesh.
+    let lifted = match is_geotiff(&input) && instances.is_none() && points.is_none() && z_scale == 1.0 {
+        true => read_dem_grid(&input).map_err(|e| e.to_string())?,
+        false => None,
     };
+    let (world, heights) = match (&instances, lifted) {
+        (None, Some((grid, texture))) => (World::single(grid), Some(Arc::new(texture))),
+        (Some(file), _) => (World::instanced(read_mesh_at(&input, time).map_err(|e| e.to_string())?, &read_transforms(file)?), None),
+        (None, None) => (read_world_at(&input, time).map_err(|e| e.to_string())?, None),
+    };
+    let mut lifting = RenderParams::new(1, 1, IDENTITY);
+    (lifting.vertex, lifting.vertex_texture, lifting.vertex_constants[0]) = (Some(VertexStage::HEIGHTS), heights.clone(), 1.0);
     // A single mesh is scaled and framed as it is; instances by the box holding them all.
     let single = world.instances.len() == 1 && world.instances[0].transform == IDENTITY;
     let (mut world, mut model) = (world, IDENTITY);
@@ -340,7 +352,17 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
             }
         }
         world = World::single(mesh);
-        &world.meshes[0]
+        match heights {
+            // Framed as lifted, by the vertices its faces use (not the cells without a height).
+            Some(_) => {
+                let grid = &world.meshes[0];
+                let mut used = vec![false; grid.positions.len()];
+                grid.triangles.iter().flatten().for_each(|&v| used[v as usize] = true);
+                let posed = posed_positions(grid, &lifting).map_err(|e| e.to_string())?;
+                &Mesh { positions: posed.into_iter().zip(used).filter_map(|(p, used)| used.then_some(p)).collect(), ..Default::default() }
+            }
+            None => &world.meshes[0],
+        }
     } else {
         let [lo, hi] = world.bounds().map_err(|e| e.to_string())?;
         model[2] = [0.0, 0.0, z_scale, lo[2] * (1.0 - z_scale)];
@@ -439,6 +461,9 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         ShadingArg::Ids => Shading::Ids,
     };
     params.eye = viewer;
+    if heights.is_some() {
+        (params.vertex, params.vertex_texture, params.vertex_constants) = (lifting.vertex, lifting.vertex_texture, lifting.vertex_constants);
+    }
     let (backend, chosen) = crate::choose_backend(backend, width as u64 * height as u64);
     let start = Instant::now();
     let frame = render_world(&world, &params, backend).map_err(|e| e.to_string())?;
@@ -460,9 +485,10 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         tiff.write_rows(&frame.ids).and_then(|()| tiff.finish()).map_err(|e| e.to_string())?;
     }
     note(format!(
-        "tileraster: {} triangles{} → {width}×{height} on the {} backend in {:.1} ms ({} rasterised, {} pixels covered) → {}",
+        "tileraster: {} triangles{}{} → {width}×{height} on the {} backend in {:.1} ms ({} rasterised, {} pixels covered) → {}",
         world.instances.iter().map(|i| world.meshes[i.mesh as usize].triangles.len() as u64).sum::<u64>(),
         if single { String::new() } else { format!(" in {} instances ({} culled)", world.instances.len(), frame.stats.geometry.instances_culled) },
+        if heights.is_some() { " (the DEM's heights lifted by the vertex stage)" } else { "" },
         backend.name(),
         took.as_secs_f64() * 1e3,
         frame.stats.geometry.rasterised,

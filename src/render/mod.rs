@@ -26,12 +26,12 @@ mod terrain;
 
 pub use camera::{Camera, Projection, Up};
 pub use diagnostics::{Checksums, TileCounts};
-pub use terrain::dem_mesh;
+pub use terrain::{dem_grid, dem_mesh};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
     Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryKernels, GeometryMemory, GeometryPass, IDENTITY, Instance,
     KeptMesh, LaidOutTextures, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading,
-    Texture, VertexConstants, VertexStage, Wireframe, World, edges, face_normals, posed_positions, validate_mesh,
+    Texture, VertexConstants, VertexStage, VertexTexture, Wireframe, World, edges, face_normals, posed_positions, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};
@@ -80,8 +80,15 @@ pub fn format_up(path: &Path) -> Result<Up, DemError> {
     Ok(if is_geotiff(path) || InputKind::of(path)?.is_points() { Up::Z } else { Up::Y })
 }
 
+/// The DEM in `path` (a GeoTIFF) as the kernels' built-in heightfield program draws it
+/// ([`dem_grid`]): `None` where its heights are not `f32` values ([`read_mesh`] meshes it then).
+pub fn read_dem_grid(path: &Path) -> Result<Option<(Mesh, VertexTexture)>, DemError> {
+    let dem = tileraster_io::read_dem(path)?;
+    Ok(dem_grid(&dem).filter(|(grid, _)| !grid.triangles.is_empty()))
+}
+
 /// Whether `path` names a GeoTIFF (`.tif`, `.tiff`): a DEM that [`read_mesh`] reads as terrain.
-fn is_geotiff(path: &Path) -> bool {
+pub fn is_geotiff(path: &Path) -> bool {
     path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
 }
 

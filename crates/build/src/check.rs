@@ -73,7 +73,7 @@ pub fn fragment_module(bytes: &[u8]) -> Result<(), Vec<String>> {
 /// arithmetic is portable; every float arithmetic result is marked `NoContraction`.
 pub fn program_module(bytes: &[u8], role: Role) -> Result<(), Vec<String>> {
     let m = load(bytes).map_err(|e| vec![format!("  not a SPIR-V module: {e}")])?;
-    let mut problems = entry_points(&m, |info| role.has(info));
+    let mut problems = entry_points_of(&m, |info| role.has(info), role != Role::Kernels);
     problems.extend(portable(&m));
     problems.extend(contraction(&m).1);
     if problems.is_empty() { Ok(()) } else { Err(problems) }
@@ -160,6 +160,14 @@ pub fn portable(m: &Module) -> Vec<String> {
 /// Differences between the module's entry points and the stage table's rows that `rows`
 /// picks: missing or extra entry points, bindings (number → access) and workgroup sizes.
 pub fn entry_points(m: &Module, rows: impl Fn(&StageInfo) -> bool) -> Vec<String> {
+    entry_points_of(m, rows, false)
+}
+
+/// [`entry_points`], where `unread` lets an entry point leave out a binding the table makes
+/// read-only: a user's shader that never reads the frame's vertex texture leaves it out of its
+/// module (the compiler drops an unused buffer), and a pipeline's layout may hold bindings its
+/// shader does not use. The kernels' own module is held to every binding.
+pub fn entry_points_of(m: &Module, rows: impl Fn(&StageInfo) -> bool, unread: bool) -> Vec<String> {
     let decorated = decorations(m);
     // Buffer variables: storage or uniform (which the table calls `Access::Uniform`).
     let buffers: HashMap<u32, StorageClass> = m
@@ -211,7 +219,10 @@ pub fn entry_points(m: &Module, rows: impl Fn(&StageInfo) -> bool) -> Vec<String
                 None => problems.push(format!("  {}: buffer %{var} has no binding", info.name)),
             }
         }
-        let table: BTreeMap<u32, Access> = info.bindings.iter().enumerate().map(|(k, b)| (k as u32, b.access)).collect();
+        let mut table: BTreeMap<u32, Access> = info.bindings.iter().enumerate().map(|(k, b)| (k as u32, b.access)).collect();
+        if unread {
+            table.retain(|k, access| bound.contains_key(k) || !matches!(access, Access::Read | Access::Uniform));
+        }
         if bound != table {
             problems.push(format!("  {}: bindings (number → access) {bound:?}, the stage table's {table:?}", info.name));
         }

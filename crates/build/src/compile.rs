@@ -73,7 +73,7 @@ impl Shader {
         if !problems.is_empty() {
             return Err(BuildError::NotPortable { crate_path: crate_path.to_path_buf(), problems });
         }
-        let problems = check::entry_points(&module, |info| self.role.has(info));
+        let problems = check::entry_points_of(&module, |info| self.role.has(info), self.role != Role::Kernels);
         if !problems.is_empty() {
             return Err(BuildError::EntryPoints { crate_path: crate_path.to_path_buf(), problems });
         }

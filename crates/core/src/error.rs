@@ -131,4 +131,7 @@ pub enum Error {
         "the vertex shader {name} put vertex {vertex} at {position:?}, which is not a finite position: make it return finite coordinates for every vertex and constant the frame hands it"
     )]
     VertexPosedBeyond { name: String, vertex: usize, position: [f64; 3] },
+
+    #[error("the vertex texture is {width} × {height} texels but holds {texels}: give width × height texels, row by row, fewer than 2^32")]
+    InvalidVertexTexture { width: u32, height: u32, texels: usize },
 }

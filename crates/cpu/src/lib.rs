@@ -12,7 +12,8 @@ pub use stages::{
 };
 pub use tileraster_kernels::pipeline::StageBuffers;
 
-use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs, Positions, VertexStage};
+use std::sync::Arc;
+use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs, Posing, Positions, VertexTexture};
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{ATTRIBUTES, Counter, ProjectedVertex, ShadeParams, TriangleSetup, VertexParams};
 use tileraster_kernels::pipeline::{Stage, raster_stages};
@@ -103,14 +104,29 @@ struct WindowBuffers {
     small: SmallTriangles,
 }
 
+/// The bytes of `posing`'s vertex texture where the stage was handed another last (`held`,
+/// which then holds it), as the GPU keeps one on the device.
+pub fn texture_bytes(posing: Option<&Posing<'_>>, held: &mut Option<Arc<VertexTexture>>) -> u64 {
+    match posing.and_then(|p| p.texture) {
+        Some(t) if held.as_ref().is_some_and(|h| Arc::ptr_eq(h, t)) => 0,
+        Some(t) => {
+            *held = Some(t.clone());
+            std::mem::size_of_val(&t.texels[..]) as u64
+        }
+        None => 0,
+    }
+}
+
 /// The geometry stages' twins, which the host's preparation of a frame runs
 /// (`tileraster_core::render::GeometryKernels`). They read a mesh's kept positions, faces and
 /// attributes where the host keeps them, and count them handed over once, as the GPU does;
 /// their records are written where the raster stages read them.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct GeometryTwins {
     /// The key of the kept positions handed over last.
     held: Option<u64>,
+    /// The vertex texture handed over last.
+    held_texture: Option<Arc<VertexTexture>>,
     /// The keys of the kept assembly inputs handed over last.
     held_inputs: KeptInputs,
 }
@@ -120,13 +136,13 @@ impl tileraster_core::render::GeometryKernels for GeometryTwins {
         &mut self,
         params: &VertexParams,
         positions: Positions<'_>,
-        program: Option<&VertexStage>,
+        posing: Option<&Posing<'_>>,
         projected: &mut Vec<ProjectedVertex>,
     ) -> Result<u64, Error> {
-        let program: &(dyn VertexProgram + Sync) = program.map_or(&Builtin, |stage| stage.program());
-        vertex(program, params, positions.pairs, projected);
+        let program: &(dyn VertexProgram + Sync) = posing.map_or(&Builtin, |p| p.stage.program());
+        vertex(program, params, posing.map_or(&[], |p| p.texels()), positions.pairs, projected);
         let handed = positions.kept.is_none_or(|key| self.held.replace(key) != Some(key));
-        Ok(positions.bytes(handed))
+        Ok(positions.bytes(handed) + texture_bytes(posing, &mut self.held_texture))
     }
 
     fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {

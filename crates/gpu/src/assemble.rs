@@ -9,10 +9,11 @@
 
 use super::{GpuContext, KeptPositions, MAX_GROUPS, context, storage_buffer};
 use std::collections::VecDeque;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use tileraster_build::Role;
 use tileraster_core::render::{
-    AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, GeometryKernels, KeptHanded, KeptInputs, Positions, VertexStage,
+    AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, GeometryKernels, KeptHanded, KeptInputs, Posing, Positions, VertexTexture,
 };
 use tileraster_core::{Error, Mode, Prepared};
 use tileraster_kernels::TRIANGLE_GROUP;
@@ -39,6 +40,10 @@ pub struct GeometryDevice {
     /// The keys the byte count takes as handed over (`KeptHanded`, the figure both backends
     /// report).
     counted: KeptInputs,
+    /// The vertex texture the byte count takes as handed over last.
+    held_texture: Option<Arc<VertexTexture>>,
+    /// The vertex texture on the device, and the one it holds.
+    texture: Option<(Arc<VertexTexture>, wgpu::Buffer)>,
     /// The record buffers, grown as frames need and reused.
     room: RecordRoom,
     frame: DeviceFrame,
@@ -160,7 +165,7 @@ impl GeometryKernels for GeometryDevice {
         &mut self,
         params: &VertexParams,
         positions: Positions<'_>,
-        program: Option<&VertexStage>,
+        posing: Option<&Posing<'_>>,
         projected: &mut Vec<ProjectedVertex>,
     ) -> Result<u64, Error> {
         // A new frame: the last one's records go.
@@ -169,8 +174,28 @@ impl GeometryKernels for GeometryDevice {
         // The stage's pairs rest on what the `f32` modes rest on: correctly rounded `f32`
         // arithmetic, no contraction, subnormals kept.
         ctx.check_float_modes(Mode::Barycentric)?;
-        let program = program.map(|stage| ctx.program_index(stage.modules(), Role::Vertex)).transpose()?;
-        ctx.vertex_unchecked(params, positions, program, &mut self.kept, &mut self.projected, projected)
+        // (A program built into the kernels runs in their module.)
+        let program = posing.and_then(|p| p.stage.modules()).map(|m| ctx.program_index(m, Role::Vertex)).transpose()?;
+        // The vertex texture, on the device once for as long as frames hand the same one.
+        let texture = posing.and_then(|p| p.texture);
+        let handed = tileraster_cpu::texture_bytes(posing, &mut self.held_texture);
+        let buffer = match texture {
+            Some(t) => {
+                let bytes = std::mem::size_of_val(&t.texels[..]) as u64;
+                if bytes > ctx.max_binding() {
+                    return Err(Error::Gpu(format!("the vertex texture's {bytes} bytes exceed the device's largest binding, {} bytes", ctx.max_binding())));
+                }
+                if !self.texture.as_ref().is_some_and(|(held, _)| Arc::ptr_eq(held, t)) {
+                    self.texture = None;
+                    let buffer = ctx.storage_with("vertex texture", bytemuck::cast_slice(&t.texels), 0);
+                    self.texture = Some((t.clone(), buffer));
+                }
+                self.texture.as_ref().map(|(_, b)| b.clone()).expect("made above")
+            }
+            None => ctx.storage_with("no vertex texture", &[], 16),
+        };
+        let bytes = ctx.vertex_unchecked(params, positions, program, &buffer, &mut self.kept, &mut self.projected, projected)?;
+        Ok(bytes + handed)
     }
 
     fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {

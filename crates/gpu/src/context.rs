@@ -553,11 +553,13 @@ impl GpuContext {
     /// kept positions (`Positions::kept`) stay on the device in `kept`. Where the stage runs in
     /// one part, its output stays on the device too, in `on_device` (grown as needed; `None`
     /// after a stage in parts).
+    #[allow(clippy::too_many_arguments)]
     fn vertex_unchecked(
         &mut self,
         params: &VertexParams,
         positions: Positions<'_>,
         program: Option<usize>,
+        texture: &wgpu::Buffer,
         kept: &mut Option<KeptPositions>,
         on_device: &mut Option<wgpu::Buffer>,
         projected: &mut Vec<ProjectedVertex>,
@@ -590,8 +592,10 @@ impl GpuContext {
             && held.per_part == per_part
         {
             let buffers = held.buffers.clone();
+            let mut first = 0;
             for (part, buffer) in parts.iter().zip(&buffers) {
-                self.vertex_part(params, program, part.len() as u64, buffer, out.take(), projected)?;
+                self.vertex_part(params, program, texture, first, part.len() as u64, buffer, out.take(), projected)?;
+                first += part.len() as u32;
             }
             return Ok(positions.bytes(false));
         }
@@ -602,6 +606,7 @@ impl GpuContext {
         let scope = self.gpu.error_scope();
         let mut own = Vec::new();
         let mut run = || -> Result<(), Error> {
+            let mut first = 0;
             for part in &parts {
                 let bytes = std::mem::size_of_val(*part) as u64;
                 let buffer = match positions.kept {
@@ -614,7 +619,8 @@ impl GpuContext {
                     None => self.buffers.positions.get(&self.gpu.device, bytes),
                 };
                 self.recorder.upload(&self.gpu.queue, &buffer, bytemuck::cast_slice(part));
-                self.vertex_part(params, program, part.len() as u64, &buffer, out.take(), projected)?;
+                self.vertex_part(params, program, texture, first, part.len() as u64, &buffer, out.take(), projected)?;
+                first += part.len() as u32;
                 own.push(buffer);
             }
             Ok(())
@@ -638,6 +644,8 @@ impl GpuContext {
         &mut self,
         params: &VertexParams,
         program: Option<usize>,
+        texture: &wgpu::Buffer,
+        first_vertex: u32,
         n: u64,
         positions: &wgpu::Buffer,
         out: Option<wgpu::Buffer>,
@@ -649,7 +657,7 @@ impl GpuContext {
         rows[Stage::Vertex as usize] = Some(self.frame_row_of(Stage::Vertex, program));
         let groups = (n as u32).div_ceil(TRIANGLE_GROUP).max(1);
         let (x, y) = (groups.min(MAX_GROUPS), groups.div_ceil(MAX_GROUPS));
-        let params = VertexParams { vertices: n as u32, dispatch_width: x * TRIANGLE_GROUP, ..*params };
+        let params = VertexParams { vertices: n as u32, dispatch_width: x * TRIANGLE_GROUP, first_vertex, ..*params };
         let device = &self.gpu.device;
         let params_buf = self.buffers.vertex_params.get(device, std::mem::size_of::<VertexParams>() as u64);
         let projected_buf = out.unwrap_or_else(|| self.buffers.projected.get(device, out_bytes));
@@ -659,6 +667,7 @@ impl GpuContext {
             Buffer::VertexParams => Some(params_buf.clone()),
             Buffer::Positions => Some(positions.clone()),
             Buffer::Projected => Some(projected_buf.clone()),
+            Buffer::VertexTexture => Some(texture.clone()),
             _ => None,
         };
         let frame = FrameParams::default();
@@ -856,7 +865,7 @@ impl GpuContext {
     /// use.
     fn stage_pipelines_of(&mut self, prepared: &Prepared) -> Result<Vec<Option<usize>>, Error> {
         let fragment = match prepared.render.as_ref().and_then(|r| r.fragment.as_ref()) {
-            Some(stage) => Some(self.program_index(stage.modules(), Role::Fragment)?),
+            Some(stage) => stage.modules().map(|m| self.program_index(m, Role::Fragment)).transpose()?,
             None => None,
         };
         let shade_variant = prepared.render.as_ref().map(|r| if ShadeVariant::holds(&r.params) { ShadeVariant::of(&r.params) } else { ShadeVariant::GENERIC });
@@ -1196,6 +1205,7 @@ impl GpuContext {
                 Buffer::Inputs
                 | Buffer::VertexParams
                 | Buffer::Positions
+                | Buffer::VertexTexture
                 | Buffer::Projected
                 | Buffer::AssembleParams
                 | Buffer::FaceIndices

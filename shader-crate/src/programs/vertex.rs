@@ -27,19 +27,32 @@ use crate::abi::VertexUniforms;
 use crate::math::double::Double;
 
 /// How the vertex stage poses vertex `index` of its mesh at `position` (relative to the
-/// mesh's origin, as a double-`f32` pair per coordinate).
+/// mesh's origin, as a double-`f32` pair per coordinate), given the frame's vertex `texture`.
 pub trait VertexProgram {
-    fn pose(&self, uniforms: &VertexUniforms, index: u32, position: [Double; 3]) -> [Double; 3];
+    fn pose(&self, uniforms: &VertexUniforms, texture: &[f32], index: u32, position: [Double; 3]) -> [Double; 3];
 }
 
-/// The built-in program: every vertex where its mesh has it.
+/// The built-in programs, chosen by `VertexUniforms::builtin`: [`BUILTIN_NONE`] leaves every
+/// vertex where its mesh has it; [`BUILTIN_HEIGHTS`] lifts a grid by a raster's heights.
 #[derive(Copy, Clone, Default)]
 pub struct Builtin;
 
+/// Every vertex where its mesh has it.
+pub const BUILTIN_NONE: u32 = 0;
+/// A heightfield: vertex `index` of a grid of `texture_size` vertices, row by row (a DEM's
+/// cells), lifted by its texel times `constants[0]` (1 for the heights as they are, more to
+/// exaggerate them).
+pub const BUILTIN_HEIGHTS: u32 = 1;
+
 impl VertexProgram for Builtin {
     #[inline]
-    fn pose(&self, _uniforms: &VertexUniforms, _index: u32, position: [Double; 3]) -> [Double; 3] {
-        position
+    fn pose(&self, uniforms: &VertexUniforms, texture: &[f32], index: u32, position: [Double; 3]) -> [Double; 3] {
+        let width = uniforms.texture_size[0];
+        if uniforms.builtin != BUILTIN_HEIGHTS || width == 0 {
+            return position;
+        }
+        let height = texel(texture, uniforms, (index % width) as i32, (index / width) as i32);
+        [position[0], position[1], position[2] + Double::from_f32(height * uniforms.constants[0])]
     }
 }
 
@@ -52,10 +65,31 @@ pub struct Vertex {
     pub position: [f32; 3],
 }
 
-/// A user's vertex shader: a vertex (and the frame's constants and time) to its posed
-/// position, relative to the same origin as [`Vertex::position`].
+/// A user's vertex shader: a vertex (and the frame's constants, time and vertex texture, read
+/// with [`texel`]) to its posed position, relative to the same origin as [`Vertex::position`].
 pub trait VertexShader {
-    fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms) -> [f32; 3];
+    fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms, texture: &[f32]) -> [f32; 3];
+}
+
+/// The texel of the frame's vertex `texture` at `column` and `row` (`uniforms.texture_size`
+/// gives its size; texels row by row from the first), the nearest edge's beyond it, 0 where the
+/// frame has no texture.
+#[inline]
+pub fn texel(texture: &[f32], uniforms: &VertexUniforms, column: i32, row: i32) -> f32 {
+    let [width, height] = uniforms.texture_size;
+    if width == 0 || height == 0 || (width as usize) * (height as usize) > texture.len() {
+        return 0.0;
+    }
+    let clamp = |v: i32, n: u32| {
+        if v < 0 {
+            0
+        } else if v as u32 >= n {
+            n - 1
+        } else {
+            v as u32
+        }
+    };
+    texture[(clamp(row, height) * width + clamp(column, width)) as usize]
 }
 
 /// A [`VertexShader`] as the vertex stage's program: each coordinate moved by the shader's
@@ -66,9 +100,9 @@ pub struct Programmed<S>(pub S);
 
 impl<S: VertexShader> VertexProgram for Programmed<S> {
     #[inline]
-    fn pose(&self, uniforms: &VertexUniforms, index: u32, position: [Double; 3]) -> [Double; 3] {
+    fn pose(&self, uniforms: &VertexUniforms, texture: &[f32], index: u32, position: [Double; 3]) -> [Double; 3] {
         let at = [position[0].hi, position[1].hi, position[2].hi];
-        let to = self.0.position(&Vertex { index, position: at }, uniforms);
+        let to = self.0.position(&Vertex { index, position: at }, uniforms, texture);
         [position[0] + Double::from_f32(to[0] - at[0]), position[1] + Double::from_f32(to[1] - at[1]), position[2] + Double::from_f32(to[2] - at[2])]
     }
 }
@@ -95,10 +129,12 @@ macro_rules! vertex_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &VertexParams,
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] positions: &[RelativePosition],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] projected: &mut [ProjectedVertex],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] texture: &[f32],
             ) {
                 let v = gid.y * params.dispatch_width + gid.x;
                 if v < params.vertices {
-                    projected[v as usize] = $crate::stages::vertex::vertex(&$program, params, v, &positions[v as usize]);
+                    let index = params.first_vertex + v;
+                    projected[v as usize] = $crate::stages::vertex::vertex(&$program, params, texture, index, &positions[v as usize]);
                 }
             }
         }
@@ -130,14 +166,14 @@ mod tests {
 
     struct Unmoved;
     impl VertexShader for Unmoved {
-        fn position(&self, vertex: &Vertex, _uniforms: &VertexUniforms) -> [f32; 3] {
+        fn position(&self, vertex: &Vertex, _uniforms: &VertexUniforms, _texture: &[f32]) -> [f32; 3] {
             vertex.position
         }
     }
 
     struct Lifted;
     impl VertexShader for Lifted {
-        fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms) -> [f32; 3] {
+        fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms, _texture: &[f32]) -> [f32; 3] {
             let p = vertex.position;
             [p[0], p[1], p[2] + uniforms.constants[0]]
         }
@@ -162,7 +198,7 @@ mod tests {
     fn a_shader_that_moves_nothing_keeps_every_bit_of_the_pairs() {
         let uniforms = VertexUniforms::default();
         for p in pairs() {
-            let posed = Programmed(Unmoved).pose(&uniforms, 0, [p, -p, p]);
+            let posed = Programmed(Unmoved).pose(&uniforms, &[], 0, [p, -p, p]);
             for (q, want) in posed.iter().zip([p, -p, p]) {
                 assert_eq!((q.hi.to_bits(), q.lo.to_bits()), (want.hi.to_bits(), want.lo.to_bits()), "{want:?}");
             }
@@ -173,12 +209,25 @@ mod tests {
     fn a_shader_moves_the_whole_pair_by_its_f32_difference() {
         let uniforms = VertexUniforms { constants: [0.375, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ..VertexUniforms::default() };
         for p in pairs().filter(|p| p.hi.abs() < 1e6 && p.hi.abs() > 1e-3) {
-            let posed = Programmed(Lifted).pose(&uniforms, 7, [p, p, p]);
+            let posed = Programmed(Lifted).pose(&uniforms, &[], 7, [p, p, p]);
             assert_eq!(posed[0], p);
             let moved = (p.hi + 0.375) - p.hi;
             // The pair's value plus the difference, to the pair's precision.
             let want = p.to_f64() + moved as f64;
             assert!((posed[2].to_f64() - want).abs() <= want.abs() * 2f64.powi(-46), "{p:?}: {:?} against {want}", posed[2]);
         }
+    }
+
+    #[test]
+    fn texels_are_read_row_by_row_and_clamped_to_the_edges() {
+        let texture = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        let uniforms = VertexUniforms { texture_size: [3, 2], ..VertexUniforms::default() };
+        assert_eq!(texel(&texture, &uniforms, 1, 1), 5.0);
+        assert_eq!(texel(&texture, &uniforms, -4, 0), 1.0);
+        assert_eq!(texel(&texture, &uniforms, 9, 9), 6.0);
+        let none = VertexUniforms::default();
+        assert_eq!(texel(&texture, &none, 0, 0), 0.0);
+        let too_large = VertexUniforms { texture_size: [4, 2], ..VertexUniforms::default() };
+        assert_eq!(texel(&texture, &too_large, 0, 0), 0.0);
     }
 }

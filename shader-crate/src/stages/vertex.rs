@@ -71,7 +71,8 @@ pub fn frustum_planes(clip: &[Double; 4]) -> u32 {
         | bit((w - z).hi < 0.0, BEYOND_FAR)
 }
 
-/// Vertex `index` through the stage: posed by `program` where `params.posed` says so, then
+/// Vertex `index` through the stage: posed by `program` (with the frame's vertex `texture`)
+/// where `params.posed` says so, then
 /// projected where its position (before and after the pose) lies within [`POSITION_LIMIT`] and
 /// it lies in front of the camera (`w` in `[2^-60, 2^100]`), within `params.reach` of the view in
 /// `x` and `y` and within `[-w, 2w]` in `z`, else [`ProjectedVertex::none`] (the host then
@@ -81,7 +82,7 @@ pub fn frustum_planes(clip: &[Double; 4]) -> u32 {
 #[inline]
 // Plain comparisons, as the CPU twin's `f64` path mirrors them.
 #[allow(clippy::manual_range_contains)]
-pub fn vertex<P: VertexProgram + ?Sized>(program: &P, params: &VertexParams, index: u32, position: &RelativePosition) -> ProjectedVertex {
+pub fn vertex<P: VertexProgram + ?Sized>(program: &P, params: &VertexParams, texture: &[f32], index: u32, position: &RelativePosition) -> ProjectedVertex {
     let bounded = |p: [f32; 3]| {
         p[0] < POSITION_LIMIT && p[0] > -POSITION_LIMIT && p[1] < POSITION_LIMIT && p[1] > -POSITION_LIMIT && p[2] < POSITION_LIMIT && p[2] > -POSITION_LIMIT
     };
@@ -103,7 +104,7 @@ pub fn vertex<P: VertexProgram + ?Sized>(program: &P, params: &VertexParams, ind
         Double { hi: position.hi[1], lo: position.lo[1] },
         Double { hi: position.hi[2], lo: position.lo[2] },
     ];
-    let r = if params.posed != 0 { program.pose(&params.uniforms, index, r) } else { r };
+    let r = if params.posed != 0 { program.pose(&params.uniforms, texture, index, r) } else { r };
     // (A NaN fails every comparison: a pose to NaN is not projected.)
     if !bounded([r[0].hi, r[1].hi, r[2].hi]) {
         return ProjectedVertex::NONE;

@@ -68,7 +68,7 @@ pub use params::{
     RenderParams, Shading, Wireframe, centre_of_projection, face_normals,
 };
 use points::{point, surface_bias};
-pub use program::{FragmentConstants, FragmentStage, ProgramStage, ShaderModules, VertexConstants, VertexStage};
+pub use program::{FragmentConstants, FragmentStage, ProgramStage, ShaderModules, VertexConstants, VertexStage, VertexTexture};
 pub use texture::{LaidOutTextures, MAX_TEXTURE_DIM, Texture};
 pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
 pub use validate::validate_mesh;
@@ -76,7 +76,7 @@ use validate::validate_params;
 pub use vector::{multiply, normal_matrix, transform_normal};
 use vertex::depth_range;
 use vertex::{ClipVertex, Corner, Shaded, VertexStageMemory, flattened};
-pub use vertex::{GeometryKernels, MeshPositions, Positions, light_bytes};
+pub use vertex::{GeometryKernels, MeshPositions, Posing, Positions, light_bytes};
 use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};

@@ -1,7 +1,7 @@
 //! What a frame is made of and asked for: the mesh, the render parameters, and what the
 //! geometry stages report.
 
-use super::program::{FragmentConstants, FragmentStage, VertexConstants, VertexStage};
+use super::program::{FragmentConstants, FragmentStage, VertexConstants, VertexStage, VertexTexture};
 use super::texture::Texture;
 use super::vector::{cross, dot, sub, unit};
 use crate::Skips;
@@ -193,6 +193,8 @@ pub struct RenderParams {
     pub vertex_constants: VertexConstants,
     /// Seconds, for the vertex shader (`VertexUniforms::time`); 0 by default.
     pub time: f32,
+    /// Texels the vertex shader reads (`VertexUniforms::texture_size`); none by default.
+    pub vertex_texture: Option<std::sync::Arc<VertexTexture>>,
 }
 
 impl RenderParams {
@@ -233,6 +235,7 @@ impl RenderParams {
             vertex: None,
             vertex_constants: [0.0; tileraster_kernels::abi::VERTEX_CONSTANTS],
             time: 0.0,
+            vertex_texture: None,
         }
     }
 }

@@ -15,6 +15,9 @@ use tileraster_kernels::programs::vertex::VertexProgram;
 pub struct ProgramStage<P: ?Sized + 'static> {
     program: &'static P,
     modules: ShaderModules,
+    /// A program built into the kernels (`VertexUniforms::builtin`), whose modules are theirs;
+    /// 0 for a user's shader.
+    builtin: u32,
 }
 
 /// A fragment shader compiled for both backends.
@@ -26,6 +29,16 @@ pub type VertexStage = ProgramStage<dyn VertexProgram + Sync>;
 pub type FragmentConstants = [f32; FRAGMENT_CONSTANTS];
 /// Values a frame hands its vertex shader (`VertexUniforms::constants`).
 pub type VertexConstants = [f32; VERTEX_CONSTANTS];
+
+/// A frame's vertex texture: `f32` texels row by row from the first, which a vertex shader reads
+/// (`tileraster_kernels::programs::vertex::texel`), e.g. a DEM's heights. Shared (`Arc`) so that
+/// a prepared mesh's frames hand the GPU the same texture once.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VertexTexture {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<f32>,
+}
 
 /// A shader crate's two modules (plain, and with the float controls declared) and its name.
 #[derive(Clone, Copy)]
@@ -63,7 +76,7 @@ impl<P: ?Sized + 'static> ProgramStage<P> {
     /// the stage table and the numeric contract again before it runs it.
     #[doc(hidden)]
     pub const fn from_parts(name: &'static str, program: &'static P, spirv: &'static [u8], spirv_float_controls: &'static [u8]) -> Self {
-        ProgramStage { program, modules: ShaderModules { name, spirv, spirv_float_controls } }
+        ProgramStage { program, modules: ShaderModules { name, spirv, spirv_float_controls }, builtin: 0 }
     }
 
     /// The shader crate's name, for messages.
@@ -81,10 +94,28 @@ impl<P: ?Sized + 'static> ProgramStage<P> {
         self.modules.module(float_controls)
     }
 
-    /// Its modules and name, as the GPU backend keeps them.
-    pub fn modules(&self) -> ShaderModules {
-        self.modules
+    /// Its modules and name, as the GPU backend keeps them; `None` for a program built into the
+    /// kernels.
+    pub fn modules(&self) -> Option<ShaderModules> {
+        (self.builtin == 0).then_some(self.modules)
     }
+
+    /// Which program built into the kernels it is (`VertexUniforms::builtin`); 0 for a user's.
+    pub fn builtin(&self) -> u32 {
+        self.builtin
+    }
+}
+
+impl VertexStage {
+    /// The built-in heightfield (`programs::vertex::BUILTIN_HEIGHTS`): a grid of the vertex
+    /// texture's size, vertex by vertex row by row, lifted by its texel times
+    /// `RenderParams::vertex_constants[0]`. `tileraster::render::dem_grid` makes such a
+    /// grid of a DEM.
+    pub const HEIGHTS: VertexStage = ProgramStage {
+        program: &tileraster_kernels::programs::vertex::Builtin,
+        modules: ShaderModules { name: "heights", spirv: &[], spirv_float_controls: &[] },
+        builtin: tileraster_kernels::programs::vertex::BUILTIN_HEIGHTS,
+    };
 }
 
 impl<P: ?Sized + 'static> Clone for ProgramStage<P> {
@@ -104,7 +135,7 @@ impl<P: ?Sized + 'static> std::fmt::Debug for ProgramStage<P> {
 /// Two stages are the same when they are made from the same modules.
 impl<P: ?Sized + 'static> PartialEq for ProgramStage<P> {
     fn eq(&self, other: &Self) -> bool {
-        self.modules == other.modules
+        self.modules == other.modules && self.builtin == other.builtin
     }
 }
 

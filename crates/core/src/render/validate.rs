@@ -47,6 +47,12 @@ pub(super) fn validate_params(params: &RenderParams) -> Result<(), Error> {
             return Err(Error::NonAffineModel { last_row: m[3] });
         }
     }
+    if let Some(t) = &params.vertex_texture {
+        let texels = t.width as u64 * t.height as u64;
+        if texels != t.texels.len() as u64 || texels > u32::MAX as u64 {
+            return Err(Error::InvalidVertexTexture { width: t.width, height: t.height, texels: t.texels.len() });
+        }
+    }
     Ok(())
 }
 

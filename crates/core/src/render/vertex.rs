@@ -6,11 +6,12 @@ use super::instances::{self, Placement};
 use super::lighting::{FaceLight, Lighting};
 use super::params::{GREY, IDENTITY, Mesh, Shading, surface_normals};
 use super::params::{GUARD_PX, RENDER_SNAP_BITS, RenderParams};
-use super::program::VertexStage;
+use super::program::{VertexStage, VertexTexture};
 use super::vector::{multiply, normal_matrix, transform_normal};
 use super::viewport::{Viewport, distance};
 use crate::Error;
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use tileraster_kernels::abi::{
     ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, LightParams, ProjectedVertex, RelativePosition, ShadeParams, VertexParams, VertexUniforms,
@@ -22,15 +23,16 @@ use tileraster_kernels::stages::vertex::{FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
 /// CPU backend's twins, or the device's dispatches, to the same bits.
 pub trait GeometryKernels {
     /// The `vertex` stage (`tileraster_kernels::stages::vertex`) over `positions`, into
-    /// `projected` (one per position; its memory reused), with the vertex shader `program`
-    /// where `params.posed` says the stage poses them (else the built-in program). Returns the
-    /// bytes handed to the stage: its parameters, and the positions unless it holds them
-    /// already (a mesh's kept positions, [`Positions::kept`], that it was handed before).
+    /// `projected` (one per position; its memory reused), with the frame's vertex shader and
+    /// vertex texture (`posing`) where `params.posed` says the stage poses them (else the
+    /// built-in program). Returns the bytes handed to the stage: its parameters, the positions
+    /// unless it holds them already (a mesh's kept positions, [`Positions::kept`], that it was
+    /// handed before), and the vertex texture unless it holds that one already.
     fn vertex(
         &mut self,
         params: &VertexParams,
         positions: Positions<'_>,
-        program: Option<&VertexStage>,
+        posing: Option<&Posing<'_>>,
         projected: &mut Vec<ProjectedVertex>,
     ) -> Result<u64, Error>;
 
@@ -186,18 +188,28 @@ pub(super) struct Projected {
     pub(super) attributes: [f32; ATTRIBUTES],
 }
 
-/// A frame's vertex shader and what it hands the shader.
+/// A frame's vertex shader and what it hands the shader: the uniforms and the vertex texture.
 #[derive(Clone, Copy)]
-pub(super) struct Posing<'a> {
-    pub(super) stage: &'a VertexStage,
-    pub(super) uniforms: VertexUniforms,
+pub struct Posing<'a> {
+    pub stage: &'a VertexStage,
+    pub uniforms: VertexUniforms,
+    pub texture: Option<&'a Arc<VertexTexture>>,
 }
 
 impl<'a> Posing<'a> {
     /// The frame's, where it has a vertex shader.
     pub(super) fn of(params: &'a RenderParams) -> Option<Self> {
-        let uniforms = VertexUniforms { constants: params.vertex_constants, time: params.time, ..VertexUniforms::default() };
-        params.vertex.as_ref().map(|stage| Posing { stage, uniforms })
+        let texture = params.vertex_texture.as_ref();
+        let texture_size = texture.map_or([0, 0], |t| [t.width, t.height]);
+        params.vertex.as_ref().map(|stage| {
+            let uniforms = VertexUniforms { constants: params.vertex_constants, time: params.time, texture_size, builtin: stage.builtin() };
+            Posing { stage, uniforms, texture }
+        })
+    }
+
+    /// The vertex texture's texels (none where the frame has none).
+    pub fn texels(&self) -> &'a [f32] {
+        self.texture.map_or(&[], |t| &t.texels)
     }
 }
 
@@ -221,7 +233,7 @@ pub(super) fn posed_positions(mesh: &Mesh, posing: &Posing<'_>, kept: Option<&mu
             return *own;
         }
         let r: [Double; 3] = std::array::from_fn(|k| Double { hi: pair.hi[k], lo: pair.lo[k] });
-        let posed = program.pose(&posing.uniforms, v as u32, r);
+        let posed = program.pose(&posing.uniforms, posing.texels(), v as u32, r);
         let unmoved = |k: usize| posed[k].hi.to_bits() == r[k].hi.to_bits() && posed[k].lo.to_bits() == r[k].lo.to_bits();
         std::array::from_fn(|k| if unmoved(k) { own[k] } else { stage.origin[k] + posed[k].to_f64() })
     };
@@ -487,7 +499,7 @@ pub(super) fn project_for_assembly(
     let Some(params) = vertex_params(&matrix, origin, posed, viewport) else {
         return Ok(None);
     };
-    let bytes = kernels.vertex(&VertexParams { vertices, ..params }, handed, posed.map(|p| p.stage), projected)?;
+    let bytes = kernels.vertex(&VertexParams { vertices, ..params }, handed, posed, projected)?;
     if projected.len() != count {
         return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {count}", projected.len())));
     }
@@ -517,7 +529,7 @@ fn project_vertices(
         return Ok(0);
     };
     let params = VertexParams { vertices: count, ..params };
-    let bytes = kernels.vertex(&params, positions, posed.map(|p| p.stage), projected)?;
+    let bytes = kernels.vertex(&params, positions, posed, projected)?;
     if projected.len() != vertices.len() {
         return Err(Error::Gpu(format!("the vertex stage returned {} vertices of {}", projected.len(), vertices.len())));
     }

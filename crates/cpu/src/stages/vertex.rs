@@ -16,14 +16,20 @@ use tileraster_kernels::stages::vertex::{
     BEYOND_BOTTOM, BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, BEYOND_RIGHT, BEYOND_TOP, POSITION_LIMIT, assembly_bit, vertex as project,
 };
 
-/// The frame's vertices through the vertex stage with the vertex program `program`, into
-/// `projected` (its memory reused).
-pub fn vertex(program: &(dyn VertexProgram + Sync), params: &VertexParams, positions: &[RelativePosition], projected: &mut Vec<ProjectedVertex>) {
+/// The frame's vertices through the vertex stage with the vertex program `program` (and the
+/// frame's vertex `texture`), into `projected` (its memory reused).
+pub fn vertex(
+    program: &(dyn VertexProgram + Sync),
+    params: &VertexParams,
+    texture: &[f32],
+    positions: &[RelativePosition],
+    projected: &mut Vec<ProjectedVertex>,
+) {
     let matrix = Matrix::of(params);
     let one = |(v, p): (usize, &RelativePosition)| {
-        let p = &posed(program, params, v as u32, p);
+        let p = &posed(program, params, texture, v as u32, p);
         // Posed already: the kernel's function with the program that moves nothing.
-        exact_in_f64(params, &matrix, p).unwrap_or_else(|| project(&Builtin, params, v as u32, p))
+        exact_in_f64(params, &matrix, p).unwrap_or_else(|| project(&Builtin, params, &[], v as u32, p))
     };
     positions.par_iter().enumerate().with_min_len(1 << 10).map(one).collect_into_vec(projected);
 }
@@ -31,13 +37,13 @@ pub fn vertex(program: &(dyn VertexProgram + Sync), params: &VertexParams, posit
 /// Vertex `index` at `position` as the kernel poses it before its matrix (`stages::vertex`):
 /// by `program` where `params.posed` says so and the position lies within the stage's range,
 /// else as it is.
-pub fn posed(program: &(dyn VertexProgram + Sync), params: &VertexParams, index: u32, position: &RelativePosition) -> RelativePosition {
+pub fn posed(program: &(dyn VertexProgram + Sync), params: &VertexParams, texture: &[f32], index: u32, position: &RelativePosition) -> RelativePosition {
     let bounded = position.hi.iter().all(|&v| v < POSITION_LIMIT && v > -POSITION_LIMIT);
     if params.posed == 0 || !bounded {
         return *position;
     }
     let pairs = std::array::from_fn(|k| Double { hi: position.hi[k], lo: position.lo[k] });
-    let r = program.pose(&params.uniforms, index, pairs);
+    let r = program.pose(&params.uniforms, texture, index, pairs);
     RelativePosition { hi: r.map(|d| d.hi), lo: r.map(|d| d.lo) }
 }
 
@@ -305,7 +311,7 @@ mod tests {
         for _ in 0..400_000 {
             let v = [next() * 20_000.0 - 5_000.0, next() * 20_000.0 - 10_000.0, next() * 300.0];
             let position = pairs(v);
-            let kernel = project(&Builtin, &p, 0, &position);
+            let kernel = project(&Builtin, &p, &[], 0, &position);
             total += 1;
             projected += usize::from(kernel.is_projected());
             assembled += usize::from(kernel.planes & UNASSEMBLED == 0);
@@ -331,7 +337,7 @@ mod tests {
             let hair = (next() - 0.5) * 2f64.powi(-30);
             let x = (step + hair) / half - 1.0;
             let position = pairs([x, 0.25 * next(), next() - 0.5]);
-            let kernel = project(&Builtin, &p, 0, &position);
+            let kernel = project(&Builtin, &p, &[], 0, &position);
             total += 1;
             if let Some(fast) = exact_in_f64(&p, &Matrix::of(&p), &position) {
                 answered += 1;
@@ -357,7 +363,7 @@ mod tests {
                 _ => [(next() * 1.6 - 0.8), (next() * 1.6 - 0.8), 1.5 + hair],
             };
             let position = pairs(v);
-            let kernel = project(&Builtin, &p, 0, &position);
+            let kernel = project(&Builtin, &p, &[], 0, &position);
             total += 1;
             for b in 0..6 {
                 if kernel.planes & (1 << b) != 0 { set[b] += 1 } else { clear[b] += 1 }

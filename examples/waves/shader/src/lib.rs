@@ -24,7 +24,7 @@ const WAVES: [([f32; 2], f32, f32, f32); 3] =
     [([0.8, 0.6], 1.0 / 420.0, 0.11, 1.0), ([-0.28, 0.96], 1.0 / 230.0, 0.17, 0.45), ([0.96, -0.28], 1.0 / 97.0, 0.29, 0.18)];
 
 impl VertexShader for Waves {
-    fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms) -> [f32; 3] {
+    fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms, _texture: &[f32]) -> [f32; 3] {
         let [x, y, z] = vertex.position;
         let crest = uniforms.constants[0];
         let mut lift = 0.0;
@@ -94,7 +94,7 @@ mod tests {
     fn a_still_sea_leaves_every_vertex_where_it_is() {
         let still = VertexUniforms { time: 12.5, ..VertexUniforms::default() };
         for p in [[0.0f32, 0.0, 0.0], [-1000.0, 999.5, 3.25], [1.0e-3, -7.0, -0.0]] {
-            let posed = Waves.position(&Vertex { index: 3, position: p }, &still);
+            let posed = Waves.position(&Vertex { index: 3, position: p }, &still, &[]);
             // Equal values (a height of −0 may come back as +0 or −0: the stage's pairs move
             // by the difference, 0 either way).
             assert_eq!(posed, p);

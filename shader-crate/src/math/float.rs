@@ -16,7 +16,8 @@
 //! dozen 32-bit operations with no loop and no 64-bit product (which a GPU emulates).
 //!
 //! [`recip_u64`], the reciprocal of an integer with the host's `f64` roundings, is apart: a loop
-//! of 64-bit integer steps, for the assembly's once-per-triangle `1/Σw`.
+//! of 64-bit integer steps, for the assembly's once-per-triangle `1/Σw`. So is [`floor`], for
+//! shaders: an integer part and a fraction from a conversion and one subtraction, exact.
 //!
 //! Domain: positive, normal, finite operands, and results in the normal range (what the render
 //! pipeline feeds them: sums of positive weights, squared lengths). Outside it they return
@@ -352,9 +353,62 @@ fn root_estimate(m: f32) -> u32 {
     scaled_estimate(m * unit_inv_root(m), 23)
 }
 
+/// The largest integer not above `x`, and `x` minus it rounded once (exact where `x ≥ 0`; a
+/// negative `x` just below an integer may round up to 1), in `[0, 1]`. `x` is clamped into
+/// `±2^22` first, where the conversion to an integer neither overflows nor saturates and the
+/// integer converts back exactly.
+#[inline]
+// Comparisons, not `f32::clamp`: the GPU's float clamp leaves NaN to the driver, and the build
+// refuses it.
+#[allow(clippy::manual_clamp)]
+pub fn floor(x: f32) -> (i32, f32) {
+    const LIMIT: f32 = 4_194_304.0;
+    let x = if x > LIMIT {
+        LIMIT
+    } else if x < -LIMIT {
+        -LIMIT
+    } else {
+        x
+    };
+    let t = x as i32;
+    let i = if (t as f32) > x { t - 1 } else { t };
+    (i, x - i as f32)
+}
+
 #[cfg(all(test, not(target_arch = "spirv")))]
 mod tests {
     use super::*;
+
+    /// Values across the range, both signs, integers and their neighbours.
+    fn floor_samples() -> impl Iterator<Item = f32> {
+        let mut x = 0x1234_5678u32;
+        let random = std::iter::repeat_with(move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x as f32 / u32::MAX as f32 - 0.5) * 2e6
+        });
+        let near_integers = (-40..40).flat_map(|k| [k as f32, f32::from_bits((k as f32).to_bits() + 1), k as f32 - 1e-3, k as f32 + 0.5]);
+        near_integers.chain(random.take(100_000))
+    }
+
+    #[test]
+    fn floor_is_the_float_floor_and_the_fraction_is_rounded_once() {
+        for x in floor_samples() {
+            let (i, f) = floor(x);
+            assert_eq!(i as f32, x.floor(), "floor({x})");
+            // The difference of two floats is exact in f64: rounded once to f32, it is the
+            // correctly rounded fraction.
+            let exact = x as f64 - (x as f64).floor();
+            assert_eq!(f, exact as f32, "fraction of {x}");
+            if x >= 0.0 {
+                assert_eq!(f as f64, exact, "the fraction of {x} is exact");
+            }
+            assert!((0.0..=1.0).contains(&f), "fraction of {x}: {f}");
+        }
+        assert_eq!(floor(1e30).0, 4_194_304, "clamped, never overflowing");
+        assert_eq!(floor(-1e30).0, -4_194_304);
+    }
 
     /// Positive normal `f32`s spread over the exponent range, with random significands and
     /// the edge cases of each binade.

@@ -12,6 +12,7 @@
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use tileraster_kernels::abi::{SHADING_UNLIT, ShadeParams};
+use tileraster_kernels::math::float::floor;
 use tileraster_kernels::programs::fragment::{Fragment, FragmentShader};
 use tileraster_kernels::programs::shade::phong;
 
@@ -57,28 +58,6 @@ fn pow8(x: f32) -> f32 {
     let x2 = x * x;
     let x4 = x2 * x2;
     x4 * x4
-}
-
-/// The largest integer not above `x`, and `x` minus it rounded once (exact where `x ≥ 0`; a
-/// negative `x` just below an integer may round up to 1), in `[0, 1]`. `x` is clamped into
-/// `±2^22` first, where the conversion to an integer neither overflows nor saturates and the
-/// integer converts back exactly.
-#[inline]
-// Comparisons, not `f32::clamp`: the GPU's float clamp leaves NaN to the driver, and the build
-// refuses it.
-#[allow(clippy::manual_clamp)]
-pub fn floor(x: f32) -> (i32, f32) {
-    const LIMIT: f32 = 4_194_304.0;
-    let x = if x > LIMIT {
-        LIMIT
-    } else if x < -LIMIT {
-        -LIMIT
-    } else {
-        x
-    };
-    let t = x as i32;
-    let i = if (t as f32) > x { t - 1 } else { t };
-    (i, x - i as f32)
 }
 
 /// `|2·fract(x) − 1|` turned over: 1 at the integers, 0 halfway between.
@@ -158,24 +137,6 @@ mod tests {
         });
         let near_integers = (-40..40).flat_map(|k| [k as f32, f32::from_bits((k as f32).to_bits() + 1), k as f32 - 1e-3, k as f32 + 0.5]);
         near_integers.chain(random.take(100_000))
-    }
-
-    #[test]
-    fn floor_is_the_float_floor_and_the_fraction_is_rounded_once() {
-        for x in samples() {
-            let (i, f) = floor(x);
-            assert_eq!(i as f32, x.floor(), "floor({x})");
-            // The difference of two floats is exact in f64: rounded once to f32, it is the
-            // correctly rounded fraction.
-            let exact = x as f64 - (x as f64).floor();
-            assert_eq!(f, exact as f32, "fraction of {x}");
-            if x >= 0.0 {
-                assert_eq!(f as f64, exact, "the fraction of {x} is exact");
-            }
-            assert!((0.0..=1.0).contains(&f), "fraction of {x}: {f}");
-        }
-        assert_eq!(floor(1e30).0, 4_194_304, "clamped, never overflowing");
-        assert_eq!(floor(-1e30).0, -4_194_304);
     }
 
     #[test]

@@ -12,6 +12,7 @@
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use tileraster_kernels::abi::VertexUniforms;
+use tileraster_kernels::math::float::floor;
 use tileraster_kernels::programs::vertex::{Vertex, VertexShader};
 
 /// The shader: a stateless sea.
@@ -42,32 +43,12 @@ impl VertexShader for Waves {
 // The GPU's vertex stage around the shader.
 tileraster_kernels::vertex_shader!(Waves);
 
-/// The fraction of `x` (in `[0, 1]`), `x` clamped into `±2^22` first, where the conversion to an
-/// integer neither overflows nor saturates and the integer converts back exactly.
-#[inline]
-// Comparisons, not `f32::clamp`: the GPU's float clamp leaves NaN to the driver, and the build
-// refuses it.
-#[allow(clippy::manual_clamp)]
-pub fn fraction(x: f32) -> f32 {
-    const LIMIT: f32 = 4_194_304.0;
-    let x = if x > LIMIT {
-        LIMIT
-    } else if x < -LIMIT {
-        -LIMIT
-    } else {
-        x
-    };
-    let t = x as i32;
-    let i = if (t as f32) > x { t - 1 } else { t };
-    x - i as f32
-}
-
 /// A wave of period 1 shaped like a sine (within 6 % of `sin 2πx` in height), smooth to its
 /// first derivative: the parabolas `±4u(1 − |u|)` over each half-period, 1 at the crests
 /// (`x = ¼`) and −1 in the troughs (`x = ¾`).
 #[inline]
 pub fn swell(x: f32) -> f32 {
-    let u = fraction(x) * 2.0 - 1.0;
+    let u = floor(x).1 * 2.0 - 1.0;
     let magnitude = if u < 0.0 { -u } else { u };
     -4.0 * u * (1.0 - magnitude)
 }

@@ -6,14 +6,16 @@
 //! bytes the last one handed over (`Stats::bytes_uploaded`).
 //!
 //! ```text
-//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong|smooth|flat|unlit|...] [prepared|one-shot] [N] [auto|device|host]
+//! cargo run --release --example prepared_frames -- [FRAMES] [cpu|gpu] [ids|phong|smooth|flat|unlit|...] [prepared|one-shot] [N] [auto|device|host] [mesh|lifted]
 //! ```
 //!
-//! The last says where a GPU frame's assembly runs (`set_gpu_assembly_on`).
+//! `auto|device|host` says where a GPU frame's assembly runs (`set_gpu_assembly_on`); `lifted`
+//! draws the terrain as a DEM does: its grid at height 0, lifted in the vertex stage by its
+//! heights (rounded to `f32`) as a vertex texture (`VertexStage::HEIGHTS`).
 
 use std::time::Instant;
 use tileraster::Backend;
-use tileraster::render::{Camera, Frame, PreparedMesh, Projection, RenderParams, Shading, Up, render};
+use tileraster::render::{Camera, Frame, PreparedMesh, Projection, RenderParams, Shading, Up, VertexStage, VertexTexture, render};
 use tileraster_testkit::meshes;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -44,10 +46,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(other) => return Err(format!("assembly {other:?}: auto, device or host").into()),
     };
     tileraster::set_gpu_assembly_on(assembly);
+    let lifted = match args.next().as_deref() {
+        None | Some("mesh") => false,
+        Some("lifted") => true,
+        Some(other) => return Err(format!("terrain {other:?}: mesh or lifted").into()),
+    };
     let (w, h) = (1920, 1080);
-    let mesh = meshes::terrain(n, 1000.0, 60.0);
+    let mut mesh = meshes::terrain(n, 1000.0, 60.0);
     let camera = Camera::framing(&mesh, w as f64 / h as f64, Projection::Perspective { fov_deg: 45.0 }, Up::Z);
-    let params = RenderParams {
+    let mut params = RenderParams {
         eye: Some(camera.viewer()),
         count_fragments: false,
         shading,
@@ -55,6 +62,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return_depth: shading != Shading::Ids,
         ..RenderParams::new(w, h, camera.view_projection(w, h)?)
     };
+    if lifted {
+        let texels = mesh.positions.iter_mut().map(|p| std::mem::take(&mut p[2]) as f32).collect();
+        params.vertex_texture = Some(std::sync::Arc::new(VertexTexture { width: n + 1, height: n + 1, texels }));
+        (params.vertex, params.vertex_constants[0]) = (Some(VertexStage::HEIGHTS), 1.0);
+    }
     let triangles = mesh.triangles.len();
     let uploaded = std::rc::Rc::new(std::cell::Cell::new(0));
     let last = uploaded.clone();
@@ -84,7 +96,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ms.sort_by(f64::total_cmp);
     let n = ms.len();
     println!(
-        "{triangles} triangles, {w}×{h}, {}, {backend:?} (assembly {assembly:?}), {}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames; the last handed over {} bytes",
+        "{triangles} triangles{}, {w}×{h}, {}, {backend:?} (assembly {assembly:?}), {}: median {:.1} ms, fastest {:.1}, slowest {:.1} of {n} frames; the last handed over {} bytes",
+        if lifted { " lifted by the vertex stage" } else { "" },
         shading.name(),
         if one_shot { "one-shot" } else { "prepared" },
         ms[n / 2],

@@ -16,14 +16,16 @@ use super::emit::{Emit, FaceTag};
 use super::instances::{Placement, transform_point};
 use super::lighting::{FaceLight, Lighting, face_normal};
 use super::params::{GREY, GeometryCounts, IDENTITY, RenderParams, Shading};
-use super::vertex::GeometryKernels;
+use super::program::{VertexStage, VertexTexture};
 use super::vertex::{ClipVertex, Corner, Projected, Shaded, computed_normals, flattened, placed_normals};
+use super::vertex::{GeometryKernels, Posing};
 use super::viewport::{Target, Viewport};
 use crate::Error;
 use rayon::prelude::*;
-use tileraster_kernels::abi::NO_TEXTURE;
+use std::sync::Arc;
 use tileraster_kernels::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, ProjectedVertex, ShadeParams, TriangleInput, TriangleShading};
 use tileraster_kernels::abi::{LIGHT_FACES, LIGHT_NONE, LIGHT_VERTICES};
+use tileraster_kernels::abi::{NO_TEXTURE, VertexUniforms};
 use tileraster_kernels::stages::assemble::{
     ASSEMBLY_COUNTERS, DROPPED_BACK, DROPPED_FRONT, DROPPED_FRUSTUM, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, FACE_GROUP, goes_small,
 };
@@ -156,6 +158,8 @@ pub(super) struct VertexAttributes {
     to_world: [[f64; 4]; 4],
     used: bool,
     faces_lit: bool,
+    /// The pose they were made in (`None`: the mesh as it is).
+    pose: Option<PoseKey>,
     /// The key they are kept by (`KeptInputs::attributes`): a fresh one each time they are
     /// made, so that a frame's placements share them and a prepared mesh's frames keep them.
     pub(super) key: u64,
@@ -171,11 +175,13 @@ impl VertexAttributes {
     /// where it `keeps` a prepared mesh's (one placement), as they are if made for the same
     /// placement; else made afresh in the slot's arrays (whose pages a frame that reuses its
     /// memory has mapped already).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn of<'a>(
         placements: &[Placement],
         count: usize,
         shading: Shading,
         lighting: &Lighting,
+        posing: Option<&Posing<'_>>,
         slot: &'a mut Option<VertexAttributes>,
         keeps: bool,
     ) -> &'a VertexAttributes {
@@ -184,7 +190,9 @@ impl VertexAttributes {
             [only] => only.to_world,
             _ => IDENTITY,
         };
-        let same = |k: &VertexAttributes| keeps && placements.len() == 1 && k.to_world == to_world && k.used == used && k.faces_lit == faces_lit;
+        let pose = posing.map(PoseKey::of);
+        let same =
+            |k: &VertexAttributes| keeps && placements.len() == 1 && k.to_world == to_world && k.used == used && k.faces_lit == faces_lit && k.pose == pose;
         if !slot.as_ref().is_some_and(same) {
             let (mut normals, mut values, mut face_normals) = slot.take().map_or_else(Default::default, |k| (k.normals, k.values, k.face_normals));
             normals.clear();
@@ -210,7 +218,7 @@ impl VertexAttributes {
             }
             static KEYS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
             let key = KEYS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            *slot = Some(VertexAttributes { to_world, used, faces_lit, key, normals, values, face_normals });
+            *slot = Some(VertexAttributes { to_world, used, faces_lit, pose, key, normals, values, face_normals });
         }
         slot.as_ref().expect("made above")
     }
@@ -219,6 +227,32 @@ impl VertexAttributes {
     /// attribute is read.
     pub(super) fn normals_of(&self, first: usize, n: usize) -> &[[f32; 3]] {
         if self.used { &self.normals[first..first + n] } else { &[] }
+    }
+}
+
+/// What a pose depends on: the vertex shader, its uniforms and its vertex texture. Two frames
+/// with equal keys pose a mesh alike, so a prepared mesh keeps its posed attributes between
+/// them (a DEM's frames from a moving camera, lifted by the same heights).
+#[derive(Clone)]
+struct PoseKey {
+    stage: VertexStage,
+    uniforms: VertexUniforms,
+    texture: Option<Arc<VertexTexture>>,
+}
+
+impl PoseKey {
+    fn of(posing: &Posing<'_>) -> Self {
+        PoseKey { stage: *posing.stage, uniforms: posing.uniforms, texture: posing.texture.cloned() }
+    }
+}
+
+impl PartialEq for PoseKey {
+    fn eq(&self, other: &Self) -> bool {
+        let same_texture = match (&self.texture, &other.texture) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (a, b) => a.is_none() && b.is_none(),
+        };
+        self.stage == other.stage && bytemuck::bytes_of(&self.uniforms) == bytemuck::bytes_of(&other.uniforms) && same_texture
     }
 }
 

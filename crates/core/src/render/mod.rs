@@ -379,11 +379,11 @@ pub(crate) fn prepare_instances_in(
             // A prepared mesh's faces are the same in each of its frames: kept by its positions'.
             let faces_key = kept.as_deref().and_then(|k| k.positions.as_ref()).filter(|_| placements.len() == 1).map(MeshPositions::key);
             let (slot, keeps) = match kept {
-                // (A vertex shader's frame makes its attributes afresh: its pose may differ.)
-                Some(k) if placements.len() == 1 => (&mut k.attributes, posing.is_none()),
+                // (A posed mesh's attributes are kept for as long as its pose is the same.)
+                Some(k) if placements.len() == 1 => (&mut k.attributes, true),
                 _ => (&mut memory.attributes, false),
             };
-            let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, slot, keeps);
+            let attributes = VertexAttributes::of(&placements, first_vertex, shading, &lighting, posing.as_ref(), slot, keeps);
             let projected = memory.vertex_stage.projected();
             let kept_inputs = KeptInputs { faces: faces_key, attributes: Some(attributes.key) };
             let mut first_face_normal = 0;

@@ -42,6 +42,8 @@ pub struct GeometryDevice {
     counted: KeptInputs,
     /// The vertex texture the byte count takes as handed over last.
     held_texture: Option<Arc<VertexTexture>>,
+    /// What the vertex stage binds where a frame has no vertex texture.
+    no_texture: Option<wgpu::Buffer>,
     /// The vertex texture on the device, and the one it holds.
     texture: Option<(Arc<VertexTexture>, wgpu::Buffer)>,
     /// The record buffers, grown as frames need and reused.
@@ -192,7 +194,8 @@ impl GeometryKernels for GeometryDevice {
                 }
                 self.texture.as_ref().map(|(_, b)| b.clone()).expect("made above")
             }
-            None => ctx.storage_with("no vertex texture", &[], 16),
+            // (Bound all the same: the stage table's row has the binding.)
+            None => self.no_texture.get_or_insert_with(|| ctx.storage_with("no vertex texture", &[], 16)).clone(),
         };
         let bytes = ctx.vertex_unchecked(params, positions, program, &buffer, &mut self.kept, &mut self.projected, projected)?;
         Ok(bytes + handed)

@@ -16,16 +16,14 @@ use super::emit::{Emit, FaceTag};
 use super::instances::{Placement, transform_point};
 use super::lighting::{FaceLight, Lighting, face_normal};
 use super::params::{GREY, GeometryCounts, IDENTITY, RenderParams, Shading};
-use super::program::{VertexStage, VertexTexture};
 use super::vertex::{ClipVertex, Corner, Projected, Shaded, computed_normals, flattened, placed_normals};
-use super::vertex::{GeometryKernels, Posing};
+use super::vertex::{GeometryKernels, PoseKey, Posing};
 use super::viewport::{Target, Viewport};
 use crate::Error;
 use rayon::prelude::*;
-use std::sync::Arc;
+use tileraster_kernels::abi::NO_TEXTURE;
 use tileraster_kernels::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, ProjectedVertex, ShadeParams, TriangleInput, TriangleShading};
 use tileraster_kernels::abi::{LIGHT_FACES, LIGHT_NONE, LIGHT_VERTICES};
-use tileraster_kernels::abi::{NO_TEXTURE, VertexUniforms};
 use tileraster_kernels::stages::assemble::{
     ASSEMBLY_COUNTERS, DROPPED_BACK, DROPPED_FRONT, DROPPED_FRUSTUM, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, FACE_GROUP, goes_small,
 };
@@ -227,32 +225,6 @@ impl VertexAttributes {
     /// attribute is read.
     pub(super) fn normals_of(&self, first: usize, n: usize) -> &[[f32; 3]] {
         if self.used { &self.normals[first..first + n] } else { &[] }
-    }
-}
-
-/// What a pose depends on: the vertex shader, its uniforms and its vertex texture. Two frames
-/// with equal keys pose a mesh alike, so a prepared mesh keeps its posed attributes between
-/// them (a DEM's frames from a moving camera, lifted by the same heights).
-#[derive(Clone)]
-struct PoseKey {
-    stage: VertexStage,
-    uniforms: VertexUniforms,
-    texture: Option<Arc<VertexTexture>>,
-}
-
-impl PoseKey {
-    fn of(posing: &Posing<'_>) -> Self {
-        PoseKey { stage: *posing.stage, uniforms: posing.uniforms, texture: posing.texture.cloned() }
-    }
-}
-
-impl PartialEq for PoseKey {
-    fn eq(&self, other: &Self) -> bool {
-        let same_texture = match (&self.texture, &other.texture) {
-            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
-            (a, b) => a.is_none() && b.is_none(),
-        };
-        self.stage == other.stage && bytemuck::bytes_of(&self.uniforms) == bytemuck::bytes_of(&other.uniforms) && same_texture
     }
 }
 

@@ -213,6 +213,33 @@ impl<'a> Posing<'a> {
     }
 }
 
+/// What a pose depends on: the vertex shader, its uniforms and its vertex texture. Two frames
+/// with equal keys pose a mesh alike, so a prepared mesh keeps its posed attributes between
+/// them (a DEM's frames from a moving camera, lifted by the same heights), and its posed
+/// positions.
+#[derive(Clone)]
+pub(super) struct PoseKey {
+    stage: VertexStage,
+    uniforms: VertexUniforms,
+    texture: Option<Arc<VertexTexture>>,
+}
+
+impl PoseKey {
+    pub(super) fn of(posing: &Posing<'_>) -> Self {
+        PoseKey { stage: *posing.stage, uniforms: posing.uniforms, texture: posing.texture.cloned() }
+    }
+}
+
+impl PartialEq for PoseKey {
+    fn eq(&self, other: &Self) -> bool {
+        let same_texture = match (&self.texture, &other.texture) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (a, b) => a.is_none() && b.is_none(),
+        };
+        self.stage == other.stage && bytemuck::bytes_of(&self.uniforms) == bytemuck::bytes_of(&other.uniforms) && same_texture
+    }
+}
+
 /// `mesh`'s positions as the frame's vertex shader poses them, in `f64` for the host's stages
 /// (clipping, normals, culling of instances): the shader called natively on the pairs the
 /// kernels' vertex stage poses (`MeshPositions`; `kept`'s, where the mesh keeps them), each

@@ -1,14 +1,15 @@
 //! The waves through the programmable vertex stage: the same bits on both backends (one-shot
-//! frames in each shading, a prepared sea's frames, a world of instances), a still sea the
-//! bits of the mesh drawn without a shader, the posed vertices where an `f64` reference of the
-//! waves puts them, and modules that are not a vertex shader's refused.
+//! frames in each shading, a prepared sea's frames, a world of instances, a calm map read as a
+//! vertex texture), a still sea the bits of the mesh drawn without a shader, the posed vertices
+//! where an `f64` reference of the waves puts them, and modules that are not a vertex shader's
+//! refused.
 
 #[path = "../../../tests/common/mod.rs"]
 mod common;
 
 use common::{assert_frame_parity, render_frame};
 use tileraster::Backend;
-use tileraster::render::{Frame, Instance, NO_FACE, PreparedMesh, RenderParams, Shading, VertexStage, World};
+use tileraster::render::{Frame, Instance, NO_FACE, PreparedMesh, RenderParams, Shading, VertexStage, VertexTexture, World, posed_positions};
 use waves::{CREST, WAVES, params, sea};
 
 fn covered(f: &Frame) -> usize {
@@ -89,6 +90,31 @@ fn a_world_of_seas_is_the_same_bits_on_both_backends() {
     }
 }
 
+/// A calm map handed as a vertex texture reaches the shader on both backends: all ones is the
+/// open sea's frame bit for bit; zeros west of the middle leave that half where the mesh has it,
+/// and the rest moves as in the open sea.
+#[test]
+fn a_calm_map_read_as_a_vertex_texture_stills_the_sea_where_it_says() {
+    let n = 48u32;
+    let mesh = sea(n);
+    let open = params(&mesh, 200, 120, 3.0).unwrap();
+    let map = |f: &dyn Fn(u32) -> f32| {
+        let texels = (0..(n + 1) * (n + 1)).map(|k| f(k % (n + 1))).collect();
+        Some(std::sync::Arc::new(VertexTexture { width: n + 1, height: n + 1, texels }))
+    };
+    let everywhere = RenderParams { vertex_texture: map(&|_| 1.0), ..open.clone() };
+    let harbour = RenderParams { vertex_texture: map(&|column| if column < n / 2 { 0.0 } else { 1.0 }), ..open.clone() };
+    let a = assert_frame_parity("a calm map of ones", &mesh, &everywhere);
+    let b = render_frame(&mesh, &open, Backend::Cpu);
+    assert!(a.colour == b.colour && a.ids == b.ids, "a calm map of ones is the open sea");
+    assert_frame_parity("a harbour", &mesh, &harbour);
+    let (calm, rough) = (posed_positions(&mesh, &harbour).unwrap(), posed_positions(&mesh, &open).unwrap());
+    for (k, ((p, q), r)) in mesh.positions.iter().zip(&calm).zip(&rough).enumerate() {
+        let column = k as u32 % (n + 1);
+        assert_eq!(*q, if column < n / 2 { *p } else { *r }, "vertex {k}");
+    }
+}
+
 /// A module that is not a vertex shader's (the kernels', with every stage; bytes that are not
 /// SPIR-V) is refused with a typed error before it reaches the driver; the example's own
 /// modules pass the same checks.
@@ -135,7 +161,7 @@ fn a_pose_beyond_the_numbers_is_a_typed_error() {
 fn the_posed_heights_follow_an_f64_reference_of_the_waves() {
     let mesh = sea(64);
     let time = 7.25f32;
-    let posed = tileraster::render::posed_positions(&mesh, &params(&mesh, 64, 48, time).unwrap()).unwrap();
+    let posed = posed_positions(&mesh, &params(&mesh, 64, 48, time).unwrap()).unwrap();
     let centre = [waves::CORNER[0] + waves::SIDE / 2.0, waves::CORNER[1] + waves::SIDE / 2.0];
     let swell = |x: f64| {
         let u = (x - x.floor()) * 2.0 - 1.0;

@@ -8,12 +8,14 @@
 //! parabola ([`swell`]), whose bits are the same on every device.
 //!
 //! The frame's constants tune it: `constants[0]` the height of the highest wave's crest above
-//! the still sea, in the mesh's units (0: a flat sea); the frame's time moves the waves.
+//! the still sea, in the mesh's units (0: a flat sea); the frame's time moves the waves. A
+//! vertex texture, where the frame hands one, is a calm map: a texel per vertex of the sea's
+//! grid, row by row, scaling the crest there (0 behind a breakwater, 1 in the open sea).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use tileraster_kernels::abi::VertexUniforms;
 use tileraster_kernels::math::float::floor;
-use tileraster_kernels::programs::vertex::{Vertex, VertexShader};
+use tileraster_kernels::programs::vertex::{Vertex, VertexShader, texel};
 
 /// The shader: a stateless sea.
 #[derive(Clone, Copy, Default)]
@@ -25,9 +27,11 @@ const WAVES: [([f32; 2], f32, f32, f32); 3] =
     [([0.8, 0.6], 1.0 / 420.0, 0.11, 1.0), ([-0.28, 0.96], 1.0 / 230.0, 0.17, 0.45), ([0.96, -0.28], 1.0 / 97.0, 0.29, 0.18)];
 
 impl VertexShader for Waves {
-    fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms, _texture: &[f32]) -> [f32; 3] {
+    fn position(&self, vertex: &Vertex, uniforms: &VertexUniforms, texture: &[f32]) -> [f32; 3] {
         let [x, y, z] = vertex.position;
-        let crest = uniforms.constants[0];
+        let width = uniforms.texture_size[0];
+        let calm = if width > 0 { texel(texture, uniforms, (vertex.index % width) as i32, (vertex.index / width) as i32) } else { 1.0 };
+        let crest = uniforms.constants[0] * calm;
         let mut lift = 0.0;
         let mut k = 0;
         while k < WAVES.len() {

@@ -81,7 +81,6 @@ use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
-use std::sync::Arc;
 use tileraster_kernels::abi::{DepthTest, Interpolation, TriangleInput, TriangleShading};
 use tileraster_kernels::stages::setup::edges_fit_i32;
 
@@ -151,7 +150,7 @@ pub struct KeptMesh {
     positions: Option<MeshPositions>,
     attributes: Option<VertexAttributes>,
     /// The positions a vertex shader posed last, and its pose.
-    posed: Option<(vertex::PoseKey, Arc<Vec<[f64; 3]>>)>,
+    posed: Option<(vertex::PoseKey, vertex::PosedPositions)>,
 }
 
 /// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left what they keep
@@ -268,31 +267,10 @@ pub(crate) fn prepare_instances_in(
     let mut placed = vec![false; meshes.len()];
     instances.iter().for_each(|i| placed[i.mesh as usize] = true);
 
-    // A vertex shader poses each placed mesh in its own coordinates (`vertex::posed_positions`;
+    // A vertex shader poses each placed mesh in its own coordinates (`vertex::posed_meshes`;
     // the kernels' vertex stage poses a mesh drawn once with the same function).
     let posing = vertex::Posing::of(params);
-    // A prepared mesh keeps its posed positions while its pose is the same.
-    let posed: Vec<Option<Arc<Vec<[f64; 3]>>>> = match &posing {
-        Some(posing) => match kept.as_deref_mut().filter(|_| instances.len() == 1) {
-            Some(k) => {
-                let key = vertex::PoseKey::of(posing);
-                let positions = match k.posed.take() {
-                    Some((held, positions)) if held == key => positions,
-                    _ => Arc::new(vertex::posed_positions(&meshes[0], posing, Some(&mut k.positions))?),
-                };
-                k.posed = Some((key, positions.clone()));
-                vec![Some(positions)]
-            }
-            None => {
-                let mut posed = Vec::with_capacity(meshes.len());
-                for (mesh, &placed) in meshes.iter().zip(&placed) {
-                    posed.push(if placed { Some(Arc::new(vertex::posed_positions(mesh, posing, None)?)) } else { None });
-                }
-                posed
-            }
-        },
-        None => Vec::new(),
-    };
+    let posed = vertex::posed_meshes(meshes, &placed, posing.as_ref(), kept.as_deref_mut().filter(|_| instances.len() == 1))?;
     let drawn_positions = |k: usize| posed.get(k).and_then(|p| p.as_deref()).map_or(&meshes[k].positions[..], |p| &p[..]);
 
     // Object culling: instances whose bounding box lies outside the view frustum get no vertex

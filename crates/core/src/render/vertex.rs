@@ -1,6 +1,7 @@
 //! The vertex stage: positions to clip space, normals to the world, and what each vertex
 //! carries to the stages after it.
 
+use super::KeptMesh;
 use super::assemble::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches};
 use super::instances::{self, Placement};
 use super::lighting::{FaceLight, Lighting};
@@ -238,6 +239,34 @@ impl PartialEq for PoseKey {
         };
         self.stage == other.stage && bytemuck::bytes_of(&self.uniforms) == bytemuck::bytes_of(&other.uniforms) && same_texture
     }
+}
+
+/// A mesh's posed positions, shared with the prepared mesh that keeps them.
+pub(super) type PosedPositions = Arc<Vec<[f64; 3]>>;
+
+/// Each placed mesh's positions as the frame's vertex shader (`posing`) poses them
+/// ([`posed_positions`]; `None` for the meshes no instance places, and none at all without a
+/// shader). A prepared mesh (`kept`) keeps its posed positions while its pose is the same.
+pub(super) fn posed_meshes(
+    meshes: &[Mesh],
+    placed: &[bool],
+    posing: Option<&Posing<'_>>,
+    kept: Option<&mut KeptMesh>,
+) -> Result<Vec<Option<PosedPositions>>, Error> {
+    let Some(posing) = posing else {
+        return Ok(Vec::new());
+    };
+    if let Some(k) = kept {
+        let key = PoseKey::of(posing);
+        let positions = match k.posed.take() {
+            Some((held, positions)) if held == key => positions,
+            _ => Arc::new(posed_positions(&meshes[0], posing, Some(&mut k.positions))?),
+        };
+        k.posed = Some((key, positions.clone()));
+        return Ok(vec![Some(positions)]);
+    }
+    let pose = |(mesh, &placed): (&Mesh, &bool)| placed.then(|| posed_positions(mesh, posing, None).map(Arc::new)).transpose();
+    meshes.iter().zip(placed).map(pose).collect()
 }
 
 /// `mesh`'s positions as the frame's vertex shader poses them, in `f64` for the host's stages

@@ -258,16 +258,17 @@ impl GeometryKernels for GeometryDevice {
         };
         let mut ctx = context()?.lock().map_err(|_| Error::Gpu("GPU context poisoned by an earlier panic".into()))?;
         let scope = ctx.gpu.error_scope();
+        // Room for the colours on the device only where the device's fills read them.
         let colours = (attributes.len() * std::mem::size_of::<[f32; 4]>()) as u64;
-        let out = grown(&ctx.gpu.device, &mut self.room.lit, "lit colours", colours);
-        match (fills_here, held) {
-            (true, Some(attributes_buffer)) => ctx.light_rows(shade, attributes.len() as u32, &attributes_buffer, &out)?,
+        let out = fills_here.then(|| grown(&ctx.gpu.device, &mut self.room.lit, "lit colours", colours));
+        match (&out, held) {
+            (Some(out), Some(attributes_buffer)) => ctx.light_rows(shade, attributes.len() as u32, &attributes_buffer, out)?,
             _ => {
                 // The twins fill, or the attributes are not on the device (then the colours go
                 // up for the device's fills).
                 tileraster_cpu::light(shade, attributes, lit);
-                if fills_here {
-                    ctx.recorder.upload(&ctx.gpu.queue, &out, bytemuck::cast_slice(lit));
+                if let Some(out) = &out {
+                    ctx.recorder.upload(&ctx.gpu.queue, out, bytemuck::cast_slice(lit));
                 }
             }
         }
@@ -275,7 +276,7 @@ impl GeometryKernels for GeometryDevice {
             self.frame.lit = None;
             return Err(Error::Gpu(format!("the light stage: {e}")));
         }
-        self.frame.lit = fills_here.then_some(out);
+        self.frame.lit = out;
         Ok(tileraster_core::render::light_bytes())
     }
 

@@ -8,7 +8,7 @@
 //! `f32` has 24, so a vertex of UTM terrain at 5,000,000 m snaps where the `f64` pipeline snaps
 //! it (`docs/numeric-contract.md`, "Geometry in the kernels").
 
-use crate::abi::{ProjectedVertex, RelativePosition, VertexParams};
+use crate::abi::{ProjectedVertex, RelativePosition, VertexParams, VertexUniforms};
 use crate::math::double::Double;
 use crate::programs::vertex::VertexProgram;
 use crate::stages::viewport;
@@ -83,9 +83,6 @@ pub fn frustum_planes(clip: &[Double; 4]) -> u32 {
 // Plain comparisons, as the CPU twin's `f64` path mirrors them.
 #[allow(clippy::manual_range_contains)]
 pub fn vertex<P: VertexProgram + ?Sized>(program: &P, params: &VertexParams, texture: &[f32], index: u32, position: &RelativePosition) -> ProjectedVertex {
-    let bounded = |p: [f32; 3]| {
-        p[0] < POSITION_LIMIT && p[0] > -POSITION_LIMIT && p[1] < POSITION_LIMIT && p[1] > -POSITION_LIMIT && p[2] < POSITION_LIMIT && p[2] > -POSITION_LIMIT
-    };
     if !bounded(position.hi) {
         return ProjectedVertex::NONE;
     }
@@ -99,12 +96,7 @@ pub fn vertex<P: VertexProgram + ?Sized>(program: &P, params: &VertexParams, tex
         }
         row += 1;
     }
-    let r = [
-        Double { hi: position.hi[0], lo: position.lo[0] },
-        Double { hi: position.hi[1], lo: position.lo[1] },
-        Double { hi: position.hi[2], lo: position.lo[2] },
-    ];
-    let r = if params.posed != 0 { program.pose(&params.uniforms, texture, index, r) } else { r };
+    let r = if params.posed != 0 { posed(program, &params.uniforms, texture, index, position) } else { pairs(position) };
     // (A NaN fails every comparison: a pose to NaN is not projected.)
     if !bounded([r[0].hi, r[1].hi, r[2].hi]) {
         return ProjectedVertex::NONE;
@@ -125,6 +117,28 @@ pub fn vertex<P: VertexProgram + ?Sized>(program: &P, params: &VertexParams, tex
     let (depth, inverse_w) = viewport::depth_and_inverse_w(&clip);
     let screen = viewport::snap(&clip, params.half_units);
     ProjectedVertex { screen, depth, inverse_w, planes: planes | assembly_bit(params, screen, planes) }
+}
+
+/// Whether a position (a pair's high parts) lies within the stage's range, [`POSITION_LIMIT`]
+/// (not NaN).
+#[inline]
+pub fn bounded(p: [f32; 3]) -> bool {
+    p[0] < POSITION_LIMIT && p[0] > -POSITION_LIMIT && p[1] < POSITION_LIMIT && p[1] > -POSITION_LIMIT && p[2] < POSITION_LIMIT && p[2] > -POSITION_LIMIT
+}
+
+/// A position's pairs.
+#[inline]
+pub fn pairs(position: &RelativePosition) -> [Double; 3] {
+    [Double { hi: position.hi[0], lo: position.lo[0] }, Double { hi: position.hi[1], lo: position.lo[1] }, Double { hi: position.hi[2], lo: position.lo[2] }]
+}
+
+/// Vertex `index` at `position` as `program` poses it (with the frame's `uniforms` and vertex
+/// `texture`) where the position lies within the stage's range ([`bounded`]), else as it is:
+/// what the stage projects, and what its CPU twin and the host's stages take of a posed mesh.
+#[inline]
+pub fn posed<P: VertexProgram + ?Sized>(program: &P, uniforms: &VertexUniforms, texture: &[f32], index: u32, position: &RelativePosition) -> [Double; 3] {
+    let r = pairs(position);
+    if bounded(position.hi) { program.pose(uniforms, texture, index, r) } else { r }
 }
 
 /// [`UNASSEMBLED`] for a projected vertex beyond the near or far plane or beyond the guard

@@ -18,7 +18,7 @@ use tileraster_kernels::abi::{
     ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, LightParams, ProjectedVertex, RelativePosition, ShadeParams, VertexParams, VertexUniforms,
 };
 use tileraster_kernels::math::double::Double;
-use tileraster_kernels::stages::vertex::{FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
+use tileraster_kernels::stages::vertex::{self as vertex_stage, FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
 
 /// The kernels' geometry stages as a backend runs them while the host prepares a frame: the
 /// CPU backend's twins, or the device's dispatches, to the same bits.
@@ -285,11 +285,8 @@ pub(super) fn posed_positions(mesh: &Mesh, posing: &Posing<'_>, kept: Option<&mu
     };
     let program = posing.stage.program();
     let pose = |(v, (pair, own)): (usize, (&RelativePosition, &[f64; 3]))| {
-        if !pair.hi.iter().all(|c| c.abs() < POSITION_LIMIT) {
-            return *own;
-        }
-        let r: [Double; 3] = std::array::from_fn(|k| Double { hi: pair.hi[k], lo: pair.lo[k] });
-        let posed = program.pose(&posing.uniforms, posing.texels(), v as u32, r);
+        let r = vertex_stage::pairs(pair);
+        let posed = vertex_stage::posed(program, &posing.uniforms, posing.texels(), v as u32, pair);
         let unmoved = |k: usize| posed[k].hi.to_bits() == r[k].hi.to_bits() && posed[k].lo.to_bits() == r[k].lo.to_bits();
         std::array::from_fn(|k| if unmoved(k) { own[k] } else { stage.origin[k] + posed[k].to_f64() })
     };

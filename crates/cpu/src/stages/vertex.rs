@@ -10,7 +10,6 @@
 
 use rayon::prelude::*;
 use tileraster_kernels::abi::{ProjectedVertex, RelativePosition, VertexParams};
-use tileraster_kernels::math::double::Double;
 use tileraster_kernels::programs::vertex::{Builtin, VertexProgram};
 use tileraster_kernels::stages::vertex::{
     BEYOND_BOTTOM, BEYOND_FAR, BEYOND_LEFT, BEYOND_NEAR, BEYOND_RIGHT, BEYOND_TOP, POSITION_LIMIT, assembly_bit, vertex as project,
@@ -38,12 +37,10 @@ pub fn vertex(
 /// by `program` where `params.posed` says so and the position lies within the stage's range,
 /// else as it is.
 pub fn posed(program: &(dyn VertexProgram + Sync), params: &VertexParams, texture: &[f32], index: u32, position: &RelativePosition) -> RelativePosition {
-    let bounded = position.hi.iter().all(|&v| v < POSITION_LIMIT && v > -POSITION_LIMIT);
-    if params.posed == 0 || !bounded {
+    if params.posed == 0 {
         return *position;
     }
-    let pairs = std::array::from_fn(|k| Double { hi: position.hi[k], lo: position.lo[k] });
-    let r = program.pose(&params.uniforms, texture, index, pairs);
+    let r = tileraster_kernels::stages::vertex::posed(program, &params.uniforms, texture, index, position);
     RelativePosition { hi: r.map(|d| d.hi), lo: r.map(|d| d.lo) }
 }
 

@@ -1,15 +1,24 @@
-//! The vertex stage's built-in heightfield program (`VertexStage::HEIGHTS`): a DEM's flat grid
-//! lifted by its heights as a vertex texture is, vertex for vertex and pixel for pixel, the
-//! terrain the host meshes from the same DEM, on both backends; a prepared grid hands its
-//! heights over once, takes a vertical exaggeration as a constant of the frame, and keeps its
-//! posed attributes while the pose stays the same. (A user's
-//! vertex shader is `examples/waves`.)
+//! The vertex stage's built-in programs.
+//!
+//! The heightfield program (`VertexStage::HEIGHTS`): a DEM's flat grid lifted by its heights as
+//! a vertex texture is, vertex for vertex and pixel for pixel, the terrain the host meshes from
+//! the same DEM, on both backends; a prepared grid hands its heights over once, takes a
+//! vertical exaggeration as a constant of the frame, and keeps its posed attributes while the
+//! pose stays the same.
+//!
+//! The deform program (`VertexStage::DEFORM`): a glTF file's skin and morph targets posed in
+//! the kernels give the same bits on both backends, and the frames of the host's `f64` pose; a
+//! prepared mesh hands over a new pose and nothing of the mesh. (A user's vertex shader is
+//! `examples/waves`.)
 
 mod common;
 
 use std::sync::Arc;
 use tileraster::Backend;
-use tileraster::render::{Camera, Frame, PreparedMesh, Projection, RenderParams, Shading, VertexStage, dem_grid, dem_mesh, posed_positions, render};
+use tileraster::render::{
+    Camera, Cull, Frame, PosableGltf, PreparedMesh, Projection, RenderParams, Shading, VertexStage, dem_grid, dem_mesh, posed_positions, read_posable_at,
+    read_world_at, render,
+};
 use tileraster_io::Dem;
 
 /// 60 × 40 cells of 25 m at 500 km E, 5,000 km N: hills of `f32` heights, with a hole of
@@ -123,4 +132,100 @@ fn a_vertex_texture_of_the_wrong_size_is_a_typed_error() {
         Err(tileraster::Error::InvalidVertexTexture { width: 60, height: 40, texels: 2399 }) => {}
         other => panic!("{:?}", other.map(|f| f.stats)),
     }
+}
+
+/// The parameters of a frame of `common::skinned_gltf` in perspective, posed by `posable`.
+fn posed_view(posable: &PosableGltf, shading: Shading) -> RenderParams {
+    let camera = Camera {
+        eye: [1.5, 1.5, 3.0],
+        target: [1.0, 0.5, 0.0],
+        up: [0.0, 1.0, 0.0],
+        projection: Projection::Perspective { fov_deg: 50.0 },
+        near: 0.5,
+        far: 20.0,
+    };
+    RenderParams {
+        shading,
+        cull: Cull::None,
+        eye: Some(camera.viewer()),
+        vertex: Some(VertexStage::DEFORM),
+        vertex_constants: posable.constants,
+        vertex_texture: Some(Arc::new(posable.texture.clone())),
+        ..RenderParams::new(96, 72, camera.view_projection(96, 72).unwrap())
+    }
+}
+
+fn backends(test: &str) -> Vec<Backend> {
+    [Backend::Cpu, Backend::Gpu].into_iter().filter(|&b| b == Backend::Cpu || common::gpu_or_skip(test)).collect()
+}
+
+#[test]
+fn a_gltf_file_posed_by_the_deform_program_is_the_host_pose_on_both_backends() {
+    let dir = std::env::temp_dir().join(format!("tileraster-deform-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = common::skinned_gltf(&dir);
+    let mut seen = std::collections::HashSet::new();
+    for time in [None, Some(0.25), Some(0.5), Some(0.9)] {
+        let posable = read_posable_at(&path, time).unwrap().expect("a skin and a morph target");
+        let host = read_world_at(&path, time).unwrap().flattened().unwrap();
+        for shading in [Shading::Flat, Shading::Smooth, Shading::Phong] {
+            let params = posed_view(&posable, shading);
+            let plain = RenderParams { vertex: None, vertex_texture: None, ..params.clone() };
+            let mut frames = Vec::new();
+            for backend in backends("the deform program") {
+                let kernels = render(&posable.mesh, &params, backend).unwrap();
+                let reference = render(&host, &plain, backend).unwrap();
+                assert!(kernels.stats.pixels_covered > 500, "{time:?} s: {} pixels", kernels.stats.pixels_covered);
+                // The pose in `f32` moves a corner by a few units of `2^-24` at most: a pixel
+                // centre on an edge could change hands, none here does.
+                assert!(same(&kernels, &reference), "{backend:?} at {time:?} s, {}: the kernels' pose differs from the host's", shading.name());
+                frames.push(kernels);
+            }
+            if let [cpu, gpu] = &frames[..] {
+                assert!(same(cpu, gpu), "at {time:?} s, {}: the backends differ", shading.name());
+            }
+            seen.insert(frames[0].colour.clone());
+        }
+    }
+    assert_eq!(seen.len(), 12, "every time and shading gives its own frame");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_prepared_posable_mesh_hands_over_its_pose_and_nothing_of_the_mesh() {
+    let dir = std::env::temp_dir().join(format!("tileraster-deform-prepared-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = common::skinned_gltf(&dir);
+    let poses: Vec<PosableGltf> = [0.2, 0.6].into_iter().map(|t| read_posable_at(&path, Some(t)).unwrap().unwrap()).collect();
+    assert_eq!(poses[0].mesh, poses[1].mesh, "the mesh at rest is the same at every time");
+    let texture_bytes = (poses[0].texture.texels.len() * 4) as u64;
+    let mut by_backend = Vec::new();
+    for backend in backends("a prepared posable mesh") {
+        let mut prepared = PreparedMesh::new(poses[0].mesh.clone()).unwrap();
+        let (first, second) = (posed_view(&poses[0], Shading::Smooth), posed_view(&poses[1], Shading::Smooth));
+        let frames: Vec<Frame> = [&first, &second, &second].iter().map(|p| prepared.render(p, backend).unwrap()).collect();
+        for (frame, p) in frames.iter().zip([&first, &second, &second]) {
+            assert!(same(frame, &render(&poses[0].mesh, p, backend).unwrap()), "{backend:?}: a prepared frame differs from its one-shot frame");
+        }
+        let bytes: Vec<u64> = frames.iter().map(|f| f.stats.raster.bytes_uploaded).collect();
+        // A new pose hands over its texture (and the posed attributes), not the positions; the
+        // same pose again only the frame's parameters.
+        assert!(bytes[1] < bytes[0] && bytes[1] >= texture_bytes && bytes[2] < 1024, "{backend:?}: bytes uploaded {bytes:?} (the pose: {texture_bytes})");
+        assert!(!same(&frames[0], &frames[1]) && same(&frames[1], &frames[2]), "{backend:?}: the pose changes the frame");
+        by_backend.push(frames);
+    }
+    if let [cpu, gpu] = &by_backend[..] {
+        assert!(cpu.iter().zip(gpu).all(|(a, b)| same(a, b)), "the backends differ");
+    }
+    // A texture too short for the mesh is a typed error.
+    let mut short = posed_view(&poses[0], Shading::Smooth);
+    let mut texture = poses[0].texture.clone();
+    texture.texels.truncate(texture.texels.len() - 9);
+    texture.width -= 9;
+    short.vertex_texture = Some(Arc::new(texture));
+    match render(&poses[0].mesh, &short, Backend::Cpu) {
+        Err(tileraster::Error::DeformTexture { vertices: 6, .. }) => {}
+        other => panic!("{:?}", other.map(|f| f.stats)),
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

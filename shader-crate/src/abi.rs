@@ -929,7 +929,7 @@ pub struct VertexUniforms {
     /// The vertex texture's columns and rows (0 × 0 where the frame has none).
     pub texture_size: [u32; 2],
     /// Which built-in program the kernels' own vertex stage runs (`programs::vertex::Builtin`):
-    /// `BUILTIN_NONE` or `BUILTIN_HEIGHTS`; a user's shader ignores it.
+    /// `BUILTIN_NONE`, `BUILTIN_HEIGHTS` or `BUILTIN_DEFORM`; a user's shader ignores it.
     pub builtin: u32,
 }
 

@@ -9,7 +9,7 @@ use std::time::Instant;
 use tileraster::dem::InputKind;
 use tileraster::render::{
     Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Projection, RenderParams, Shading, Up, VertexStage, Wireframe,
-    World, format_up, is_geotiff, posed_positions, read_dem_grid, read_mesh_at, read_world_at, render_world,
+    World, format_up, is_geotiff, posed_positions, read_dem_grid, read_mesh_at, read_posable_at, read_world_at, render_world,
 };
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
@@ -333,13 +333,23 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         true => read_dem_grid(&input).map_err(|e| e.to_string())?,
         false => None,
     };
-    let (world, heights) = match (&instances, lifted) {
-        (None, Some((grid, texture))) => (World::single(grid), Some(Arc::new(texture))),
-        (Some(file), _) => (World::instanced(read_mesh_at(&input, time).map_err(|e| e.to_string())?, &read_transforms(file)?), None),
-        (None, None) => (read_world_at(&input, time).map_err(|e| e.to_string())?, None),
+    // A glTF file's skins and morph targets are posed by the kernels' built-in deform program:
+    // the file at rest, and its pose at `--time` as a vertex texture (the same frame as the
+    // host's pose gives). `--z-scale` scales the posed mesh: the host poses it then.
+    let posable = match instances.is_none() && lifted.is_none() && z_scale == 1.0 {
+        true => read_posable_at(&input, time).map_err(|e| e.to_string())?,
+        false => None,
     };
-    let mut lifting = RenderParams::new(1, 1, IDENTITY);
-    (lifting.vertex, lifting.vertex_texture, lifting.vertex_constants[0]) = (Some(VertexStage::HEIGHTS), heights.clone(), 1.0);
+    let (world, pose) = match (&instances, lifted, posable) {
+        (None, Some((grid, texture)), _) => (World::single(grid), Some((VertexStage::HEIGHTS, texture, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))),
+        (None, None, Some(posable)) => (World::single(posable.mesh), Some((VertexStage::DEFORM, posable.texture, posable.constants))),
+        (Some(file), ..) => (World::instanced(read_mesh_at(&input, time).map_err(|e| e.to_string())?, &read_transforms(file)?), None),
+        (None, None, None) => (read_world_at(&input, time).map_err(|e| e.to_string())?, None),
+    };
+    let mut posing = RenderParams::new(1, 1, IDENTITY);
+    if let Some((stage, texture, constants)) = pose {
+        (posing.vertex, posing.vertex_texture, posing.vertex_constants) = (Some(stage), Some(Arc::new(texture)), constants);
+    }
     // A single mesh is scaled and framed as it is; instances by the box holding them all.
     let single = world.instances.len() == 1 && world.instances[0].transform == IDENTITY;
     let (mut world, mut model) = (world, IDENTITY);
@@ -352,13 +362,13 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
             }
         }
         world = World::single(mesh);
-        match heights {
-            // Framed as lifted, by the vertices its faces use (not the cells without a height).
+        match posing.vertex {
+            // Framed as posed, by the vertices its faces use (not a DEM's cells without a height).
             Some(_) => {
                 let grid = &world.meshes[0];
                 let mut used = vec![false; grid.positions.len()];
                 grid.triangles.iter().flatten().for_each(|&v| used[v as usize] = true);
-                let posed = posed_positions(grid, &lifting).map_err(|e| e.to_string())?;
+                let posed = posed_positions(grid, &posing).map_err(|e| e.to_string())?;
                 &Mesh { positions: posed.into_iter().zip(used).filter_map(|(p, used)| used.then_some(p)).collect(), ..Default::default() }
             }
             None => &world.meshes[0],
@@ -461,9 +471,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         ShadingArg::Ids => Shading::Ids,
     };
     params.eye = viewer;
-    if heights.is_some() {
-        (params.vertex, params.vertex_texture, params.vertex_constants) = (lifting.vertex, lifting.vertex_texture, lifting.vertex_constants);
-    }
+    (params.vertex, params.vertex_texture, params.vertex_constants) = (posing.vertex, posing.vertex_texture, posing.vertex_constants);
     let (backend, chosen) = crate::choose_backend(backend, width as u64 * height as u64);
     let start = Instant::now();
     let frame = render_world(&world, &params, backend).map_err(|e| e.to_string())?;
@@ -488,7 +496,11 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         "tileraster: {} triangles{}{} → {width}×{height} on the {} backend in {:.1} ms ({} rasterised, {} pixels covered) → {}",
         world.instances.iter().map(|i| world.meshes[i.mesh as usize].triangles.len() as u64).sum::<u64>(),
         if single { String::new() } else { format!(" in {} instances ({} culled)", world.instances.len(), frame.stats.geometry.instances_culled) },
-        if heights.is_some() { " (the DEM's heights lifted by the vertex stage)" } else { "" },
+        match posing.vertex {
+            Some(stage) if stage == VertexStage::HEIGHTS => " (the DEM's heights lifted by the vertex stage)",
+            Some(stage) if stage == VertexStage::DEFORM => " (skins and morph targets posed by the vertex stage)",
+            _ => "",
+        },
         backend.name(),
         took.as_secs_f64() * 1e3,
         frame.stats.geometry.rasterised,

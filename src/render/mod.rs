@@ -31,7 +31,7 @@ pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
     Address, Cull, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryKernels, GeometryMemory, GeometryPass, IDENTITY, Instance,
     KeptMesh, LaidOutTextures, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE, RenderParams, Shading,
-    Texture, VertexConstants, VertexStage, VertexTexture, Wireframe, World, edges, face_normals, posed_positions, validate_mesh,
+    Texture, VertexConstants, VertexStage, VertexTexture, Wireframe, World, edges, face_normals, posed_normals, posed_positions, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};
@@ -39,6 +39,7 @@ use crate::{Backend, Error, Stats};
 use rayon::prelude::*;
 use std::path::Path;
 use tileraster_core::{Layers, Raster};
+pub use tileraster_io::PosableGltf;
 
 /// The mesh in `path`: glTF 2.0 (`.gltf`, `.glb`) with its normals, colours and texture
 /// coordinates in world coordinates; PLY with its vertex normals and colours; OBJ with its normals,
@@ -104,6 +105,17 @@ pub fn read_world_at(path: &Path, time: Option<f64>) -> Result<World, DemError> 
         true => Ok(World::single(read_mesh_at(path, time)?)),
         false => Ok(tileraster_io::read_gltf_world(path, time)?),
     }
+}
+
+/// The glTF file in `path` at rest with what poses it at `time` in the kernels' vertex stage
+/// (`VertexStage::DEFORM`: its skins and morph targets; [`tileraster_io::read_gltf_posable`]),
+/// as [`read_mesh_at`] poses it on the host. `None` for a file without skins or morph targets,
+/// or of another format.
+pub fn read_posable_at(path: &Path, time: Option<f64>) -> Result<Option<PosableGltf>, DemError> {
+    if is_geotiff(path) || InputKind::of(path)? != InputKind::Gltf {
+        return Ok(None);
+    }
+    Ok(tileraster_io::read_gltf_posable(path, time)?)
 }
 
 /// A time is for a glTF file's animation: any other format's mesh has no pose to take.

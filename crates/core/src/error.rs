@@ -134,4 +134,9 @@ pub enum Error {
 
     #[error("the vertex texture is {width} × {height} texels but holds {texels}: give width × height texels, row by row, fewer than 2^32")]
     InvalidVertexTexture { width: u32, height: u32, texels: usize },
+
+    #[error(
+        "the deform program's vertex texture holds {texels} texels, but the joints, weights and {vertices} vertices its constants lay out need {needs}: make the texture and constants for this mesh (tileraster_io::read_gltf_posable)"
+    )]
+    DeformTexture { vertices: usize, texels: usize, needs: u64 },
 }

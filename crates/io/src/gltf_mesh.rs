@@ -13,6 +13,7 @@
 
 use crate::IoError;
 use crate::gltf_pose::{IDENTITY, Matrix, Pose};
+use crate::gltf_rig::{Binding, Offsets, PosableGltf, Rig, SkinWeights};
 use gltf::accessor::{DataType, Dimensions};
 use std::path::Path;
 use tileraster_core::render::{Address, Filter, Instance, Mesh, NO_TEXTURE, Texture, World, normal_matrix, transform_normal};
@@ -30,12 +31,42 @@ pub fn read_gltf(path: &Path, time: Option<f64>) -> Result<Mesh, IoError> {
             let deform = Deform::of(&pose, node, &mesh, &buffers)?;
             // A skinned mesh's joints take it to world coordinates.
             let world = if deform.joints.is_some() { &IDENTITY } else { world };
-            mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &deform, &sources, &mut out))
+            mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &deform, &sources, &mut out, None))
         }
         None => Ok(()),
     })
     .map_err(format)?;
     out.into_mesh().ok_or_else(|| format("the file has no triangles in its scene".into()))
+}
+
+/// Read a glTF 2.0 file whose meshes have skins or morph targets as one mesh at rest, with the
+/// vertex texture and constants that pose it in the kernels' vertex stage
+/// (`VertexStage::DEFORM`) as [`read_gltf`] poses it on the host at `time` (at rest without a
+/// time): the same vertices and faces in the same order. `None` for a file without skins or
+/// morph targets, which [`read_gltf_world`] reads.
+pub fn read_gltf_posable(path: &Path, time: Option<f64>) -> Result<Option<PosableGltf>, IoError> {
+    let format = |message: String| IoError::Format { path: path.to_owned(), message };
+    let (gltf, buffers) = open(path)?;
+    let morphs = |m: gltf::Mesh| m.primitives().any(|p| p.morph_targets().next().is_some());
+    if !gltf.document.nodes().any(|n| n.mesh().is_some_and(|m| n.skin().is_some() || morphs(m))) {
+        return Ok(None);
+    }
+    let pose = posed(&gltf.document, &buffers, time).map_err(format)?;
+    let sources = Sources { base: path.parent(), buffers: &buffers };
+    let (mut out, mut rig) = (Parts::default(), Rig::default());
+    pose.walk(&gltf.document, &mut |node, world| match node.mesh() {
+        Some(mesh) => {
+            let deform = Deform::of(&pose, node, &mesh, &buffers)?;
+            let binding = rig.bind(world, deform.joints.as_deref(), &deform.weights);
+            let world = if deform.joints.is_some() { &IDENTITY } else { world };
+            mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, world, &deform, &sources, &mut out, Some((&mut rig, binding))))
+        }
+        None => Ok(()),
+    })
+    .map_err(format)?;
+    let mesh = out.into_mesh().ok_or_else(|| format("the file has no triangles in its scene".into()))?;
+    let (texture, constants) = rig.texture(&mesh).map_err(format)?;
+    Ok(Some(PosableGltf { mesh, texture, constants }))
 }
 
 /// Read a glTF 2.0 file as a [`World`], posed as [`read_gltf`] poses it: each mesh once, in its
@@ -65,7 +96,7 @@ pub fn read_gltf_world(path: &Path, time: Option<f64>) -> Result<World, IoError>
             Some(&index) => index,
             None => {
                 let mut parts = Parts::default();
-                mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &deform, &sources, &mut parts))?;
+                mesh.primitives().try_for_each(|primitive| add_primitive(&mesh, &primitive, &IDENTITY, &deform, &sources, &mut parts, None))?;
                 let index = parts.into_mesh().map(|m| {
                     world.meshes.push(m);
                     world.meshes.len() as u32 - 1
@@ -287,8 +318,17 @@ impl Parts {
 }
 
 /// Adds `primitive`'s triangles and vertices to `out`: its positions morphed by `deform`'s
-/// weights, then skinned by its joints or else placed by `world`.
-fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix, deform: &Deform, sources: &Sources, out: &mut Parts) -> Result<(), String> {
+/// weights, then skinned by its joints or else placed by `world`; or, given a `rig`, at rest,
+/// with its joints, weights and morph offsets added to the rig (its node's `Binding`).
+fn add_primitive(
+    mesh: &gltf::Mesh,
+    primitive: &gltf::Primitive,
+    world: &Matrix,
+    deform: &Deform,
+    sources: &Sources,
+    out: &mut Parts,
+    rig: Option<(&mut Rig, Binding)>,
+) -> Result<(), String> {
     let buffers = sources.buffers;
     use gltf::mesh::Mode;
     let name = || format!("mesh {}{} primitive {}", mesh.index(), mesh.name().map(|n| format!(" ('{n}')")).unwrap_or_default(), primitive.index());
@@ -301,11 +341,18 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     if normals.as_ref().is_some_and(|v| v.len() != n) {
         return Err(format!("{} has {} normals for {n} positions", name(), normals.map_or(0, |v| v.len())));
     }
-    morph(primitive, &reader, &deform.weights, &mut positions, &mut normals).map_err(|e| format!("{}: {e}", name()))?;
-    let skinned = match &deform.joints {
-        Some(joints) => Some(skin_matrices(primitive, &reader, joints, n).map_err(|e| format!("{}: {e}", name()))?),
+    let offsets = morph_offsets(primitive, &reader, &deform.weights, n).map_err(|e| format!("{}: {e}", name()))?;
+    let skin = match &deform.joints {
+        Some(joints) => Some(skin_weights(primitive, &reader, joints.len(), n).map_err(|e| format!("{}: {e}", name()))?),
         None => None,
     };
+    let skinned: Option<Vec<Matrix>> = deform.joints.as_ref().zip(skin.as_ref()).map(|(joints, skin)| skin.iter().map(|s| blended(joints, s)).collect());
+    // At rest for a rig, whose program poses the vertices; else posed here.
+    let rest = rig.is_some();
+    match rig {
+        Some((rig, binding)) => rig.add(binding, skin.as_deref(), n, offsets),
+        None => morph(&offsets, &deform.weights, &mut positions, &mut normals),
+    }
     let base = out.positions.len();
     let indices: Vec<u32> = match reader.read_indices() {
         Some(i) => i.into_u32().collect(),
@@ -338,6 +385,7 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     let triangles: Vec<[u32; 3]> = triangles.into_iter().map(|t| if mirrored(&t) { [t[0], t[2], t[1]] } else { t }).collect();
     let place = |m: &Matrix, p: &[f64; 3]| -> [f64; 3] { std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]) };
     match &skinned {
+        _ if rest => out.positions.extend(positions),
         Some(skin) => out.positions.extend(positions.iter().zip(skin).map(|(p, s)| place(s, p))),
         None => out.positions.extend(positions.iter().map(|p| place(m, p))),
     }
@@ -364,6 +412,10 @@ fn add_primitive(mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: &Matrix,
     out.triangles.extend(triangles);
     out.primitives += 1;
     match (normals, &skinned) {
+        (Some(normals), _) if rest => {
+            out.with_normals += 1;
+            out.normals.extend(normals.iter().map(|v| v.map(|c| c as f32)));
+        }
         (Some(normals), Some(skin)) => {
             out.with_normals += 1;
             out.normals.extend(normals.iter().zip(skin).map(|(v, s)| transform_normal(&normal_matrix(s), v.map(|c| c as f32))));
@@ -445,14 +497,9 @@ fn check_primitive(primitive: &gltf::Primitive) -> Result<(), String> {
     Ok(())
 }
 
-/// Adds the morph targets' offsets, each times its weight, to `positions` and `normals`.
-fn morph<'a, 's, F>(
-    primitive: &gltf::Primitive,
-    reader: &gltf::mesh::Reader<'a, 's, F>,
-    weights: &[f64],
-    positions: &mut [[f64; 3]],
-    normals: &mut Option<Vec<[f64; 3]>>,
-) -> Result<(), String>
+/// The morph targets' position and normal offsets for `primitive`'s `n` vertices, checked
+/// against its mesh's `weights` (one per target).
+fn morph_offsets<'a, 's, F>(primitive: &gltf::Primitive, reader: &gltf::mesh::Reader<'a, 's, F>, weights: &[f64], n: usize) -> Result<Vec<Offsets>, String>
 where
     F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
@@ -460,34 +507,42 @@ where
     if targets.len() != weights.len() {
         return Err(format!("{} morph targets where its mesh's first primitive has {}", targets.len(), weights.len()));
     }
-    for (k, (target, (target_positions, target_normals, _))) in primitive.morph_targets().zip(targets).enumerate() {
-        if target.positions().is_some() != target_positions.is_some() || target.normals().is_some() != target_normals.is_some() {
-            return Err(format!("morph target {k}'s data lies outside its buffers"));
-        }
-        let weight = weights[k];
-        if weight == 0.0 {
-            continue;
-        }
-        let add = |offsets: Option<gltf::accessor::Iter<'s, [f32; 3]>>, to: &mut [[f64; 3]], what: &str| {
-            let Some(offsets) = offsets else { return Ok(()) };
-            if offsets.len() != to.len() {
-                return Err(format!("morph target {k} has {} {what} offsets for {} vertices", offsets.len(), to.len()));
+    let read = |k: usize, offsets: Option<gltf::accessor::Iter<'s, [f32; 3]>>, what: &str| match offsets {
+        Some(offsets) if offsets.len() != n => Err(format!("morph target {k} has {} {what} offsets for {n} vertices", offsets.len())),
+        offsets => Ok(offsets.map(|o| o.collect::<Vec<_>>())),
+    };
+    primitive
+        .morph_targets()
+        .zip(targets)
+        .enumerate()
+        .map(|(k, (target, (positions, normals, _)))| {
+            if target.positions().is_some() != positions.is_some() || target.normals().is_some() != normals.is_some() {
+                return Err(format!("morph target {k}'s data lies outside its buffers"));
             }
-            for (v, d) in to.iter_mut().zip(offsets) {
-                *v = std::array::from_fn(|c| v[c] + weight * d[c] as f64);
-            }
-            Ok(())
-        };
-        add(target_positions, positions, "position")?;
-        if let Some(normals) = normals {
-            add(target_normals, normals, "normal")?;
-        }
-    }
-    Ok(())
+            Ok((read(k, positions, "position")?, read(k, normals, "normal")?))
+        })
+        .collect()
 }
 
-/// Each vertex's skin matrix: the sum of its (up to four) joints' matrices, each times its weight.
-fn skin_matrices<'a, 's, F>(primitive: &gltf::Primitive, reader: &gltf::mesh::Reader<'a, 's, F>, joints: &[Matrix], n: usize) -> Result<Vec<Matrix>, String>
+/// Adds the morph targets' `offsets`, each times its weight, to `positions` and `normals`.
+fn morph(offsets: &[Offsets], weights: &[f64], positions: &mut [[f64; 3]], normals: &mut Option<Vec<[f64; 3]>>) {
+    for ((target_positions, target_normals), &weight) in offsets.iter().zip(weights).filter(|(_, w)| **w != 0.0) {
+        let add = |offsets: &Option<Vec<[f32; 3]>>, to: &mut [[f64; 3]]| {
+            for (v, d) in to.iter_mut().zip(offsets.iter().flatten()) {
+                *v = std::array::from_fn(|c| v[c] + weight * d[c] as f64);
+            }
+        };
+        add(target_positions, positions);
+        if let Some(normals) = normals {
+            add(target_normals, normals);
+        }
+    }
+}
+
+/// Each vertex's (up to four) joints, indices into a skin of `joints` joints, and their weights
+/// normalised to sum to 1 (as players do; glTF asks files for it). A vertex whose weights are
+/// all zero follows its first joint.
+fn skin_weights<'a, 's, F>(primitive: &gltf::Primitive, reader: &gltf::mesh::Reader<'a, 's, F>, joints: usize, n: usize) -> Result<Vec<SkinWeights>, String>
 where
     F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
@@ -506,22 +561,31 @@ where
         .zip(&weights)
         .enumerate()
         .map(|(v, (indices, weights))| {
-            let mut sum = [[0.0; 4]; 4];
-            for (&joint, &weight) in indices.iter().zip(weights) {
-                if weight == 0.0 {
-                    continue;
-                }
-                let Some(m) = joints.get(joint as usize) else {
-                    return Err(format!("vertex {v} names joint {joint} of a skin with {}", joints.len()));
-                };
-                let weight = weight as f64;
-                for (row, m) in sum.iter_mut().zip(m) {
-                    *row = std::array::from_fn(|c| row[c] + weight * m[c]);
-                }
+            let weights = weights.map(f64::from);
+            if let Some(bad) = weights.iter().find(|w| !(w.is_finite() && **w >= 0.0)) {
+                return Err(format!("vertex {v} has the joint weight {bad}; weights are finite and not negative"));
             }
-            Ok(sum)
+            if let Some((joint, _)) = indices.iter().zip(&weights).find(|&(&j, &w)| w != 0.0 && j as usize >= joints) {
+                return Err(format!("vertex {v} names joint {joint} of a skin with {joints}"));
+            }
+            let sum: f64 = weights.iter().sum();
+            Ok(match sum > 0.0 {
+                true => (*indices, weights.map(|w| w / sum)),
+                false => (*indices, [1.0, 0.0, 0.0, 0.0]),
+            })
         })
         .collect()
+}
+
+/// A vertex's skin matrix: the sum of its joints' matrices, each times its weight.
+fn blended(joints: &[Matrix], (indices, weights): &SkinWeights) -> Matrix {
+    let mut sum = [[0.0; 4]; 4];
+    for (&joint, &weight) in indices.iter().zip(weights).filter(|(_, w)| **w != 0.0) {
+        for (row, m) in sum.iter_mut().zip(&joints[joint as usize]) {
+            *row = std::array::from_fn(|c| row[c] + weight * m[c]);
+        }
+    }
+    sum
 }
 
 #[cfg(test)]

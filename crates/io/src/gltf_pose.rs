@@ -526,6 +526,55 @@ mod tests {
         assert_eq!(world.flattened().unwrap().positions, posed.positions);
     }
 
+    /// The kernels' deform program poses a file read at rest ([`read_gltf_posable`]) as the
+    /// host's `f64` pose does ([`read_gltf`]): the same faces, positions within `2^-20` of the
+    /// file's extent, normals within `2^-20`. A file that neither skins nor morphs is not
+    /// posable.
+    #[test]
+    fn the_deform_program_poses_as_the_host_does() {
+        use crate::read_gltf_posable;
+        use tileraster_core::render::{RenderParams, VertexStage, posed_normals, posed_positions};
+        let dir = scratch("posable");
+        let (strip, triangle) = (dir.join("strip.glb"), dir.join("triangle.glb"));
+        std::fs::write(&strip, skinned_strip("LINEAR")).unwrap();
+        std::fs::write(&triangle, morphing_triangle()).unwrap();
+        let (bin, body) = skinned_strip_parts("LINEAR");
+        let mirrored = dir.join("mirrored.glb");
+        std::fs::write(&mirrored, bin.file(&body.replace(r#"{"children": [2]}"#, r#"{"children": [2], "scale": [-1, 1, 1]}"#))).unwrap();
+        for path in [&strip, &triangle, &mirrored] {
+            for time in [None, Some(0.0), Some(0.3), Some(1.0), Some(1.7)] {
+                let host = read_gltf(path, time).unwrap();
+                let posable = read_gltf_posable(path, time).unwrap().unwrap();
+                assert_eq!(posable.mesh.triangles, host.triangles, "{path:?} at {time:?} s");
+                let mut params = RenderParams::new(8, 8, super::IDENTITY);
+                params.vertex = Some(VertexStage::DEFORM);
+                params.vertex_constants = posable.constants;
+                params.vertex_texture = Some(std::sync::Arc::new(posable.texture));
+                let positions = posed_positions(&posable.mesh, &params).unwrap();
+                let bound = 2f64.powi(-20) * 3.0;
+                for (v, (got, want)) in positions.iter().zip(&host.positions).enumerate() {
+                    assert!((0..3).all(|k| (got[k] - want[k]).abs() <= bound), "{path:?} at {time:?} s, vertex {v}: {got:?}, want {want:?}");
+                }
+                match (posed_normals(&posable.mesh, &params), &host.normals) {
+                    (Some(got), Some(want)) => {
+                        for (v, (got, want)) in got.iter().zip(want).enumerate() {
+                            assert!((0..3).all(|k| (got[k] - want[k]).abs() <= 2f32.powi(-20)), "{path:?} at {time:?} s, normal {v}: {got:?}, want {want:?}");
+                        }
+                    }
+                    (None, None) => {}
+                    (got, want) => panic!("{path:?}: posed normals {got:?}, the host's {want:?}"),
+                }
+            }
+        }
+        let dir = scratch("posable-still");
+        let still = dir.join("still.glb");
+        let mut bin = Bin::default();
+        let position = bin.floats(&[[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], "VEC3", true);
+        std::fs::write(&still, bin.file(&format!(r#""nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {position}}}}}]}}]"#)))
+            .unwrap();
+        assert!(read_gltf_posable(&still, None).unwrap().is_none());
+    }
+
     /// A time for a file without animation, a non-finite time, more than four joints per
     /// vertex and a joint outside the skin are refused, each naming its cause; a camera
     /// node follows its animation.

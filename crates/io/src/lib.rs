@@ -11,6 +11,7 @@ mod dem;
 mod geotiff;
 mod gltf_mesh;
 mod gltf_pose;
+mod gltf_rig;
 mod las;
 mod obj;
 mod ply;
@@ -23,7 +24,8 @@ pub use dem::{Dem, read_dem};
 pub use geotiff::{
     BigTiff, Compression, GeoTiffOptionError, GeoTiffOptions, GeoTiffWriter, Predictor, Sample, TILE, parse_epsg, write_geotiff, write_geotiff_with,
 };
-pub use gltf_mesh::{GltfCamera, GltfProjection, read_gltf, read_gltf_cameras, read_gltf_world};
+pub use gltf_mesh::{GltfCamera, GltfProjection, read_gltf, read_gltf_cameras, read_gltf_posable, read_gltf_world};
+pub use gltf_rig::PosableGltf;
 pub use las::{parse_las, read_las, read_las_classes};
 pub use obj::{parse_obj, parse_obj_mesh, read_obj, read_obj_mesh, read_texture, write_obj, write_obj_textured};
 pub use ply::{parse_ply, parse_ply_mesh, read_ply, read_ply_mesh};

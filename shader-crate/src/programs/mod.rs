@@ -3,8 +3,10 @@
 //! render pipeline's shade stage computes from the pixel's owner (`shade`); multisampled
 //! frames test, key and shade their samples in one stage (`multisample`). What colours a
 //! fragment is a program of its own (`fragment`): the built-in shadings or a user's; so is
-//! where the vertex stage puts a vertex (`vertex`).
+//! where the vertex stage puts a vertex (`vertex`), glTF's morph targets and skins among its
+//! built-in programs (`deform`).
 
+pub mod deform;
 pub mod depth;
 pub mod fragment;
 pub mod height;

@@ -23,6 +23,7 @@
 //! `math::float`'s correctly rounded division and square root; `tileraster-build` refuses the
 //! rest.
 
+use super::deform;
 use crate::abi::VertexUniforms;
 use crate::math::double::Double;
 
@@ -33,7 +34,8 @@ pub trait VertexProgram {
 }
 
 /// The built-in programs, chosen by `VertexUniforms::builtin`: [`BUILTIN_NONE`] leaves every
-/// vertex where its mesh has it; [`BUILTIN_HEIGHTS`] lifts a grid by a raster's heights.
+/// vertex where its mesh has it; [`BUILTIN_HEIGHTS`] lifts a grid by a raster's heights;
+/// [`BUILTIN_DEFORM`] poses glTF's morph targets and skins.
 #[derive(Copy, Clone, Default)]
 pub struct Builtin;
 
@@ -43,17 +45,31 @@ pub const BUILTIN_NONE: u32 = 0;
 /// cells), lifted by its texel times `constants[0]` (1 for the heights as they are, more to
 /// exaggerate them).
 pub const BUILTIN_HEIGHTS: u32 = 1;
+/// glTF's morph targets and skinning (`programs::deform`), from the vertex texture's joints,
+/// weights and offsets.
+pub const BUILTIN_DEFORM: u32 = 2;
 
 impl VertexProgram for Builtin {
     #[inline]
     fn pose(&self, uniforms: &VertexUniforms, texture: &[f32], index: u32, position: [Double; 3]) -> [Double; 3] {
         let width = uniforms.texture_size[0];
+        if uniforms.builtin == BUILTIN_DEFORM {
+            let at = [position[0].hi, position[1].hi, position[2].hi];
+            return moved(position, at, deform::deformed(uniforms, texture, index, at));
+        }
         if uniforms.builtin != BUILTIN_HEIGHTS || width == 0 {
             return position;
         }
         let height = texel(texture, uniforms, (index % width) as i32, (index / width) as i32);
         [position[0], position[1], position[2] + Double::from_f32(height * uniforms.constants[0])]
     }
+}
+
+/// `position` moved by the `f32` difference from `at` (its high parts) to `to`, added to each
+/// whole pair: a coordinate `to` leaves as it was keeps every bit.
+#[inline]
+fn moved(position: [Double; 3], at: [f32; 3], to: [f32; 3]) -> [Double; 3] {
+    [position[0] + Double::from_f32(to[0] - at[0]), position[1] + Double::from_f32(to[1] - at[1]), position[2] + Double::from_f32(to[2] - at[2])]
 }
 
 /// What a vertex shader sees of one vertex.
@@ -102,8 +118,7 @@ impl<S: VertexShader> VertexProgram for Programmed<S> {
     #[inline]
     fn pose(&self, uniforms: &VertexUniforms, texture: &[f32], index: u32, position: [Double; 3]) -> [Double; 3] {
         let at = [position[0].hi, position[1].hi, position[2].hi];
-        let to = self.0.position(&Vertex { index, position: at }, uniforms, texture);
-        [position[0] + Double::from_f32(to[0] - at[0]), position[1] + Double::from_f32(to[1] - at[1]), position[2] + Double::from_f32(to[2] - at[2])]
+        moved(position, at, self.0.position(&Vertex { index, position: at }, uniforms, texture))
     }
 }
 

@@ -238,8 +238,9 @@ pub(super) struct Placement<'a> {
     /// The mesh's positions as the frame draws them: its own, or as the frame's vertex shader
     /// posed them (`vertex::posed_positions`).
     pub(super) positions: &'a [[f64; 3]],
-    /// The mesh's own normals where they are the drawn surface's (none where it has none, or a
-    /// vertex shader posed it: the frame computes them from the drawn faces).
+    /// The mesh's own normals where they are the drawn surface's: as they are, or as the
+    /// built-in deform program posed them (`vertex::Posed`). None where it has none or another
+    /// vertex shader posed it: the frame computes them from the drawn faces.
     pub(super) normals: Option<&'a [[f32; 3]]>,
     pub(super) to_world: [[f64; 4]; 4],
     /// Whether the instance's own transform mirrors (its faces are taken the other way round).

@@ -71,12 +71,13 @@ use points::{point, surface_bias};
 pub use program::{FragmentConstants, FragmentStage, ProgramStage, ShaderModules, VertexConstants, VertexStage, VertexTexture};
 pub use texture::{LaidOutTextures, MAX_TEXTURE_DIM, Texture};
 pub use tileraster_kernels::abi::{Address, Filter, NO_TEXTURE};
+pub use tileraster_kernels::programs::deform::DeformLayout;
 pub use validate::validate_mesh;
 use validate::validate_params;
 pub use vector::{multiply, normal_matrix, transform_normal};
 use vertex::depth_range;
 use vertex::{ClipVertex, Corner, Shaded, VertexStageMemory, flattened};
-pub use vertex::{GeometryKernels, MeshPositions, Posing, Positions, light_bytes};
+pub use vertex::{GeometryKernels, MeshPositions, Posing, Positions, light_bytes, pose_origin};
 use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
@@ -149,8 +150,8 @@ pub struct KeptMesh {
     textures: Option<LaidOutTextures>,
     positions: Option<MeshPositions>,
     attributes: Option<VertexAttributes>,
-    /// The positions a vertex shader posed last, and its pose.
-    posed: Option<(vertex::PoseKey, vertex::PosedPositions)>,
+    /// The mesh as a vertex shader posed it last, and its pose.
+    posed: Option<(vertex::PoseKey, vertex::PosedMesh)>,
 }
 
 /// [`prepare_checked_mesh_in`] for a frame of a mesh whose earlier frames left what they keep
@@ -166,6 +167,14 @@ pub fn prepare_mesh_frame(
     kernels: &mut dyn GeometryKernels,
 ) -> Result<(Prepared, GeometryCounts), Error> {
     prepare_instances_in(std::slice::from_ref(mesh), &[Instance::of(0)], params, memory, Some(kept), kernels, &mut |_| {})
+}
+
+/// `mesh`'s own normals as the vertex shader of `params` poses them for a frame: where the
+/// built-in deform program (`VertexStage::DEFORM`) poses a mesh with normals. `None` where the
+/// frame computes the normals of its posed faces instead (another shader, or a mesh without
+/// normals) or has no vertex shader (the mesh's normals are then its own).
+pub fn posed_normals(mesh: &Mesh, params: &RenderParams) -> Option<Vec<[f32; 3]>> {
+    vertex::Posing::of(params).and_then(|posing| vertex::posed_normals(mesh, &posing))
 }
 
 /// `mesh`'s positions as the vertex shader of `params` poses them for a frame, in `f64` as the
@@ -271,7 +280,7 @@ pub(crate) fn prepare_instances_in(
     // the kernels' vertex stage poses a mesh drawn once with the same function).
     let posing = vertex::Posing::of(params);
     let posed = vertex::posed_meshes(meshes, &placed, posing.as_ref(), kept.as_deref_mut().filter(|_| instances.len() == 1))?;
-    let drawn_positions = |k: usize| posed.get(k).and_then(|p| p.as_deref()).map_or(&meshes[k].positions[..], |p| &p[..]);
+    let drawn_positions = |k: usize| posed.get(k).and_then(|p| p.as_deref()).map_or(&meshes[k].positions[..], |p| &p.positions[..]);
 
     // Object culling: instances whose bounding box lies outside the view frustum get no vertex
     // work (`instances`: it changes no bit).
@@ -327,7 +336,10 @@ pub(crate) fn prepare_instances_in(
                 mesh,
                 mesh_index: instance.mesh as usize,
                 positions: drawn_positions(instance.mesh as usize),
-                normals: mesh.normals.as_deref().filter(|_| posing.is_none()),
+                normals: match posing {
+                    None => mesh.normals.as_deref(),
+                    Some(_) => posed.get(instance.mesh as usize).and_then(|p| p.as_deref()).and_then(|p| p.normals.as_deref()),
+                },
                 to_world,
                 mirrored: instances::mirrors(&instance.transform),
                 first_vertex,

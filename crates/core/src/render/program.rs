@@ -116,6 +116,17 @@ impl VertexStage {
         modules: ShaderModules { name: "heights", spirv: &[], spirv_float_controls: &[] },
         builtin: tileraster_kernels::programs::vertex::BUILTIN_HEIGHTS,
     };
+
+    /// glTF's morph targets and skins (`programs::vertex::BUILTIN_DEFORM`), from the joints,
+    /// weights and offsets of a vertex texture laid out as `programs::deform::DeformLayout`
+    /// says, whose constants `RenderParams::vertex_constants` holds. A mesh with normals of its
+    /// own has them posed alike (`programs::deform::morphed`, then each vertex's matrix's
+    /// inverse transpose). `tileraster_io::read_gltf_posable` makes such a mesh and texture.
+    pub const DEFORM: VertexStage = ProgramStage {
+        program: &tileraster_kernels::programs::vertex::Builtin,
+        modules: ShaderModules { name: "deform", spirv: &[], spirv_float_controls: &[] },
+        builtin: tileraster_kernels::programs::vertex::BUILTIN_DEFORM,
+    };
 }
 
 impl<P: ?Sized + 'static> Clone for ProgramStage<P> {

@@ -18,6 +18,8 @@ use tileraster_kernels::abi::{
     ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, LightParams, ProjectedVertex, RelativePosition, ShadeParams, VertexParams, VertexUniforms,
 };
 use tileraster_kernels::math::double::Double;
+use tileraster_kernels::programs::deform::{self, DeformLayout, JOINTS_PER_VERTEX};
+use tileraster_kernels::programs::vertex::BUILTIN_DEFORM;
 use tileraster_kernels::stages::vertex::{self as vertex_stage, FRUSTUM, MATRIX_LIMIT, POSITION_LIMIT};
 
 /// The kernels' geometry stages as a backend runs them while the host prepares a frame: the
@@ -241,31 +243,44 @@ impl PartialEq for PoseKey {
     }
 }
 
-/// A mesh's posed positions, shared with the prepared mesh that keeps them.
-pub(super) type PosedPositions = Arc<Vec<[f64; 3]>>;
+/// A mesh as the frame's vertex shader poses it, shared with the prepared mesh that keeps it:
+/// its positions ([`posed_positions`]) and, where the built-in deform program poses them, its
+/// own normals ([`posed_normals`]; else the frame computes the posed faces' normals).
+pub(super) struct Posed {
+    pub(super) positions: Vec<[f64; 3]>,
+    pub(super) normals: Option<Vec<[f32; 3]>>,
+}
 
-/// Each placed mesh's positions as the frame's vertex shader (`posing`) poses them
-/// ([`posed_positions`]; `None` for the meshes no instance places, and none at all without a
-/// shader). A prepared mesh (`kept`) keeps its posed positions while its pose is the same.
+pub(super) type PosedMesh = Arc<Posed>;
+
+impl Posed {
+    fn of(mesh: &Mesh, posing: &Posing<'_>, kept: Option<&mut Option<MeshPositions>>) -> Result<PosedMesh, Error> {
+        Ok(Arc::new(Posed { positions: posed_positions(mesh, posing, kept)?, normals: posed_normals(mesh, posing) }))
+    }
+}
+
+/// Each placed mesh as the frame's vertex shader (`posing`) poses it ([`Posed`]; `None` for the
+/// meshes no instance places, and none at all without a shader). A prepared mesh (`kept`)
+/// keeps its posed mesh while its pose is the same.
 pub(super) fn posed_meshes(
     meshes: &[Mesh],
     placed: &[bool],
     posing: Option<&Posing<'_>>,
     kept: Option<&mut KeptMesh>,
-) -> Result<Vec<Option<PosedPositions>>, Error> {
+) -> Result<Vec<Option<PosedMesh>>, Error> {
     let Some(posing) = posing else {
         return Ok(Vec::new());
     };
     if let Some(k) = kept {
         let key = PoseKey::of(posing);
-        let positions = match k.posed.take() {
-            Some((held, positions)) if held == key => positions,
-            _ => Arc::new(posed_positions(&meshes[0], posing, Some(&mut k.positions))?),
+        let posed = match k.posed.take() {
+            Some((held, posed)) if held == key => posed,
+            _ => Posed::of(&meshes[0], posing, Some(&mut k.positions))?,
         };
-        k.posed = Some((key, positions.clone()));
-        return Ok(vec![Some(positions)]);
+        k.posed = Some((key, posed.clone()));
+        return Ok(vec![Some(posed)]);
     }
-    let pose = |(mesh, &placed): (&Mesh, &bool)| placed.then(|| posed_positions(mesh, posing, None).map(Arc::new)).transpose();
+    let pose = |(mesh, &placed): (&Mesh, &bool)| placed.then(|| Posed::of(mesh, posing, None)).transpose();
     meshes.iter().zip(placed).map(pose).collect()
 }
 
@@ -283,6 +298,12 @@ pub(super) fn posed_positions(mesh: &Mesh, posing: &Posing<'_>, kept: Option<&mu
             &fresh
         }
     };
+    if posing.stage.builtin() == BUILTIN_DEFORM {
+        let needs = DeformLayout::of(&posing.uniforms).texels(mesh.positions.len() as u64);
+        if (posing.texels().len() as u64) < needs {
+            return Err(Error::DeformTexture { vertices: mesh.positions.len(), texels: posing.texels().len(), needs });
+        }
+    }
     let program = posing.stage.program();
     let pose = |(v, (pair, own)): (usize, (&RelativePosition, &[f64; 3]))| {
         let r = vertex_stage::pairs(pair);
@@ -295,6 +316,32 @@ pub(super) fn posed_positions(mesh: &Mesh, posing: &Posing<'_>, kept: Option<&mu
         Some(vertex) => Err(Error::VertexPosedBeyond { name: posing.stage.name().into(), vertex, position: posed[vertex] }),
         None => Ok(posed),
     }
+}
+
+/// `mesh`'s own normals as the built-in deform program (`VertexStage::DEFORM`) poses its
+/// positions: each moved by its morph targets' normal offsets (`programs::deform::morphed`) and
+/// turned by the inverse transpose of its joints' weighted matrices ([`normal_matrix`]), in
+/// `f64` from the texture's `f32` values. `None` for another program (the frame then computes
+/// the posed faces' normals) or a mesh without normals.
+pub(super) fn posed_normals(mesh: &Mesh, posing: &Posing<'_>) -> Option<Vec<[f32; 3]>> {
+    let normals = mesh.normals.as_ref().filter(|_| posing.stage.builtin() == BUILTIN_DEFORM)?;
+    let (layout, texture) = (DeformLayout::of(&posing.uniforms), posing.texels());
+    let texel = |i: u32| f64::from(deform::fetch(texture, i));
+    let pose = |(v, &n): (usize, &[f32; 3])| {
+        let v = v as u32;
+        let record = layout.vertex(v);
+        let mut blended = [[0.0; 4]; 4];
+        for i in 0..JOINTS_PER_VERTEX {
+            let (joint, weight) = (texel(record + i) as u32, texel(record + JOINTS_PER_VERTEX + i));
+            for (r, row) in blended.iter_mut().take(3).enumerate() {
+                for (c, entry) in row.iter_mut().take(3).enumerate() {
+                    *entry += weight * texel(layout.joint(joint) + 4 * r as u32 + c as u32);
+                }
+            }
+        }
+        transform_normal(&normal_matrix(&blended), deform::morphed(&layout, texture, v, n, true))
+    };
+    Some(normals.par_iter().enumerate().map(pose).collect())
 }
 
 /// The mesh's normals in the world: its own, or (where it has none) [`face_normals`], turned by
@@ -485,6 +532,13 @@ fn stage_input<'a, 'p>(
 }
 
 /// The centre of the points' box (the origin their pairs are taken from).
+/// The origin the vertex stage takes a mesh's positions relative to (the centre of their box),
+/// in the mesh's own coordinates: what a vertex program's pose is relative to, and what
+/// `VertexStage::DEFORM`'s joint matrices fold in.
+pub fn pose_origin(positions: &[[f64; 3]]) -> [f64; 3] {
+    box_centre(positions)
+}
+
 fn box_centre(points: &[[f64; 3]]) -> [f64; 3] {
     let [lo, hi] = instances::bounds(points);
     if points.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|k| lo[k] / 2.0 + hi[k] / 2.0) }

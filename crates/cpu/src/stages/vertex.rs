@@ -25,10 +25,12 @@ pub fn vertex(
     projected: &mut Vec<ProjectedVertex>,
 ) {
     let matrix = Matrix::of(params);
+    // Posed already: the kernel's function told not to pose again.
+    let unposed = VertexParams { posed: 0, ..*params };
     let one = |(v, p): (usize, &RelativePosition)| {
-        let p = &posed(program, params, texture, v as u32, p);
-        // Posed already: the kernel's function with the program that moves nothing.
-        exact_in_f64(params, &matrix, p).unwrap_or_else(|| project(&Builtin, params, &[], v as u32, p))
+        let index = params.first_vertex + v as u32;
+        let p = &posed(program, params, texture, index, p);
+        exact_in_f64(params, &matrix, p).unwrap_or_else(|| project(&Builtin, &unposed, &[], index, p))
     };
     positions.par_iter().enumerate().with_min_len(1 << 10).map(one).collect_into_vec(projected);
 }
@@ -253,6 +255,7 @@ fn rounded(v: f64, error: f64) -> Option<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tileraster_kernels::abi::VertexUniforms;
     use tileraster_kernels::math::double::Double;
     use tileraster_kernels::stages::vertex::UNASSEMBLED;
 
@@ -284,6 +287,44 @@ mod tests {
             state ^= state << 17;
             (state >> 11) as f64 / (1u64 << 53) as f64
         }
+    }
+
+    /// The twin poses each vertex once, as the kernel does, where the `f64` path answers and
+    /// where it leaves the vertex to the kernel's pairs: here the built-in deform program moves
+    /// every vertex by a joint's translation, onto points a hair from sub-pixel boundaries.
+    #[test]
+    fn a_posed_vertex_is_posed_once_on_every_path() {
+        use tileraster_kernels::programs::deform::DeformLayout;
+        use tileraster_kernels::programs::vertex::BUILTIN_DEFORM;
+        let (w, h, n) = (1920u32, 1080u32, 20_000u32);
+        let ortho = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.5, 0.25], [0.0, 0.0, 0.0, 1.0]];
+        let layout = DeformLayout { joints: 1, weights: 0, targets: 0 };
+        let mut texture = vec![0.0f32; layout.texels(n as u64) as usize];
+        texture[..12].copy_from_slice(&[1.0, 0.0, 0.0, 0.25, 0.0, 1.0, 0.0, -0.125, 0.0, 0.0, 1.0, 0.0]);
+        for v in 0..n {
+            texture[layout.vertex(v) as usize + 4] = 1.0;
+        }
+        let uniforms =
+            VertexUniforms { constants: layout.constants(), texture_size: [texture.len() as u32, 1], builtin: BUILTIN_DEFORM, ..VertexUniforms::default() };
+        let p = VertexParams { posed: 1, uniforms, vertices: n, ..params(ortho, w, h) };
+        let half = p.half_units[0] as f64;
+        let mut next = stream(0x9e37_79b9_7f4a_7c15);
+        let positions: Vec<RelativePosition> = (0..n)
+            .map(|k| {
+                let x = ((k % 1000) as f64 + 0.5 + (next() - 0.5) * 2f64.powi(-30)) / half - 1.0 - 0.25;
+                pairs([x, 0.25 * next() + 0.125, next() - 0.5])
+            })
+            .collect();
+        let mut twin = Vec::new();
+        vertex(&Builtin, &p, &texture, &positions, &mut twin);
+        let mut moved = 0;
+        for (v, (position, twin)) in positions.iter().zip(&twin).enumerate() {
+            let kernel = project(&Builtin, &p, &texture, v as u32, position);
+            assert_eq!(bytemuck::bytes_of(twin), bytemuck::bytes_of(&kernel), "vertex {v}: twin {twin:?}, kernel {kernel:?}");
+            let unposed = project(&Builtin, &VertexParams { posed: 0, ..p }, &[], v as u32, position);
+            moved += usize::from(unposed.screen != kernel.screen);
+        }
+        assert!(moved > n as usize / 2, "the pose moved {moved} of {n} vertices");
     }
 
     /// Wherever the `f64` path answers, it is the kernel's answer, bit for bit: on a perspective

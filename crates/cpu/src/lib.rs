@@ -104,16 +104,29 @@ struct WindowBuffers {
     small: SmallTriangles,
 }
 
-/// The bytes of `posing`'s vertex texture where the stage was handed another last (`held`,
-/// which then holds it), as the GPU keeps one on the device.
-pub fn texture_bytes(posing: Option<&Posing<'_>>, held: &mut Option<Arc<VertexTexture>>) -> u64 {
-    match posing.and_then(|p| p.texture) {
-        Some(t) if held.as_ref().is_some_and(|h| Arc::ptr_eq(h, t)) => 0,
-        Some(t) => {
-            *held = Some(t.clone());
-            std::mem::size_of_val(&t.texels[..]) as u64
+/// The vertex texture a stage was handed last, and the key of the kept positions it posed
+/// (`Positions::kept`; `None` for positions handed with the frame).
+pub type HeldTexture = Option<(Arc<VertexTexture>, Option<u64>)>;
+
+/// The texels of `posing`'s vertex texture a stage that was handed `held` last must be handed
+/// with `positions`, as the GPU keeps one on the device: none where it is the same texture;
+/// where a prepared mesh's frame hands another of the same size than its last frame, those
+/// from the first that differ to the last (a new pose of `VertexStage::DEFORM` changes only its
+/// joints and weights, at the texture's start); else all of them. `held` then holds it. `None`:
+/// nothing to hand over. (Only a prepared mesh's frames compare texels: what a one-shot call
+/// hands over never depends on what an unrelated call held.)
+pub fn texture_update(posing: Option<&Posing<'_>>, positions: &Positions<'_>, held: &mut HeldTexture) -> Option<std::ops::Range<usize>> {
+    let texture = posing.and_then(|p| p.texture)?;
+    let last = held.replace((texture.clone(), positions.kept));
+    match last {
+        Some((last, _)) if Arc::ptr_eq(&last, texture) => None,
+        Some((last, Some(key))) if positions.kept == Some(key) && last.texels.len() == texture.texels.len() => {
+            let (old, new): (&[u32], &[u32]) = (bytemuck::cast_slice(&last.texels), bytemuck::cast_slice(&texture.texels));
+            let first = old.iter().zip(new).position(|(a, b)| a != b)?;
+            let end = old.iter().zip(new).rposition(|(a, b)| a != b).map_or(first, |k| k + 1);
+            Some(first..end)
         }
-        None => 0,
+        _ => Some(0..texture.texels.len()),
     }
 }
 
@@ -126,7 +139,7 @@ pub struct GeometryTwins {
     /// The key of the kept positions handed over last.
     held: Option<u64>,
     /// The vertex texture handed over last.
-    held_texture: Option<Arc<VertexTexture>>,
+    held_texture: HeldTexture,
     /// The keys of the kept assembly inputs handed over last.
     held_inputs: KeptInputs,
 }
@@ -142,7 +155,8 @@ impl tileraster_core::render::GeometryKernels for GeometryTwins {
         let program: &(dyn VertexProgram + Sync) = posing.map_or(&Builtin, |p| p.stage.program());
         vertex(program, params, posing.map_or(&[], |p| p.texels()), positions.pairs, projected);
         let handed = positions.kept.is_none_or(|key| self.held.replace(key) != Some(key));
-        Ok(positions.bytes(handed) + texture_bytes(posing, &mut self.held_texture))
+        let texels = texture_update(posing, &positions, &mut self.held_texture);
+        Ok(positions.bytes(handed) + texels.map_or(0, |t| (t.len() * std::mem::size_of::<f32>()) as u64))
     }
 
     fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {
@@ -246,4 +260,37 @@ fn rasterise_planned_with(
         w.recycle(unreturned);
     }
     Ok(raster)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tileraster_core::render::VertexStage;
+    use tileraster_kernels::abi::VertexUniforms;
+
+    /// A texture is handed over whole the first time, not again while it is the same (or holds
+    /// the same texels), and from its first changed texel to its last where a prepared mesh's
+    /// frame hands another of the same size.
+    #[test]
+    fn a_texture_hands_over_what_changed() {
+        let texture = |texels: Vec<f32>| Arc::new(VertexTexture { width: texels.len() as u32, height: 1, texels });
+        let (prepared, other, one_shot) = ([7], [8], []);
+        let update = |t: &Arc<VertexTexture>, kept: &[u64], held: &mut HeldTexture| {
+            let posing = Posing { stage: &VertexStage::DEFORM, uniforms: VertexUniforms::default(), texture: Some(t) };
+            texture_update(Some(&posing), &Positions { pairs: &[], kept: kept.first().copied() }, held)
+        };
+        let mut held = None;
+        let first = texture(vec![0.0, 1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(update(&first, &prepared, &mut held), Some(0..5));
+        assert_eq!(update(&first, &prepared, &mut held), None);
+        assert_eq!(update(&texture(vec![0.0, 1.0, 2.0, 3.0, 4.0]), &prepared, &mut held), None);
+        assert_eq!(update(&texture(vec![0.0, 7.0, 2.0, 8.0, 4.0]), &prepared, &mut held), Some(1..4));
+        assert_eq!(update(&texture(vec![0.0, 7.0, 2.0, 8.0, -0.0]), &prepared, &mut held), Some(4..5), "bits, not values");
+        assert_eq!(update(&texture(vec![1.0; 3]), &prepared, &mut held), Some(0..3));
+        assert_eq!(texture_update(None, &Positions { pairs: &[], kept: Some(7) }, &mut held), None);
+        // Another mesh's frame, or a one-shot call's, takes the texture whole.
+        assert_eq!(update(&texture(vec![1.0, 2.0, 1.0]), &other, &mut held), Some(0..3));
+        assert_eq!(update(&texture(vec![1.0, 2.0, 2.0]), &one_shot, &mut held), Some(0..3));
+        assert_eq!(update(&texture(vec![1.0, 2.0, 3.0]), &one_shot, &mut held), Some(0..3));
+    }
 }

@@ -41,7 +41,7 @@ pub struct GeometryDevice {
     /// report).
     counted: KeptInputs,
     /// The vertex texture the byte count takes as handed over last.
-    held_texture: Option<Arc<VertexTexture>>,
+    held_texture: tileraster_cpu::HeldTexture,
     /// What the vertex stage binds where a frame has no vertex texture.
     no_texture: Option<wgpu::Buffer>,
     /// The vertex texture on the device, and the one it holds.
@@ -178,27 +178,37 @@ impl GeometryKernels for GeometryDevice {
         ctx.check_float_modes(Mode::Barycentric)?;
         // (A program built into the kernels runs in their module.)
         let program = posing.and_then(|p| p.stage.modules()).map(|m| ctx.program_index(m, Role::Vertex)).transpose()?;
-        // The vertex texture, on the device once for as long as frames hand the same one.
+        // The vertex texture, on the device once for as long as frames hand the same one; a
+        // texture of the same size replaces only the texels that differ.
         let texture = posing.and_then(|p| p.texture);
-        let handed = tileraster_cpu::texture_bytes(posing, &mut self.held_texture);
+        if let Some(t) = texture {
+            let bytes = std::mem::size_of_val(&t.texels[..]) as u64;
+            if bytes > ctx.max_binding() {
+                return Err(Error::Gpu(format!("the vertex texture's {bytes} bytes exceed the device's largest binding, {} bytes", ctx.max_binding())));
+            }
+        }
+        let update = tileraster_cpu::texture_update(posing, &positions, &mut self.held_texture);
         let buffer = match texture {
             Some(t) => {
-                let bytes = std::mem::size_of_val(&t.texels[..]) as u64;
-                if bytes > ctx.max_binding() {
-                    return Err(Error::Gpu(format!("the vertex texture's {bytes} bytes exceed the device's largest binding, {} bytes", ctx.max_binding())));
-                }
-                if !self.texture.as_ref().is_some_and(|(held, _)| Arc::ptr_eq(held, t)) {
-                    self.texture = None;
-                    let buffer = ctx.storage_with("vertex texture", bytemuck::cast_slice(&t.texels), 0);
-                    self.texture = Some((t.clone(), buffer));
-                }
-                self.texture.as_ref().map(|(_, b)| b.clone()).expect("made above")
+                let whole = |ctx: &GpuContext| ctx.storage_with("vertex texture", bytemuck::cast_slice(&t.texels), 4);
+                let buffer = match (self.texture.take(), update.clone()) {
+                    // The same texels as the device holds.
+                    (Some(held), None) => held.1,
+                    (Some((_, buffer)), Some(texels)) if texels.len() < t.texels.len() => {
+                        let offset = (texels.start * std::mem::size_of::<f32>()) as u64;
+                        ctx.recorder.upload_at(&ctx.gpu.queue, &buffer, offset, bytemuck::cast_slice(&t.texels[texels]));
+                        buffer
+                    }
+                    _ => whole(&ctx),
+                };
+                self.texture = Some((t.clone(), buffer.clone()));
+                buffer
             }
             // (Bound all the same: the stage table's row has the binding.)
             None => self.no_texture.get_or_insert_with(|| ctx.storage_with("no vertex texture", &[], 16)).clone(),
         };
         let bytes = ctx.vertex_unchecked(params, positions, program, &buffer, &mut self.kept, &mut self.projected, projected)?;
-        Ok(bytes + handed)
+        Ok(bytes + update.map_or(0, |texels| (texels.len() * std::mem::size_of::<f32>()) as u64))
     }
 
     fn assemble_count(&mut self, mesh: &AssemblyMesh<'_>) -> Result<AssemblyCount, Error> {

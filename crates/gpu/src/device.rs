@@ -108,19 +108,19 @@ impl Gpu {
 /// pieces of it.
 const UPLOAD_PIECE: usize = 1 << 20;
 
-/// Write `data` at the start of `buffer` through the queue, as `Queue::write_buffer` does, but
-/// copying a large upload on all cores: the staging memory is a new allocation on every call,
-/// and one core's copy of a 100k-triangle scene's 30 MB took 3 ms on a 16-core host with an
-/// NVIDIA H100 (1.1 ms on all cores).
-pub fn write_buffer(queue: &wgpu::Queue, buffer: &wgpu::Buffer, data: &[u8]) {
+/// Write `data` at byte `offset` of `buffer` (both multiples of 4) through the queue, as
+/// `Queue::write_buffer` does, but copying a large upload on all cores: the staging memory is a
+/// new allocation on every call, and one core's copy of a 100k-triangle scene's 30 MB took
+/// 3 ms on a 16-core host with an NVIDIA H100 (1.1 ms on all cores).
+pub fn write_buffer(queue: &wgpu::Queue, buffer: &wgpu::Buffer, offset: u64, data: &[u8]) {
     use rayon::prelude::*;
     let size = match wgpu::BufferSize::new(data.len() as u64) {
         Some(size) if data.len() >= 2 * UPLOAD_PIECE => size,
-        _ => return queue.write_buffer(buffer, 0, data),
+        _ => return queue.write_buffer(buffer, offset, data),
     };
     // `None` where validation failed or no staging memory was left: wgpu reports either to the
     // error scopes this thread has pushed.
-    let Some(mut view) = queue.write_buffer_with(buffer, 0, size) else { return };
+    let Some(mut view) = queue.write_buffer_with(buffer, offset, size) else { return };
     let mut whole = view.slice(..);
     // The address as an integer, for the tasks: each writes its own piece alone, while `view`
     // lives (`WriteOnly::as_raw_ptr` is given for such writes from several threads).

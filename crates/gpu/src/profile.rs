@@ -99,9 +99,14 @@ impl Recorder {
 
     /// Write `data` at the start of `buffer`, counting its bytes.
     pub fn upload(&self, queue: &wgpu::Queue, buffer: &wgpu::Buffer, data: &[u8]) {
+        self.upload_at(queue, buffer, 0, data);
+    }
+
+    /// Write `data` at byte `offset` of `buffer` (a multiple of 4), counting its bytes.
+    pub fn upload_at(&self, queue: &wgpu::Queue, buffer: &wgpu::Buffer, offset: u64, data: &[u8]) {
         bump(&self.bytes_up, data.len() as u64);
         let start = Instant::now();
-        crate::device::write_buffer(queue, buffer, data);
+        crate::device::write_buffer(queue, buffer, offset, data);
         self.upload.set(self.upload.get() + start.elapsed());
     }
 

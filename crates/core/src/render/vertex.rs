@@ -30,7 +30,9 @@ pub trait GeometryKernels {
     /// vertex texture (`posing`) where `params.posed` says the stage poses them (else the
     /// built-in program). Returns the bytes handed to the stage: its parameters, the positions
     /// unless it holds them already (a mesh's kept positions, [`Positions::kept`], that it was
-    /// handed before), and the vertex texture unless it holds that one already.
+    /// handed before), and of the vertex texture what `tileraster_cpu::texture_update` says
+    /// (nothing where it holds that one already, the texels that changed where it holds
+    /// another of the same size).
     fn vertex(
         &mut self,
         params: &VertexParams,

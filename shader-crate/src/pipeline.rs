@@ -36,7 +36,7 @@
 //!           setups, offsets, bins, shade params, shading, textures, texels ─▶ fine_samples ─▶ values, owners, coverage, stats, tile stats, colours, faces
 //! ```
 
-use crate::abi::FrameFlags;
+use crate::abi::{FrameFlags, OutputSet};
 use crate::{SCAN_GROUP, SHADE_PASSES, TILE, TRIANGLE_GROUP};
 
 /// A kernel stage.
@@ -176,6 +176,150 @@ pub enum Buffer {
     Textures,
     /// The textures' texels, two words each (uploaded once per scene; render pipeline).
     Texels,
+}
+
+/// An output layer: what the raster stages leave per pixel of a window (or per tile) that a
+/// call may return. The layer table ([`LAYERS`]) says of each where it lives on the device,
+/// its cells, what it holds where no stage writes it and when the stages write it; the host's
+/// raster, the GPU's buffers and read-back and the CPU's spare layers follow it.
+#[repr(u32)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Layer {
+    /// Value bits per pixel: a heightfield's heights, a frame's depth.
+    Values,
+    /// The owning triangle per pixel.
+    Owners,
+    /// How many triangles cover each pixel centre.
+    Coverage,
+    /// A frame's RGBA8 colour per pixel.
+    Colours,
+    /// A frame's input face per pixel.
+    Faces,
+    /// Two words per tile: its bin's entries and how many of them its depth bound hid.
+    Tiles,
+}
+
+/// What a layer has a cell for.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Cells {
+    /// Each pixel of the window.
+    Pixel,
+    /// Each `TILE × TILE` tile of the window, row by row.
+    Tile,
+}
+
+/// What a layer holds where no stage writes it: outside the window's active area.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Inactive {
+    /// The call's nodata value.
+    Nodata,
+    /// No triangle (`u32::MAX`).
+    NoOwner,
+    Zero,
+    /// The frame's background colour.
+    Background,
+}
+
+/// When the raster stages write a layer.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Written {
+    Always,
+    /// In the pipelines that render 3D triangles ([`Pipeline::renders`]).
+    Renders,
+    /// Where the frame's `FrameParams::outputs` holds the flag.
+    Asked(OutputSet),
+}
+
+/// One row of the layer table.
+#[derive(Copy, Clone, Debug)]
+pub struct LayerInfo {
+    pub layer: Layer,
+    pub name: &'static str,
+    /// The buffer the stages write it to.
+    pub buffer: Buffer,
+    pub cells: Cells,
+    /// Words per cell.
+    pub words: u32,
+    pub inactive: Inactive,
+    pub written: Written,
+}
+
+impl LayerInfo {
+    /// Whether the stages of `pipeline` write the layer for a frame of `outputs`.
+    pub fn written_by(&self, pipeline: Pipeline, outputs: OutputSet) -> bool {
+        match self.written {
+            Written::Always => true,
+            Written::Renders => pipeline.renders(),
+            Written::Asked(flag) => outputs.contains(flag),
+        }
+    }
+}
+
+/// The layer table, in [`Layer`] order.
+pub const LAYERS: [LayerInfo; 6] = [
+    LayerInfo {
+        layer: Layer::Values,
+        name: "values",
+        buffer: Buffer::Values,
+        cells: Cells::Pixel,
+        words: 1,
+        inactive: Inactive::Nodata,
+        written: Written::Always,
+    },
+    LayerInfo {
+        layer: Layer::Owners,
+        name: "owners",
+        buffer: Buffer::Owners,
+        cells: Cells::Pixel,
+        words: 1,
+        inactive: Inactive::NoOwner,
+        written: Written::Asked(OutputSet::OWNER),
+    },
+    LayerInfo {
+        layer: Layer::Coverage,
+        name: "coverage",
+        buffer: Buffer::Coverage,
+        cells: Cells::Pixel,
+        words: 1,
+        inactive: Inactive::Zero,
+        written: Written::Asked(OutputSet::COVERAGE),
+    },
+    LayerInfo {
+        layer: Layer::Colours,
+        name: "colours",
+        buffer: Buffer::Colours,
+        cells: Cells::Pixel,
+        words: 1,
+        inactive: Inactive::Background,
+        written: Written::Renders,
+    },
+    LayerInfo {
+        layer: Layer::Faces,
+        name: "faces",
+        buffer: Buffer::Faces,
+        cells: Cells::Pixel,
+        words: 1,
+        inactive: Inactive::NoOwner,
+        written: Written::Renders,
+    },
+    LayerInfo {
+        layer: Layer::Tiles,
+        name: "tile statistics",
+        buffer: Buffer::TileStats,
+        cells: Cells::Tile,
+        words: 2,
+        inactive: Inactive::Zero,
+        written: Written::Asked(OutputSet::TILES),
+    },
+];
+
+impl Layer {
+    pub const ALL: [Layer; 6] = [Layer::Values, Layer::Owners, Layer::Coverage, Layer::Colours, Layer::Faces, Layer::Tiles];
+
+    /// The layer's row of [`LAYERS`].
+    pub fn info(self) -> &'static LayerInfo {
+        &LAYERS[self as usize]
+    }
 }
 
 /// How a stage binds a buffer.
@@ -584,6 +728,24 @@ mod tests {
             assert_eq!(info.stage as usize, k, "{}: STAGES[k] must be the stage numbered k", info.name);
             assert_eq!(Stage::ALL[k], info.stage);
             assert_eq!(info.entry_point, format!("entry::{}", info.name));
+        }
+    }
+
+    /// Each layer's row is its own, and in every pipeline that writes the layer some window
+    /// stage writes its buffer; no pipeline writes a layer's buffer that the table says it
+    /// does not write.
+    #[test]
+    fn the_layer_table_names_what_the_stages_write() {
+        for (k, info) in LAYERS.iter().enumerate() {
+            assert_eq!(info.layer as usize, k, "{}: LAYERS[k] must be the layer numbered k", info.name);
+            assert_eq!(Layer::ALL[k].info().layer, info.layer);
+            for &pipeline in ALL_PIPELINES {
+                let writes = window_stages(pipeline).any(|s| s.bindings.iter().any(|b| b.buffer == info.buffer && b.access == Access::ReadWrite));
+                let written = [OutputSet::NONE, OutputSet::OWNER.with(OutputSet::COVERAGE, true).with(OutputSet::TILES, true)]
+                    .iter()
+                    .any(|&outputs| info.written_by(pipeline, outputs));
+                assert_eq!(writes, written, "{} in {pipeline:?}", info.name);
+            }
         }
     }
 }

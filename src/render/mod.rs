@@ -39,6 +39,7 @@ use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Stats};
 use rayon::prelude::*;
 use std::path::Path;
+use tileraster_core::kernels::pipeline::Layer;
 use tileraster_core::{Layers, Raster};
 pub use tileraster_io::PosableGltf;
 
@@ -451,13 +452,11 @@ impl PreparedMesh {
             }
         }
         // An empty layer (one the last frame did not return) leaves the workspace its own.
-        let layers = Layers {
-            values: reusable(spare.depth),
-            owner: None,
-            coverage: reusable(spare.fragments),
-            colours: reusable(spare.colour),
-            faces: reusable(spare.ids),
-        };
+        let layers = Layers::default()
+            .with_values(reusable(spare.depth))
+            .with(Layer::Coverage, reusable(spare.fragments))
+            .with(Layer::Colours, reusable(spare.colour))
+            .with(Layer::Faces, reusable(spare.ids));
         let raster = match backend {
             Backend::Cpu => {
                 memory.cpu.recycle(layers);

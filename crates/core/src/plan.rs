@@ -8,7 +8,7 @@ use crate::{Error, Prepared, Raster, Window};
 use rayon::prelude::*;
 use tileraster_kernels::abi::DepthTest;
 use tileraster_kernels::abi::{Counter, FrameFlags, FrameParams, PixelRect, ShadeParams};
-use tileraster_kernels::pipeline::{Pipeline, Stage, window_stages};
+use tileraster_kernels::pipeline::{Cells, Inactive, LAYERS, Pipeline, Stage, window_stages};
 use tileraster_kernels::stages::bin::tile_span;
 use tileraster_kernels::stages::small::is_small;
 use tileraster_kernels::{BIN_PART_TILES, NO_OWNER, TILE};
@@ -405,28 +405,35 @@ impl Plan {
             height: window.height as u64,
             reason: "the pixel count does not fit this machine's address space".into(),
         })?;
-        let outputs = prepared.params.outputs;
-        let render = prepared.render.is_some();
-        let Layers { values, owner, coverage, colours, faces } = spare;
+        let tiles = window.width.div_ceil(TILE) as usize * window.height.div_ceil(TILE) as usize;
         let mut raster = Raster {
             grid: prepared.params.grid,
             window,
             nodata: prepared.params.nodata,
-            values: reuse_layer(stages_in_raster || prepared.returns_values(), values, n, &window)?.unwrap_or_default(),
-            owner: reuse_layer(outputs.owner || (stages_in_raster && prepared.keeps_owner()), owner, n, &window)?,
-            coverage: reuse_layer(outputs.coverage, coverage, n, &window)?,
-            colours: reuse_layer(render && (stages_in_raster || prepared.returns_colours()), colours, n, &window)?,
-            faces: reuse_layer(render, faces, n, &window)?,
-            tiles: reuse_layer(outputs.tiles, None, 2 * window.width.div_ceil(TILE) as usize * window.height.div_ceil(TILE) as usize, &window)?,
+            values: Vec::new(),
+            owner: None,
+            coverage: None,
+            colours: None,
+            faces: None,
+            tiles: None,
             snap_bits: prepared.snap_bits,
             stats: Stats::default(),
         };
+        let mut spare = spare;
+        for info in &LAYERS {
+            let wanted = prepared.returns(info.layer) || (stages_in_raster && prepared.writes(info.layer));
+            let cells = match info.cells {
+                Cells::Pixel => n,
+                Cells::Tile => tiles,
+            };
+            raster.put_layer(info.layer, reuse_layer(wanted, spare.take(info.layer), cells * info.words as usize, &window)?);
+        }
         self.fill_inactive(&mut raster, prepared.render.as_ref().map_or(0, |s| s.params.background));
         Ok(raster)
     }
 
-    /// Nodata outside the active window, no coverage there, and the background colour with no
-    /// face.
+    /// Each pixel layer's inactive value (the layer table's `Inactive`) outside the active
+    /// window: nodata, no owner or face, no coverage, the background colour.
     fn fill_inactive(&self, raster: &mut Raster, background: u32) {
         let w = self.window;
         let a = self.active.unwrap_or(Window { x0: w.x0, y0: w.y0, width: 0, height: 0 });
@@ -450,18 +457,16 @@ impl Plan {
                 }
             })
         };
-        fill(bytemuck::cast_slice_mut(&mut raster.values), nodata.to_bits());
-        if let Some(owner) = raster.owner.as_mut() {
-            fill(owner, NO_OWNER);
-        }
-        if let Some(coverage) = raster.coverage.as_mut() {
-            fill(coverage, 0);
-        }
-        if let Some(colours) = raster.colours.as_mut() {
-            fill(colours, background);
-        }
-        if let Some(faces) = raster.faces.as_mut() {
-            fill(faces, NO_OWNER);
+        for info in LAYERS.iter().filter(|i| i.cells == Cells::Pixel && i.words == 1) {
+            let value = match info.inactive {
+                Inactive::Nodata => nodata.to_bits(),
+                Inactive::NoOwner => NO_OWNER,
+                Inactive::Zero => 0,
+                Inactive::Background => background,
+            };
+            if let Some(layer) = raster.layer_mut(info.layer) {
+                fill(layer, value);
+            }
         }
     }
 

@@ -18,7 +18,7 @@ use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
 use tileraster_kernels::abi::{DepthTest, FloatCoeffs, OutputSet, PixelRect, Plane, RecordsAndFaces, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
 use tileraster_kernels::math::edge::Side;
-use tileraster_kernels::pipeline::Pipeline;
+use tileraster_kernels::pipeline::{Layer, Pipeline};
 use tileraster_kernels::stages::fine::side;
 use tileraster_kernels::stages::setup::setup_triangle;
 use tileraster_kernels::{EXTENT_LIMIT_BITS, MAX_SNAP_BITS};
@@ -148,6 +148,24 @@ impl Prepared {
     /// Whether the call returns a colour layer (a frame, where asked for).
     pub fn returns_colours(&self) -> bool {
         self.render.as_ref().is_some_and(|r| r.returns_colour)
+    }
+
+    /// Whether the call returns `layer`.
+    pub fn returns(&self, layer: Layer) -> bool {
+        let outputs = &self.params.outputs;
+        match layer {
+            Layer::Values => self.returns_values(),
+            Layer::Owners => outputs.owner,
+            Layer::Coverage => outputs.coverage,
+            Layer::Colours => self.returns_colours(),
+            Layer::Faces => self.render.is_some(),
+            Layer::Tiles => outputs.tiles,
+        }
+    }
+
+    /// Whether the raster stages write `layer` (the layer table's `Written`), returned or not.
+    pub fn writes(&self, layer: Layer) -> bool {
+        layer.info().written_by(self.pipeline(), self.output_set())
     }
 
     /// The layers the kernels write (`FrameParams::outputs`): those the call returns, and the

@@ -1,5 +1,6 @@
 use crate::{Grid, Stats, Window};
 use rayon::prelude::*;
+use tileraster_kernels::pipeline::Layer;
 
 /// The result of a call: Float32 heights for a window of the grid (the whole grid unless a
 /// window was asked for), row-major, row 0 at the window's top (north).
@@ -29,14 +30,88 @@ pub struct Raster {
     pub stats: Stats,
 }
 
-/// A raster's layers as memory for a later call's raster (`Plan::allocate_raster_reusing`).
+impl Raster {
+    /// `layer`'s cells as words, where the raster has it (a values layer it does not return is
+    /// empty: none).
+    pub fn layer(&self, layer: Layer) -> Option<&[u32]> {
+        match layer {
+            Layer::Values => (!self.values.is_empty()).then(|| bytemuck::cast_slice(&self.values[..])),
+            Layer::Owners => self.owner.as_deref(),
+            Layer::Coverage => self.coverage.as_deref(),
+            Layer::Colours => self.colours.as_deref(),
+            Layer::Faces => self.faces.as_deref(),
+            Layer::Tiles => self.tiles.as_deref(),
+        }
+    }
+
+    /// [`Raster::layer`], to write.
+    pub fn layer_mut(&mut self, layer: Layer) -> Option<&mut [u32]> {
+        match layer {
+            Layer::Values => (!self.values.is_empty()).then(|| bytemuck::cast_slice_mut(&mut self.values[..])),
+            Layer::Owners => self.owner.as_deref_mut(),
+            Layer::Coverage => self.coverage.as_deref_mut(),
+            Layer::Colours => self.colours.as_deref_mut(),
+            Layer::Faces => self.faces.as_deref_mut(),
+            Layer::Tiles => self.tiles.as_deref_mut(),
+        }
+    }
+
+    /// Takes `layer`'s memory out of the raster (a values layer leaves an empty one).
+    pub fn take_layer(&mut self, layer: Layer) -> Option<Vec<u32>> {
+        match layer {
+            Layer::Values => Some(bytemuck::allocation::cast_vec(std::mem::take(&mut self.values))).filter(|v: &Vec<u32>| v.capacity() > 0),
+            Layer::Owners => self.owner.take(),
+            Layer::Coverage => self.coverage.take(),
+            Layer::Colours => self.colours.take(),
+            Layer::Faces => self.faces.take(),
+            Layer::Tiles => self.tiles.take(),
+        }
+    }
+
+    /// Puts `cells` in as `layer` (`None`: the raster has no such layer).
+    pub fn put_layer(&mut self, layer: Layer, cells: Option<Vec<u32>>) {
+        match layer {
+            Layer::Values => self.values = cells.map(bytemuck::allocation::cast_vec).unwrap_or_default(),
+            Layer::Owners => self.owner = cells,
+            Layer::Coverage => self.coverage = cells,
+            Layer::Colours => self.colours = cells,
+            Layer::Faces => self.faces = cells,
+            Layer::Tiles => self.tiles = cells,
+        }
+    }
+}
+
+/// A raster's layers as memory for a later call's raster (`Plan::allocate_raster_reusing`),
+/// by layer (`tileraster_kernels::pipeline::Layer`), as words.
 #[derive(Debug, Default)]
 pub struct Layers {
-    pub values: Option<Vec<f32>>,
-    pub owner: Option<Vec<u32>>,
-    pub coverage: Option<Vec<u32>>,
-    pub colours: Option<Vec<u32>>,
-    pub faces: Option<Vec<u32>>,
+    cells: [Option<Vec<u32>>; Layer::ALL.len()],
+}
+
+impl Layers {
+    /// These layers with `cells` as `layer`'s (none: as they are).
+    pub fn with(mut self, layer: Layer, cells: Option<Vec<u32>>) -> Self {
+        if cells.is_some() {
+            self.cells[layer as usize] = cells;
+        }
+        self
+    }
+
+    /// [`Layers::with`] for a values layer of `f32`s.
+    pub fn with_values(self, values: Option<Vec<f32>>) -> Self {
+        self.with(Layer::Values, values.map(bytemuck::allocation::cast_vec))
+    }
+
+    /// Takes `layer`'s memory out.
+    pub fn take(&mut self, layer: Layer) -> Option<Vec<u32>> {
+        self.cells[layer as usize].take()
+    }
+
+    /// Each layer's memory from these where they have it, else from `other`.
+    pub fn or(self, other: Layers) -> Layers {
+        let mut other = other.cells.into_iter();
+        Layers { cells: self.cells.map(|cells| cells.or(other.next().flatten())) }
+    }
 }
 
 /// `len` cells in `spare`'s memory where it holds them (its old entries kept, zeroes after

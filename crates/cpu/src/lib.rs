@@ -16,7 +16,7 @@ use std::sync::Arc;
 use tileraster_core::render::{AssembledRecords, AssemblyCount, AssemblyMesh, AssemblyPatches, KeptHanded, KeptInputs, Posing, Positions, VertexTexture};
 use tileraster_core::{Error, Layers, Plan, Prepared, Raster};
 use tileraster_kernels::abi::{ATTRIBUTES, Counter, ProjectedVertex, ShadeParams, TriangleSetup, VertexParams};
-use tileraster_kernels::pipeline::{Stage, raster_stages};
+use tileraster_kernels::pipeline::{Layer, Stage, raster_stages};
 use tileraster_kernels::programs::vertex::{Builtin, VertexProgram};
 
 /// A prepared scene's triangles set up on this backend, kept for later calls (the CPU
@@ -44,13 +44,7 @@ impl Workspace {
     /// the last call kept here (layers its raster did not return) where they have none.
     pub fn recycle(&mut self, layers: Layers) {
         let kept = std::mem::take(&mut self.layers);
-        self.layers = Layers {
-            values: layers.values.or(kept.values),
-            owner: layers.owner.or(kept.owner),
-            coverage: layers.coverage.or(kept.coverage),
-            colours: layers.colours.or(kept.colours),
-            faces: layers.faces.or(kept.faces),
-        };
+        self.layers = layers.or(kept);
     }
 }
 
@@ -250,12 +244,7 @@ fn rasterise_planned_with(
     }
     raster.stats = plan.stats(&counters);
     // The layers the stages wrote that the call does not return stay in the workspace.
-    let unreturned = Layers {
-        values: (!prepared.returns_values()).then(|| std::mem::take(&mut raster.values)),
-        owner: raster.owner.take_if(|_| !prepared.params.outputs.owner),
-        colours: raster.colours.take_if(|_| !prepared.returns_colours()),
-        ..Layers::default()
-    };
+    let unreturned = Layer::ALL.into_iter().filter(|&l| !prepared.returns(l)).fold(Layers::default(), |kept, l| kept.with(l, raster.take_layer(l)));
     if let Some(w) = workspace {
         w.recycle(unreturned);
     }

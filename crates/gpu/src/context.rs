@@ -15,11 +15,11 @@ use tileraster_build::Role;
 use tileraster_core::render::{Positions, ShaderModules};
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
-    Counter, FrameFlags, FrameParams, OutputSet, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup,
-    TriangleShading, VertexParams,
+    Counter, FrameFlags, FrameParams, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading,
+    VertexParams,
 };
 use tileraster_kernels::memory::LANE_GROUP;
-use tileraster_kernels::pipeline::{Access, Buffer, Dispatch, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
+use tileraster_kernels::pipeline::{Access, Buffer, Cells, Dispatch, LAYERS, Layer, LayerInfo, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
 use tileraster_kernels::programs::depth::DepthProgram;
 use tileraster_kernels::stages::scan::QUEUE_HEAD;
 use tileraster_kernels::stages::{bin, fine};
@@ -301,16 +301,12 @@ struct Buffers {
     cursors: Grown,
     bins: Grown,
     bin_keys: Grown,
-    values: Grown,
-    owners: Grown,
-    coverage: Grown,
     stats: Grown,
-    tile_stats: Grown,
+    /// The output layers, in the layer table's order (`LAYERS`).
+    layers: [Grown; LAYERS.len()],
     shade_params: Grown,
     textures: Grown,
     texels: Grown,
-    colours: Grown,
-    faces: Grown,
     readback: Grown,
     vertex_params: Grown,
     positions: Grown,
@@ -437,16 +433,11 @@ impl GpuContext {
             cursors: Grown::storage("bin cursors"),
             bins: Grown::storage("bins"),
             bin_keys: Grown::storage("bin keys"),
-            values: Grown::storage("values"),
-            owners: Grown::storage("owners"),
-            coverage: Grown::storage("coverage"),
             stats: Grown::storage("statistics"),
-            tile_stats: Grown::storage("tile statistics"),
+            layers: LAYERS.map(|info| Grown::storage(info.name)),
             shade_params: Grown::storage("shade parameters"),
             textures: Grown::storage("textures"),
             texels: Grown::storage("texels"),
-            colours: Grown::storage("colours"),
-            faces: Grown::storage("faces"),
             readback: Grown::readback("readback"),
             vertex_params: Grown::storage("vertex parameters"),
             positions: Grown::storage("relative positions"),
@@ -512,8 +503,8 @@ impl GpuContext {
 
     /// Most pixels one window may have: every output layer must fit one binding.
     fn max_window_pixels(&self, prepared: &Prepared) -> u64 {
-        let layers = 1 + prepared.keeps_owner() as u64 + prepared.params.outputs.coverage as u64 + 2 * prepared.render.is_some() as u64;
-        (self.max_binding() / 4 / layers).min(WINDOW_LIMIT.load(Ordering::Relaxed))
+        let words: u64 = LAYERS.iter().filter(|i| i.cells == Cells::Pixel && prepared.writes(i.layer)).map(|i| i.words as u64).sum();
+        (self.max_binding() / 4 / words).min(WINDOW_LIMIT.load(Ordering::Relaxed))
     }
 
     /// Largest buffer a kernel may bind.
@@ -1167,26 +1158,27 @@ impl GpuContext {
         let tile_queue = b.tile_queue.get(device, (QUEUE_HEAD as u64 + tiles) * 4);
         let bins = b.bins.get(device, entries * 4 * if spans { 2 } else { 1 });
         let bin_keys = b.bin_keys.get(device, if keys { 2 * entries * 8 } else { 0 });
-        let values = b.values.get(device, pixels * 4);
         let small = frame.flags.contains(FrameFlags::SMALL_TRIANGLES);
         let pixel_keys = b.pixel_keys.get(device, if small { pixels * 8 } else { 8 });
-        let owner_bytes = if frame.outputs.contains(OutputSet::OWNER) { pixels * 4 } else { 0 };
-        // Read back only where the call returns it (the render pipeline's stays here).
-        let owner_read = if raster.owner.is_some() { owner_bytes } else { 0 };
-        let coverage_bytes = if frame.outputs.contains(OutputSet::COVERAGE) { pixels * 4 } else { 0 };
-        let owners = b.owners.get(device, owner_bytes);
-        let coverage = b.coverage.get(device, coverage_bytes);
         let stats_bytes = (Counter::COUNT * 4) as u64;
         let stats = b.stats.get(device, stats_bytes);
-        let tile_bytes = if frame.outputs.contains(OutputSet::TILES) { tiles * 8 } else { 0 };
-        let tile_stats = b.tile_stats.get(device, tile_bytes);
-        let shaded_bytes = if scene.pipeline.renders() { pixels * 4 } else { 0 };
-        let colours = b.colours.get(device, shaded_bytes);
-        let faces = b.faces.get(device, shaded_bytes);
-        // A frame's colour and depth only where the call returns them.
-        let colour_read = if raster.colours.is_some() { shaded_bytes } else { 0 };
-        let value_read = if raster.values.is_empty() { 0 } else { pixels * 4 };
-        let readback = b.readback.get(device, stats_bytes + value_read + owner_read + coverage_bytes + colour_read + shaded_bytes + tile_bytes);
+        // The output layers the frame's stages write (the layer table), each read back where
+        // the call returns it (the render pipeline's owners and depth stay here otherwise).
+        let layers: Vec<LayerBuffer> = LAYERS
+            .iter()
+            .map(|info| {
+                let cells = match info.cells {
+                    Cells::Pixel => pixels,
+                    Cells::Tile => tiles,
+                };
+                let bytes = if info.written_by(scene.pipeline, frame.outputs) { cells * info.words as u64 * 4 } else { 0 };
+                let read = if raster.layer(info.layer).is_some() { bytes } else { 0 };
+                LayerBuffer { info, buffer: b.layers[info.layer as usize].get(device, bytes), bytes, read }
+            })
+            .collect();
+        let layer_buffer = |layer: Layer| layers[layer as usize].buffer.clone();
+        let reads: u64 = layers.iter().map(|l| l.read).sum();
+        let readback = b.readback.get(device, stats_bytes + reads);
 
         let mut counters = [0u32; Counter::COUNT];
         let mut owner_out_of_range = false;
@@ -1197,7 +1189,8 @@ impl GpuContext {
         // The small triangles' atomics start from zero: keys stored complemented, counts.
         if small {
             encoder.clear_buffer(&pixel_keys, 0, Some(pixels * 8));
-            encoder.clear_buffer(&coverage, 0, Some(coverage_bytes));
+            let coverage = &layers[Layer::Coverage as usize];
+            encoder.clear_buffer(&coverage.buffer, 0, Some(coverage.bytes));
         }
         let buffers = |buffer| {
             Some(match buffer {
@@ -1231,29 +1224,27 @@ impl GpuContext {
                 Buffer::Cursors => cursors.clone(),
                 Buffer::Bins => bins.clone(),
                 Buffer::BinKeys => bin_keys.clone(),
-                Buffer::Values => values.clone(),
-                Buffer::Owners => owners.clone(),
-                Buffer::Coverage => coverage.clone(),
+                Buffer::Values => layer_buffer(Layer::Values),
+                Buffer::Owners => layer_buffer(Layer::Owners),
+                Buffer::Coverage => layer_buffer(Layer::Coverage),
                 Buffer::Stats => stats.clone(),
-                Buffer::TileStats => tile_stats.clone(),
+                Buffer::TileStats => layer_buffer(Layer::Tiles),
                 Buffer::ShadeParams => scene.shade_params?.clone(),
                 Buffer::Shading => scene.shading?.clone(),
                 Buffer::Textures => scene.materials?.0.clone(),
                 Buffer::Texels => scene.materials?.1.clone(),
-                Buffer::Colours => colours.clone(),
-                Buffer::Faces => faces.clone(),
+                Buffer::Colours => layer_buffer(Layer::Colours),
+                Buffer::Faces => layer_buffer(Layer::Faces),
             })
         };
         self.encode_stages(&mut encoder, scene.pipeline, scene.rows, Scope::Window, &frame, groups, &buffers)?;
         encoder.copy_buffer_to_buffer(&stats, 0, &readback, 0, stats_bytes);
-        encoder.copy_buffer_to_buffer(&values, 0, &readback, stats_bytes, value_read);
-        encoder.copy_buffer_to_buffer(&owners, 0, &readback, stats_bytes + value_read, owner_read);
-        encoder.copy_buffer_to_buffer(&coverage, 0, &readback, stats_bytes + value_read + owner_read, coverage_bytes);
-        let shaded_at = stats_bytes + value_read + owner_read + coverage_bytes;
-        encoder.copy_buffer_to_buffer(&colours, 0, &readback, shaded_at, colour_read);
-        encoder.copy_buffer_to_buffer(&faces, 0, &readback, shaded_at + colour_read, shaded_bytes);
-        encoder.copy_buffer_to_buffer(&tile_stats, 0, &readback, shaded_at + colour_read + shaded_bytes, tile_bytes);
-        let total = shaded_at + colour_read + shaded_bytes + tile_bytes;
+        let mut at = stats_bytes;
+        for layer in &layers {
+            encoder.copy_buffer_to_buffer(&layer.buffer, 0, &readback, at, layer.read);
+            at += layer.read;
+        }
+        let total = at;
         self.recorder.window();
         self.recorder.submit();
         self.recorder.wait(total);
@@ -1263,41 +1254,27 @@ impl GpuContext {
             .submit_and_read(encoder, &readback, total, |bytes| {
                 let mapped = Instant::now();
                 let words: &[u32] = bytemuck::cast_slice(bytes);
-                let (stat_words, words) = words.split_at(Counter::COUNT);
+                let (stat_words, mut words) = words.split_at(Counter::COUNT);
                 counters.copy_from_slice(stat_words);
-                let (value_words, rest) = words.split_at((value_read / 4) as usize);
-                let (owner_words, rest) = rest.split_at((owner_read / 4) as usize);
-                let (coverage_words, rest) = rest.split_at((coverage_bytes / 4) as usize);
-                let (colour_words, rest) = rest.split_at((colour_read / 4) as usize);
-                let (face_words, tile_words) = rest.split_at((shaded_bytes / 4) as usize);
                 let (width, x0, y0) = (raster.window.width, raster.window.x0, raster.window.y0);
-                if value_read > 0 {
-                    copy_rows(value_words, &frame, width, x0, y0, bytemuck::cast_slice_mut(&mut raster.values));
-                }
-                if let Some(owner) = raster.owner.as_mut() {
-                    match owner_slots {
-                        Some(slots) => {
+                let window = raster.window;
+                for layer in &layers {
+                    let (read, rest) = words.split_at((layer.read / 4) as usize);
+                    words = rest;
+                    let Some(out) = raster.layer_mut(layer.info.layer).filter(|_| layer.read > 0) else { continue };
+                    match (layer.info.cells, layer.info.layer, owner_slots) {
+                        (Cells::Tile, ..) => copy_tile_rows(read, &frame, &window, out),
+                        // A scene set up in parts: the window's owners are its part's slots.
+                        (Cells::Pixel, Layer::Owners, Some(slots)) => {
                             let scene_slots: Option<Vec<u32>> =
-                                owner_words.par_iter().map(|&o| if o == NO_OWNER { Some(o) } else { slots.get(o as usize).copied() }).collect();
+                                read.par_iter().map(|&o| if o == NO_OWNER { Some(o) } else { slots.get(o as usize).copied() }).collect();
                             match scene_slots {
-                                Some(scene_slots) => copy_rows(&scene_slots, &frame, width, x0, y0, owner),
+                                Some(scene_slots) => copy_rows(&scene_slots, &frame, width, x0, y0, out),
                                 None => owner_out_of_range = true,
                             }
                         }
-                        None => copy_rows(owner_words, &frame, width, x0, y0, owner),
+                        (Cells::Pixel, ..) => copy_rows(read, &frame, width, x0, y0, out),
                     }
-                }
-                if let Some(coverage) = raster.coverage.as_mut() {
-                    copy_rows(coverage_words, &frame, width, x0, y0, coverage);
-                }
-                if let Some(colours) = raster.colours.as_mut() {
-                    copy_rows(colour_words, &frame, width, x0, y0, colours);
-                }
-                if let Some(faces) = raster.faces.as_mut() {
-                    copy_rows(face_words, &frame, width, x0, y0, faces);
-                }
-                if let Some(layer) = raster.tiles.as_mut() {
-                    copy_tile_rows(tile_words, &frame, &raster.window, layer);
                 }
                 copying = mapped.elapsed();
             })
@@ -1308,6 +1285,15 @@ impl GpuContext {
         }
         Ok(counters)
     }
+}
+
+/// An output layer's buffer for one window: its row of the layer table, the bytes the stages
+/// write and the bytes read back.
+struct LayerBuffer {
+    info: &'static LayerInfo,
+    buffer: wgpu::Buffer,
+    bytes: u64,
+    read: u64,
 }
 
 /// The triangles of a scene set up in parts that reach one window: their setup slots in the

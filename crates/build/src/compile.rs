@@ -64,7 +64,10 @@ impl Shader {
             .capability(Capability::GroupNonUniformShuffle);
         builder.build_script.defaults = true;
         let compile_error = |reason: String| BuildError::Compile { crate_path: crate_path.to_path_buf(), reason };
-        let result = builder.build().map_err(|e| compile_error(e.to_string()))?;
+        let result = {
+            let _one_at_a_time = builder_lock();
+            builder.build().map_err(|e| compile_error(e.to_string()))?
+        };
         let path = result.module.unwrap_single();
         let read_error = |reason: String| BuildError::Read { crate_path: crate_path.to_path_buf(), reason };
         let bytes = std::fs::read(path).map_err(|e| read_error(format!("{}: {e}", path.display())))?;
@@ -88,4 +91,15 @@ fn write_module(module: &Module, out_dir: &str, name: &str, env: &str) -> Result
     std::fs::write(&out, bytes).map_err(|e| BuildError::Write { path: out.clone(), reason: e.to_string() })?;
     println!("cargo::rustc-env={env}={}", out.display());
     Ok(())
+}
+
+/// A lock held while spirv-builder runs, machine-wide: each build writes its target
+/// specification into the target folder that every build script's shaders share, and a build
+/// script that reads it while another writes it (the kernels' and an example's shader crate,
+/// built at once) fails with "EOF while parsing". `None` where no lock file can be opened: the
+/// build then runs unlocked, as it would without this.
+fn builder_lock() -> Option<std::fs::File> {
+    let file = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(std::env::temp_dir().join("tileraster-spirv-builder.lock")).ok()?;
+    file.lock().ok()?;
+    Some(file)
 }

@@ -64,8 +64,12 @@ enum Command {
 #[derive(Args)]
 struct RasteriseArgs {
     /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points (`.las`, `.laz`, or
-    /// delimited text: `.csv`, `.xyz`, `.txt`, `.pts`), triangulated by Delaunay.
-    input: PathBuf,
+    /// delimited text: `.csv`, `.xyz`, `.txt`, `.pts`), triangulated by Delaunay. Several point
+    /// inputs (files, directories of them, quoted glob patterns such as "tiles/*.laz") are
+    /// triangulated together, as if their points were one file's in the order given
+    /// (a directory's and a pattern's files by name).
+    #[arg(required = true, num_args = 1..)]
+    input: Vec<PathBuf>,
     /// Point files: the x, y and z columns, each a header name or a 1-based position
     /// (default: columns named x/easting/lon, y/northing/lat, z/elevation/height, or the
     /// first three when there is no header).
@@ -291,10 +295,12 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     if let Some(grid) = &given {
         window_of(grid)?;
     }
+    let inputs = dem::input_files(&input).map_err(|e| e.to_string())?;
+    let input = dem::describe(&inputs);
     let progress = Progress::start();
     progress.stage(format!("reading {}", input.display()));
     let options = dem::ReadOptions { columns: columns.unwrap_or_default(), classes, max_edge, keep_points: linear.radius != 0.0 };
-    let read = dem::read_scene(&input, &options, &progress).map_err(|e| e.to_string())?;
+    let read = dem::read_scenes(&inputs, &options, &progress).map_err(|e| e.to_string())?;
     if let Some(points) = &read.points {
         note(format!(
             "tileraster: {} points from {} in {}{} → Delaunay TIN of {} triangles in {}",

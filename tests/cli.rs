@@ -351,6 +351,88 @@ fn las_and_laz_points_give_the_csv_raster() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Several point inputs are triangulated together as if their points were one file's: the
+/// points of one CSV file split into a LAS tile, a LAZ tile and a CSV tile (with duplicates of
+/// points in earlier tiles), given as files, as their directory and as a quoted glob pattern,
+/// give the single file's raster and TIN; inputs that name nothing, a mesh among them, a file
+/// named twice and `--class` on a text file among them are refused before anything is written.
+#[test]
+fn several_point_inputs_give_the_single_files_raster() {
+    let dir = scratch("many");
+    let tiles = dir.join("tiles");
+    std::fs::create_dir_all(&tiles).unwrap();
+    // Coordinates in eighths, which the LAS tiles' scale of 1/8 and the text hold exactly.
+    let mut rng = scenes::Rng::new(29);
+    let mut points: Vec<[f64; 3]> =
+        (0..3000).map(|_| [rng.range(0.0, 4800.0).round() / 8.0, rng.range(0.0, 3200.0).round() / 8.0, rng.range(0.0, 400.0).round() / 8.0]).collect();
+    // Repeats across tiles: the first of each is kept, as in one file.
+    points.extend_from_within(100..110);
+    let text = |points: &[[f64; 3]]| points.iter().map(|p| format!("{:?} {:?} {:?}\n", p[0], p[1], p[2])).collect::<String>();
+    let whole = dir.join("all.csv");
+    std::fs::write(&whole, text(&points)).unwrap();
+    let (a, b, c) = (tiles.join("a.las"), tiles.join("b.laz"), tiles.join("c.csv"));
+    for (path, part) in [(&a, &points[..1200]), (&b, &points[1200..2500])] {
+        let mut builder = las::Builder::from((1, 2));
+        builder.point_format.is_compressed = path == &b;
+        let eighth = las::Transform { scale: 0.125, offset: 0.0 };
+        builder.transforms = las::Vector { x: eighth, y: eighth, z: eighth };
+        let mut writer = las::Writer::from_path(path, builder.into_header().unwrap()).unwrap();
+        for p in part {
+            writer.write_point(las::Point { x: p[0], y: p[1], z: p[2], ..Default::default() }).unwrap();
+        }
+        writer.close().unwrap();
+    }
+    std::fs::write(&c, text(&points[2500..])).unwrap();
+    std::fs::write(tiles.join("notes.md"), "not points").unwrap();
+    let grid = ["--txe", "0", "600", "--tye", "0", "400", "--outsize", "150", "100"];
+    let run = |inputs: &[&str], out: &Path, extra: &[&str]| {
+        bin().arg("rasterise").args(inputs).args(["-o", out.to_str().unwrap(), "--backend", "cpu"]).args(grid).args(extra).output().unwrap()
+    };
+    let (one, one_tin) = (dir.join("one.tif"), dir.join("one.obj"));
+    let out = run(&[whole.to_str().unwrap()], &one, &["--tin", one_tin.to_str().unwrap()]);
+    let said = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{said}");
+    let repeats = said.split(" repeating").next().and_then(|s| s.rsplit('(').next()).expect("repeated points").to_string();
+    let single = read_tif_values(&one);
+    assert!(single.iter().any(|&v| v != -9999.0));
+    let pattern = format!("{}/*.la[sz]", tiles.display());
+    let listed = [a.to_str().unwrap(), b.to_str().unwrap(), c.to_str().unwrap()];
+    let given: [(&str, Vec<&str>); 3] =
+        [("files", listed.to_vec()), ("directory", vec![tiles.to_str().unwrap()]), ("pattern", vec![&pattern, c.to_str().unwrap()])];
+    for (how, inputs) in &given {
+        let (tif, tin) = (dir.join(format!("{how}.tif")), dir.join(format!("{how}.obj")));
+        let out = run(inputs, &tif, &["--tin", tin.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{how}: {stderr}");
+        assert!(
+            stderr.contains("3010 points from") && stderr.contains("and 2 more files") && stderr.contains(&format!("({repeats} repeating")),
+            "{how}: {stderr}"
+        );
+        assert_same_bits(&read_tif_values(&tif), &single, how);
+        assert_eq!(std::fs::read(&tin).unwrap(), std::fs::read(&one_tin).unwrap(), "{how}: the TIN");
+    }
+    let obj = dir.join("m.obj");
+    write_obj(&scenes::terrain(0.0, 0.0, 600.0, 400.0, 3, 3, 1), &obj);
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let missing = format!("{}/*.laz", dir.join("nowhere").display());
+    let refused: [(Vec<&str>, &[&str], &str); 5] = [
+        (vec![empty.to_str().unwrap()], &[], "no point files"),
+        (vec![&missing], &[], "no file matches it"),
+        (vec![tiles.to_str().unwrap(), obj.to_str().unwrap()], &[], "a mesh among 4 inputs"),
+        (vec![tiles.to_str().unwrap(), a.to_str().unwrap()], &[], "among the inputs twice"),
+        (vec![a.to_str().unwrap(), c.to_str().unwrap()], &["--class", "2"], "--class filters LAS/LAZ"),
+    ];
+    for (inputs, extra, says) in &refused {
+        let tif = dir.join("refused.tif");
+        let out = run(inputs, &tif, extra);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(says), "{inputs:?}: {stderr}");
+        assert!(!tif.exists(), "{inputs:?}: a file was left");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn read_tif_u32(tif: &Path) -> Vec<u32> {
     let mut decoder = Decoder::new(std::io::BufReader::new(std::fs::File::open(tif).unwrap())).unwrap();
     let DecodingResult::U32(values) = decoder.read_image().unwrap() else { panic!("not UInt32") };

@@ -3,7 +3,7 @@
 
 use super::{DemError, Progress};
 use crate::Scene;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tileraster_io::PointColumns;
 
@@ -123,6 +123,93 @@ fn read(path: &Path, kind: InputKind, options: &ReadOptions, progress: &dyn Prog
             let summary = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
             Ok(Input { scene: tin.scene, points: Some(summary), long_triangles: 0, points_read: options.keep_points.then_some(points) })
         }
+    }
+}
+
+/// The files `inputs` name, in their order: a file as it is; a directory's point files
+/// (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`, `.pts`; not its subdirectories') by name; a glob
+/// pattern's matches by name (a pattern the shell left alone: `"tiles/*.laz"`). A directory or
+/// pattern that names no file is an error, and so is a file named twice.
+pub fn input_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, DemError> {
+    let mut files = Vec::new();
+    for input in inputs {
+        let text = input.to_string_lossy();
+        let pattern = !input.exists() && text.contains(['*', '?', '[']);
+        let mut found: Vec<PathBuf> = if input.is_dir() {
+            let entries = std::fs::read_dir(input).map_err(|source| tileraster_io::IoError::Io { path: input.clone(), source })?;
+            let mut found = Vec::new();
+            for entry in entries {
+                let path = entry.map_err(|source| tileraster_io::IoError::Io { path: input.clone(), source })?.path();
+                if path.is_file() && InputKind::of(&path).is_ok_and(InputKind::is_points) {
+                    found.push(path);
+                }
+            }
+            found
+        } else if pattern {
+            let matches = glob::glob(&text).map_err(|e| DemError::InputPattern { pattern: text.to_string(), reason: e.to_string() })?;
+            matches.filter_map(Result::ok).filter(|p| p.is_file()).collect()
+        } else {
+            vec![input.clone()]
+        };
+        if found.is_empty() {
+            return Err(DemError::NoInputFiles { input: input.clone(), directory: input.is_dir() });
+        }
+        found.sort();
+        files.extend(found);
+    }
+    let mut seen = std::collections::HashSet::new();
+    if let Some(twice) = files.iter().find(|f| !seen.insert(std::fs::canonicalize(f).unwrap_or_else(|_| (*f).clone()))) {
+        return Err(DemError::InputTwice { path: twice.clone() });
+    }
+    Ok(files)
+}
+
+/// The scene of the files `paths` ([`input_files`]): one file as [`read_scene`] reads it;
+/// several, which must all be point files, as if their points were one file's, in the order
+/// given (each file read on its own core, its points appended in turn), triangulated once.
+pub fn read_scenes(paths: &[PathBuf], options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
+    let [first, ..] = paths else {
+        return Err(DemError::NoInputs);
+    };
+    if paths.len() == 1 {
+        return read_scene(first, options, progress);
+    }
+    let kinds = paths.iter().map(|p| InputKind::of(p)).collect::<Result<Vec<_>, _>>()?;
+    if let Some(k) = kinds.iter().position(|k| !k.is_points()) {
+        return Err(DemError::MeshAmongInputs { path: paths[k].clone(), inputs: paths.len() });
+    }
+    if let Some(k) = kinds.iter().position(|&k| k != InputKind::Las && !options.classes.is_empty()) {
+        return Err(DemError::ClassesOfText { path: paths[k].clone() });
+    }
+    if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
+        return Err(DemError::MaxEdge(max_edge));
+    }
+    let start = Instant::now();
+    use rayon::prelude::*;
+    let read = |(path, kind): (&PathBuf, &InputKind)| match kind {
+        InputKind::Las => tileraster_io::read_las_classes(path, &options.classes),
+        _ => tileraster_io::read_points(path, &options.columns),
+    };
+    let parts = paths.par_iter().zip(&kinds).map(read).collect::<Result<Vec<_>, _>>()?;
+    let mut points = Vec::with_capacity(parts.iter().map(Vec::len).sum());
+    parts.into_iter().for_each(|part| points.extend(part));
+    let read = start.elapsed();
+    progress.stage(&format!("triangulating {} points from {} files", points.len(), paths.len()));
+    let tin = tileraster_tin::triangulate(&points).map_err(|source| DemError::Triangulation { path: describe(paths), source })?;
+    let summary = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
+    let mut input = Input { scene: tin.scene, points: Some(summary), long_triangles: 0, points_read: options.keep_points.then_some(points) };
+    if let Some(max_edge) = options.max_edge {
+        input.long_triangles = drop_long_triangles(&mut input.scene, max_edge);
+    }
+    Ok(input)
+}
+
+/// `paths` as one name, for messages: the first and how many more.
+pub fn describe(paths: &[PathBuf]) -> PathBuf {
+    match paths {
+        [one] => one.clone(),
+        [first, rest @ ..] => PathBuf::from(format!("{} and {} more files", first.display(), rest.len())),
+        [] => PathBuf::new(),
     }
 }
 

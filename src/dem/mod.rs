@@ -3,7 +3,9 @@
 //!
 //! - [`GridSpec`] is a grid as gdal_grid's `-txe`, `-tye` and `-outsize` or `-tr` give it;
 //!   [`part_window`] is band K of N of its rows, for cluster jobs.
-//! - [`read_scene`] reads a mesh, or builds the Delaunay TIN of a point file, by file type.
+//! - [`read_scene`] reads a mesh, or builds the Delaunay TIN of a point file, by file type;
+//!   [`read_scenes`] the TIN of several point files' points together ([`input_files`]: files,
+//!   directories and glob patterns).
 //! - [`Linear`] and [`Fallback`]: gdal_grid's `linear:radius=R`, the nearest point's z in
 //!   cells outside every triangle.
 //! - [`write_dem`] rasterises a window in bands of rows that fit a memory budget
@@ -31,7 +33,7 @@ mod linear;
 mod stream;
 
 pub use grid::{GridSize, GridSpec, part_window};
-pub use input::{Input, InputKind, PointsRead, ReadOptions, drop_long_triangles, read_scene};
+pub use input::{Input, InputKind, PointsRead, ReadOptions, describe, drop_long_triangles, input_files, read_scene, read_scenes};
 pub use linear::{Fallback, Linear};
 pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, streamed_band_rows, write_dem};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
@@ -80,6 +82,21 @@ pub enum DemError {
     /// An extent to take from an input that has no vertices.
     #[error("the input has no vertices to take the extent from; give --txe and --tye")]
     EmptyExtent,
+    /// No input given.
+    #[error("no input: give a mesh, or one or more point files, directories of them or glob patterns")]
+    NoInputs,
+    /// A directory or glob pattern that names no input file.
+    #[error("{}: {}", input.display(), if *directory { "no point files (.las, .laz, .csv, .xyz, .txt, .pts) in this directory" } else { "no such file, and no file matches it as a pattern" })]
+    NoInputFiles { input: PathBuf, directory: bool },
+    /// A glob pattern that is not one.
+    #[error("'{pattern}' is not a file pattern: {reason}")]
+    InputPattern { pattern: String, reason: String },
+    /// One file named twice among the inputs (its points would count twice).
+    #[error("{}: this file is among the inputs twice; name each file once", path.display())]
+    InputTwice { path: PathBuf },
+    /// A mesh among several inputs: only point files are read together.
+    #[error("{}: a mesh among {inputs} inputs; several inputs are point files (.las, .laz, .csv, .xyz, .txt, .pts) triangulated together, and a mesh is rasterised alone", path.display())]
+    MeshAmongInputs { path: PathBuf, inputs: usize },
     /// Part `k` of `n` lies beyond the grid's rows.
     #[error("the grid's {rows} rows make only {parts} parts of {part_rows} rows; give fewer parts")]
     NoSuchPart { k: u32, n: u32, rows: u32, parts: u32, part_rows: u32 },

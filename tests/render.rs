@@ -794,14 +794,7 @@ fn a_posed_skinned_and_morphing_gltf_file_is_the_same_bits_on_both_backends() {
     let dir = std::env::temp_dir().join(format!("tileraster-render-posed-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = common::skinned_gltf(&dir);
-    let camera = Camera {
-        eye: [1.5, 1.5, 3.0],
-        target: [1.0, 0.5, 0.0],
-        up: [0.0, 1.0, 0.0],
-        projection: Projection::Perspective { fov_deg: 50.0 },
-        near: 0.5,
-        far: 20.0,
-    };
+    let camera = common::skinned_camera();
     let mut seen = std::collections::HashSet::new();
     for time in [None, Some(0.25), Some(0.5), Some(0.9)] {
         let mesh = tileraster::render::read_world_at(&path, time).unwrap().flattened().unwrap();

@@ -136,14 +136,7 @@ fn a_vertex_texture_of_the_wrong_size_is_a_typed_error() {
 
 /// The parameters of a frame of `common::skinned_gltf` in perspective, posed by `posable`.
 fn posed_view(posable: &PosableGltf, shading: Shading) -> RenderParams {
-    let camera = Camera {
-        eye: [1.5, 1.5, 3.0],
-        target: [1.0, 0.5, 0.0],
-        up: [0.0, 1.0, 0.0],
-        projection: Projection::Perspective { fov_deg: 50.0 },
-        near: 0.5,
-        far: 20.0,
-    };
+    let camera = common::skinned_camera();
     RenderParams {
         shading,
         cull: Cull::None,

@@ -109,6 +109,19 @@ pub fn assert_frame_parity(what: &str, mesh: &tileraster::render::Mesh, params: 
     cpu
 }
 
+/// A camera that sees both squares of [`skinned_gltf`] in perspective, from above and to the
+/// right, whatever their pose.
+pub fn skinned_camera() -> tileraster::render::Camera {
+    tileraster::render::Camera {
+        eye: [1.5, 1.5, 3.0],
+        target: [1.0, 0.5, 0.0],
+        up: [0.0, 1.0, 0.0],
+        projection: tileraster::render::Projection::Perspective { fov_deg: 50.0 },
+        near: 0.5,
+        far: 20.0,
+    }
+}
+
 /// A glTF file (with its `.bin`) animated by a skin and a morph target: two unit squares side
 /// by side in the plane z = 0, x from 0 to 2 and y from 0 to 1, normals +z. The vertices at
 /// x = 0 and x = 1 follow joint 0 (node 1, at the origin), those at x = 2 joint 1 (node 2, at

@@ -568,11 +568,15 @@ mod tests {
         }
         let dir = scratch("posable-still");
         let still = dir.join("still.glb");
+        std::fs::write(&still, still_triangle()).unwrap();
+        assert!(read_gltf_posable(&still, None).unwrap().is_none());
+    }
+
+    /// A triangle with no animation, skin or morph target.
+    fn still_triangle() -> Vec<u8> {
         let mut bin = Bin::default();
         let position = bin.floats(&[[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], "VEC3", true);
-        std::fs::write(&still, bin.file(&format!(r#""nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {position}}}}}]}}]"#)))
-            .unwrap();
-        assert!(read_gltf_posable(&still, None).unwrap().is_none());
+        bin.file(&format!(r#""nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {position}}}}}]}}]"#))
     }
 
     /// A time for a file without animation, a non-finite time, more than four joints per
@@ -582,10 +586,7 @@ mod tests {
     fn poses_refuse_what_they_cannot_pose_and_move_cameras() {
         let dir = scratch("refused");
         let still = dir.join("still.glb");
-        let mut bin = Bin::default();
-        let position = bin.floats(&[[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], "VEC3", true);
-        std::fs::write(&still, bin.file(&format!(r#""nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {position}}}}}]}}]"#)))
-            .unwrap();
+        std::fs::write(&still, still_triangle()).unwrap();
         let e = read_gltf(&still, Some(1.0)).unwrap_err().to_string();
         assert!(e.contains("no animation") && e.contains("still.glb"), "{e}");
         let strip = dir.join("strip.glb");

@@ -7,8 +7,12 @@
 //!
 //! Points with equal x and y (and -0.0 equals 0.0) are handled deterministically: the first
 //! of them in input order is kept with its z, the others are dropped and counted. The
-//! triangulation has no randomness, so the same input gives the same TIN.
+//! triangulation has no randomness, so the same input gives the same TIN; and where four or
+//! more points are cocircular it is the one a symbolic perturbation defines (`canonical`),
+//! so that its triangles are the same whatever other points are triangulated with them and in
+//! whatever order (the faces' order is spade's).
 
+mod canonical;
 pub mod nearest;
 
 pub use nearest::NearestPoints;
@@ -79,12 +83,35 @@ pub fn triangulate(points: &[[f64; 3]]) -> Result<Tin, TinError> {
     // Bulk loading reorders the sites but carries each one's vertex number with it; it has no
     // randomness, so the same points give the same triangles.
     let dt = DelaunayTriangulation::<Site>::bulk_load(sites).map_err(|e| TinError::Triangulation(format!("{e:?}")))?;
-    let triangles: Vec<[u32; 3]> = dt.inner_faces().map(|f| f.vertices().map(|v| v.data().vertex)).collect();
+    let mut triangles: Vec<[u32; 3]> = dt.inner_faces().map(|f| f.vertices().map(|v| v.data().vertex)).collect();
     if triangles.is_empty() {
         return Err(TinError::Collinear { distinct: keep.len() });
     }
+    // Cocircular points: the one triangulation of them, not spade's choice (`canonical`).
+    if has_cocircular_edge(&dt) {
+        let sites: Vec<[f64; 2]> = keep.iter().map(|&i| [points[i][0] + 0.0, points[i][1] + 0.0]).collect();
+        let mut slot = vec![canonical::NO_FACE; dt.num_all_faces()];
+        dt.inner_faces().enumerate().for_each(|(t, f)| slot[f.fix().index()] = t as u32);
+        let across = |f: spade::handles::FaceHandle<'_, spade::handles::InnerTag, Site, (), (), ()>| {
+            f.adjacent_edges().map(|e| e.rev().face().as_inner().map_or(canonical::NO_FACE, |g| slot[g.fix().index()]))
+        };
+        let mut neighbours: Vec<[u32; 3]> = dt.inner_faces().map(across).collect();
+        canonical::canonical(&sites, &mut triangles, &mut neighbours);
+    }
     let vertices = keep.iter().map(|&i| points[i]).collect();
     Ok(Tin { scene: Scene::new(vertices, triangles), source: keep, duplicates })
+}
+
+/// Whether an inner edge of `dt` has the four points of its two faces on one circle, exactly.
+fn has_cocircular_edge(dt: &DelaunayTriangulation<Site>) -> bool {
+    let at = |p: Point2<f64>| robust::Coord { x: p.x, y: p.y };
+    dt.undirected_edges().any(|edge| {
+        let e = edge.as_directed();
+        match (e.opposite_vertex(), e.rev().opposite_vertex()) {
+            (Some(c), Some(d)) => robust::incircle(at(e.from().position()), at(e.to().position()), at(c.position()), at(d.position())) == 0.0,
+            _ => false,
+        }
+    })
 }
 
 /// Input indices of the first point at each distinct (x, y), in input order.
@@ -120,6 +147,98 @@ mod tests {
         assert_eq!(tin.scene.triangles.len(), 2 * (n - 1) * (n - 1));
         // Repeatable: the same input, the same triangles.
         assert_eq!(triangulate(&points).unwrap().scene.triangles, tin.scene.triangles);
+    }
+
+    /// The triangles of `points`' TIN with every corner inside `[lo, hi]²`, by their corners'
+    /// positions: comparable between TINs of other point sets and orders.
+    fn triangles_within(points: &[[f64; 3]], lo: f64, hi: f64) -> Vec<[[u64; 2]; 3]> {
+        let tin = triangulate(points).unwrap();
+        let mut found: Vec<[[u64; 2]; 3]> = tin
+            .scene
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| tin.scene.vertices[v as usize]))
+            .filter(|corners| corners.iter().all(|p| (lo..=hi).contains(&p[0]) && (lo..=hi).contains(&p[1])))
+            .map(|corners| {
+                let mut key = corners.map(|p| [p[0].to_bits(), p[1].to_bits()]);
+                key.sort();
+                key
+            })
+            .collect();
+        found.sort();
+        found
+    }
+
+    /// A lattice's squares (four cocircular points each) take the same diagonals whether the
+    /// lattice is triangulated alone or as a window of larger lattices around it, and whatever
+    /// the points' order; so do rings of twelve cocircular points, each alone and in company.
+    /// (spade's own choice differed in all ten larger lattices.)
+    #[test]
+    fn cocircular_points_are_triangulated_alike_in_any_company_and_order() {
+        let lattice = |n: usize, x0: f64, y0: f64| -> Vec<[f64; 3]> { (0..n * n).map(|k| [(k % n) as f64 - x0, (k / n) as f64 - y0, k as f64]).collect() };
+        let alone = triangles_within(&lattice(12, 0.0, 0.0), 1.0, 10.0);
+        assert_eq!(alone.len(), 2 * 9 * 9);
+        for k in 0..10 {
+            let larger = lattice(20 + k, k as f64, 3.0);
+            assert_eq!(triangles_within(&larger, 1.0, 10.0), alone, "a lattice of {} around it", 20 + k);
+        }
+        let mut shuffled = lattice(12, 0.0, 0.0);
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for i in (1..shuffled.len()).rev() {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            shuffled.swap(i, (x % (i as u64 + 1)) as usize);
+        }
+        assert_eq!(triangles_within(&shuffled, 1.0, 10.0), alone, "the same points in another order");
+
+        let ring = |cx: f64, cy: f64| -> Vec<[f64; 3]> {
+            let offsets = [
+                (3.0, 4.0),
+                (4.0, 3.0),
+                (-3.0, 4.0),
+                (-4.0, 3.0),
+                (3.0, -4.0),
+                (4.0, -3.0),
+                (-3.0, -4.0),
+                (-4.0, -3.0),
+                (0.0, 5.0),
+                (5.0, 0.0),
+                (0.0, -5.0),
+                (-5.0, 0.0),
+            ];
+            offsets.iter().map(|&(x, y)| [cx + x, cy + y, 0.0]).collect()
+        };
+        let alone = triangles_within(&ring(0.0, 0.0), -5.0, 5.0);
+        assert_eq!(alone.len(), 10, "a convex 12-gon has 10 triangles");
+        for k in 0..6 {
+            let mut company = ring(0.0, 0.0);
+            company.extend(ring(20.0 + 3.0 * k as f64, -7.0 + k as f64));
+            company.extend([[-40.0 - k as f64, 30.0, 0.0], [9.0, 70.0 + 2.5 * k as f64, 0.0]]);
+            assert_eq!(triangles_within(&company, -5.0, 5.0), alone, "company {k}");
+        }
+    }
+
+    /// The TIN of cocircular points is still Delaunay: no point lies inside any triangle's
+    /// circumcircle (exact predicate, over every triangle and every point of a small lattice
+    /// with rings in it), and it covers the lattice's square whole.
+    #[test]
+    fn the_chosen_triangulation_is_delaunay() {
+        let n = 9;
+        let mut points: Vec<[f64; 3]> = (0..n * n).map(|k| [(k % n) as f64 * 2.0, (k / n) as f64 * 2.0, 0.0]).collect();
+        points.extend([[8.0, 8.5, 0.0], [3.0, 13.0, 0.0]]);
+        let tin = triangulate(&points).unwrap();
+        let at = |p: [f64; 3]| robust::Coord { x: p[0], y: p[1] };
+        let mut area = 0.0;
+        for t in &tin.scene.triangles {
+            let [a, b, c] = t.map(|v| tin.scene.vertices[v as usize]);
+            assert!(robust::orient2d(at(a), at(b), at(c)) > 0.0, "counter-clockwise");
+            area += robust::orient2d(at(a), at(b), at(c)) / 2.0;
+            for &d in &tin.scene.vertices {
+                assert!(robust::incircle(at(a), at(b), at(c), at(d)) <= 0.0, "{d:?} inside the circle of {a:?} {b:?} {c:?}");
+            }
+        }
+        assert_eq!(area, 16.0 * 16.0);
     }
 
     #[test]

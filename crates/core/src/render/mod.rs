@@ -279,7 +279,12 @@ pub(crate) fn prepare_instances_in(
     // A vertex shader poses each placed mesh in its own coordinates (`vertex::posed_meshes`;
     // the kernels' vertex stage poses a mesh drawn once with the same function).
     let posing = vertex::Posing::of(params);
-    let posed = vertex::posed_meshes(meshes, &placed, posing.as_ref(), kept.as_deref_mut().filter(|_| instances.len() == 1))?;
+    // A one-shot frame of one posed mesh computes the mesh's pairs once, for the host's pose
+    // and the vertex stage (a prepared mesh keeps its own).
+    let mut one_shot: Option<MeshPositions> = None;
+    let single = instances.len() == 1;
+    let one_shot_pairs = (kept.is_none() && single && posing.is_some()).then_some(&mut one_shot);
+    let posed = vertex::posed_meshes(meshes, &placed, posing.as_ref(), kept.as_deref_mut().filter(|_| single), one_shot_pairs)?;
     let drawn_positions = |k: usize| posed.get(k).and_then(|p| p.as_deref()).map_or(&meshes[k].positions[..], |p| &p.positions[..]);
 
     // Object culling: instances whose bounding box lies outside the view frustum get no vertex
@@ -370,7 +375,7 @@ pub(crate) fn prepare_instances_in(
             &viewport,
             &mut memory.world,
             &mut memory.vertex_stage,
-            kept.as_deref_mut().map(|k| &mut k.positions),
+            kept.as_deref_mut().map(|k| &mut k.positions).or(one_shot.is_some().then_some(&mut one_shot)),
             posing.as_ref(),
             kernels,
         )?,
@@ -425,7 +430,7 @@ pub(crate) fn prepare_instances_in(
                 &mut memory.vertices,
                 &mut memory.vertex_stage,
                 instances.len() == 1,
-                kept.map(|k| &mut k.positions),
+                kept.map(|k| &mut k.positions).or(one_shot.is_some().then_some(&mut one_shot)),
                 posing.as_ref(),
                 kernels,
             )?;

@@ -263,16 +263,21 @@ impl Posed {
 
 /// Each placed mesh as the frame's vertex shader (`posing`) poses it ([`Posed`]; `None` for the
 /// meshes no instance places, and none at all without a shader). A prepared mesh (`kept`)
-/// keeps its posed mesh while its pose is the same.
+/// keeps its posed mesh while its pose is the same; a one-shot frame of one mesh leaves the
+/// pairs it posed in `pairs`, for the vertex stage to take rather than compute again.
 pub(super) fn posed_meshes(
     meshes: &[Mesh],
     placed: &[bool],
     posing: Option<&Posing<'_>>,
     kept: Option<&mut KeptMesh>,
+    pairs: Option<&mut Option<MeshPositions>>,
 ) -> Result<Vec<Option<PosedMesh>>, Error> {
     let Some(posing) = posing else {
         return Ok(Vec::new());
     };
+    if let (None, Some(pairs), [mesh]) = (&kept, pairs, meshes) {
+        return Ok(vec![Some(Posed::of(mesh, posing, Some(pairs))?)]);
+    }
     if let Some(k) = kept {
         let key = PoseKey::of(posing);
         let posed = match k.posed.take() {

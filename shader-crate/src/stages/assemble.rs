@@ -16,6 +16,7 @@ use crate::math::fixed::{ceil_shr, floor_shr};
 use crate::math::float::recip_u64;
 use crate::memory::Slots;
 use crate::programs::shade::lit_face;
+use crate::stages::scan::{ScanShared, chunk};
 use crate::stages::small::is_small;
 use crate::stages::vertex::{FRUSTUM, UNASSEMBLED};
 use crate::{SCAN_GROUP, TRIANGLE_GROUP};
@@ -300,15 +301,8 @@ pub fn first_patch_from(patches: &[AssemblyPatch], count: u32, face: u32) -> u32
 }
 
 /// Workgroup memory of `assemble_scan`: per invocation, its chunk's listed and then its small
-/// records.
-pub type AssemblyScanShared = [u32; 2 * SCAN_GROUP as usize];
-
-/// The groups of invocation `lid`'s chunk.
-fn scan_chunk(lid: u32, groups: u32) -> (u32, u32) {
-    let size = groups.div_ceil(SCAN_GROUP);
-    let (start, end) = (lid * size, lid * size + size);
-    (if start < groups { start } else { groups }, if end < groups { end } else { groups })
-}
+/// records (the bins' scan's layout, `stages::scan`, whose chunks and partials it shares).
+pub type AssemblyScanShared = ScanShared;
 
 /// Group `g`'s records (listed, small): its kept faces' (`counts`, two words a group) and its
 /// clipped faces' pieces, the patches from `*next` on (advanced past the group's).
@@ -327,7 +321,7 @@ fn group_records(p: &AssembleParams, counts: &[u32], patches: &[AssemblyPatch], 
 /// `assemble_scan`, phase 1: `shared[lid]` and `shared[SCAN_GROUP + lid]` = the listed and
 /// small records of this invocation's chunk of groups.
 pub fn assemble_scan_reduce(lid: u32, p: &AssembleParams, counts: &[u32], patches: &[AssemblyPatch], shared: &mut AssemblyScanShared) {
-    let (start, end) = scan_chunk(lid, p.groups);
+    let (start, end) = chunk(lid, p.groups);
     let mut next = first_patch_from(patches, p.patches, start * FACE_GROUP);
     let (mut listed, mut small) = (0, 0);
     let mut g = start;
@@ -341,27 +335,14 @@ pub fn assemble_scan_reduce(lid: u32, p: &AssembleParams, counts: &[u32], patche
     shared[(SCAN_GROUP + lid) as usize] = small;
 }
 
-/// Phase 2: invocation 0 turns the chunks' sums into exclusive prefixes.
-pub fn assemble_scan_partials(lid: u32, shared: &mut AssemblyScanShared) {
-    if lid != 0 {
-        return;
-    }
-    let (mut listed, mut small) = (0, 0);
-    let mut k = 0;
-    while k < SCAN_GROUP as usize {
-        let (l, s) = (shared[k], shared[SCAN_GROUP as usize + k]);
-        shared[k] = listed;
-        shared[SCAN_GROUP as usize + k] = small;
-        listed += l;
-        small += s;
-        k += 1;
-    }
-}
+/// Phase 2: the chunks' two sums into exclusive prefixes, as the bins' scan turns its own
+/// (`stages::scan::scan_partials`).
+pub use crate::stages::scan::scan_partials as assemble_scan_partials;
 
 /// Phase 3: each group's first listed and small rank (`offsets[2g]`, `offsets[2g + 1]`); the
 /// last invocation writes the totals after them.
 pub fn assemble_scan_write(lid: u32, p: &AssembleParams, counts: &[u32], patches: &[AssemblyPatch], shared: &AssemblyScanShared, offsets: &mut [u32]) {
-    let (start, end) = scan_chunk(lid, p.groups);
+    let (start, end) = chunk(lid, p.groups);
     let mut next = first_patch_from(patches, p.patches, start * FACE_GROUP);
     let (mut listed, mut small) = (shared[lid as usize], shared[(SCAN_GROUP + lid) as usize]);
     let mut g = start;

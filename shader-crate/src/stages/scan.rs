@@ -22,7 +22,9 @@ pub type ScanShared = [u32; 2 * SCAN_GROUP as usize];
 /// `(x, y, z)`, then the queue's length.
 pub const QUEUE_HEAD: u32 = 4;
 
-fn chunk(lid: u32, n: u32) -> (u32, u32) {
+/// Invocation `lid`'s chunk of `n` items: `[start, end)`, clamped to `n`. (`assemble_scan`'s
+/// chunks of groups too.)
+pub fn chunk(lid: u32, n: u32) -> (u32, u32) {
     let size = n.div_ceil(SCAN_GROUP);
     let start = lid * size;
     let end = start + size;
@@ -52,7 +54,7 @@ pub fn scan_reduce(lid: u32, counts: &[u32], n: u32, frame: &FrameParams, shared
 }
 
 /// Phase 2: invocation 0 turns the chunk sums, and the chunks' queued tiles, into exclusive
-/// prefixes.
+/// prefixes (and `assemble_scan`'s chunks' listed and small records).
 pub fn scan_partials(lid: u32, shared: &mut ScanShared) {
     if lid != 0 {
         return;

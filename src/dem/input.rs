@@ -87,43 +87,21 @@ pub struct PointsRead {
 /// the points kept, in file order; then without the triangles `options.max_edge` leaves out
 /// (the others keep their order).
 pub fn read_scene(path: &Path, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
-    let kind = InputKind::of(path)?;
-    if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
-        return Err(DemError::MaxEdge(max_edge));
-    }
-    if kind != InputKind::Las && !options.classes.is_empty() {
-        return Err(DemError::ClassesOfText { path: path.to_owned() });
-    }
-    let mut input = read(path, kind, options, progress)?;
-    if let Some(max_edge) = options.max_edge {
-        input.long_triangles = drop_long_triangles(&mut input.scene, max_edge);
-    }
-    Ok(input)
+    read_scenes(&[path.to_owned()], options, progress)
 }
 
-fn read(path: &Path, kind: InputKind, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
-    let mesh = |scene| Ok(Input { scene, points: None, long_triangles: 0, points_read: None });
-    match kind {
-        InputKind::Obj => mesh(tileraster_io::read_obj(path)?),
-        InputKind::Ply => mesh(tileraster_io::read_ply(path)?),
-        InputKind::Stl => mesh(tileraster_io::read_stl(path)?),
+/// A mesh file's scene, as it is.
+fn read_mesh(path: &Path, kind: InputKind) -> Result<Scene, DemError> {
+    Ok(match kind {
+        InputKind::Obj => tileraster_io::read_obj(path)?,
+        InputKind::Ply => tileraster_io::read_ply(path)?,
+        InputKind::Stl => tileraster_io::read_stl(path)?,
         InputKind::Gltf => {
             let m = tileraster_io::read_gltf(path, None)?;
-            mesh(Scene::new(m.positions, m.triangles))
+            Scene::new(m.positions, m.triangles)
         }
-        InputKind::Las | InputKind::Text => {
-            let start = Instant::now();
-            let points = match kind {
-                InputKind::Las => tileraster_io::read_las_classes(path, &options.classes)?,
-                _ => tileraster_io::read_points(path, &options.columns)?,
-            };
-            let read = start.elapsed();
-            progress.stage(&format!("triangulating {} points", points.len()));
-            let tin = tileraster_tin::triangulate(&points).map_err(|source| DemError::Triangulation { path: path.to_owned(), source })?;
-            let summary = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
-            Ok(Input { scene: tin.scene, points: Some(summary), long_triangles: 0, points_read: options.keep_points.then_some(points) })
-        }
-    }
+        InputKind::Las | InputKind::Text => unreachable!("point files are triangulated"),
+    })
 }
 
 /// The files `inputs` name, in their order: a file as it is; a directory's point files
@@ -164,44 +142,53 @@ pub fn input_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, DemError> {
     Ok(files)
 }
 
-/// The scene of the files `paths` ([`input_files`]): one file as [`read_scene`] reads it;
-/// several, which must all be point files, as if their points were one file's, in the order
-/// given (each file read on its own core, its points appended in turn), triangulated once.
+/// The scene of the files `paths` ([`input_files`]): one mesh file as it is, or the TIN of the
+/// points of one or several point files, as if they were one file's in the order given (each
+/// file read on its own core, its points appended in turn), triangulated once; then without
+/// the triangles `options.max_edge` leaves out.
 pub fn read_scenes(paths: &[PathBuf], options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
-    let [first, ..] = paths else {
+    if paths.is_empty() {
         return Err(DemError::NoInputs);
-    };
-    if paths.len() == 1 {
-        return read_scene(first, options, progress);
     }
     let kinds = paths.iter().map(|p| InputKind::of(p)).collect::<Result<Vec<_>, _>>()?;
-    if let Some(k) = kinds.iter().position(|k| !k.is_points()) {
-        return Err(DemError::MeshAmongInputs { path: paths[k].clone(), inputs: paths.len() });
+    if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
+        return Err(DemError::MaxEdge(max_edge));
     }
     if let Some(k) = kinds.iter().position(|&k| k != InputKind::Las && !options.classes.is_empty()) {
         return Err(DemError::ClassesOfText { path: paths[k].clone() });
     }
-    if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
-        return Err(DemError::MaxEdge(max_edge));
-    }
-    let start = Instant::now();
-    use rayon::prelude::*;
-    let read = |(path, kind): (&PathBuf, &InputKind)| match kind {
-        InputKind::Las => tileraster_io::read_las_classes(path, &options.classes),
-        _ => tileraster_io::read_points(path, &options.columns),
+    let mut input = match (paths, &kinds[..]) {
+        ([path], [kind]) if !kind.is_points() => Input { scene: read_mesh(path, *kind)?, points: None, long_triangles: 0, points_read: None },
+        _ => match kinds.iter().position(|k| !k.is_points()) {
+            Some(k) => return Err(DemError::MeshAmongInputs { path: paths[k].clone(), inputs: paths.len() }),
+            None => triangulate_files(paths, &kinds, options, progress)?,
+        },
     };
-    let parts = paths.par_iter().zip(&kinds).map(read).collect::<Result<Vec<_>, _>>()?;
-    let mut points = Vec::with_capacity(parts.iter().map(Vec::len).sum());
-    parts.into_iter().for_each(|part| points.extend(part));
-    let read = start.elapsed();
-    progress.stage(&format!("triangulating {} points from {} files", points.len(), paths.len()));
-    let tin = tileraster_tin::triangulate(&points).map_err(|source| DemError::Triangulation { path: describe(paths), source })?;
-    let summary = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
-    let mut input = Input { scene: tin.scene, points: Some(summary), long_triangles: 0, points_read: options.keep_points.then_some(points) };
     if let Some(max_edge) = options.max_edge {
         input.long_triangles = drop_long_triangles(&mut input.scene, max_edge);
     }
     Ok(input)
+}
+
+/// The Delaunay TIN of the point files `paths` (of `kinds`), read on all cores.
+fn triangulate_files(paths: &[PathBuf], kinds: &[InputKind], options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
+    use rayon::prelude::*;
+    let start = Instant::now();
+    let read = |(path, kind): (&PathBuf, &InputKind)| match kind {
+        InputKind::Las => tileraster_io::read_las_classes(path, &options.classes),
+        _ => tileraster_io::read_points(path, &options.columns),
+    };
+    let parts = paths.par_iter().zip(kinds).map(read).collect::<Result<Vec<_>, _>>()?;
+    let mut points = Vec::with_capacity(parts.iter().map(Vec::len).sum());
+    parts.into_iter().for_each(|part| points.extend(part));
+    let read = start.elapsed();
+    match paths.len() {
+        1 => progress.stage(&format!("triangulating {} points", points.len())),
+        n => progress.stage(&format!("triangulating {} points from {n} files", points.len())),
+    }
+    let tin = tileraster_tin::triangulate(&points).map_err(|source| DemError::Triangulation { path: describe(paths), source })?;
+    let summary = PointsRead { count: points.len(), duplicates: tin.duplicates, read, triangulated: start.elapsed() - read };
+    Ok(Input { scene: tin.scene, points: Some(summary), long_triangles: 0, points_read: options.keep_points.then_some(points) })
 }
 
 /// `paths` as one name, for messages: the first and how many more.

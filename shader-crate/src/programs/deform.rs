@@ -82,6 +82,14 @@ impl DeformLayout {
         if normal { first + 3 * self.targets } else { first }
     }
 
+    /// Vertex `v`'s joint `i` (of [`JOINTS_PER_VERTEX`]): the first texel of its matrix, and
+    /// its weight.
+    #[inline]
+    pub fn joint_of(&self, texture: &[f32], v: u32, i: u32) -> (u32, f32) {
+        let record = self.vertex(v);
+        (self.joint(fetch(texture, record + i) as u32), fetch(texture, record + JOINTS_PER_VERTEX + i))
+    }
+
     /// The texels a texture of this layout holds for `vertices` vertices.
     pub fn texels(&self, vertices: u64) -> u64 {
         (self.joints * JOINT_TEXELS + self.weights) as u64 + vertices * self.stride() as u64
@@ -118,13 +126,11 @@ pub fn morphed(layout: &DeformLayout, texture: &[f32], v: u32, r: [f32; 3], norm
 pub fn deformed(uniforms: &VertexUniforms, texture: &[f32], v: u32, r: [f32; 3]) -> [f32; 3] {
     let layout = DeformLayout::of(uniforms);
     let m = morphed(&layout, texture, v, r, false);
-    let record = layout.vertex(v);
     let mut out = [0.0f32; 3];
     let mut i = 0;
     while i < JOINTS_PER_VERTEX {
-        let w = fetch(texture, record + JOINTS_PER_VERTEX + i);
+        let (a, w) = layout.joint_of(texture, v, i);
         if w != 0.0 {
-            let a = layout.joint(fetch(texture, record + i) as u32);
             let mut row = 0;
             while row < 3 {
                 let at = a + 4 * row;

@@ -336,13 +336,12 @@ pub(super) fn posed_normals(mesh: &Mesh, posing: &Posing<'_>) -> Option<Vec<[f32
     let texel = |i: u32| f64::from(deform::fetch(texture, i));
     let pose = |(v, &n): (usize, &[f32; 3])| {
         let v = v as u32;
-        let record = layout.vertex(v);
         let mut blended = [[0.0; 4]; 4];
         for i in 0..JOINTS_PER_VERTEX {
-            let (joint, weight) = (texel(record + i) as u32, texel(record + JOINTS_PER_VERTEX + i));
+            let (joint, weight) = layout.joint_of(texture, v, i);
             for (r, row) in blended.iter_mut().take(3).enumerate() {
                 for (c, entry) in row.iter_mut().take(3).enumerate() {
-                    *entry += weight * texel(layout.joint(joint) + 4 * r as u32 + c as u32);
+                    *entry += f64::from(weight) * texel(joint + 4 * r as u32 + c as u32);
                 }
             }
         }

@@ -300,28 +300,66 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     let progress = Progress::start();
     progress.stage(format!("reading {}", input.display()));
     let options = dem::ReadOptions { columns: columns.unwrap_or_default(), classes, max_edge, keep_points: linear.radius != 0.0 };
-    let read = dem::read_scenes(&inputs, &options, &progress).map_err(|e| e.to_string())?;
-    if let Some(points) = &read.points {
+    // A part triangulates only the points around its band, which prove its triangles the whole
+    // TIN's; what needs the whole TIN's numbering or all its points (--owner, --tin, the
+    // nearest-point fallback) triangulates them all.
+    let points_only = inputs.iter().all(|p| dem::InputKind::of(p).is_ok_and(dem::InputKind::is_points));
+    let blocked = part.is_some() && points_only && owner.is_none() && tin.is_none() && linear.radius == 0.0;
+    let (read, grid) = if blocked {
+        let start = Instant::now();
+        let points = dem::read_points(&inputs, &options).map_err(|e| e.to_string())?;
+        let read_time = start.elapsed();
+        let grid = match given {
+            Some(grid) => grid,
+            None => spec.grid_for(&points).map_err(grid_error)?,
+        };
+        let read = dem::block_scene(&points, &grid, window_of(&grid)?, &options, &progress).map_err(|e| e.to_string())?;
+        let (block, summary) = (read.block.expect("a block's scene says how it was made"), read.points.expect("a block is of points"));
+        let (k, n) = part.expect("blocked runs are parts");
+        let around = match (block.points == points.len(), block.attempts) {
+            (true, _) => "every point (the band's triangles need points that far)".to_string(),
+            (false, 1) => format!("the {} around its band (a buffer of {} map units)", block.points, block.buffer),
+            (false, a) => format!(
+                "the {} around its band (a buffer of {} map units, widened {} times until it proved them the whole TIN's)",
+                block.points,
+                block.buffer,
+                a - 1
+            ),
+        };
         note(format!(
-            "tileraster: {} points from {} in {}{} → Delaunay TIN of {} triangles in {}",
-            points.count,
+            "tileraster: {} points from {} in {}; part {k}/{n} triangulated {around} → {} triangles over it in {}",
+            points.len(),
             input.display(),
-            ms(points.read),
-            match points.duplicates {
-                0 => String::new(),
-                n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
-            },
+            ms(read_time),
             read.scene.triangles.len() + read.long_triangles,
-            ms(points.triangulated)
+            ms(summary.triangulated)
         ));
-    }
+        (read, grid)
+    } else {
+        let read = dem::read_scenes(&inputs, &options, &progress).map_err(|e| e.to_string())?;
+        if let Some(points) = &read.points {
+            note(format!(
+                "tileraster: {} points from {} in {}{} → Delaunay TIN of {} triangles in {}",
+                points.count,
+                input.display(),
+                ms(points.read),
+                match points.duplicates {
+                    0 => String::new(),
+                    n => format!(" ({n} repeating an earlier point's x, y: the first of each is kept)"),
+                },
+                read.scene.triangles.len() + read.long_triangles,
+                ms(points.triangulated)
+            ));
+        }
+        let grid = match given {
+            Some(grid) => grid,
+            None => spec.grid_for(&read.scene.vertices).map_err(grid_error)?,
+        };
+        (read, grid)
+    };
     if let Some(max_edge) = max_edge {
         note(format!("tileraster: --max-edge {max_edge}: {} triangles with a longer edge left out, {} kept", read.long_triangles, read.scene.triangles.len()));
     }
-    let grid = match given {
-        Some(grid) => grid,
-        None => spec.grid_for(&read.scene).map_err(grid_error)?,
-    };
     if given.is_none() || tap {
         note(format!(
             "tileraster: extent x {} to {}, y {} to {}: {}×{} cells of {} × {}",

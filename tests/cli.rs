@@ -565,6 +565,35 @@ fn parts_run_as_separate_processes_mosaic_to_the_single_run() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--part K/N` of a point file triangulates the points around its band (grown until they
+/// prove its triangles; on this tile, whose hull has long edges beside every band, that is
+/// all of them), and its bands together are the single run's cells bit for bit (a real
+/// airborne LiDAR tile). `tests/seams.rs` checks blocks that need fewer.
+#[test]
+fn parts_of_a_point_file_triangulate_their_bands_and_give_the_single_run() {
+    let dir = scratch("point-parts");
+    let laz = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/autzen_trim.laz");
+    let grid = ["--tr", "2", "2"];
+    let single = dir.join("single.tif");
+    let out = rasterise_cli(&laz, &single, &grid);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    const N: u32 = 4;
+    let mut bands = Vec::new();
+    for k in 0..N {
+        let part = dir.join(format!("part-{k}.tif"));
+        let out = rasterise_cli(&laz, &part, &[&grid[..], &["--part", &format!("{k}/{N}")]].concat());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(stderr.contains(&format!("part {k}/{N} triangulated ")), "{stderr}");
+        bands.extend(read_tif_values(&part));
+    }
+    assert_same_bits(&bands, &read_tif_values(&single), "the parts' bands against the single run");
+    // What needs the whole TIN's numbering triangulates every point.
+    let out = rasterise_cli(&laz, &dir.join("p.tif"), &[&grid[..], &["--part", "1/4", "--owner", dir.join("o.tif").to_str().unwrap()]].concat());
+    assert!(out.status.success() && !String::from_utf8_lossy(&out.stderr).contains("around its band"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `--tin` writes the triangulation a point file was rasterised through; rasterising that
 /// OBJ gives the same cells, and `--owner`'s indices are its faces.
 #[test]

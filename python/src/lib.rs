@@ -450,7 +450,7 @@ impl Prepared {
         let settings = Settings::new(backend, mode, nodata, owner)?;
         let (scene, spec) = (scene.scene.clone(), grid.spec);
         let prepared = interruptible(py, move |_| -> PyResult<PreparedScene> {
-            let grid = spec.grid_for(&scene).map_err(error)?;
+            let grid = spec.grid_for(&scene.vertices).map_err(error)?;
             PreparedScene::new(&scene, &settings.params(grid), settings.backend_for(&grid, None)).map_err(error)
         })??;
         Ok(Prepared { inner: Arc::new(Mutex::new(prepared)) })
@@ -509,7 +509,7 @@ fn rasterise(
     };
     let (scene, spec, window) = (scene.scene.clone(), grid.spec, window_of(window));
     let done = interruptible(py, move |cancel| -> PyResult<_> {
-        let grid = spec.grid_for(&scene).map_err(error)?;
+        let grid = spec.grid_for(&scene.vertices).map_err(error)?;
         let params = settings.params(grid);
         let mut prepared = PreparedScene::from_prepared(tileraster::prepare(&scene, &params, window).map_err(error)?, settings.backend_for(&grid, window));
         let window = prepared.prepared().window;

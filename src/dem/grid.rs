@@ -3,7 +3,7 @@
 //! gdal_grid does, and `--tap` aligns it to the cell size, as GDAL's tools do.
 
 use super::DemError;
-use crate::{Grid, MAX_GRID_DIM, Scene, Window};
+use crate::{Grid, MAX_GRID_DIM, Window};
 
 /// A grid as gdal_grid's flags give it: `-txe XMIN XMAX`, `-tye YMIN YMAX`, and `-outsize` or
 /// `-tr`, with GDAL's `-tap`.
@@ -58,11 +58,11 @@ impl GridSpec {
         }
     }
 
-    /// The grid, with the extent `scene`'s vertices span where none is given.
-    pub fn grid_for(&self, scene: &Scene) -> Result<Grid, DemError> {
-        let span = |axis: usize| scene.vertices.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(v[axis]), hi.max(v[axis])]);
+    /// The grid, with the extent `vertices` span (x and y) where none is given.
+    pub fn grid_for(&self, vertices: &[[f64; 3]]) -> Result<Grid, DemError> {
+        let span = |axis: usize| vertices.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(v[axis]), hi.max(v[axis])]);
         let given = self.txe.is_some() && self.tye.is_some();
-        if !given && scene.vertices.is_empty() {
+        if !given && vertices.is_empty() {
             return Err(DemError::EmptyExtent);
         }
         self.grid_over(self.txe.unwrap_or_else(|| span(0)), self.tye.unwrap_or_else(|| span(1)), given)
@@ -122,6 +122,7 @@ pub fn part_window(grid: &Grid, k: u32, n: u32) -> Result<Window, DemError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Scene;
 
     #[test]
     fn cell_sizes_round_to_whole_cells_and_keep_the_extent() {
@@ -142,20 +143,20 @@ mod tests {
     fn the_inputs_extent_is_taken_when_none_is_given() {
         let scene = Scene::new(vec![[10.3, 20.6, 0.0], [15.2, 20.1, 0.0], [12.0, 24.45, 0.0]], vec![[0, 1, 2]]);
         let cells = GridSpec { txe: None, tye: None, size: GridSize::Cells { width: 7, height: 9 }, tap: false };
-        let g = cells.grid_for(&scene).unwrap();
+        let g = cells.grid_for(&scene.vertices).unwrap();
         assert_eq!((g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height), (10.3, 15.2, 20.1, 24.45, 7, 9));
         assert!(matches!(cells.grid(), Err(DemError::NoExtent)));
         // 4.9 / 0.5 = 9.8 → 10 cells from x 10.3; 4.35 / 0.5 = 8.7 → 9 cells down from y 24.45.
         let tr = GridSpec { size: GridSize::Resolution { x: 0.5, y: 0.5 }, ..cells };
-        let g = tr.grid_for(&scene).unwrap();
+        let g = tr.grid_for(&scene.vertices).unwrap();
         assert_eq!((g.xmin, g.ymax, g.width, g.height, g.dx(), g.dy()), (10.3, 24.45, 10, 9, 0.5, 0.5));
         // Aligned: x 10 to 15.5, y 20 to 24.5.
-        let g = GridSpec { tap: true, ..tr }.grid_for(&scene).unwrap();
+        let g = GridSpec { tap: true, ..tr }.grid_for(&scene.vertices).unwrap();
         assert_eq!((g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height), (10.0, 15.5, 20.0, 24.5, 11, 9));
         // A given extent is aligned too; the other axis still comes from the input.
-        let g = GridSpec { txe: Some([0.2, 3.9]), tap: true, ..tr }.grid_for(&scene).unwrap();
+        let g = GridSpec { txe: Some([0.2, 3.9]), tap: true, ..tr }.grid_for(&scene.vertices).unwrap();
         assert_eq!((g.xmin, g.xmax, g.width, g.ymin, g.ymax), (0.0, 4.0, 8, 20.0, 24.5));
-        assert!(matches!(GridSpec { tap: true, ..cells }.grid_for(&scene), Err(DemError::TapNeedsResolution)));
+        assert!(matches!(GridSpec { tap: true, ..cells }.grid_for(&scene.vertices), Err(DemError::TapNeedsResolution)));
         // Before the input is read: the size alone, or the whole grid when the extent is given.
         assert!(matches!(GridSpec { tap: true, ..cells }.check(), Err(DemError::TapNeedsResolution)));
         assert!(matches!(GridSpec { size: GridSize::Resolution { x: -1.0, y: 1.0 }, ..cells }.check(), Err(DemError::CellSize { axis: 'x', .. })));

@@ -5,7 +5,8 @@
 //!   [`part_window`] is band K of N of its rows, for cluster jobs.
 //! - [`read_scene`] reads a mesh, or builds the Delaunay TIN of a point file, by file type;
 //!   [`read_scenes`] the TIN of several point files' points together ([`input_files`]: files,
-//!   directories and glob patterns).
+//!   directories and glob patterns); [`block_scene`] the same TIN's triangles over one window
+//!   (a `--part`'s band, a Dask chunk), triangulating only the points around it.
 //! - [`Linear`] and [`Fallback`]: gdal_grid's `linear:radius=R`, the nearest point's z in
 //!   cells outside every triangle.
 //! - [`write_dem`] rasterises a window in bands of rows that fit a memory budget
@@ -33,7 +34,9 @@ mod linear;
 mod stream;
 
 pub use grid::{GridSize, GridSpec, part_window};
-pub use input::{Input, InputKind, PointsRead, ReadOptions, describe, drop_long_triangles, input_files, read_scene, read_scenes};
+pub use input::{
+    BlockRead, Input, InputKind, PointsRead, ReadOptions, block_scene, describe, drop_long_triangles, input_files, read_points, read_scene, read_scenes,
+};
 pub use linear::{Fallback, Linear};
 pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, streamed_band_rows, write_dem};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
@@ -97,6 +100,12 @@ pub enum DemError {
     /// A mesh among several inputs: only point files are read together.
     #[error("{}: a mesh among {inputs} inputs; several inputs are point files (.las, .laz, .csv, .xyz, .txt, .pts) triangulated together, and a mesh is rasterised alone", path.display())]
     MeshAmongInputs { path: PathBuf, inputs: usize },
+    /// A block's triangles need a coarser snapping lattice than the finest, which the other
+    /// blocks would not share.
+    #[error(
+        "a triangle over this block is too wide for the finest snapping lattice (2^-{finest} cells; it needs 2^-{bits}), which every block of the grid must share: give --max-edge shorter than 8,000 cells, or rasterise the whole grid in one run"
+    )]
+    BlockLattice { bits: u32, finest: u32 },
     /// Part `k` of `n` lies beyond the grid's rows.
     #[error("the grid's {rows} rows make only {parts} parts of {part_rows} rows; give fewer parts")]
     NoSuchPart { k: u32, n: u32, rows: u32, parts: u32, part_rows: u32 },

@@ -20,7 +20,7 @@ pub use error::Error;
 pub use grid::{Grid, MAX_GRID_DIM, Mode, Outputs, Params, Skip, Skips};
 pub use overlap::overlap_free;
 pub use plan::{Pass, Plan, Stats};
-pub use prepare::{Prepared, RenderInputs, Window, prepare};
+pub use prepare::{Prepared, RenderInputs, Window, prepare, snap_bits};
 pub use raster::{Difference, Layers, Raster, zeroed_cells};
 pub use scene::Scene;
 pub use tileraster_kernels as kernels;

@@ -232,33 +232,8 @@ pub(crate) fn prepare_with(scene: &Scene, params: &Params, window: Option<Window
             [u, v]
         })
         .collect();
-    let (w, h) = (grid.width as f64, grid.height as f64);
-    // The raster-space extent of triangle `t` if it may reach a pixel centre of the grid.
-    let reaching_extent = |tri: &[u32; 3]| -> Option<f64> {
-        let p = tri.map(|k| raster[k as usize]);
-        let (umin, umax) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
-        let (vmin, vmax) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
-        let reaches_grid = umax >= 0.5 - CULL_MARGIN_PX && umin <= w - 0.5 + CULL_MARGIN_PX && vmax >= 0.5 - CULL_MARGIN_PX && vmin <= h - 0.5 + CULL_MARGIN_PX;
-        reaches_grid.then(|| (umax - umin).max(vmax - vmin))
-    };
-
-    // 2. Conservative cull: the largest extent among the survivors, and the first triangle of
-    // that extent (triangle 0 if every extent is zero) as a sequential scan finds it, whatever
-    // order the reduction pairs them in.
-    let (max_extent, widest) = scene
-        .triangles
-        .par_iter()
-        .enumerate()
-        .filter_map(|(t, tri)| reaching_extent(tri).map(|extent| (extent, t)))
-        .reduce(|| (0.0, 0), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
-
-    // 3. The finest lattice on which the widest triangle's edge functions fit.
-    let snap_bits = snap_bits_for(max_extent).ok_or(Error::TriangleTooLarge {
-        triangle: widest,
-        extent_px: max_extent,
-        // ceil(extent) + 2 < 2^28 at one snap bit: extents up to 2^28 − 3 px.
-        limit_px: (1u64 << (EXTENT_LIMIT_BITS - 1)) - 3,
-    })?;
+    let reaching_extent = |tri: &[u32; 3]| reaching_extent(tri.map(|k| raster[k as usize]), &grid);
+    let snap_bits = snap_bits_of(&scene.triangles, reaching_extent)?;
     let unit = (1i64 << snap_bits) as f64;
 
     // 4. Snap, orient, rectangle: what becomes of triangle `t`.
@@ -434,6 +409,68 @@ fn validate_scene(scene: &Scene) -> Result<(), Error> {
 
 /// Largest `s <= MAX_SNAP_BITS` with `(ceil(extent) + 2) << s < 2^EXTENT_LIMIT_BITS`
 /// (one pixel of slack for snapping), or `None` if even `s = 1` does not fit.
+/// The raster-space extent of the triangle with raster-space corners `p`, if it may reach a
+/// pixel centre of `grid` (with [`CULL_MARGIN_PX`]).
+///
+/// A triangle whose bounding box reaches the grid may still pass beside it; one that large
+/// ([`SEPARATION_MIN_PX`]) is tested against the grid's rectangle edge by edge, so that the
+/// snapping lattice depends only on triangles that pass over the grid. (A block of a TIN,
+/// `tileraster_tin::block`, holds every triangle that passes over its window, not every one
+/// whose box does.)
+fn reaching_extent(p: [[f64; 2]; 3], grid: &Grid) -> Option<f64> {
+    let (w, h) = (grid.width as f64, grid.height as f64);
+    let (umin, umax) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
+    let (vmin, vmax) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
+    let (lo, hi) = ([0.5 - CULL_MARGIN_PX; 2], [w - 0.5 + CULL_MARGIN_PX, h - 0.5 + CULL_MARGIN_PX]);
+    let reaches_box = umax >= lo[0] && umin <= hi[0] && vmax >= lo[1] && vmin <= hi[1];
+    let extent = (umax - umin).max(vmax - vmin);
+    if !reaches_box {
+        return None;
+    }
+    if extent < SEPARATION_MIN_PX {
+        return Some(extent);
+    }
+    // Separated when all four corners of the rectangle lie strictly outside one edge.
+    let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    let turn = cross(p[0], p[1], p[2]).signum();
+    let corners = [[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]];
+    let separated = (0..3).any(|k| corners.iter().all(|&c| turn * cross(p[k], p[(k + 1) % 3], c) < 0.0));
+    (!separated).then_some(extent)
+}
+
+/// Triangles at least this wide (px) are tested edge by edge against the grid: far below the
+/// extents that coarsen the lattice, far above the sizes whose test would cost.
+const SEPARATION_MIN_PX: f64 = 1024.0;
+
+/// The snapping lattice's bits for triangles whose [`reaching_extent`] is given: the finest on
+/// which the widest one's edge functions fit (the first of that extent in scene order names
+/// the error).
+fn snap_bits_of(triangles: &[[u32; 3]], reaching_extent: impl Fn(&[u32; 3]) -> Option<f64> + Sync) -> Result<u32, Error> {
+    // The largest extent, and the first triangle of that extent (triangle 0 if every extent
+    // is zero) as a sequential scan finds it, whatever order the reduction pairs them in.
+    let (max_extent, widest) = triangles
+        .par_iter()
+        .enumerate()
+        .filter_map(|(t, tri)| reaching_extent(tri).map(|extent| (extent, t)))
+        .reduce(|| (0.0, 0), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
+    snap_bits_for(max_extent).ok_or(Error::TriangleTooLarge {
+        triangle: widest,
+        extent_px: max_extent,
+        // ceil(extent) + 2 < 2^28 at one snap bit: extents up to 2^28 − 3 px.
+        limit_px: (1u64 << (EXTENT_LIMIT_BITS - 1)) - 3,
+    })
+}
+
+/// The snapping lattice's bits (`Raster::snap_bits`) that preparing `scene` on `grid` chooses,
+/// without preparing it: blocks of one TIN (`tileraster --part`) check with it that their
+/// lattice is the finest one, which every block then shares with the whole TIN.
+pub fn snap_bits(scene: &Scene, grid: &Grid) -> Result<u32, Error> {
+    grid.validate()?;
+    validate_scene(scene)?;
+    let raster: Vec<[f64; 2]> = scene.vertices.par_iter().map(|v| grid.to_raster(v[0], v[1]).into()).collect();
+    snap_bits_of(&scene.triangles, |tri: &[u32; 3]| reaching_extent(tri.map(|k| raster[k as usize]), grid))
+}
+
 pub fn snap_bits_for(max_extent_px: f64) -> Option<u32> {
     let ext = max_extent_px.ceil() + 2.0;
     let limit = (1u64 << EXTENT_LIMIT_BITS) as f64;

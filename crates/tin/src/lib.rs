@@ -10,12 +10,22 @@
 //! triangulation has no randomness, so the same input gives the same TIN; and where four or
 //! more points are cocircular it is the one a symbolic perturbation defines (`canonical`),
 //! so that its triangles are the same whatever other points are triangulated with them and in
-//! whatever order (the faces' order is spade's).
+//! whatever order.
+//!
+//! The faces' order and each face's first corner are the points' own too: a face starts at its
+//! corner that comes first in input order, and faces are sorted by their corners' input order.
+//! A subset of the points (a block's, [`block`]) keeps their order, so the faces it shares with
+//! the whole set come in the same order and start at the same corner: the rasteriser, whose
+//! ties go to the lower face and whose plane fit starts at the first corner, then gives those
+//! faces' cells the same bits.
 
+pub mod block;
 mod canonical;
 pub mod nearest;
 
+pub use block::{BlockTin, Hull, Rect, triangulate_block};
 pub use nearest::NearestPoints;
+use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use tileraster_core::Scene;
 
@@ -26,6 +36,8 @@ pub enum TinError {
     NonFinite { index: usize, x: f64, y: f64, z: f64 },
     #[error("point {index} ({x}, {y}) is too far out for the triangulation (|x|, |y| must stay below {limit:e}); shift the coordinates")]
     OutOfRange { index: usize, x: f64, y: f64, limit: f64 },
+    #[error("point {index} ({x}, {y}) lies outside the hull given for the points; make the hull from every point (or every file's hull)")]
+    OutsideHull { index: usize, x: f64, y: f64 },
     #[error("{distinct} distinct point positions: a TIN needs at least 3 that are not all on one line")]
     TooFew { distinct: usize },
     #[error("all {distinct} distinct points lie on one line: they span no triangle")]
@@ -65,6 +77,12 @@ impl HasPosition for Site {
 
 /// Triangulate `points` (x, y, z). Errors name the offending point by its input index.
 pub fn triangulate(points: &[[f64; 3]]) -> Result<Tin, TinError> {
+    Ok(triangulate_with_hull(points)?.0)
+}
+
+/// [`triangulate`], and the convex hull's edges as pairs of scene vertices with the TIN on
+/// their left.
+pub(crate) fn triangulate_with_hull(points: &[[f64; 3]]) -> Result<(Tin, Vec<[u32; 2]>), TinError> {
     for (index, &[x, y, z]) in points.iter().enumerate() {
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
             return Err(TinError::NonFinite { index, x, y, z });
@@ -87,6 +105,15 @@ pub fn triangulate(points: &[[f64; 3]]) -> Result<Tin, TinError> {
     if triangles.is_empty() {
         return Err(TinError::Collinear { distinct: keep.len() });
     }
+    // The hull's edges, each turned so that its inner face lies on its left. (The flips below
+    // move inner edges only.)
+    let hull = dt
+        .convex_hull()
+        .map(|e| {
+            let inner = if e.face().is_outer() { e.rev() } else { e };
+            [inner.from().data().vertex, inner.to().data().vertex]
+        })
+        .collect();
     // Cocircular points: the one triangulation of them, not spade's choice (`canonical`).
     if has_cocircular_edge(&dt) {
         let sites: Vec<[f64; 2]> = keep.iter().map(|&i| [points[i][0] + 0.0, points[i][1] + 0.0]).collect();
@@ -98,8 +125,20 @@ pub fn triangulate(points: &[[f64; 3]]) -> Result<Tin, TinError> {
         let mut neighbours: Vec<[u32; 3]> = dt.inner_faces().map(across).collect();
         canonical::canonical(&sites, &mut triangles, &mut neighbours);
     }
+    in_input_order(&mut triangles);
     let vertices = keep.iter().map(|&i| points[i]).collect();
-    Ok(Tin { scene: Scene::new(vertices, triangles), source: keep, duplicates })
+    Ok((Tin { scene: Scene::new(vertices, triangles), source: keep, duplicates }, hull))
+}
+
+/// Each face from its first corner in input order (turned, so still counter-clockwise), the
+/// faces sorted by their corners: an order that any order-keeping subset of the points gives
+/// its faces too.
+fn in_input_order(triangles: &mut [[u32; 3]]) {
+    triangles.par_iter_mut().for_each(|t| {
+        let first = (0..3).min_by_key(|&k| t[k]).expect("three corners");
+        t.rotate_left(first);
+    });
+    triangles.par_sort_unstable();
 }
 
 /// Whether an inner edge of `dt` has the four points of its two faces on one circle, exactly.

@@ -1,0 +1,534 @@
+//! A block's share of the TIN, proven to be the whole point set's there, from the points of
+//! the block's window and a buffer around it only.
+//!
+//! A triangle of the points in a region `R` is a triangle of all the points when no point
+//! outside `R` can change it: its closed circumdisc holds no point of the whole set but the
+//! region's (an empty circle, and the perturbation that breaks cocircular ties, `canonical`,
+//! looks only at the points on the circle). All points lie in their convex hull `H`, known
+//! beforehand ([`Hull`]: cheap, and small, to compute from every point or from each file's
+//! hull), so it is enough that the disc meets no part of `H` outside `R`. An edge of the
+//! region's hull is an edge of the whole TIN's hull exactly when it lies on `H`'s boundary.
+//!
+//! [`triangulate_block`] keeps the region's triangles whose bounding box meets the window,
+//! and proves each of them, and that each edge of the region's hull that faces the window lies
+//! on `H`'s boundary. Then the kept triangles are exactly the whole TIN's triangles over the
+//! window: a point of the window inside a triangle `T` of the whole TIN is either inside the
+//! region's hull, in a kept triangle, which is a triangle of the whole TIN and so is `T`; or
+//! outside an edge of the region's hull that faces the window, and so outside `H`, which `T`
+//! is not. Where a proof fails the buffer doubles, until the region holds `H` and the TIN is
+//! the whole one.
+//!
+//! The hull tests are exact (robust's orientation predicate on input points). The disc test
+//! is evaluated in `f64` with an error bound at least four times the first-order bound of each
+//! step, and counts as failed when the bound leaves the answer open: it may grow a buffer
+//! needlessly, never accept a triangle wrongly.
+
+use crate::{COORDINATE_LIMIT, Tin, TinError, triangulate_with_hull};
+use robust::{Coord, orient2d};
+
+/// A closed rectangle of the plane, `[x0, x1] × [y0, y1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rect {
+    pub x0: f64,
+    pub y0: f64,
+    pub x1: f64,
+    pub y1: f64,
+}
+
+impl Rect {
+    /// The least rectangle holding the points' x and y; `None` for no points.
+    pub fn around<const N: usize>(points: &[[f64; N]]) -> Option<Rect> {
+        let (first, rest) = points.split_first()?;
+        let start = Rect { x0: first[0], y0: first[1], x1: first[0], y1: first[1] };
+        Some(rest.iter().fold(start, |r, p| Rect { x0: r.x0.min(p[0]), y0: r.y0.min(p[1]), x1: r.x1.max(p[0]), y1: r.y1.max(p[1]) }))
+    }
+
+    /// Whether `(x, y)` lies in the rectangle or on its edges.
+    pub fn holds(&self, x: f64, y: f64) -> bool {
+        (self.x0..=self.x1).contains(&x) && (self.y0..=self.y1).contains(&y)
+    }
+
+    /// Whether `other` lies wholly inside this rectangle.
+    pub fn covers(&self, other: &Rect) -> bool {
+        self.x0 <= other.x0 && other.x1 <= self.x1 && self.y0 <= other.y0 && other.y1 <= self.y1
+    }
+
+    /// Whether the two rectangles share a point.
+    pub fn meets(&self, other: &Rect) -> bool {
+        self.x0 <= other.x1 && other.x0 <= self.x1 && self.y0 <= other.y1 && other.y0 <= self.y1
+    }
+
+    /// The rectangle with `by` more on every side.
+    pub fn grown(&self, by: f64) -> Rect {
+        Rect { x0: self.x0 - by, y0: self.y0 - by, x1: self.x1 + by, y1: self.y1 + by }
+    }
+
+    fn corners(&self) -> [Coord<f64>; 4] {
+        [Coord { x: self.x0, y: self.y0 }, Coord { x: self.x1, y: self.y0 }, Coord { x: self.x1, y: self.y1 }, Coord { x: self.x0, y: self.y1 }]
+    }
+}
+
+/// The convex hull of a point set's x and y: its corners, counter-clockwise, without
+/// collinear ones; exact (robust's predicates on the input's own coordinates).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hull {
+    corners: Vec<[f64; 2]>,
+}
+
+impl Hull {
+    /// The hull of `points` (x, y first; non-finite points are left out).
+    pub fn of<const N: usize>(points: &[[f64; N]]) -> Hull {
+        Hull::around(points.iter().map(|p| [p[0] + 0.0, p[1] + 0.0]).filter(|p| p[0].is_finite() && p[1].is_finite()).collect())
+    }
+
+    /// The hull of several hulls: of a point set whose parts (files) have these hulls.
+    pub fn of_hulls(hulls: &[Hull]) -> Hull {
+        Hull::around(hulls.iter().flat_map(|h| h.corners.iter().copied()).collect())
+    }
+
+    /// Andrew's monotone chain, with exact turns.
+    fn around(mut points: Vec<[f64; 2]>) -> Hull {
+        points.sort_by(|a, b| a.partial_cmp(b).expect("finite"));
+        points.dedup();
+        if points.len() < 3 {
+            return Hull { corners: points };
+        }
+        let turn = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| orient2d(Coord { x: a[0], y: a[1] }, Coord { x: b[0], y: b[1] }, Coord { x: c[0], y: c[1] });
+        let half = |ordered: &mut dyn Iterator<Item = [f64; 2]>| {
+            let mut chain: Vec<[f64; 2]> = Vec::new();
+            for p in ordered {
+                while chain.len() >= 2 && turn(chain[chain.len() - 2], chain[chain.len() - 1], p) <= 0.0 {
+                    chain.pop();
+                }
+                chain.push(p);
+            }
+            // Its last corner is the other half's first.
+            chain.pop();
+            chain
+        };
+        let mut chain = half(&mut points.iter().copied());
+        chain.extend(half(&mut points.iter().rev().copied()));
+        Hull { corners: chain }
+    }
+
+    /// The corners, counter-clockwise.
+    pub fn corners(&self) -> &[[f64; 2]] {
+        &self.corners
+    }
+
+    /// The least rectangle holding the hull.
+    pub fn bounds(&self) -> Option<Rect> {
+        Rect::around(&self.corners)
+    }
+
+    /// Whether `(x, y)` lies in the closed hull (exactly).
+    pub fn holds(&self, x: f64, y: f64) -> bool {
+        let p = Coord { x, y };
+        match self.corners.len() {
+            0 => false,
+            1 => self.corners[0] == [x, y],
+            _ => self.edges().all(|(a, b)| orient2d(a, b, p) >= 0.0) && self.bounds().is_some_and(|r| r.holds(x, y)),
+        }
+    }
+
+    /// Whether the segment `p`–`q` lies on the hull's boundary (exactly).
+    fn bears(&self, p: Coord<f64>, q: Coord<f64>) -> bool {
+        self.edges().any(|(a, b)| {
+            let span = Rect { x0: a.x.min(b.x), y0: a.y.min(b.y), x1: a.x.max(b.x), y1: a.y.max(b.y) };
+            orient2d(a, b, p) == 0.0 && orient2d(a, b, q) == 0.0 && span.holds(p.x, p.y) && span.holds(q.x, q.y)
+        })
+    }
+
+    fn edges(&self) -> impl Iterator<Item = (Coord<f64>, Coord<f64>)> + '_ {
+        let at = |p: [f64; 2]| Coord { x: p[0], y: p[1] };
+        (0..self.corners.len()).map(move |k| (at(self.corners[k]), at(self.corners[(k + 1) % self.corners.len()])))
+    }
+
+    /// The parts of the hull beyond each side of `region` (west, east, south, north: the hull
+    /// cut by the side's outer half-plane, closed, empty where the hull does not reach past
+    /// it; intersections rounded, which the disc test's slack covers).
+    fn outside(&self, region: &Rect) -> [Vec<[f64; 2]>; 4] {
+        let sides = [(0, region.x0, true), (0, region.x1, false), (1, region.y0, true), (1, region.y1, false)];
+        sides.map(|(axis, at, below)| cut(&self.corners, axis, at, below))
+    }
+}
+
+/// The convex polygon `polygon` cut to `p[axis] ≤ at` (`below`) or `≥ at`.
+fn cut(polygon: &[[f64; 2]], axis: usize, at: f64, below: bool) -> Vec<[f64; 2]> {
+    let keeps = |p: &[f64; 2]| if below { p[axis] <= at } else { p[axis] >= at };
+    let mut part = Vec::new();
+    for k in 0..polygon.len() {
+        let (a, b) = (polygon[k], polygon[(k + 1) % polygon.len()]);
+        if keeps(&a) {
+            part.push(a);
+        }
+        if keeps(&a) != keeps(&b) {
+            let t = (at - a[axis]) / (b[axis] - a[axis]);
+            let mut p = [0.0; 2];
+            p[axis] = at;
+            p[1 - axis] = a[1 - axis] + t * (b[1 - axis] - a[1 - axis]);
+            part.push(p);
+        }
+    }
+    part
+}
+
+/// A block's triangles of the whole point set's TIN ([`triangulate_block`]).
+#[derive(Debug, Clone)]
+pub struct BlockTin {
+    /// The region's points (the first at each position, in input order) and, of their
+    /// triangles, those whose bounding box meets the window, in the whole TIN's order;
+    /// `tin.source` indexes the whole point set.
+    pub tin: Tin,
+    /// The region whose points were triangulated: the window and the buffer that proved it.
+    pub region: Rect,
+    /// The region's points, repeats included.
+    pub points: usize,
+    /// Regions triangulated, the last one included (1 when the first buffer sufficed).
+    pub attempts: u32,
+}
+
+/// The triangles of `points`' TIN (as [`crate::triangulate`] makes it) over `window`, from
+/// the points of the window and a buffer around it, grown until the module's proof holds (or
+/// until it holds a quarter of the points: then all of them).
+/// `hull` must hold every point: a point of a region outside it is
+/// [`TinError::OutsideHull`].
+pub fn triangulate_block(points: &[[f64; 3]], hull: &Hull, window: Rect) -> Result<BlockTin, TinError> {
+    for (index, &[x, y, z]) in points.iter().enumerate() {
+        if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+            return Err(TinError::NonFinite { index, x, y, z });
+        }
+    }
+    let bounds = hull.bounds().ok_or(TinError::TooFew { distinct: 0 })?;
+    // A first buffer of a few points' spacing on each side; a side whose proof fails doubles
+    // its own, so that the work stays within twice the last region's.
+    let spacing = ((bounds.x1 - bounds.x0) * (bounds.y1 - bounds.y0) / points.len().max(1) as f64).sqrt();
+    let mut buffer = [16.0 * if spacing > 0.0 { spacing } else { (bounds.x1 - bounds.x0).max(bounds.y1 - bounds.y0) }; 4];
+    let mut attempts = 0;
+    loop {
+        attempts += 1;
+        let region = Rect { x0: window.x0 - buffer[0], x1: window.x1 + buffer[1], y0: window.y0 - buffer[2], y1: window.y1 + buffer[3] };
+        // Once a buffer passes the coordinate limit, every point is in the region.
+        let mut whole = region.covers(&bounds) || buffer.iter().any(|b| *b >= COORDINATE_LIMIT);
+        let mut chosen: Vec<usize> = if whole { Vec::new() } else { (0..points.len()).filter(|&i| region.holds(points[i][0], points[i][1])).collect() };
+        // A region of more than a quarter of the points takes them all at once: the regions
+        // tried before cost at most half of the whole, so a block never costs more than one
+        // and a half whole triangulations.
+        if chosen.len() > points.len() / 4 {
+            whole = true;
+        }
+        if whole {
+            chosen = (0..points.len()).collect();
+        }
+        if let Some(&index) = chosen.iter().find(|&&i| !hull.holds(points[i][0] + 0.0, points[i][1] + 0.0)) {
+            let [x, y, _] = points[index];
+            return Err(TinError::OutsideHull { index, x, y });
+        }
+        let local: Vec<[f64; 3]> = chosen.iter().map(|&i| points[i]).collect();
+        let outside = hull.outside(&region);
+        let unproven = match triangulate_with_hull(&local) {
+            Ok((mut tin, local_hull)) => {
+                let vertices = &tin.scene.vertices;
+                let kept: Vec<[u32; 3]> =
+                    tin.scene.triangles.iter().copied().filter(|t| Rect::around(&t.map(|v| vertices[v as usize])).is_some_and(|b| b.meets(&window))).collect();
+                let unproven = if whole { 0 } else { unproven_sides(&tin, &kept, &local_hull, hull, &outside, &window) };
+                if unproven == 0 {
+                    tin.scene.triangles = kept;
+                    tin.source.iter_mut().for_each(|s| *s = chosen[*s]);
+                    let region = if whole {
+                        Rect { x0: region.x0.min(bounds.x0), y0: region.y0.min(bounds.y0), x1: region.x1.max(bounds.x1), y1: region.y1.max(bounds.y1) }
+                    } else {
+                        region
+                    };
+                    return Ok(BlockTin { tin, region, points: chosen.len(), attempts });
+                }
+                unproven
+            }
+            // Too few points, or all on a line: a larger region has more.
+            Err(TinError::TooFew { .. } | TinError::Collinear { .. }) if !whole => ALL_SIDES,
+            Err(TinError::OutOfRange { index, x, y, limit }) => return Err(TinError::OutOfRange { index: chosen[index], x, y, limit }),
+            Err(e) => return Err(e),
+        };
+        // Grow the sides the proof failed on, of those the hull reaches past.
+        let reaching = (0..4).filter(|&k| !outside[k].is_empty()).fold(0, |m, k| m | 1 << k);
+        let grow = if unproven & reaching != 0 { unproven & reaching } else { reaching };
+        (0..4).filter(|&k| grow & 1 << k != 0).for_each(|k| buffer[k] *= 2.0);
+    }
+}
+
+/// Sides of a region, as bits (west, east, south, north).
+type Sides = u8;
+const ALL_SIDES: Sides = 0b1111;
+
+/// The sides (bits of [`Sides`]) beyond which a point could change the kept triangles: where
+/// a kept triangle's circumdisc may meet the hull's part beyond the side (`outside`), or an
+/// edge of the region's hull (`local_hull`) that faces the window is not on the whole hull's
+/// boundary (the hull's parts it faces); 0 when the block is proven.
+fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &Hull, outside: &[Vec<[f64; 2]>; 4], window: &Rect) -> Sides {
+    let at = |v: u32| {
+        let p = tin.scene.vertices[v as usize];
+        Coord { x: p[0] + 0.0, y: p[1] + 0.0 }
+    };
+    let mut unproven = 0;
+    for &[p, q] in local_hull {
+        let (p, q) = (at(p), at(q));
+        let faces_window = window.corners().iter().any(|&w| orient2d(p, q, w) < 0.0);
+        if faces_window && !hull.bears(p, q) {
+            let beyond = |part: &Vec<[f64; 2]>| part.iter().any(|&[x, y]| orient2d(p, q, Coord { x, y }) <= 0.0);
+            unproven |= (0..4).filter(|&k| beyond(&outside[k])).fold(0, |m, k| m | 1 << k);
+            unproven |= ALL_SIDES * u8::from(unproven == 0);
+        }
+    }
+    kept.iter().fold(unproven, |m, t| m | disc_unclear(t.map(at), outside))
+}
+
+/// The sides whose part of the hull (`parts`) the closed circumdisc of the corners may meet:
+/// where the `f64` evaluation's error bound leaves it open (a thin triangle, a disc grazing a
+/// part) too.
+fn disc_unclear([a, b, c]: [Coord<f64>; 3], parts: &[Vec<[f64; 2]>; 4]) -> Sides {
+    let reaching = (0..4).filter(|&k| !parts[k].is_empty()).fold(0, |m, k| m | 1 << k);
+    if reaching == 0 {
+        return 0;
+    }
+    // Unit roundoff; each bound below is at least four times the first-order error of the
+    // operations it covers (relative errors of `u` per rounding, on the magnitudes bounded).
+    const U: f64 = f64::EPSILON / 2.0;
+    let (bx, by, cx, cy) = (b.x - a.x, b.y - a.y, c.x - a.x, c.y - a.y);
+    let l = bx.abs().max(by.abs()).max(cx.abs()).max(cy.abs());
+    // Twice the signed area, and the circumcentre relative to `a`: `u = n / d`.
+    let d = 2.0 * (bx * cy - by * cx);
+    let d_err = 64.0 * U * l * l;
+    if d.is_nan() || d.abs() <= 2.0 * d_err {
+        return reaching;
+    }
+    let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+    let (ux, uy) = ((cy * b2 - by * c2) / d, (bx * c2 - cx * b2) / d);
+    let u = ux.abs().max(uy.abs());
+    let n_err = 256.0 * U * l * l * l;
+    // |n/d − ñ/d̃| ≤ (|n − ñ| + |u|·|d − d̃|) / (|d̃| − |d − d̃|), and |d̃| > 2·d_err.
+    let u_err = 2.0 * (n_err + 2.0 * u * d_err) / d.abs() + 8.0 * U * u;
+    let centre = [a.x + ux, a.y + uy];
+    let centre_err = u_err + 8.0 * U * (a.x.abs().max(a.y.abs()) + u);
+    let r_hi = ux.hypot(uy) * (1.0 + 16.0 * U) + 2.0 * u_err;
+    let clear = |part: &Vec<[f64; 2]>| {
+        // The parts' cut corners are rounded, and the distance below takes a few roundings
+        // of magnitudes up to `size`: 2^-40 of it is far more than either.
+        let size = part.iter().fold(centre[0].abs().max(centre[1].abs()) + r_hi, |m, p| m.max(p[0].abs()).max(p[1].abs()));
+        part.is_empty() || distance(centre, part) - centre_err - size * 2f64.powi(-40) > r_hi
+    };
+    (0..4).filter(|&k| !clear(&parts[k])).fold(0, |m, k| m | 1 << k)
+}
+
+/// The distance from `p` to the convex polygon `polygon` (counter-clockwise; 0 inside).
+fn distance(p: [f64; 2], polygon: &[[f64; 2]]) -> f64 {
+    let n = polygon.len();
+    let to_segment = |a: [f64; 2], b: [f64; 2]| {
+        let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+        let length2 = ex * ex + ey * ey;
+        let t = if length2 > 0.0 { (((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / length2).clamp(0.0, 1.0) } else { 0.0 };
+        (p[0] - (a[0] + t * ex)).hypot(p[1] - (a[1] + t * ey))
+    };
+    let inside = n >= 3
+        && (0..n).all(|k| {
+            let (a, b) = (polygon[k], polygon[(k + 1) % n]);
+            (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) >= 0.0
+        });
+    if inside {
+        return 0.0;
+    }
+    (0..n).map(|k| to_segment(polygon[k], polygon[(k + 1) % n])).fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::triangulate;
+
+    /// A hash-based generator: the tests' points without a dependency.
+    fn random(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Triangles as their corners' positions, in order: comparable between TINs of other
+    /// point sets.
+    fn by_position(tin: &Tin) -> Vec<[[u64; 2]; 3]> {
+        tin.scene.triangles.iter().map(|t| t.map(|v| tin.scene.vertices[v as usize]).map(|p| [p[0].to_bits(), p[1].to_bits()])).collect()
+    }
+
+    /// Whether the closed triangle meets the closed rectangle (separating axes; for tests,
+    /// whose shapes are far from the limits of `f64`).
+    fn touches(t: [[f64; 3]; 3], window: &Rect) -> bool {
+        let corners = window.corners();
+        let ccw = orient2d(Coord { x: t[0][0], y: t[0][1] }, Coord { x: t[1][0], y: t[1][1] }, Coord { x: t[2][0], y: t[2][1] }) > 0.0;
+        let separated = (0..3).any(|k| {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            corners.iter().all(|&w| {
+                let side = orient2d(Coord { x: p[0], y: p[1] }, Coord { x: q[0], y: q[1] }, w);
+                if ccw { side < 0.0 } else { side > 0.0 }
+            })
+        });
+        Rect::around(&t).unwrap().meets(window) && !separated
+    }
+
+    /// That the block's triangles are the whole TIN's over the window: a part of the whole
+    /// TIN's, in its order, with each of its triangles that meets the window.
+    fn assert_whole_over(points: &[[f64; 3]], block: &Tin, window: &Rect, what: &str) {
+        let whole = triangulate(points).unwrap();
+        let (mine, all) = (by_position(block), by_position(&whole));
+        let mut rest = all.iter();
+        for t in &mine {
+            assert!(rest.any(|u| u == t), "{what}: {t:?} is not the whole TIN's, or out of its order");
+        }
+        for (t, key) in whole.scene.triangles.iter().zip(&all) {
+            if touches(t.map(|v| whole.scene.vertices[v as usize]), window) {
+                assert!(mine.contains(key), "{what}: the whole TIN's {key:?} meets the window and is missing");
+            }
+        }
+    }
+
+    /// Terrain-like points: random, with a lattice patch (cocircular squares), a ring of
+    /// twelve cocircular points, a hole with no points and repeats.
+    fn terrain(n: usize, seed: u64) -> Vec<[f64; 3]> {
+        let mut r = random(seed);
+        let mut points: Vec<[f64; 3]> = (0..n).map(|_| [r() * 1000.0, r() * 600.0, r() * 50.0]).filter(|p| (p[0] - 700.0).hypot(p[1] - 300.0) > 80.0).collect();
+        points.extend((0..30 * 30).map(|k| [100.0 + (k % 30) as f64 * 4.0, 200.0 + (k / 30) as f64 * 4.0, k as f64]));
+        let ring = [
+            (3.0, 4.0),
+            (4.0, 3.0),
+            (-3.0, 4.0),
+            (-4.0, 3.0),
+            (3.0, -4.0),
+            (4.0, -3.0),
+            (-3.0, -4.0),
+            (-4.0, -3.0),
+            (0.0, 5.0),
+            (5.0, 0.0),
+            (0.0, -5.0),
+            (-5.0, 0.0),
+        ];
+        points.extend(ring.iter().map(|&(x, y)| [400.0 + x * 3.0, 450.0 + y * 3.0, 7.0]));
+        let repeats: Vec<[f64; 3]> = points.iter().step_by(97).map(|p| [p[0], p[1], p[2] + 1.0]).collect();
+        points.extend(repeats);
+        points
+    }
+
+    #[test]
+    fn a_block_has_the_whole_tins_triangles_over_its_window() {
+        let points = terrain(20_000, 1);
+        let hull = Hull::of(&points);
+        let bounds = hull.bounds().unwrap();
+        let windows = [
+            Rect { x0: 0.0, y0: 0.0, x1: 1000.0, y1: 600.0 },
+            Rect { x0: 90.0, y0: 190.0, x1: 130.0, y1: 260.0 },
+            Rect { x0: 600.0, y0: 200.0, x1: 800.0, y1: 400.0 },
+            Rect { x0: 380.0, y0: 430.0, x1: 420.0, y1: 470.0 },
+            Rect { x0: -50.0, y0: -50.0, x1: 10.0, y1: 10.0 },
+            Rect { x0: 990.0, y0: 0.0, x1: 1200.0, y1: 600.0 },
+            Rect { x0: 2000.0, y0: 2000.0, x1: 2100.0, y1: 2100.0 },
+        ];
+        let mut grew = 0;
+        for window in windows {
+            let block = triangulate_block(&points, &hull, window).unwrap();
+            assert_whole_over(&points, &block.tin, &window, &format!("window {window:?}"));
+            for (v, &s) in block.tin.source.iter().enumerate() {
+                assert_eq!(block.tin.scene.vertices[v], points[s], "a vertex's source is its point");
+            }
+            grew += block.attempts - 1;
+            let interior = window.x0 > bounds.x0 + 50.0 && window.x1 < bounds.x1 - 50.0 && window.y0 > bounds.y0 + 50.0 && window.y1 < bounds.y1 - 50.0;
+            if interior {
+                assert!(block.points < points.len() / 5, "a small window reads a small share: {} of {}", block.points, points.len());
+            }
+        }
+        assert!(grew > 0, "the hole makes some buffer grow");
+    }
+
+    /// Bands and a grid of blocks together give each whole-TIN triangle that meets the area
+    /// to a block, with the same corners in the same order.
+    #[test]
+    fn blocks_tile_the_tin() {
+        let points = terrain(5_000, 2);
+        let hull = Hull::of(&points);
+        for (nx, ny) in [(1, 4), (3, 3), (7, 2)] {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let window = Rect {
+                        x0: 1000.0 * i as f64 / nx as f64,
+                        x1: 1000.0 * (i + 1) as f64 / nx as f64,
+                        y0: 600.0 * j as f64 / ny as f64,
+                        y1: 600.0 * (j + 1) as f64 / ny as f64,
+                    };
+                    let block = triangulate_block(&points, &hull, window).unwrap();
+                    assert_whole_over(&points, &block.tin, &window, &format!("block {i}, {j} of {nx} × {ny}"));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_lattice_window_keeps_the_whole_lattices_diagonals() {
+        let n = 200;
+        let points: Vec<[f64; 3]> = (0..n * n).map(|k| [(k % n) as f64, (k / n) as f64, ((k * 7919) % 101) as f64]).collect();
+        let hull = Hull::of(&points);
+        assert_eq!(hull.corners(), [[0.0, 0.0], [199.0, 0.0], [199.0, 199.0], [0.0, 199.0]]);
+        for window in [Rect { x0: 50.5, y0: 60.0, x1: 70.0, y1: 90.5 }, Rect { x0: 0.0, y0: 0.0, x1: 3.0, y1: 199.0 }] {
+            let block = triangulate_block(&points, &hull, window).unwrap();
+            assert_whole_over(&points, &block.tin, &window, "lattice");
+            assert_eq!(block.attempts, 1, "a lattice's circles are small");
+        }
+    }
+
+    /// Whether the disc is proven clear of one part (given as the west part).
+    fn disc_clear(corners: [Coord<f64>; 3], part: &[Vec<[f64; 2]>; 1]) -> bool {
+        disc_unclear(corners, &[part[0].clone(), vec![], vec![], vec![]]) == 0
+    }
+
+    #[test]
+    fn the_disc_test_refuses_what_it_cannot_prove() {
+        let at = |x: f64, y: f64| Coord { x, y };
+        let square = |x0: f64, y0: f64, x1: f64, y1: f64| vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+        // The unit circle through three points; parts just beyond it and just inside it.
+        let (a, b, c) = (at(1.0, 0.0), at(0.0, 1.0), at(-1.0, 0.0));
+        assert!(disc_clear([a, b, c], &[square(1.0 + 1e-9, -1.0, 2.0, 1.0)]));
+        assert!(!disc_clear([a, b, c], &[square(1.0, -1.0, 2.0, 1.0)]), "a part on the circle meets the closed disc");
+        assert!(!disc_clear([a, b, c], &[square(0.9, -1.0, 2.0, 1.0)]));
+        // Beside the disc's box corner, but clear of the disc; and a triangle reaching into it.
+        assert!(disc_clear([a, b, c], &[square(0.75, 0.75, 2.0, 2.0)]));
+        assert!(!disc_clear([a, b, c], &[vec![[0.7, 0.7], [2.0, 0.5], [2.0, 2.0]]]));
+        // A sliver: its circumcentre is far and uncertain; nothing near is proven clear of it.
+        let sliver = [at(0.0, 0.0), at(1.0, 1e-17), at(2.0, 0.0)];
+        assert!(!disc_clear(sliver, &[square(5.0, 5.0, 6.0, 6.0)]));
+        // Far from the origin, as UTM coordinates are.
+        let (e, n) = (500_000.0, 5_000_000.0);
+        let utm = [at(e + 1.0, n), at(e, n + 1.0), at(e - 1.0, n)];
+        assert!(disc_clear(utm, &[square(e + 1.001, n - 1.0, e + 2.0, n + 1.0)]));
+        assert!(!disc_clear(utm, &[square(e + 0.999, n - 1.0, e + 2.0, n + 1.0)]));
+    }
+
+    #[test]
+    fn hulls_are_exact_and_merge() {
+        let points = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 2.0, 0.0], [0.0, 2.0, 0.0], [1.0, 1.0, 0.0], [1.0, 2.0, 0.0]];
+        let hull = Hull::of(&points);
+        assert_eq!(hull.corners(), [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]], "counter-clockwise, no collinear corners");
+        assert!(hull.holds(1.0, 0.0) && hull.holds(1.0, 1.0) && !hull.holds(2.0, 2.0 + 1e-15));
+        assert!(hull.bears(Coord { x: 0.0, y: 0.0 }, Coord { x: 1.0, y: 0.0 }) && !hull.bears(Coord { x: 0.0, y: 0.0 }, Coord { x: 1.0, y: 1.0 }));
+        let (left, right) = (Hull::of(&points[..3]), Hull::of(&points[3..]));
+        assert_eq!(Hull::of_hulls(&[left, right]), hull);
+    }
+
+    #[test]
+    fn a_point_outside_the_hull_is_refused() {
+        let points = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [5.0, 5.0, 0.0]];
+        let hull = Hull::of(&points[..3]);
+        let window = Rect { x0: 0.0, y0: 0.0, x1: 10.0, y1: 10.0 };
+        let err = triangulate_block(&points, &hull, window).unwrap_err();
+        assert!(matches!(err, TinError::OutsideHull { index: 3, .. }), "{err}");
+        let err = triangulate_block(&[[0.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0]], &hull, window).unwrap_err();
+        assert!(matches!(err, TinError::NonFinite { index: 1, .. }), "{err}");
+    }
+}

@@ -127,7 +127,9 @@ impl Hull {
         match self.corners.len() {
             0 => false,
             1 => self.corners[0] == [x, y],
-            _ => self.edges().all(|(a, b)| orient2d(a, b, p) >= 0.0) && self.bounds().is_some_and(|r| r.holds(x, y)),
+            // A segment's two edges hold its whole line: its box bounds it.
+            2 => self.edges().all(|(a, b)| orient2d(a, b, p) == 0.0) && self.bounds().is_some_and(|r| r.holds(x, y)),
+            _ => self.edges().all(|(a, b)| orient2d(a, b, p) >= 0.0),
         }
     }
 

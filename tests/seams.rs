@@ -66,6 +66,18 @@ fn blockings(grid: &Grid) -> Vec<(String, Window)> {
 
 /// Every blocking's cells equal the whole run's window of them, bit for bit.
 fn assert_blocks_are_the_whole_run(points: &[[f64; 3]], grid: Grid, options: &ReadOptions, what: &str) {
+    let block = |window| dem::block_scene(points, &grid, window, options, &());
+    assert_blocks_of_are_the_whole_run(points, grid, options, what, block);
+}
+
+/// As [`assert_blocks_are_the_whole_run`], with the blocks that `block` makes.
+fn assert_blocks_of_are_the_whole_run(
+    points: &[[f64; 3]],
+    grid: Grid,
+    options: &ReadOptions,
+    what: &str,
+    block: impl Fn(Window) -> Result<dem::Input, DemError>,
+) {
     let mut whole_tin = tileraster_tin::triangulate(points).unwrap().scene;
     if let Some(max_edge) = options.max_edge {
         dem::drop_long_triangles(&mut whole_tin, max_edge);
@@ -76,7 +88,7 @@ fn assert_blocks_are_the_whole_run(points: &[[f64; 3]], grid: Grid, options: &Re
     assert!(covered > grid.pixel_count() as usize / 2, "{what}: the TIN covers most of the grid ({covered} cells)");
     let mut smaller = 0;
     for (name, window) in blockings(&grid) {
-        let block = dem::block_scene(points, &grid, window, options, &()).unwrap_or_else(|e| panic!("{what}, {name}: {e}"));
+        let block = block(window).unwrap_or_else(|e| panic!("{what}, {name}: {e}"));
         let made = block.block.expect("a block says how it was made");
         smaller += usize::from(made.points < points.len());
         let raster = rasterise_window(&block.scene, &params, Some(window), Backend::Cpu).unwrap();
@@ -105,6 +117,45 @@ fn synthetic_blocks_are_the_whole_run_bit_for_bit() {
     assert_blocks_are_the_whole_run(&points, grid, &ReadOptions::default(), "synthetic");
     let options = ReadOptions { max_edge: Some(6.0), ..Default::default() };
     assert_blocks_are_the_whole_run(&points, grid, &options, "synthetic, --max-edge 6");
+}
+
+/// Points in tiles of files, read for a block only where its region reaches: the same cells
+/// as the whole run of all the files' points, in the files' order as given.
+#[test]
+fn blocks_of_many_files_read_what_they_need_and_are_the_whole_run() {
+    let points = terrain(40_000, 11);
+    let directory = std::env::temp_dir().join(format!("tileraster-seams-files-{}", std::process::id()));
+    std::fs::create_dir_all(&directory).unwrap();
+    // 4 × 3 tiles of 150 m × 134 m, listed in a scrambled order.
+    let tile =
+        |p: &[f64; 3]| ((p[0] - 500_000.0) / 150.0).floor().clamp(0.0, 3.0) as usize + 4 * ((p[1] - 5_000_000.0) / 134.0).floor().clamp(0.0, 2.0) as usize;
+    let order = [5, 0, 11, 3, 8, 1, 10, 6, 2, 9, 4, 7];
+    let mut paths = Vec::new();
+    for &t in &order {
+        let text: String = points.iter().filter(|p| tile(p) == t).map(|p| format!("{},{},{}\n", p[0], p[1], p[2])).collect();
+        let path = directory.join(format!("tile{t}.csv"));
+        std::fs::write(&path, format!("x,y,z\n{text}")).unwrap();
+        paths.push(path);
+    }
+    let options = ReadOptions::default();
+    let all = dem::read_points(&paths, &options).unwrap();
+    assert_eq!(all.len(), points.len());
+    let files = dem::summarise_files(&paths, &options).unwrap();
+    assert_eq!(files.iter().map(|f| f.points).sum::<usize>(), points.len());
+    let grid = Grid::new(500_000.0 - 3.0, 500_605.0, 4_999_998.0, 5_000_404.0, 608, 406);
+    let fewer = std::cell::Cell::new(0);
+    assert_blocks_of_are_the_whole_run(&all, grid, &options, "12 files", |window| {
+        let block = dem::block_scene_of_files(&files, &grid, window, &options, &())?;
+        fewer.set(fewer.get() + usize::from(block.block.unwrap().files_read < files.len()));
+        Ok(block)
+    });
+    assert!(fewer.get() > 0, "some block reads fewer files than all");
+    // A file that changed after its summary is refused, not read as if it had not.
+    std::fs::write(&paths[0], "x,y,z\n500100,5000100,1\n").unwrap();
+    let window = Window { x0: 0, y0: 0, width: grid.width, height: grid.height };
+    let err = dem::block_scene_of_files(&files, &grid, window, &options, &()).err().expect("a changed file errs");
+    assert!(matches!(err, DemError::InputChanged { summarised, read: 1, .. } if summarised == files[0].points), "{err}");
+    std::fs::remove_dir_all(&directory).unwrap();
 }
 
 fn autzen() -> PathBuf {

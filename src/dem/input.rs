@@ -1,12 +1,12 @@
 //! The scene in a file: a mesh as it is, or the Delaunay TIN of a point file, chosen by the
 //! file's extension.
 
+use super::block::BlockRead;
 use super::{DemError, Progress};
-use crate::{Grid, Scene, Window};
+use crate::Scene;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tileraster_io::PointColumns;
-use tileraster_tin::{Hull, Rect};
 
 /// The kinds of file [`read_scene`] takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -203,7 +203,7 @@ pub fn read_points(paths: &[PathBuf], options: &ReadOptions) -> Result<Vec<[f64;
     read_kinds(paths, &kinds, options)
 }
 
-fn read_kinds(paths: &[PathBuf], kinds: &[InputKind], options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
+pub(super) fn read_kinds(paths: &[PathBuf], kinds: &[InputKind], options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
     use rayon::prelude::*;
     let read = |(path, kind): (&PathBuf, &InputKind)| match kind {
         InputKind::Las => tileraster_io::read_las_classes(path, &options.classes),
@@ -213,64 +213,6 @@ fn read_kinds(paths: &[PathBuf], kinds: &[InputKind], options: &ReadOptions) -> 
     let mut points = Vec::with_capacity(parts.iter().map(Vec::len).sum());
     parts.into_iter().for_each(|part| points.extend(part));
     Ok(points)
-}
-
-/// How a block's TIN was made ([`block_scene`]).
-#[derive(Debug, Clone, Copy)]
-pub struct BlockRead {
-    /// The points triangulated: those of the window and its buffer, repeats included.
-    pub points: usize,
-    /// The widest side of the buffer that proved the block's triangles, in map units beyond
-    /// the window's cells.
-    pub buffer: f64,
-    /// Regions triangulated, the last included (1: the first buffer sufficed).
-    pub attempts: u32,
-}
-
-/// Cells beyond a block's window whose triangles the block keeps: more than the rasteriser's
-/// own one-cell margin ([`tileraster_core::prepare`]'s cull), so that a triangle that reaches
-/// the grid passes over some block's window with room to spare.
-const BLOCK_MARGIN_CELLS: f64 = 2.0;
-
-/// The scene of `window` of `grid` as a block: the TIN of `points` (all of the input's, as
-/// [`read_points`] gives them) made from the points of the window and a buffer around it
-/// only, proven to hold the whole TIN's triangles over the window (`tileraster_tin::block`),
-/// then without the triangles `options.max_edge` leaves out. Its cells are the whole TIN's bit
-/// for bit, on the snapping lattice every block shares: a block that meets a triangle too wide
-/// for the finest lattice ([`tileraster_core::snap_bits`]) is [`DemError::BlockLattice`].
-pub fn block_scene(points: &[[f64; 3]], grid: &Grid, window: Window, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
-    if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
-        return Err(DemError::MaxEdge(max_edge));
-    }
-    window.validate(grid)?;
-    let start = Instant::now();
-    let triangulation = |source| DemError::Triangulation { path: PathBuf::from("the input's points"), source };
-    let hull = Hull::of(points);
-    let (dx, dy) = (grid.dx(), grid.dy());
-    let cells = Rect {
-        x0: grid.xmin + (window.x0 as f64 - BLOCK_MARGIN_CELLS) * dx,
-        x1: grid.xmin + ((window.x0 + window.width) as f64 + BLOCK_MARGIN_CELLS) * dx,
-        y0: grid.ymax - ((window.y0 + window.height) as f64 + BLOCK_MARGIN_CELLS) * dy,
-        y1: grid.ymax - (window.y0 as f64 - BLOCK_MARGIN_CELLS) * dy,
-    };
-    progress.stage(&format!("triangulating the points around {}×{} cells", window.width, window.height));
-    let block = tileraster_tin::triangulate_block(points, &hull, cells).map_err(triangulation)?;
-    let mut scene = block.tin.scene;
-    let long_triangles = options.max_edge.map_or(0, |max_edge| drop_long_triangles(&mut scene, max_edge));
-    let bits = tileraster_core::snap_bits(&scene, grid)?;
-    if bits < tileraster_core::kernels::MAX_SNAP_BITS {
-        return Err(DemError::BlockLattice { bits, finest: tileraster_core::kernels::MAX_SNAP_BITS });
-    }
-    let summary = PointsRead { count: block.points, duplicates: block.tin.duplicates, read: Duration::ZERO, triangulated: start.elapsed() };
-    let region = block.region;
-    let buffer = (cells.x0 - region.x0).max(cells.y0 - region.y0).max(region.x1 - cells.x1).max(region.y1 - cells.y1).max(0.0);
-    Ok(Input {
-        scene,
-        points: Some(summary),
-        long_triangles,
-        points_read: None,
-        block: Some(BlockRead { points: block.points, buffer, attempts: block.attempts }),
-    })
 }
 
 /// `paths` as one name, for messages: the first and how many more.

@@ -28,15 +28,15 @@
 //! # Ok::<(), tileraster::dem::DemError>(())
 //! ```
 
+mod block;
 mod grid;
 mod input;
 mod linear;
 mod stream;
 
+pub use block::{BlockRead, FileSummary, block_scene, block_scene_of_files, summarise_file, summarise_files};
 pub use grid::{GridSize, GridSpec, part_window};
-pub use input::{
-    BlockRead, Input, InputKind, PointsRead, ReadOptions, block_scene, describe, drop_long_triangles, input_files, read_points, read_scene, read_scenes,
-};
+pub use input::{Input, InputKind, PointsRead, ReadOptions, describe, drop_long_triangles, input_files, read_points, read_scene, read_scenes};
 pub use linear::{Fallback, Linear};
 pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, streamed_band_rows, write_dem};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
@@ -106,6 +106,9 @@ pub enum DemError {
         "a triangle over this block is too wide for the finest snapping lattice (2^-{finest} cells; it needs 2^-{bits}), which every block of the grid must share: give --max-edge shorter than 8,000 cells, or rasterise the whole grid in one run"
     )]
     BlockLattice { bits: u32, finest: u32 },
+    /// A file read for a block has other points than its summary counted.
+    #[error("{}: {read} points now, {summarised} when it was summarised; the file changed in between: summarise the inputs again", path.display())]
+    InputChanged { path: PathBuf, summarised: usize, read: usize },
     /// Part `k` of `n` lies beyond the grid's rows.
     #[error("the grid's {rows} rows make only {parts} parts of {part_rows} rows; give fewer parts")]
     NoSuchPart { k: u32, n: u32, rows: u32, parts: u32, part_rows: u32 },

@@ -190,43 +190,78 @@ pub struct BlockTin {
     pub attempts: u32,
 }
 
+/// Where a block's points come from: the whole point set, which [`triangulate_block_from`]
+/// asks for a region's share at a time (all of it in memory, or files read as a region
+/// reaches them).
+pub trait BlockSource {
+    /// What reading points may fail with; a refused triangulation is one too.
+    type Error: From<TinError>;
+
+    /// How many points the whole set has, repeats included.
+    fn total(&self) -> usize;
+
+    /// The whole set's points in `region` (all of them for `None`), in the set's order, each
+    /// with its index in the set. A non-finite point is [`TinError::NonFinite`].
+    fn within(&mut self, region: Option<&Rect>) -> Result<Vec<(usize, [f64; 3])>, Self::Error>;
+}
+
+/// A point set in memory is its own source.
+struct InMemory<'a>(&'a [[f64; 3]]);
+
+impl BlockSource for InMemory<'_> {
+    type Error = TinError;
+
+    fn total(&self) -> usize {
+        self.0.len()
+    }
+
+    fn within(&mut self, region: Option<&Rect>) -> Result<Vec<(usize, [f64; 3])>, TinError> {
+        let inside = |p: &[f64; 3]| region.is_none_or(|r| r.holds(p[0], p[1]));
+        Ok(self.0.iter().copied().enumerate().filter(|(_, p)| inside(p)).collect())
+    }
+}
+
 /// The triangles of `points`' TIN (as [`crate::triangulate`] makes it) over `window`, from
-/// the points of the window and a buffer around it, grown until the module's proof holds (or
-/// until it holds a quarter of the points: then all of them).
-/// `hull` must hold every point: a point of a region outside it is
-/// [`TinError::OutsideHull`].
+/// the points of the window and a buffer around it ([`triangulate_block_from`]).
 pub fn triangulate_block(points: &[[f64; 3]], hull: &Hull, window: Rect) -> Result<BlockTin, TinError> {
+    // Every point is checked, as the whole triangulation checks them, not only a region's.
     for (index, &[x, y, z]) in points.iter().enumerate() {
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
             return Err(TinError::NonFinite { index, x, y, z });
         }
     }
+    triangulate_block_from(&mut InMemory(points), hull, window)
+}
+
+/// The triangles of the TIN of `source`'s whole point set over `window`, from the points of
+/// the window and a buffer around it, grown until the module's proof holds (or until it holds
+/// a quarter of the points: then all of them). `hull` must hold every point: a point of a
+/// region outside it is [`TinError::OutsideHull`].
+pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, window: Rect) -> Result<BlockTin, S::Error> {
+    let total = source.total();
     let bounds = hull.bounds().ok_or(TinError::TooFew { distinct: 0 })?;
-    // A first buffer of a few points' spacing on each side; a side whose proof fails doubles
-    // its own, so that the work stays within twice the last region's.
-    let spacing = ((bounds.x1 - bounds.x0) * (bounds.y1 - bounds.y0) / points.len().max(1) as f64).sqrt();
+    // A buffer of 16 mean spacings holds the circumcircles of most blocks' triangles at once.
+    let spacing = ((bounds.x1 - bounds.x0) * (bounds.y1 - bounds.y0) / total.max(1) as f64).sqrt();
     let mut buffer = [16.0 * if spacing > 0.0 { spacing } else { (bounds.x1 - bounds.x0).max(bounds.y1 - bounds.y0) }; 4];
     let mut attempts = 0;
     loop {
         attempts += 1;
         let region = Rect { x0: window.x0 - buffer[0], x1: window.x1 + buffer[1], y0: window.y0 - buffer[2], y1: window.y1 + buffer[3] };
-        // Once a buffer passes the coordinate limit, every point is in the region.
         let mut whole = region.covers(&bounds) || buffer.iter().any(|b| *b >= COORDINATE_LIMIT);
-        let mut chosen: Vec<usize> = if whole { Vec::new() } else { (0..points.len()).filter(|&i| region.holds(points[i][0], points[i][1])).collect() };
-        // A region of more than a quarter of the points takes them all at once: the regions
-        // tried before cost at most half of the whole, so a block never costs more than one
-        // and a half whole triangulations.
-        if chosen.len() > points.len() / 4 {
+        let mut chosen = source.within((!whole).then_some(&region))?;
+        // A region of more than a quarter of the points costs about the whole TIN: take it all,
+        // so that a block never costs much more than the whole.
+        if !whole && chosen.len() > total / 4 {
             whole = true;
+            chosen = source.within(None)?;
         }
-        if whole {
-            chosen = (0..points.len()).collect();
+        if let Some(&(index, [x, y, z])) = chosen.iter().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
+            return Err(TinError::NonFinite { index, x, y, z }.into());
         }
-        if let Some(&index) = chosen.iter().find(|&&i| !hull.holds(points[i][0] + 0.0, points[i][1] + 0.0)) {
-            let [x, y, _] = points[index];
-            return Err(TinError::OutsideHull { index, x, y });
+        if let Some(&(index, [x, y, _])) = chosen.iter().find(|(_, p)| !hull.holds(p[0] + 0.0, p[1] + 0.0)) {
+            return Err(TinError::OutsideHull { index, x, y }.into());
         }
-        let local: Vec<[f64; 3]> = chosen.iter().map(|&i| points[i]).collect();
+        let local: Vec<[f64; 3]> = chosen.iter().map(|&(_, p)| p).collect();
         let outside = hull.outside(&region);
         let unproven = match triangulate_with_hull(&local) {
             Ok((mut tin, local_hull)) => {
@@ -236,7 +271,7 @@ pub fn triangulate_block(points: &[[f64; 3]], hull: &Hull, window: Rect) -> Resu
                 let unproven = if whole { 0 } else { unproven_sides(&tin, &kept, &local_hull, hull, &outside, &window) };
                 if unproven == 0 {
                     tin.scene.triangles = kept;
-                    tin.source.iter_mut().for_each(|s| *s = chosen[*s]);
+                    tin.source.iter_mut().for_each(|s| *s = chosen[*s].0);
                     let region = if whole {
                         Rect { x0: region.x0.min(bounds.x0), y0: region.y0.min(bounds.y0), x1: region.x1.max(bounds.x1), y1: region.y1.max(bounds.y1) }
                     } else {
@@ -248,8 +283,8 @@ pub fn triangulate_block(points: &[[f64; 3]], hull: &Hull, window: Rect) -> Resu
             }
             // Too few points, or all on a line: a larger region has more.
             Err(TinError::TooFew { .. } | TinError::Collinear { .. }) if !whole => ALL_SIDES,
-            Err(TinError::OutOfRange { index, x, y, limit }) => return Err(TinError::OutOfRange { index: chosen[index], x, y, limit }),
-            Err(e) => return Err(e),
+            Err(TinError::OutOfRange { index, x, y, limit }) => return Err(TinError::OutOfRange { index: chosen[index].0, x, y, limit }.into()),
+            Err(e) => return Err(e.into()),
         };
         // Grow the sides the proof failed on, of those the hull reaches past.
         let reaching = (0..4).filter(|&k| !outside[k].is_empty()).fold(0, |m, k| m | 1 << k);

@@ -1,0 +1,204 @@
+//! Blocks of a grid from points: a window's TIN made from the points around it only, proven to
+//! be the whole point set's there (`tileraster_tin::block`), so that blocks rasterised apart
+//! (parts of a cluster run, chunks of a Dask array) give the single run's cells bit for bit.
+//!
+//! The points come from memory ([`block_scene`]) or from files ([`block_scene_of_files`]):
+//! a first pass over the files ([`summarise_files`]) learns each one's point count, bounds and
+//! convex hull, and a block then reads only the files its region meets, more as it grows.
+
+use super::input::{InputKind, PointsRead, ReadOptions, describe, drop_long_triangles, read_kinds};
+use super::{DemError, Input, Progress};
+use crate::{Grid, Window};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use tileraster_tin::{BlockSource, BlockTin, Hull, Rect, TinError};
+
+/// How a block's TIN was made ([`block_scene`]).
+#[derive(Debug, Clone, Copy)]
+pub struct BlockRead {
+    /// The points triangulated: those of the window and its buffer, repeats included.
+    pub points: usize,
+    /// The widest side of the buffer that proved the block's triangles, in map units beyond
+    /// the window's cells.
+    pub buffer: f64,
+    /// Regions triangulated, the last included (1: the first buffer sufficed).
+    pub attempts: u32,
+    /// Input files read (0 for points in memory).
+    pub files_read: usize,
+}
+
+/// Cells beyond a block's window whose triangles the block keeps: more than the rasteriser's
+/// own one-cell margin ([`tileraster_core::prepare`]'s cull), so that a triangle that reaches
+/// the grid passes over some block's window with room to spare.
+const BLOCK_MARGIN_CELLS: f64 = 2.0;
+
+/// The scene of `window` of `grid` as a block: the TIN of `points` (all of the input's, as
+/// [`read_points`](super::read_points) gives them) made from the points of the window and a
+/// buffer around it only, proven to hold the whole TIN's triangles over the window, then
+/// without the triangles `options.max_edge` leaves out. Its cells are the whole TIN's bit for
+/// bit, on the snapping lattice every block shares: a block that meets a triangle too wide for
+/// the finest lattice ([`tileraster_core::snap_bits`]) is [`DemError::BlockLattice`].
+pub fn block_scene(points: &[[f64; 3]], grid: &Grid, window: Window, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
+    let triangulation = |source| DemError::Triangulation { path: PathBuf::from("the input's points"), source };
+    let hull = Hull::of(points);
+    block_of(grid, window, options, progress, |cells| tileraster_tin::triangulate_block(points, &hull, cells).map_err(triangulation))
+}
+
+/// What a first pass over one point file learns: enough to read only the files a block needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FileSummary {
+    pub path: PathBuf,
+    /// Its points (those of `--class`, for LAS/LAZ), repeats included.
+    pub points: usize,
+    /// The least rectangle holding its points' x and y; `None` when it has none.
+    pub bounds: Option<Rect>,
+    /// The convex hull of its points' x and y.
+    pub hull: Hull,
+}
+
+/// Read each file of `paths` (on all cores, one file a core) and summarise it.
+pub fn summarise_files(paths: &[PathBuf], options: &ReadOptions) -> Result<Vec<FileSummary>, DemError> {
+    paths.par_iter().map(|path| summarise_file(path, options)).collect()
+}
+
+/// Read `path` and summarise it; a non-finite coordinate is refused as the whole run refuses it.
+pub fn summarise_file(path: &Path, options: &ReadOptions) -> Result<FileSummary, DemError> {
+    let points = read_file(path, options)?;
+    if let Some((index, &[x, y, z])) = points.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
+        return Err(DemError::Triangulation { path: path.to_path_buf(), source: TinError::NonFinite { index, x, y, z } });
+    }
+    Ok(FileSummary { path: path.to_path_buf(), points: points.len(), bounds: Rect::around(&points), hull: Hull::of(&points) })
+}
+
+fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
+    let kind = InputKind::of(path)?;
+    if !kind.is_points() {
+        return Err(DemError::MeshAmongInputs { path: path.to_path_buf(), inputs: 1 });
+    }
+    if kind != InputKind::Las && !options.classes.is_empty() {
+        return Err(DemError::ClassesOfText { path: path.to_path_buf() });
+    }
+    read_kinds(&[path.to_path_buf()], &[kind], options)
+}
+
+/// The scene of `window` of `grid` as a block ([`block_scene`]) of the points of `files` (in
+/// that order, as one file's), reading only the files whose bounds meet the block's region.
+/// A file whose points differ in number from its summary is [`DemError::InputChanged`].
+pub fn block_scene_of_files(files: &[FileSummary], grid: &Grid, window: Window, options: &ReadOptions, progress: &dyn Progress) -> Result<Input, DemError> {
+    if files.is_empty() {
+        return Err(DemError::NoInputs);
+    }
+    let hull = Hull::of_hulls(&files.iter().map(|f| f.hull.clone()).collect::<Vec<_>>());
+    let mut source = FileSource::new(files, options);
+    let paths: Vec<PathBuf> = files.iter().map(|f| f.path.clone()).collect();
+    let mut input = block_of(grid, window, options, progress, |cells| {
+        tileraster_tin::triangulate_block_from(&mut source, &hull, cells).map_err(|e| match e {
+            SourceError::Tin(source) => DemError::Triangulation { path: describe(&paths), source },
+            SourceError::Read(e) => e,
+        })
+    })?;
+    if let Some(block) = &mut input.block {
+        block.files_read = source.loaded.iter().filter(|f| f.is_some()).count();
+    }
+    Ok(input)
+}
+
+/// Point files read as a block's region reaches them, and kept while it grows.
+struct FileSource<'a> {
+    files: &'a [FileSummary],
+    options: &'a ReadOptions,
+    /// Where each file's points start in the whole set.
+    offsets: Vec<usize>,
+    loaded: Vec<Option<Vec<[f64; 3]>>>,
+}
+
+enum SourceError {
+    Tin(TinError),
+    Read(DemError),
+}
+
+impl From<TinError> for SourceError {
+    fn from(e: TinError) -> Self {
+        SourceError::Tin(e)
+    }
+}
+
+impl<'a> FileSource<'a> {
+    fn new(files: &'a [FileSummary], options: &'a ReadOptions) -> Self {
+        let offsets = files.iter().scan(0, |start, f| Some(std::mem::replace(start, *start + f.points))).collect();
+        FileSource { files, options, offsets, loaded: vec![None; files.len()] }
+    }
+}
+
+impl BlockSource for FileSource<'_> {
+    type Error = SourceError;
+
+    fn total(&self) -> usize {
+        self.files.iter().map(|f| f.points).sum()
+    }
+
+    fn within(&mut self, region: Option<&Rect>) -> Result<Vec<(usize, [f64; 3])>, SourceError> {
+        let reaches = |f: &FileSummary| f.bounds.is_some_and(|b| region.is_none_or(|r| r.meets(&b)));
+        let wanted: Vec<usize> = (0..self.files.len()).filter(|&k| self.loaded[k].is_none() && reaches(&self.files[k])).collect();
+        let read = |&k: &usize| {
+            let file = &self.files[k];
+            let points = read_file(&file.path, self.options)?;
+            match points.len() == file.points {
+                true => Ok(points),
+                false => Err(DemError::InputChanged { path: file.path.clone(), summarised: file.points, read: points.len() }),
+            }
+        };
+        let parts = wanted.par_iter().map(read).collect::<Result<Vec<_>, _>>().map_err(SourceError::Read)?;
+        for (k, part) in wanted.into_iter().zip(parts) {
+            self.loaded[k] = Some(part);
+        }
+        let mut chosen = Vec::new();
+        for (k, file) in self.files.iter().enumerate() {
+            let Some(points) = self.loaded[k].as_ref().filter(|_| reaches(file)) else { continue };
+            let inside = |p: &[f64; 3]| region.is_none_or(|r| r.holds(p[0], p[1]));
+            chosen.extend(points.iter().enumerate().filter(|(_, p)| inside(p)).map(|(i, &p)| (self.offsets[k] + i, p)));
+        }
+        Ok(chosen)
+    }
+}
+
+/// A block's scene from `triangulate`, given the block's window in map units with its margin.
+fn block_of(
+    grid: &Grid,
+    window: Window,
+    options: &ReadOptions,
+    progress: &dyn Progress,
+    triangulate: impl FnOnce(Rect) -> Result<BlockTin, DemError>,
+) -> Result<Input, DemError> {
+    if let Some(max_edge) = options.max_edge.filter(|l| !(l.is_finite() && *l > 0.0)) {
+        return Err(DemError::MaxEdge(max_edge));
+    }
+    window.validate(grid)?;
+    let start = Instant::now();
+    let (dx, dy) = (grid.dx(), grid.dy());
+    let cells = Rect {
+        x0: grid.xmin + (window.x0 as f64 - BLOCK_MARGIN_CELLS) * dx,
+        x1: grid.xmin + ((window.x0 + window.width) as f64 + BLOCK_MARGIN_CELLS) * dx,
+        y0: grid.ymax - ((window.y0 + window.height) as f64 + BLOCK_MARGIN_CELLS) * dy,
+        y1: grid.ymax - (window.y0 as f64 - BLOCK_MARGIN_CELLS) * dy,
+    };
+    progress.stage(&format!("triangulating the points around {}×{} cells", window.width, window.height));
+    let block = triangulate(cells)?;
+    let mut scene = block.tin.scene;
+    let long_triangles = options.max_edge.map_or(0, |max_edge| drop_long_triangles(&mut scene, max_edge));
+    let bits = tileraster_core::snap_bits(&scene, grid)?;
+    if bits < tileraster_core::kernels::MAX_SNAP_BITS {
+        return Err(DemError::BlockLattice { bits, finest: tileraster_core::kernels::MAX_SNAP_BITS });
+    }
+    let summary = PointsRead { count: block.points, duplicates: block.tin.duplicates, read: Duration::ZERO, triangulated: start.elapsed() };
+    let region = block.region;
+    let buffer = (cells.x0 - region.x0).max(cells.y0 - region.y0).max(region.x1 - cells.x1).max(region.y1 - cells.y1).max(0.0);
+    Ok(Input {
+        scene,
+        points: Some(summary),
+        long_triangles,
+        points_read: None,
+        block: Some(BlockRead { points: block.points, buffer, attempts: block.attempts, files_read: 0 }),
+    })
+}

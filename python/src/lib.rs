@@ -51,6 +51,22 @@ impl Grid {
     fn __repr__(&self) -> String {
         format!("tileraster.Grid({:?})", self.spec)
     }
+
+    /// Whether the grid's extent is given (`txe` and `tye`), not taken from the points.
+    #[getter]
+    fn extent_given(&self) -> bool {
+        self.spec.txe.is_some() && self.spec.tye.is_some()
+    }
+
+    /// The grid over points whose x and y span `bounds` (west, south, east, north), as
+    /// `Raster.grid` gives it: (xmin, xmax, ymin, ymax, width, height). `bounds` may be
+    /// `None` when the extent is given.
+    #[pyo3(signature = (bounds = None))]
+    fn resolve(&self, bounds: Option<(f64, f64, f64, f64)>) -> PyResult<GridTuple> {
+        let corners = bounds.map_or(Vec::new(), |(x0, y0, x1, y1)| vec![[x0, y0, 0.0], [x1, y1, 0.0]]);
+        let g = self.spec.grid_for(&corners).map_err(error)?;
+        Ok((g.xmin, g.xmax, g.ymin, g.ymax, g.width, g.height))
+    }
 }
 
 /// A triangle mesh: vertices (x, y, z) and triangles (three vertex indices each).
@@ -528,6 +544,117 @@ fn rasterise(
     Raster::new(py, raster, &stats)
 }
 
+/// A point file summarised for blocks, as Python keeps it (plain values, so that Dask can
+/// ship it): (path, points, bounds (west, south, east, north) or `None`, hull corners (K, 2)).
+type SummaryTuple<'py> = (PathBuf, usize, Option<(f64, f64, f64, f64)>, Bound<'py, PyArray2<f64>>);
+
+/// The files that `inputs` (files, directories, glob patterns) name, as the command line
+/// finds them.
+#[pyfunction]
+fn input_files(inputs: Vec<PathBuf>) -> PyResult<Vec<PathBuf>> {
+    dem::input_files(&inputs).map_err(error)
+}
+
+fn read_options(classes: Vec<u8>, max_edge: Option<f64>) -> dem::ReadOptions {
+    dem::ReadOptions { classes, max_edge, ..Default::default() }
+}
+
+/// Read the point file `path` and summarise it for blocks ([`block_dem`]).
+#[pyfunction]
+#[pyo3(signature = (path, *, classes = Vec::new()))]
+fn summarise_points(py: Python<'_>, path: PathBuf, classes: Vec<u8>) -> PyResult<SummaryTuple<'_>> {
+    let options = read_options(classes, None);
+    let summary = interruptible(py, move |_| dem::summarise_file(&path, &options))?.map_err(error)?;
+    let bounds = summary.bounds.map(|b| (b.x0, b.y0, b.x1, b.y1));
+    let hull = rows(summary.hull.corners().iter().flatten().copied().collect(), 2).into_pyarray(py);
+    Ok((summary.path, summary.points, bounds, hull))
+}
+
+fn grid_of((xmin, xmax, ymin, ymax, width, height): GridTuple) -> tileraster::Grid {
+    tileraster::Grid::new(xmin, xmax, ymin, ymax, width, height)
+}
+
+/// Rasterise `window` of a block's scene; `None` when interrupted.
+fn rasterise_block(
+    scene: &RustScene,
+    grid: tileraster::Grid,
+    window: Window,
+    settings: &Settings,
+    cancel: &AtomicBool,
+) -> PyResult<Option<(RustRaster, Vec<Stats>)>> {
+    let params = settings.params(grid);
+    let prepared = tileraster::prepare(scene, &params, Some(window)).map_err(error)?;
+    let mut prepared = PreparedScene::from_prepared(prepared, settings.backend_for(&grid, Some(window)));
+    rasterise_banded(&mut prepared, window, cancel).map_err(error)
+}
+
+/// `window` of `grid` from the points of the summarised `files` (in their order, as one file's),
+/// reading only the files the block's region meets: the whole run's cells bit for bit.
+#[pyfunction]
+#[pyo3(signature = (files, grid, window, *, backend = "cpu", mode = "exact", nodata = -9999.0, max_edge = None, classes = Vec::new()))]
+#[allow(clippy::too_many_arguments)]
+fn block_dem(
+    py: Python<'_>,
+    files: Vec<SummaryTuple<'_>>,
+    grid: GridTuple,
+    window: (u32, u32, u32, u32),
+    backend: &str,
+    mode: &str,
+    nodata: f32,
+    max_edge: Option<f64>,
+    classes: Vec<u8>,
+) -> PyResult<Raster> {
+    let settings = Settings::new(backend, mode, nodata, false)?;
+    let mut summaries = Vec::with_capacity(files.len());
+    for (path, points, bounds, hull) in files {
+        let hull = vertices_of_two(&hull)?;
+        let bounds = bounds.map(|(x0, y0, x1, y1)| tileraster_tin::Rect { x0, y0, x1, y1 });
+        summaries.push(dem::FileSummary { path, points, bounds, hull: tileraster_tin::Hull::of(&hull) });
+    }
+    let (options, grid, window) = (read_options(classes, max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
+    let done = interruptible(py, move |cancel| {
+        let input = dem::block_scene_of_files(&summaries, &grid, window, &options, &()).map_err(error)?;
+        rasterise_block(&input.scene, grid, window, &settings, cancel)
+    })??;
+    let (raster, stats) = done.ok_or_else(|| error("interrupted"))?;
+    Raster::new(py, raster, &stats)
+}
+
+/// `window` of `grid` from `points` ((N, 3) x, y, z, all of them), triangulating only those
+/// around the window: the whole run's cells bit for bit.
+#[pyfunction]
+#[pyo3(signature = (points, grid, window, *, backend = "cpu", mode = "exact", nodata = -9999.0, max_edge = None))]
+#[allow(clippy::too_many_arguments)]
+fn block_dem_points(
+    py: Python<'_>,
+    points: &Bound<'_, PyAny>,
+    grid: GridTuple,
+    window: (u32, u32, u32, u32),
+    backend: &str,
+    mode: &str,
+    nodata: f32,
+    max_edge: Option<f64>,
+) -> PyResult<Raster> {
+    let settings = Settings::new(backend, mode, nodata, false)?;
+    let points = vertices_of(points, "points")?;
+    let (options, grid, window) = (read_options(Vec::new(), max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
+    let done = interruptible(py, move |cancel| {
+        let input = dem::block_scene(&points, &grid, window, &options, &()).map_err(error)?;
+        rasterise_block(&input.scene, grid, window, &settings, cancel)
+    })??;
+    let (raster, stats) = done.ok_or_else(|| error("interrupted"))?;
+    Raster::new(py, raster, &stats)
+}
+
+fn vertices_of_two(array: &Bound<'_, PyArray2<f64>>) -> PyResult<Vec<[f64; 2]>> {
+    let array = array.readonly();
+    let array = array.as_array();
+    if array.ncols() != 2 {
+        return Err(error(format!("a hull has shape ({}, {}); give (K, 2) corners", array.nrows(), array.ncols())));
+    }
+    Ok(array.rows().into_iter().map(|r| [r[0], r[1]]).collect())
+}
+
 /// The backend "auto" picks here for a large raster, and the Vulkan adapter if there is one.
 /// It opens no device (`tileraster::choose_backend`).
 #[pyfunction]
@@ -545,5 +672,9 @@ fn _native(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_class::<Prepared>()?;
     module.add_function(wrap_pyfunction!(rasterise, module)?)?;
     module.add_function(wrap_pyfunction!(backends, module)?)?;
+    module.add_function(wrap_pyfunction!(input_files, module)?)?;
+    module.add_function(wrap_pyfunction!(summarise_points, module)?)?;
+    module.add_function(wrap_pyfunction!(block_dem, module)?)?;
+    module.add_function(wrap_pyfunction!(block_dem_points, module)?)?;
     Ok(())
 }

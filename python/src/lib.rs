@@ -288,6 +288,8 @@ struct Raster {
     bands: Py<PyList>,
     grid: tileraster::Grid,
     window: Window,
+    /// For a block's raster, how its TIN was made.
+    block: Option<dem::BlockRead>,
 }
 
 impl Raster {
@@ -304,6 +306,7 @@ impl Raster {
             bands: bands.unbind(),
             grid: raster.grid,
             window: raster.window,
+            block: None,
         })
     }
 
@@ -384,6 +387,21 @@ impl Raster {
         }
         first.set_item("bands", bands.len())?;
         Ok(first)
+    }
+
+    /// For a block of a larger DEM (`tileraster.dask`), how its TIN was made: the points
+    /// triangulated, the files read, the regions tried, the widest buffer beyond the window
+    /// and the width of the bands along the hull's edges (map units); `None` for other rasters.
+    #[getter]
+    fn block<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(block) = self.block else { return Ok(None) };
+        let dict = PyDict::new(py);
+        dict.set_item("points", block.points)?;
+        dict.set_item("files_read", block.files_read)?;
+        dict.set_item("attempts", block.attempts)?;
+        dict.set_item("buffer", block.buffer)?;
+        dict.set_item("band", block.band)?;
+        Ok(Some(dict))
     }
 
     /// GDAL's geotransform: (west, dx, 0, north, 0, -dy).
@@ -614,10 +632,10 @@ fn block_dem(
     let (options, grid, window) = (read_options(classes, max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
     let done = interruptible(py, move |cancel| {
         let input = dem::block_scene_of_files(&summaries, &grid, window, &options, &()).map_err(error)?;
-        rasterise_block(&input.scene, grid, window, &settings, cancel)
+        PyResult::Ok(rasterise_block(&input.scene, grid, window, &settings, cancel)?.map(|done| (done, input.block)))
     })??;
-    let (raster, stats) = done.ok_or_else(|| error("interrupted"))?;
-    Raster::new(py, raster, &stats)
+    let ((raster, stats), block) = done.ok_or_else(|| error("interrupted"))?;
+    Ok(Raster { block, ..Raster::new(py, raster, &stats)? })
 }
 
 /// `window` of `grid` from `points` ((N, 3) x, y, z, all of them), triangulating only those
@@ -640,10 +658,10 @@ fn block_dem_points(
     let (options, grid, window) = (read_options(Vec::new(), max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
     let done = interruptible(py, move |cancel| {
         let input = dem::block_scene(&points, &grid, window, &options, &()).map_err(error)?;
-        rasterise_block(&input.scene, grid, window, &settings, cancel)
+        PyResult::Ok(rasterise_block(&input.scene, grid, window, &settings, cancel)?.map(|done| (done, input.block)))
     })??;
-    let (raster, stats) = done.ok_or_else(|| error("interrupted"))?;
-    Raster::new(py, raster, &stats)
+    let ((raster, stats), block) = done.ok_or_else(|| error("interrupted"))?;
+    Ok(Raster { block, ..Raster::new(py, raster, &stats)? })
 }
 
 fn vertices_of_two(array: &Bound<'_, PyArray2<f64>>) -> PyResult<Vec<[f64; 2]>> {

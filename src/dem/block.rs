@@ -12,7 +12,7 @@ use crate::{Grid, Window};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use tileraster_tin::{BlockSource, BlockTin, Hull, Rect, TinError};
+use tileraster_tin::{BlockSource, BlockTin, Hull, Rect, Region, TinError};
 
 /// How a block's TIN was made ([`block_scene`]).
 #[derive(Debug, Clone, Copy)]
@@ -24,6 +24,9 @@ pub struct BlockRead {
     pub buffer: f64,
     /// Regions triangulated, the last included (1: the first buffer sufficed).
     pub attempts: u32,
+    /// The width of the bands along the hull's edges whose points were triangulated too (0
+    /// for none).
+    pub band: f64,
     /// Input files read (0 for points in memory).
     pub files_read: usize,
 }
@@ -138,7 +141,7 @@ impl BlockSource for FileSource<'_> {
         self.files.iter().map(|f| f.points).sum()
     }
 
-    fn within(&mut self, region: Option<&Rect>) -> Result<Vec<(usize, [f64; 3])>, SourceError> {
+    fn within(&mut self, region: Option<&Region>) -> Result<Vec<(usize, [f64; 3])>, SourceError> {
         let reaches = |f: &FileSummary| f.bounds.is_some_and(|b| region.is_none_or(|r| r.meets(&b)));
         let wanted: Vec<usize> = (0..self.files.len()).filter(|&k| self.loaded[k].is_none() && reaches(&self.files[k])).collect();
         let read = |&k: &usize| {
@@ -199,6 +202,6 @@ fn block_of(
         points: Some(summary),
         long_triangles,
         points_read: None,
-        block: Some(BlockRead { points: block.points, buffer, attempts: block.attempts, files_read: 0 }),
+        block: Some(BlockRead { points: block.points, buffer, attempts: block.attempts, band: block.band, files_read: 0 }),
     })
 }

@@ -9,7 +9,7 @@
 //! hull), so it is enough that the disc meets no part of `H` outside `R`. An edge of the
 //! region's hull is an edge of the whole TIN's hull exactly when it lies on `H`'s boundary.
 //!
-//! [`triangulate_block`] keeps the region's triangles whose bounding box meets the window,
+//! [`triangulate_block`] keeps the region's triangles that meet the window (exactly),
 //! and proves each of them, and that each edge of the region's hull that faces the window lies
 //! on `H`'s boundary. Then the kept triangles are exactly the whole TIN's triangles over the
 //! window: a point of the window inside a triangle `T` of the whole TIN is either inside the
@@ -61,6 +61,40 @@ impl Rect {
     /// The rectangle with `by` more on every side.
     pub fn grown(&self, by: f64) -> Rect {
         Rect { x0: self.x0 - by, y0: self.y0 - by, x1: self.x1 + by, y1: self.y1 + by }
+    }
+
+    /// Whether the segment `a`–`b` meets the rectangle (Liang and Barsky's clip, in `f64`).
+    fn crossed_by(&self, a: [f64; 2], b: [f64; 2]) -> bool {
+        let (mut enter, mut exit) = (0.0f64, 1.0f64);
+        for (axis, lo, hi) in [(0, self.x0, self.x1), (1, self.y0, self.y1)] {
+            let d = b[axis] - a[axis];
+            if d == 0.0 {
+                if a[axis] < lo || a[axis] > hi {
+                    return false;
+                }
+                continue;
+            }
+            let (t0, t1) = ((lo - a[axis]) / d, (hi - a[axis]) / d);
+            enter = enter.max(t0.min(t1));
+            exit = exit.min(t0.max(t1));
+        }
+        enter <= exit
+    }
+
+    /// Whether the triangle `t` (x and y of its corners) and the rectangle share a point:
+    /// exact (orientation predicates on the input coordinates).
+    pub fn meets_triangle(&self, t: [[f64; 3]; 3]) -> bool {
+        let at = |p: [f64; 3]| Coord { x: p[0], y: p[1] };
+        let ccw = orient2d(at(t[0]), at(t[1]), at(t[2])) > 0.0;
+        // Separated when all four corners lie strictly outside one of the triangle's edges.
+        let separated = (0..3).any(|k| {
+            let (p, q) = (at(t[k]), at(t[(k + 1) % 3]));
+            self.corners().iter().all(|&w| {
+                let side = orient2d(p, q, w);
+                if ccw { side < 0.0 } else { side > 0.0 }
+            })
+        });
+        Rect::around(&t).is_some_and(|b| b.meets(self)) && !separated
     }
 
     fn corners(&self) -> [Coord<f64>; 4] {
@@ -146,12 +180,90 @@ impl Hull {
         (0..self.corners.len()).map(move |k| (at(self.corners[k]), at(self.corners[(k + 1) % self.corners.len()])))
     }
 
-    /// The parts of the hull beyond each side of `region` (west, east, south, north: the hull
-    /// cut by the side's outer half-plane, closed, empty where the hull does not reach past
-    /// it; intersections rounded, which the disc test's slack covers).
-    fn outside(&self, region: &Rect) -> [Vec<[f64; 2]>; 4] {
-        let sides = [(0, region.x0, true), (0, region.x1, false), (1, region.y0, true), (1, region.y1, false)];
-        sides.map(|(axis, at, below)| cut(&self.corners, axis, at, below))
+    /// `rect` with bands of `width` along the hull's edges that cross it (a rectangle inside
+    /// the hull has none: no thin triangle along an edge reaches its window).
+    fn region(&self, rect: Rect, width: f64) -> Region {
+        let bands = match self.corners.len() {
+            0..=2 => Vec::new(),
+            n => (0..n)
+                .map(|k| (self.corners[k], self.corners[(k + 1) % n]))
+                .filter(|&(a, b)| rect.crossed_by(a, b))
+                .map(|(a, b)| Band { a, b, width })
+                .collect(),
+        };
+        Region { rect, bands }
+    }
+
+    /// Where points of the hull may lie that `region` does not hold: the hull less half of
+    /// each band (the other half is margin for the rounding of both), cut beyond each side of
+    /// the rectangle (west, east, south, north: closed, empty where nothing reaches past the
+    /// side; intersections rounded, which the disc test's slack covers).
+    fn outside(&self, region: &Region) -> [Vec<[f64; 2]>; 4] {
+        let inner = region.bands.iter().fold(self.corners.clone(), |polygon, band| band.clip(&polygon, band.width / 2.0));
+        let r = region.rect;
+        [(0, r.x0, true), (0, r.x1, false), (1, r.y0, true), (1, r.y1, false)].map(|(axis, at, below)| cut(&inner, axis, at, below))
+    }
+}
+
+/// The part of a block's plane whose points it reads: a rectangle around its window, and
+/// bands inside the hull along the hull's edges that pass near it. The triangles along a hull
+/// edge are thin and may reach as far as the edge does; a band holds their corners (and, being
+/// thin, little else), where a rectangle would have to grow along the whole edge.
+#[derive(Debug, Clone)]
+pub struct Region {
+    pub rect: Rect,
+    bands: Vec<Band>,
+}
+
+impl Region {
+    /// Whether the region holds `(x, y)`: rounding may add points near its borders, never
+    /// leave one out by more than a band's half.
+    pub fn holds(&self, x: f64, y: f64) -> bool {
+        self.rect.holds(x, y) || self.bands.iter().any(|band| band.depth([x, y]) <= band.width)
+    }
+
+    /// Whether the region may hold points of `rect` (a file's bounds, say).
+    pub fn meets(&self, rect: &Rect) -> bool {
+        let corners = [[rect.x0, rect.y0], [rect.x1, rect.y0], [rect.x1, rect.y1], [rect.x0, rect.y1]];
+        self.rect.meets(rect) || self.bands.iter().any(|band| corners.iter().any(|&c| band.depth(c) <= band.width))
+    }
+
+    /// The widest band (0 without bands).
+    pub fn band_width(&self) -> f64 {
+        self.bands.iter().fold(0.0, |w, band| w.max(band.width))
+    }
+}
+
+/// The hull's points within `width` of the line of its edge `a` → `b`.
+#[derive(Debug, Clone, Copy)]
+struct Band {
+    a: [f64; 2],
+    b: [f64; 2],
+    width: f64,
+}
+
+impl Band {
+    /// How far `p` lies inside the edge's line (the hull is counter-clockwise), in `f64`.
+    fn depth(&self, p: [f64; 2]) -> f64 {
+        let (ex, ey) = (self.b[0] - self.a[0], self.b[1] - self.a[1]);
+        (ex * (p[1] - self.a[1]) - ey * (p[0] - self.a[0])) / ex.hypot(ey)
+    }
+
+    /// The convex `polygon` cut to the points at least `depth` inside the edge's line.
+    fn clip(&self, polygon: &[[f64; 2]], depth: f64) -> Vec<[f64; 2]> {
+        let keeps = |p: &[f64; 2]| self.depth(*p) >= depth;
+        let mut part = Vec::new();
+        for k in 0..polygon.len() {
+            let (a, b) = (polygon[k], polygon[(k + 1) % polygon.len()]);
+            if keeps(&a) {
+                part.push(a);
+            }
+            if keeps(&a) != keeps(&b) {
+                let t = (depth - self.depth(a)) / (self.depth(b) - self.depth(a));
+                part.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+            }
+        }
+        part
     }
 }
 
@@ -179,11 +291,14 @@ fn cut(polygon: &[[f64; 2]], axis: usize, at: f64, below: bool) -> Vec<[f64; 2]>
 #[derive(Debug, Clone)]
 pub struct BlockTin {
     /// The region's points (the first at each position, in input order) and, of their
-    /// triangles, those whose bounding box meets the window, in the whole TIN's order;
+    /// triangles, those that meet the window, in the whole TIN's order;
     /// `tin.source` indexes the whole point set.
     pub tin: Tin,
-    /// The region whose points were triangulated: the window and the buffer that proved it.
+    /// The rectangle whose points were triangulated: the window and the buffer that proved it.
     pub region: Rect,
+    /// The width of the bands along the hull's edges whose points were triangulated too (0
+    /// when none was needed).
+    pub band: f64,
     /// The region's points, repeats included.
     pub points: usize,
     /// Regions triangulated, the last one included (1 when the first buffer sufficed).
@@ -200,9 +315,9 @@ pub trait BlockSource {
     /// How many points the whole set has, repeats included.
     fn total(&self) -> usize;
 
-    /// The whole set's points in `region` (all of them for `None`), in the set's order, each
-    /// with its index in the set. A non-finite point is [`TinError::NonFinite`].
-    fn within(&mut self, region: Option<&Rect>) -> Result<Vec<(usize, [f64; 3])>, Self::Error>;
+    /// The whole set's points that `region` holds (all of them for `None`), in the set's
+    /// order, each with its index in the set; more may come, never fewer.
+    fn within(&mut self, region: Option<&Region>) -> Result<Vec<(usize, [f64; 3])>, Self::Error>;
 }
 
 /// A point set in memory is its own source.
@@ -215,7 +330,7 @@ impl BlockSource for InMemory<'_> {
         self.0.len()
     }
 
-    fn within(&mut self, region: Option<&Rect>) -> Result<Vec<(usize, [f64; 3])>, TinError> {
+    fn within(&mut self, region: Option<&Region>) -> Result<Vec<(usize, [f64; 3])>, TinError> {
         let inside = |p: &[f64; 3]| region.is_none_or(|r| r.holds(p[0], p[1]));
         Ok(self.0.iter().copied().enumerate().filter(|(_, p)| inside(p)).collect())
     }
@@ -243,11 +358,14 @@ pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, windo
     // A buffer of 16 mean spacings holds the circumcircles of most blocks' triangles at once.
     let spacing = ((bounds.x1 - bounds.x0) * (bounds.y1 - bounds.y0) / total.max(1) as f64).sqrt();
     let mut buffer = [16.0 * if spacing > 0.0 { spacing } else { (bounds.x1 - bounds.x0).max(bounds.y1 - bounds.y0) }; 4];
+    // Bands start thin: the triangles along a hull edge lie within about a spacing of it.
+    let mut band = buffer[0] / 8.0;
     let mut attempts = 0;
     loop {
         attempts += 1;
-        let region = Rect { x0: window.x0 - buffer[0], x1: window.x1 + buffer[1], y0: window.y0 - buffer[2], y1: window.y1 + buffer[3] };
-        let mut whole = region.covers(&bounds) || buffer.iter().any(|b| *b >= COORDINATE_LIMIT);
+        let rect = Rect { x0: window.x0 - buffer[0], x1: window.x1 + buffer[1], y0: window.y0 - buffer[2], y1: window.y1 + buffer[3] };
+        let region = hull.region(rect, band);
+        let mut whole = rect.covers(&bounds) || buffer.iter().any(|b| *b >= COORDINATE_LIMIT);
         let mut chosen = source.within((!whole).then_some(&region))?;
         // A region of more than a quarter of the points costs about the whole TIN: take it all,
         // so that a block never costs much more than the whole.
@@ -266,18 +384,16 @@ pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, windo
         let unproven = match triangulate_with_hull(&local) {
             Ok((mut tin, local_hull)) => {
                 let vertices = &tin.scene.vertices;
-                let kept: Vec<[u32; 3]> =
-                    tin.scene.triangles.iter().copied().filter(|t| Rect::around(&t.map(|v| vertices[v as usize])).is_some_and(|b| b.meets(&window))).collect();
-                let unproven = if whole { 0 } else { unproven_sides(&tin, &kept, &local_hull, hull, &outside, &window) };
+                let kept: Vec<[u32; 3]> = tin.scene.triangles.iter().copied().filter(|t| window.meets_triangle(t.map(|v| vertices[v as usize]))).collect();
+                let unproven = if whole { 0 } else { unproven_sides(&tin, &kept, &local_hull, hull, &region, &outside, &window) };
                 if unproven == 0 {
                     tin.scene.triangles = kept;
                     tin.source.iter_mut().for_each(|s| *s = chosen[*s].0);
-                    let region = if whole {
-                        Rect { x0: region.x0.min(bounds.x0), y0: region.y0.min(bounds.y0), x1: region.x1.max(bounds.x1), y1: region.y1.max(bounds.y1) }
-                    } else {
-                        region
+                    let (region, band) = match whole {
+                        true => (Rect { x0: rect.x0.min(bounds.x0), y0: rect.y0.min(bounds.y0), x1: rect.x1.max(bounds.x1), y1: rect.y1.max(bounds.y1) }, 0.0),
+                        false => (rect, region.band_width()),
                     };
-                    return Ok(BlockTin { tin, region, points: chosen.len(), attempts });
+                    return Ok(BlockTin { tin, region, band, points: chosen.len(), attempts });
                 }
                 unproven
             }
@@ -290,18 +406,24 @@ pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, windo
         let reaching = (0..4).filter(|&k| !outside[k].is_empty()).fold(0, |m, k| m | 1 << k);
         let grow = if unproven & reaching != 0 { unproven & reaching } else { reaching };
         (0..4).filter(|&k| grow & 1 << k != 0).for_each(|k| buffer[k] *= 2.0);
+        // A triangle along a hull edge whose disc reaches deeper than the bands: wider bands.
+        if unproven & BANDS != 0 {
+            band *= 2.0;
+        }
     }
 }
 
-/// Sides of a region, as bits (west, east, south, north).
+/// Sides of a region, as bits (west, east, south, north), and its bands.
 type Sides = u8;
 const ALL_SIDES: Sides = 0b1111;
+const BANDS: Sides = 0b10000;
 
 /// The sides (bits of [`Sides`]) beyond which a point could change the kept triangles: where
 /// a kept triangle's circumdisc may meet the hull's part beyond the side (`outside`), or an
 /// edge of the region's hull (`local_hull`) that faces the window is not on the whole hull's
 /// boundary (the hull's parts it faces); 0 when the block is proven.
-fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &Hull, outside: &[Vec<[f64; 2]>; 4], window: &Rect) -> Sides {
+/// A kept triangle with a corner in a band whose disc is unclear adds [`BANDS`].
+fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &Hull, region: &Region, outside: &[Vec<[f64; 2]>; 4], window: &Rect) -> Sides {
     let at = |v: u32| {
         let p = tin.scene.vertices[v as usize];
         Coord { x: p[0] + 0.0, y: p[1] + 0.0 }
@@ -316,7 +438,12 @@ fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &
             unproven |= ALL_SIDES * u8::from(unproven == 0);
         }
     }
-    kept.iter().fold(unproven, |m, t| m | disc_unclear(t.map(at), outside))
+    let in_band = |c: Coord<f64>| region.bands.iter().any(|band| band.depth([c.x, c.y]) <= band.width);
+    kept.iter().fold(unproven, |m, t| {
+        let corners = t.map(at);
+        let unclear = disc_unclear(corners, outside);
+        m | unclear | if unclear != 0 && corners.iter().any(|&c| in_band(c)) { BANDS } else { 0 }
+    })
 }
 
 /// The sides whose part of the hull (`parts`) the closed circumdisc of the corners may meet:
@@ -400,18 +527,6 @@ mod tests {
 
     /// Whether the closed triangle meets the closed rectangle (separating axes; for tests,
     /// whose shapes are far from the limits of `f64`).
-    fn touches(t: [[f64; 3]; 3], window: &Rect) -> bool {
-        let corners = window.corners();
-        let ccw = orient2d(Coord { x: t[0][0], y: t[0][1] }, Coord { x: t[1][0], y: t[1][1] }, Coord { x: t[2][0], y: t[2][1] }) > 0.0;
-        let separated = (0..3).any(|k| {
-            let (p, q) = (t[k], t[(k + 1) % 3]);
-            corners.iter().all(|&w| {
-                let side = orient2d(Coord { x: p[0], y: p[1] }, Coord { x: q[0], y: q[1] }, w);
-                if ccw { side < 0.0 } else { side > 0.0 }
-            })
-        });
-        Rect::around(&t).unwrap().meets(window) && !separated
-    }
 
     /// That the block's triangles are the whole TIN's over the window: a part of the whole
     /// TIN's, in its order, with each of its triangles that meets the window.
@@ -423,7 +538,7 @@ mod tests {
             assert!(rest.any(|u| u == t), "{what}: {t:?} is not the whole TIN's, or out of its order");
         }
         for (t, key) in whole.scene.triangles.iter().zip(&all) {
-            if touches(t.map(|v| whole.scene.vertices[v as usize]), window) {
+            if window.meets_triangle(t.map(|v| whole.scene.vertices[v as usize])) {
                 assert!(mine.contains(key), "{what}: the whole TIN's {key:?} meets the window and is missing");
             }
         }
@@ -478,8 +593,13 @@ mod tests {
             }
             grew += block.attempts - 1;
             let interior = window.x0 > bounds.x0 + 50.0 && window.x1 < bounds.x1 - 50.0 && window.y0 > bounds.y0 + 50.0 && window.y1 < bounds.y1 - 50.0;
-            if interior {
-                assert!(block.points < points.len() / 5, "a small window reads a small share: {} of {}", block.points, points.len());
+            let small = (window.x1 - window.x0) * (window.y1 - window.y0) < 0.1 * (bounds.x1 - bounds.x0) * (bounds.y1 - bounds.y0);
+            let on_hull = hull.corners().iter().any(|&[x, y]| window.grown(20.0).holds(x, y));
+            if small && window.meets(&bounds) {
+                // At the hull too: the thin triangles along its edges come from bands, and a
+                // rectangle need not grow along the edges.
+                assert!(block.points < points.len() / 5, "a small window reads a small share: {} of {} ({window:?})", block.points, points.len());
+                assert_eq!(block.band > 0.0, !interior && on_hull, "bands where the region crosses the hull ({window:?})");
             }
         }
         assert!(grew > 0, "the hole makes some buffer grow");

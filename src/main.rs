@@ -307,28 +307,45 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     let blocked = part.is_some() && points_only && owner.is_none() && tin.is_none() && linear.radius == 0.0;
     let (read, grid) = if blocked {
         let start = Instant::now();
-        let points = dem::read_points(&inputs, &options).map_err(|e| e.to_string())?;
+        // Several files: a pass over them for their counts, bounds and hulls, holding one file
+        // at a time, then only the files the band needs. One file: its points, read once.
+        let (files, points) = match inputs.len() {
+            1 => (Vec::new(), dem::read_points(&inputs, &options).map_err(|e| e.to_string())?),
+            _ => (dem::summarise_files(&inputs, &options).map_err(|e| e.to_string())?, Vec::new()),
+        };
         let read_time = start.elapsed();
+        let total = points.len() + files.iter().map(|f| f.points).sum::<usize>();
         let grid = match given {
             Some(grid) => grid,
-            None => spec.grid_for(&points).map_err(grid_error)?,
+            None if files.is_empty() => spec.grid_for(&points).map_err(grid_error)?,
+            None => spec
+                .grid_for(&files.iter().filter_map(|f| f.bounds).flat_map(|b| [[b.x0, b.y0, 0.0], [b.x1, b.y1, 0.0]]).collect::<Vec<_>>())
+                .map_err(grid_error)?,
         };
-        let read = dem::block_scene(&points, &grid, window_of(&grid)?, &options, &progress).map_err(|e| e.to_string())?;
+        let read = match files.is_empty() {
+            true => dem::block_scene(&points, &grid, window_of(&grid)?, &options, &progress),
+            false => dem::block_scene_of_files(&files, &grid, window_of(&grid)?, &options, &progress),
+        }
+        .map_err(|e| e.to_string())?;
         let (block, summary) = (read.block.expect("a block's scene says how it was made"), read.points.expect("a block is of points"));
         let (k, n) = part.expect("blocked runs are parts");
-        let around = match (block.points == points.len(), block.attempts) {
+        let files_read = match files.len() {
+            0 => String::new(),
+            n => format!(", from {} of the {n} files", block.files_read),
+        };
+        let around = match (block.points == total, block.attempts) {
             (true, _) => "every point (the band's triangles need points that far)".to_string(),
-            (false, 1) => format!("the {} around its band (a buffer of {} map units)", block.points, block.buffer),
+            (false, 1) => format!("the {} around its band (a buffer of {:.1} map units)", block.points, block.buffer),
             (false, a) => format!(
-                "the {} around its band (a buffer of {} map units, widened {} times until it proved them the whole TIN's)",
+                "the {} around its band (a buffer of {:.1} map units, widened {} times until it proved them the whole TIN's)",
                 block.points,
                 block.buffer,
                 a - 1
             ),
         };
         note(format!(
-            "tileraster: {} points from {} in {}; part {k}/{n} triangulated {around} → {} triangles over it in {}",
-            points.len(),
+            "tileraster: {} points from {} in {}; part {k}/{n} triangulated {around}{files_read} → {} triangles over it in {}",
+            total,
             input.display(),
             ms(read_time),
             read.scene.triangles.len() + read.long_triangles,

@@ -594,6 +594,45 @@ fn parts_of_a_point_file_triangulate_their_bands_and_give_the_single_run() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Parts of several point files read only the files their band needs (after a pass for each
+/// file's count, bounds and hull), and still give the single run of all of them.
+#[test]
+fn parts_of_many_point_files_read_what_their_bands_need_and_give_the_single_run() {
+    let dir = scratch("tile-parts");
+    let laz = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/autzen_trim.laz");
+    let points = tileraster::dem::read_points(&[laz], &Default::default()).unwrap();
+    let bounds = tileraster_tin::Rect::around(&points).unwrap();
+    // 3 × 3 tiles of the LiDAR tile, as CSV (coordinates written to round-trip exactly).
+    let tiles = dir.join("tiles");
+    std::fs::create_dir_all(&tiles).unwrap();
+    let mut texts = vec![String::from("x,y,z\n"); 9];
+    for p in &points {
+        let at = |v: f64, lo: f64, hi: f64| (((v - lo) / (hi - lo) * 3.0) as usize).min(2);
+        texts[at(p[0], bounds.x0, bounds.x1) + 3 * at(p[1], bounds.y0, bounds.y1)] += &format!("{:?},{:?},{:?}\n", p[0], p[1], p[2]);
+    }
+    for (t, text) in texts.iter().enumerate() {
+        std::fs::write(tiles.join(format!("tile-{t}.csv")), text).unwrap();
+    }
+    let grid = ["--tr", "2", "2"];
+    let single = dir.join("single.tif");
+    let out = rasterise_cli(&tiles, &single, &grid);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    const N: u32 = 6;
+    let (mut bands, mut fewer) = (Vec::new(), 0);
+    for k in 0..N {
+        let part = dir.join(format!("part-{k}.tif"));
+        let out = rasterise_cli(&tiles, &part, &[&grid[..], &["--part", &format!("{k}/{N}")]].concat());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(stderr.contains(" of the 9 files"), "{stderr}");
+        fewer += usize::from(!stderr.contains("9 of the 9 files"));
+        bands.extend(read_tif_values(&part));
+    }
+    assert_same_bits(&bands, &read_tif_values(&single), "the parts' bands of 9 files against the single run");
+    assert!(fewer > 0, "some part reads fewer files than all");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `--tin` writes the triangulation a point file was rasterised through; rasterising that
 /// OBJ gives the same cells, and `--owner`'s indices are its faces.
 #[test]

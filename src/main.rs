@@ -304,8 +304,35 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     // TIN's; what needs the whole TIN's numbering or all its points (--owner, --tin, the
     // nearest-point fallback) triangulates them all.
     let points_only = inputs.iter().all(|p| dem::InputKind::of(p).is_ok_and(dem::InputKind::is_points));
-    let blocked = part.is_some() && points_only && owner.is_none() && tin.is_none() && linear.radius == 0.0;
-    let (read, grid) = if blocked {
+    let eligible = points_only && owner.is_none() && tin.is_none() && linear.radius == 0.0;
+    let blocked = eligible && part.is_some();
+    let (budget, set_by) = memory.map_or_else(dem::default_memory_budget, |mib| (mib << 20, "--memory"));
+    // Points whose whole TIN would not fit in the budget: rasterised in bands, each band's TIN
+    // made from the points around it, the files read again for each band that needs them.
+    let in_blocks = eligible && part.is_none() && window.is_none() && {
+        let estimate = dem::estimated_points(&inputs).map_err(|e| e.to_string())?;
+        estimate.saturating_mul(dem::BYTES_PER_POINT) > budget
+    };
+    let (read, grid, files) = if in_blocks {
+        let start = Instant::now();
+        progress.stage(format!("summarising {}", input.display()));
+        let files = dem::summarise_files(&inputs, &options).map_err(|e| e.to_string())?;
+        let total: usize = files.iter().map(|f| f.points).sum();
+        let grid = match given {
+            Some(grid) => grid,
+            None => spec
+                .grid_for(&files.iter().filter_map(|f| f.bounds).flat_map(|b| [[b.x0, b.y0, 0.0], [b.x1, b.y1, 0.0]]).collect::<Vec<_>>())
+                .map_err(grid_error)?,
+        };
+        note(format!(
+            "tileraster: {total} points in {} read in {} for their bounds and hulls: more than {} MiB ({set_by}) holds as one TIN, so each band of the grid triangulates the points around it",
+            input.display(),
+            ms(start.elapsed()),
+            budget >> 20
+        ));
+        let empty = dem::Input { scene: tileraster::Scene::new(Vec::new(), Vec::new()), points: None, long_triangles: 0, points_read: None, block: None };
+        (empty, grid, Some((files, total)))
+    } else if blocked {
         let start = Instant::now();
         // Several files: a pass over them for their counts, bounds and hulls, holding one file
         // at a time, then only the files the band needs. One file: its points, read once.
@@ -351,7 +378,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
             read.scene.triangles.len() + read.long_triangles,
             ms(summary.triangulated)
         ));
-        (read, grid)
+        (read, grid, None)
     } else {
         let read = dem::read_scenes(&inputs, &options, &progress).map_err(|e| e.to_string())?;
         if let Some(points) = &read.points {
@@ -372,9 +399,9 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
             Some(grid) => grid,
             None => spec.grid_for(&read.scene.vertices).map_err(grid_error)?,
         };
-        (read, grid)
+        (read, grid, None)
     };
-    if let Some(max_edge) = max_edge {
+    if let (Some(max_edge), false) = (max_edge, in_blocks) {
         note(format!("tileraster: --max-edge {max_edge}: {} triangles with a longer edge left out, {} kept", read.long_triangles, read.scene.triangles.len()));
     }
     if given.is_none() || tap {
@@ -400,9 +427,9 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
     }
     let layers = tileraster::Outputs { owner: owner.is_some(), coverage: false, tiles: false };
     let params = Params::new(grid).with_nodata(nodata).with_mode(mode).with_skips(skips).with_outputs(layers);
-    let (budget, set_by) = memory.map_or_else(dem::default_memory_budget, |mib| (mib << 20, "--memory"));
     let band_rows = dem::streamed_band_rows(&window, dem::bytes_per_cell(owner.is_some() || fallback.is_some(), backend), budget);
-    if band_rows < window.height {
+    let band_rows = files.as_ref().map_or(band_rows, |(_, total)| band_rows.min(dem::block_band_rows(&window, &grid, *total, budget)));
+    if band_rows < window.height && !in_blocks {
         if !creation_options.iter().any(|o| o.to_ascii_uppercase().starts_with("TILED=")) {
             tiff.tiled = true;
         }
@@ -414,17 +441,29 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
             if tiff.tiled { "tiled" } else { "striped" }
         ));
     }
-    let files = Destinations { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
+    let outputs = Destinations { heights: &output, owner: owner.as_deref(), preview: preview.as_deref(), tiff };
     let start = Instant::now();
-    let run = dem::write_dem(&scene, &params, window, backend, band_rows, &files, fallback.as_ref(), &progress).map_err(|e| e.to_string())?;
+    let (run, blocks) = match &files {
+        Some((files, _)) => dem::write_dem_of_files(files, &options, &params, window, backend, band_rows, &outputs, &progress),
+        None => dem::write_dem(&scene, &params, window, backend, band_rows, &outputs, fallback.as_ref(), &progress).map(|run| (run, Vec::new())),
+    }
+    .map_err(|e| e.to_string())?;
+    if let (Some(first), Some((_, total))) = (blocks.first(), &files) {
+        let (least, most) = blocks.iter().fold((first.points, first.points), |(l, m), b| (l.min(b.points), m.max(b.points)));
+        let buffer = blocks.iter().fold(0.0f64, |m, b| m.max(b.buffer));
+        note(format!(
+            "tileraster: {} blocks in bands of {band_rows} rows triangulated {least} to {most} of the {total} points each (buffers up to {buffer:.1} map units)",
+            blocks.len(),
+        ));
+    }
     if let Some(path) = &tin {
         tileraster_io::write_obj(&scene, path).map_err(|e| e.to_string())?;
     }
     drop(progress);
     let whole = window == Window::whole(&grid);
     note(format!(
-        "tileraster: {} triangles onto {}×{} cells{} with the {} backend, {} mode, rasterised and written in {} (snapping step 2^-{} px){} → {}",
-        scene.triangles.len(),
+        "tileraster: {} onto {}×{} cells{} with the {} backend, {} mode, rasterised and written in {} (snapping step 2^-{} px){} → {}",
+        if blocks.is_empty() { format!("{} triangles", scene.triangles.len()) } else { "the TIN".to_string() },
         grid.width,
         grid.height,
         if whole { String::new() } else { format!(" (window {}×{} at {}, {})", window.width, window.height, window.x0, window.y0) },

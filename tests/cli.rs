@@ -595,12 +595,13 @@ fn parts_of_a_point_file_triangulate_their_bands_and_give_the_single_run() {
 }
 
 /// Parts of several point files read only the files their band needs (after a pass for each
-/// file's count, bounds and hull), and still give the single run of all of them.
+/// file's count, bounds and hull), and still give the single run of all of them; so does a
+/// run whose points exceed its memory budget, made in blocks.
 #[test]
 fn parts_of_many_point_files_read_what_their_bands_need_and_give_the_single_run() {
     let dir = scratch("tile-parts");
     let laz = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/autzen_trim.laz");
-    let points = tileraster::dem::read_points(&[laz], &Default::default()).unwrap();
+    let points = tileraster::dem::read_points(std::slice::from_ref(&laz), &Default::default()).unwrap();
     let bounds = tileraster_tin::Rect::around(&points).unwrap();
     // 3 × 3 tiles of the LiDAR tile, as CSV (coordinates written to round-trip exactly).
     let tiles = dir.join("tiles");
@@ -630,6 +631,15 @@ fn parts_of_many_point_files_read_what_their_bands_need_and_give_the_single_run(
     }
     assert_same_bits(&bands, &read_tif_values(&single), "the parts' bands of 9 files against the single run");
     assert!(fewer > 0, "some part reads fewer files than all");
+    // Points whose TIN exceeds the memory budget: the whole grid in blocks, the same cells.
+    for (what, input) in [("9 files", tiles.as_path()), ("one file", laz.as_path())] {
+        let blocks = dir.join("blocks.tif");
+        let out = rasterise_cli(input, &blocks, &[&grid[..], &["--memory", "20"]].concat());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success() && stderr.contains("each band of the grid triangulates the points around it"), "{stderr}");
+        assert!(stderr.contains("blocks in bands of 256 rows"), "{stderr}");
+        assert_same_bits(&read_tif_values(&blocks), &read_tif_values(&single), &format!("{what} in blocks against the single run"));
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

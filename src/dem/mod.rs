@@ -34,11 +34,14 @@ mod input;
 mod linear;
 mod stream;
 
-pub use block::{BlockRead, FileSummary, block_scene, block_scene_of_files, summarise_file, summarise_files};
+pub use block::{
+    BYTES_PER_POINT, BlockRead, FileSummary, HeldPoints, block_band_rows, block_scene, block_scene_held, block_scene_of_files, estimated_points,
+    summarise_file, summarise_files,
+};
 pub use grid::{GridSize, GridSpec, part_window};
 pub use input::{Input, InputKind, PointsRead, ReadOptions, describe, drop_long_triangles, input_files, read_points, read_scene, read_scenes};
 pub use linear::{Fallback, Linear};
-pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, streamed_band_rows, write_dem};
+pub use stream::{Destinations, PREVIEW_SIDE, Run, band_rows, bytes_per_cell, default_memory_budget, streamed_band_rows, write_dem, write_dem_of_files};
 pub use tileraster_io::{GeoTiffOptions, PointColumns};
 
 use std::path::PathBuf;

@@ -3,7 +3,8 @@
 //! size. Every band's cells are the whole grid's there, so the files do not depend
 //! on how the window was cut.
 
-use super::{DemError, Fallback, Progress};
+use super::block::{BlockRead, FileSummary, HeldPoints, block_scene_held};
+use super::{DemError, Fallback, Progress, ReadOptions};
 use crate::{Backend, Grid, Params, PreparedScene, Raster, Scene, Stats, Window};
 use std::path::Path;
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample, TILE};
@@ -79,6 +80,75 @@ pub fn write_dem(
     params.outputs.owner |= outputs.owner.is_some() || fallback.is_some();
     let prepared = crate::prepare(scene, &params, Some(window))?;
     let mut scene = PreparedScene::from_prepared(prepared, backend);
+    stream_bands(&params, window, band_rows, outputs, fallback, progress, |band| Ok(scene.rasterise_window(band)?))
+}
+
+/// The DEM of the points of the summarised `files` on `window`, written as [`write_dem`]
+/// writes it, in bands of `band_rows` rows cut into blocks about as wide, each block's TIN made
+/// from the points around it only ([`block_scene_held`]) and its blocks run on all cores: the
+/// whole TIN's cells, holding a band's points and those near the hull's edges. Returns how
+/// each block's TIN was made too.
+#[allow(clippy::too_many_arguments)]
+pub fn write_dem_of_files(
+    files: &[FileSummary],
+    options: &ReadOptions,
+    params: &Params,
+    window: Window,
+    backend: Backend,
+    band_rows: u32,
+    outputs: &Destinations,
+    progress: &dyn Progress,
+) -> Result<(Run, Vec<BlockRead>), DemError> {
+    use rayon::prelude::*;
+    let near_hull = HeldPoints::near_hull(files, options)?;
+    let mut blocks = Vec::new();
+    let run = stream_bands(params, window, band_rows, outputs, None, progress, |band| {
+        let held = HeldPoints::around(files, options, &params.grid, band)?;
+        let columns: Vec<Window> = (0..band.width)
+            .step_by(band.height.max(TILE) as usize)
+            .map(|x| Window { x0: band.x0 + x, width: band.height.max(TILE).min(band.width - x), ..band })
+            .collect();
+        let drawn = columns
+            .par_iter()
+            .map(|&block| {
+                let input = block_scene_held(files, &near_hull, &held, &params.grid, block, options)?;
+                let prepared = crate::prepare(&input.scene, params, Some(block))?;
+                Ok((PreparedScene::from_prepared(prepared, backend).rasterise_window(block)?, input.block))
+            })
+            .collect::<Result<Vec<_>, DemError>>()?;
+        blocks.extend(drawn.iter().filter_map(|(_, block)| *block));
+        Ok(side_by_side(band, drawn.into_iter().map(|(raster, _)| raster).collect()))
+    })?;
+    Ok((run, blocks))
+}
+
+/// The rasters of windows side by side, left to right, as one raster of `band`: their
+/// values row by row, their statistics added up.
+fn side_by_side(band: Window, parts: Vec<Raster>) -> Raster {
+    let mut values = Vec::with_capacity(band.pixel_count() as usize);
+    for row in 0..band.height as usize {
+        for part in &parts {
+            let width = part.window.width as usize;
+            values.extend_from_slice(&part.values[row * width..(row + 1) * width]);
+        }
+    }
+    let mut stats = parts[0].stats.clone();
+    parts[1..].iter().for_each(|part| stats.absorb(&part.stats));
+    let first = parts.into_iter().next().expect("a band has a block");
+    Raster { window: band, values, stats, ..first }
+}
+
+/// Draw `window` in bands of `band_rows` rows with `draw`, each written to `outputs` while
+/// the next is drawn.
+fn stream_bands(
+    params: &Params,
+    window: Window,
+    band_rows: u32,
+    outputs: &Destinations,
+    fallback: Option<&Fallback>,
+    progress: &dyn Progress,
+    mut draw: impl FnMut(Window) -> Result<Raster, DemError>,
+) -> Result<Run, DemError> {
     let grid = &params.grid;
     let mut heights = GeoTiffWriter::create(outputs.heights, grid, window, Sample::Float32 { nodata: params.nodata }, &outputs.tiff)?;
     let mut owner = outputs.owner.map(|path| GeoTiffWriter::create(path, grid, window, Sample::UInt32, &outputs.tiff)).transpose()?;
@@ -110,7 +180,7 @@ pub fn write_dem(
         let drawn = (|| -> Result<(), DemError> {
             for y in (0..window.height).step_by(band_rows as usize) {
                 let band = Window { x0: window.x0, y0: window.y0 + y, width: window.width, height: band_rows.min(window.height - y) };
-                let raster = scene.rasterise_window(band)?;
+                let raster = draw(band)?;
                 if hand.send(raster).is_err() {
                     // The writer stopped on an error: it is the run's.
                     return Ok(());

@@ -60,6 +60,23 @@ impl From<Stage> for Pass {
     }
 }
 
+impl Stats {
+    /// Add another call's counts to these (of windows side by side): the passes stay these.
+    pub fn absorb(&mut self, other: &Stats) {
+        self.tiles_total += other.tiles_total;
+        self.tiles_empty_skipped += other.tiles_empty_skipped;
+        self.tiles_full += other.tiles_full;
+        self.tiles_partial += other.tiles_partial;
+        self.triangles_culled += other.triangles_culled;
+        self.triangles_flat += other.triangles_flat;
+        self.triangles_binned += other.triangles_binned;
+        self.triangles_small += other.triangles_small;
+        self.triangles_hidden += other.triangles_hidden;
+        self.overlap_free &= other.overlap_free;
+        self.bytes_uploaded += other.bytes_uploaded;
+    }
+}
+
 impl std::fmt::Display for Pass {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())

@@ -22,6 +22,16 @@ pub fn read_las_classes(path: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, Io
     read_from(BufReader::new(file), path, classes)
 }
 
+/// The number of point records a LAS or LAZ file's header states, read from the header alone.
+pub fn las_point_count(path: &Path) -> Result<u64, IoError> {
+    let file = std::fs::File::open(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
+    let raw = las::raw::Header::read_from(BufReader::new(file)).map_err(|e| unreadable(path, e))?;
+    Ok(match (raw.number_of_point_records, raw.large_file) {
+        (0, Some(large)) => large.number_of_point_records,
+        (legacy, _) => u64::from(legacy),
+    })
+}
+
 /// Parse LAS or LAZ bytes; `origin` only names the source in errors.
 pub fn parse_las(bytes: &[u8], origin: &Path) -> Result<Vec<[f64; 3]>, IoError> {
     read_from(Cursor::new(bytes.to_vec()), origin, &[])

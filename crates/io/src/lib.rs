@@ -26,7 +26,7 @@ pub use geotiff::{
 };
 pub use gltf_mesh::{GltfCamera, GltfProjection, read_gltf, read_gltf_cameras, read_gltf_posable, read_gltf_world};
 pub use gltf_rig::PosableGltf;
-pub use las::{parse_las, read_las, read_las_classes};
+pub use las::{las_point_count, parse_las, read_las, read_las_classes};
 pub use obj::{parse_obj, parse_obj_mesh, read_obj, read_obj_mesh, read_texture, write_obj, write_obj_textured};
 pub use ply::{parse_ply, parse_ply_mesh, read_ply, read_ply_mesh};
 pub use points::{Column, PointColumns, parse_points, read_points};

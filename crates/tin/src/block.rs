@@ -180,6 +180,15 @@ impl Hull {
         (0..self.corners.len()).map(move |k| (at(self.corners[k]), at(self.corners[(k + 1) % self.corners.len()])))
     }
 
+    /// Bands of `width` along every edge of the hull, and no rectangle: where the blocks at
+    /// the hull find their bands' points.
+    pub fn strip(&self, width: f64) -> Region {
+        let nothing = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
+        let n = self.corners.len();
+        let bands = if n < 3 { Vec::new() } else { (0..n).map(|k| Band::new(self.corners[k], self.corners[(k + 1) % n], width)).collect() };
+        Region { rect: nothing, bands }
+    }
+
     /// `rect` with bands of `width` along the hull's edges that cross it (a rectangle inside
     /// the hull has none: no thin triangle along an edge reaches its window).
     fn region(&self, rect: Rect, width: f64) -> Region {
@@ -188,7 +197,7 @@ impl Hull {
             n => (0..n)
                 .map(|k| (self.corners[k], self.corners[(k + 1) % n]))
                 .filter(|&(a, b)| rect.crossed_by(a, b))
-                .map(|(a, b)| Band { a, b, width })
+                .map(|(a, b)| Band::new(a, b, width))
                 .collect(),
         };
         Region { rect, bands }
@@ -219,13 +228,18 @@ impl Region {
     /// Whether the region holds `(x, y)`: rounding may add points near its borders, never
     /// leave one out by more than a band's half.
     pub fn holds(&self, x: f64, y: f64) -> bool {
-        self.rect.holds(x, y) || self.bands.iter().any(|band| band.depth([x, y]) <= band.width)
+        self.rect.holds(x, y) || self.bands.iter().any(|band| band.holds([x, y]))
     }
 
     /// Whether the region may hold points of `rect` (a file's bounds, say).
     pub fn meets(&self, rect: &Rect) -> bool {
         let corners = [[rect.x0, rect.y0], [rect.x1, rect.y0], [rect.x1, rect.y1], [rect.x0, rect.y1]];
-        self.rect.meets(rect) || self.bands.iter().any(|band| corners.iter().any(|&c| band.depth(c) <= band.width))
+        self.rect.meets(rect) || self.bands.iter().any(|band| corners.iter().any(|&c| band.holds(c)))
+    }
+
+    /// The rectangle alone.
+    pub fn rect(rect: Rect) -> Region {
+        Region { rect, bands: Vec::new() }
     }
 
     /// The widest band (0 without bands).
@@ -240,9 +254,21 @@ struct Band {
     a: [f64; 2],
     b: [f64; 2],
     width: f64,
+    /// `width` times the edge's length: [`Band::holds`] compares it with a cross product,
+    /// which saves a root a point.
+    reach: f64,
 }
 
 impl Band {
+    fn new(a: [f64; 2], b: [f64; 2], width: f64) -> Band {
+        Band { a, b, width, reach: width * (b[0] - a[0]).hypot(b[1] - a[1]) }
+    }
+
+    /// Whether `p` lies within the band's width inside the edge's line (or beyond the line).
+    fn holds(&self, p: [f64; 2]) -> bool {
+        (self.b[0] - self.a[0]) * (p[1] - self.a[1]) - (self.b[1] - self.a[1]) * (p[0] - self.a[0]) <= self.reach
+    }
+
     /// How far `p` lies inside the edge's line (the hull is counter-clockwise), in `f64`.
     fn depth(&self, p: [f64; 2]) -> f64 {
         let (ex, ey) = (self.b[0] - self.a[0], self.b[1] - self.a[1]);
@@ -348,6 +374,15 @@ pub fn triangulate_block(points: &[[f64; 3]], hull: &Hull, window: Rect) -> Resu
     triangulate_block_from(&mut InMemory(points), hull, window)
 }
 
+/// The buffer a block's first region has beyond its window, for `total` points in `hull`:
+/// 16 mean spacings, which hold the circumcircles of most blocks' triangles at once. The
+/// bands along the hull's edges start at an eighth of it, and double.
+pub fn first_buffer(hull: &Hull, total: usize) -> f64 {
+    let Some(b) = hull.bounds() else { return 0.0 };
+    let spacing = ((b.x1 - b.x0) * (b.y1 - b.y0) / total.max(1) as f64).sqrt();
+    16.0 * if spacing > 0.0 { spacing } else { (b.x1 - b.x0).max(b.y1 - b.y0) }
+}
+
 /// The triangles of the TIN of `source`'s whole point set over `window`, from the points of
 /// the window and a buffer around it, grown until the module's proof holds (or until it holds
 /// a quarter of the points: then all of them). `hull` must hold every point: a point of a
@@ -355,9 +390,7 @@ pub fn triangulate_block(points: &[[f64; 3]], hull: &Hull, window: Rect) -> Resu
 pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, window: Rect) -> Result<BlockTin, S::Error> {
     let total = source.total();
     let bounds = hull.bounds().ok_or(TinError::TooFew { distinct: 0 })?;
-    // A buffer of 16 mean spacings holds the circumcircles of most blocks' triangles at once.
-    let spacing = ((bounds.x1 - bounds.x0) * (bounds.y1 - bounds.y0) / total.max(1) as f64).sqrt();
-    let mut buffer = [16.0 * if spacing > 0.0 { spacing } else { (bounds.x1 - bounds.x0).max(bounds.y1 - bounds.y0) }; 4];
+    let mut buffer = [first_buffer(hull, total); 4];
     // Bands start thin: the triangles along a hull edge lie within about a spacing of it.
     let mut band = buffer[0] / 8.0;
     let mut attempts = 0;
@@ -438,10 +471,11 @@ fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &
             unproven |= ALL_SIDES * u8::from(unproven == 0);
         }
     }
-    let in_band = |c: Coord<f64>| region.bands.iter().any(|band| band.depth([c.x, c.y]) <= band.width);
+    let bounds = outside.each_ref().map(|part| Rect::around(part));
+    let in_band = |c: Coord<f64>| region.bands.iter().any(|band| band.holds([c.x, c.y]));
     kept.iter().fold(unproven, |m, t| {
         let corners = t.map(at);
-        let unclear = disc_unclear(corners, outside);
+        let unclear = disc_unclear(corners, outside, &bounds);
         m | unclear | if unclear != 0 && corners.iter().any(|&c| in_band(c)) { BANDS } else { 0 }
     })
 }
@@ -449,7 +483,7 @@ fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &
 /// The sides whose part of the hull (`parts`) the closed circumdisc of the corners may meet:
 /// where the `f64` evaluation's error bound leaves it open (a thin triangle, a disc grazing a
 /// part) too.
-fn disc_unclear([a, b, c]: [Coord<f64>; 3], parts: &[Vec<[f64; 2]>; 4]) -> Sides {
+fn disc_unclear([a, b, c]: [Coord<f64>; 3], parts: &[Vec<[f64; 2]>; 4], bounds: &[Option<Rect>; 4]) -> Sides {
     let reaching = (0..4).filter(|&k| !parts[k].is_empty()).fold(0, |m, k| m | 1 << k);
     if reaching == 0 {
         return 0;
@@ -474,13 +508,17 @@ fn disc_unclear([a, b, c]: [Coord<f64>; 3], parts: &[Vec<[f64; 2]>; 4]) -> Sides
     let centre = [a.x + ux, a.y + uy];
     let centre_err = u_err + 8.0 * U * (a.x.abs().max(a.y.abs()) + u);
     let r_hi = ux.hypot(uy) * (1.0 + 16.0 * U) + 2.0 * u_err;
-    let clear = |part: &Vec<[f64; 2]>| {
-        // The parts' cut corners are rounded, and the distance below takes a few roundings
+    let clear = |part: &Vec<[f64; 2]>, bounds: &Option<Rect>| {
+        let Some(b) = bounds else { return true };
+        // The parts' cut corners are rounded, and the distances below take a few roundings
         // of magnitudes up to `size`: 2^-40 of it is far more than either.
-        let size = part.iter().fold(centre[0].abs().max(centre[1].abs()) + r_hi, |m, p| m.max(p[0].abs()).max(p[1].abs()));
-        part.is_empty() || distance(centre, part) - centre_err - size * 2f64.powi(-40) > r_hi
+        let size = (centre[0].abs().max(centre[1].abs()) + r_hi).max(b.x0.abs()).max(b.x1.abs()).max(b.y0.abs()).max(b.y1.abs());
+        let margin = centre_err + size * 2f64.powi(-40) + r_hi;
+        // The part lies in its bounds: a disc clear of them is clear of it, and most are.
+        let (gx, gy) = ((b.x0 - centre[0]).max(centre[0] - b.x1).max(0.0), (b.y0 - centre[1]).max(centre[1] - b.y1).max(0.0));
+        gx.hypot(gy) > margin || distance(centre, part) > margin
     };
-    (0..4).filter(|&k| !clear(&parts[k])).fold(0, |m, k| m | 1 << k)
+    (0..4).filter(|&k| !clear(&parts[k], &bounds[k])).fold(0, |m, k| m | 1 << k)
 }
 
 /// The distance from `p` to the convex polygon `polygon` (counter-clockwise; 0 inside).
@@ -524,9 +562,6 @@ mod tests {
     fn by_position(tin: &Tin) -> Vec<[[u64; 2]; 3]> {
         tin.scene.triangles.iter().map(|t| t.map(|v| tin.scene.vertices[v as usize]).map(|p| [p[0].to_bits(), p[1].to_bits()])).collect()
     }
-
-    /// Whether the closed triangle meets the closed rectangle (separating axes; for tests,
-    /// whose shapes are far from the limits of `f64`).
 
     /// That the block's triangles are the whole TIN's over the window: a part of the whole
     /// TIN's, in its order, with each of its triangles that meets the window.
@@ -642,7 +677,8 @@ mod tests {
 
     /// Whether the disc is proven clear of one part (given as the west part).
     fn disc_clear(corners: [Coord<f64>; 3], part: &[Vec<[f64; 2]>; 1]) -> bool {
-        disc_unclear(corners, &[part[0].clone(), vec![], vec![], vec![]]) == 0
+        let parts = [part[0].clone(), vec![], vec![], vec![]];
+        disc_unclear(corners, &parts, &parts.each_ref().map(|p| Rect::around(p))) == 0
     }
 
     #[test]

@@ -11,7 +11,9 @@ semantics. Arrays come in as numpy arrays and go out as numpy arrays::
     dem.write("dem.tif", epsg=32633)                      # the command line's GeoTIFF
 
 Errors raise ``TilerasterError`` (a ``ValueError``) with the library's message, and Ctrl-C
-stops a long call with ``KeyboardInterrupt``.
+stops a long call with ``KeyboardInterrupt``. ``tileraster.dask.points_to_dem`` makes DEMs
+of many point files as lazy ``xarray`` arrays whose chunks Dask computes apart, with the
+single run's cells.
 """
 
 from __future__ import annotations

@@ -277,37 +277,28 @@ impl Band {
 
     /// The convex `polygon` cut to the points at least `depth` inside the edge's line.
     fn clip(&self, polygon: &[[f64; 2]], depth: f64) -> Vec<[f64; 2]> {
-        let keeps = |p: &[f64; 2]| self.depth(*p) >= depth;
-        let mut part = Vec::new();
-        for k in 0..polygon.len() {
-            let (a, b) = (polygon[k], polygon[(k + 1) % polygon.len()]);
-            if keeps(&a) {
-                part.push(a);
-            }
-            if keeps(&a) != keeps(&b) {
-                let t = (depth - self.depth(a)) / (self.depth(b) - self.depth(a));
-                part.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
-            }
-        }
-        part
+        clip(polygon, |p| self.depth(p) - depth)
     }
 }
 
 /// The convex polygon `polygon` cut to `p[axis] ≤ at` (`below`) or `≥ at`.
 fn cut(polygon: &[[f64; 2]], axis: usize, at: f64, below: bool) -> Vec<[f64; 2]> {
-    let keeps = |p: &[f64; 2]| if below { p[axis] <= at } else { p[axis] >= at };
+    clip(polygon, |p| if below { at - p[axis] } else { p[axis] - at })
+}
+
+/// The convex `polygon` cut to where the affine function `side` is at least 0 (Sutherland and
+/// Hodgman's step); the crossings are interpolated, so rounded.
+fn clip(polygon: &[[f64; 2]], side: impl Fn([f64; 2]) -> f64) -> Vec<[f64; 2]> {
     let mut part = Vec::new();
     for k in 0..polygon.len() {
         let (a, b) = (polygon[k], polygon[(k + 1) % polygon.len()]);
-        if keeps(&a) {
+        let (sa, sb) = (side(a), side(b));
+        if sa >= 0.0 {
             part.push(a);
         }
-        if keeps(&a) != keeps(&b) {
-            let t = (at - a[axis]) / (b[axis] - a[axis]);
-            let mut p = [0.0; 2];
-            p[axis] = at;
-            p[1 - axis] = a[1 - axis] + t * (b[1 - axis] - a[1 - axis]);
-            part.push(p);
+        if (sa >= 0.0) != (sb >= 0.0) {
+            let t = sa / (sa - sb);
+            part.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
         }
     }
     part

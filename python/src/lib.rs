@@ -563,8 +563,9 @@ fn rasterise(
 }
 
 /// A point file summarised for blocks, as Python keeps it (plain values, so that Dask can
-/// ship it): (path, points, bounds (west, south, east, north) or `None`, hull corners (K, 2)).
-type SummaryTuple<'py> = (PathBuf, usize, Option<(f64, f64, f64, f64)>, Bound<'py, PyArray2<f64>>);
+/// ship it): (path, points, bounds (west, south, east, north) or `None`, hull corners (K, 2),
+/// density counts).
+type SummaryTuple<'py> = (PathBuf, usize, Option<(f64, f64, f64, f64)>, Bound<'py, PyArray2<f64>>, Vec<u32>);
 
 /// The files that `inputs` (files, directories, glob patterns) name, as the command line
 /// finds them.
@@ -585,7 +586,7 @@ fn summarise_points(py: Python<'_>, path: PathBuf, classes: Vec<u8>) -> PyResult
     let summary = interruptible(py, move |_| dem::summarise_file(&path, &options))?.map_err(error)?;
     let bounds = summary.bounds.map(|b| (b.x0, b.y0, b.x1, b.y1));
     let hull = rows(summary.hull.corners().iter().flatten().copied().collect(), 2).into_pyarray(py);
-    Ok((summary.path, summary.points, bounds, hull))
+    Ok((summary.path, summary.points, bounds, hull, summary.density))
 }
 
 fn grid_of((xmin, xmax, ymin, ymax, width, height): GridTuple) -> tileraster::Grid {
@@ -624,10 +625,10 @@ fn block_dem(
 ) -> PyResult<Raster> {
     let settings = Settings::new(backend, mode, nodata, false)?;
     let mut summaries = Vec::with_capacity(files.len());
-    for (path, points, bounds, hull) in files {
+    for (path, points, bounds, hull, density) in files {
         let hull = vertices_of_two(&hull)?;
         let bounds = bounds.map(|(x0, y0, x1, y1)| tileraster_tin::Rect { x0, y0, x1, y1 });
-        summaries.push(dem::FileSummary { path, points, bounds, hull: tileraster_tin::Hull::of(&hull) });
+        summaries.push(dem::FileSummary { path, points, bounds, hull: tileraster_tin::Hull::of(&hull), density });
     }
     let (options, grid, window) = (read_options(classes, max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
     let done = interruptible(py, move |cancel| {

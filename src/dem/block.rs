@@ -58,6 +58,38 @@ pub struct FileSummary {
     pub bounds: Option<Rect>,
     /// The convex hull of its points' x and y.
     pub hull: Hull,
+    /// Its points counted in each cell of a `DENSITY_SIDE`² grid over `bounds`, row by row
+    /// from the south (empty without points): what reading a region of it costs.
+    pub density: Vec<u32>,
+}
+
+/// Cells along each side of a file's density grid ([`FileSummary::density`]).
+pub const DENSITY_SIDE: usize = 32;
+
+impl FileSummary {
+    /// About how many of its points `region` holds: those of the density cells it meets.
+    fn estimate(&self, region: &Region) -> usize {
+        let Some(b) = self.bounds.filter(|b| region.meets(b)) else { return 0 };
+        let (w, h) = ((b.x1 - b.x0) / DENSITY_SIDE as f64, (b.y1 - b.y0) / DENSITY_SIDE as f64);
+        let cell = |k: usize| {
+            let (i, j) = ((k % DENSITY_SIDE) as f64, (k / DENSITY_SIDE) as f64);
+            Rect { x0: b.x0 + i * w, x1: b.x0 + (i + 1.0) * w, y0: b.y0 + j * h, y1: b.y0 + (j + 1.0) * h }
+        };
+        self.density.iter().enumerate().filter(|&(k, &n)| n > 0 && region.meets(&cell(k))).map(|(_, &n)| n as usize).sum()
+    }
+}
+
+/// The density grid of `points` over `bounds` ([`FileSummary::density`]).
+fn density(points: &[[f64; 3]], bounds: Option<Rect>) -> Vec<u32> {
+    let Some(b) = bounds else { return Vec::new() };
+    let mut counts = vec![0u32; DENSITY_SIDE * DENSITY_SIDE];
+    let at = |v: f64, lo: f64, hi: f64| (((v - lo) / (hi - lo) * DENSITY_SIDE as f64) as usize).min(DENSITY_SIDE - 1);
+    for p in points {
+        // A file of one column or row puts its points in the first cells.
+        let (i, j) = (if b.x1 > b.x0 { at(p[0], b.x0, b.x1) } else { 0 }, if b.y1 > b.y0 { at(p[1], b.y0, b.y1) } else { 0 });
+        counts[j * DENSITY_SIDE + i] += 1;
+    }
+    counts
 }
 
 /// Read each file of `paths` (on all cores, one file a core) and summarise it.
@@ -71,7 +103,8 @@ pub fn summarise_file(path: &Path, options: &ReadOptions) -> Result<FileSummary,
     if let Some((index, &[x, y, z])) = points.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
         return Err(DemError::Triangulation { path: path.to_path_buf(), source: TinError::NonFinite { index, x, y, z } });
     }
-    Ok(FileSummary { path: path.to_path_buf(), points: points.len(), bounds: Rect::around(&points), hull: Hull::of(&points) })
+    let bounds = Rect::around(&points);
+    Ok(FileSummary { path: path.to_path_buf(), points: points.len(), bounds, hull: Hull::of(&points), density: density(&points, bounds) })
 }
 
 fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
@@ -186,6 +219,10 @@ impl BlockSource for FileSource<'_> {
         // In the files' order, each file's points in its own: the whole set's order.
         Ok(parts.concat())
     }
+
+    fn estimate(&self, region: &Region) -> usize {
+        self.files.iter().map(|f| f.estimate(region)).sum()
+    }
 }
 
 /// `window` of `grid` in map units, with the margin of cells whose triangles a block keeps.
@@ -292,12 +329,20 @@ impl BlockSource for HeldSource<'_> {
         match region {
             Some(r) if rect.rect.covers(&r.rect) && r.band_width() <= bands.width => {
                 let mut chosen: Vec<(usize, [f64; 3])> = rect.points.iter().chain(&bands.points).filter(|(_, p)| r.holds(p[0], p[1])).copied().collect();
+                // Discs (around circles too wide for the rectangle) from the files they meet.
+                if r.has_discs() {
+                    chosen.extend(self.files.within(Some(&r.discs_only()))?);
+                }
                 chosen.sort_unstable_by_key(|&(index, _)| index);
                 chosen.dedup_by_key(|&mut (index, _)| index);
                 Ok(chosen)
             }
             _ => self.files.within(region),
         }
+    }
+
+    fn estimate(&self, region: &Region) -> usize {
+        self.files.estimate(region)
     }
 }
 

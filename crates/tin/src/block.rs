@@ -186,12 +186,12 @@ impl Hull {
         let nothing = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
         let n = self.corners.len();
         let bands = if n < 3 { Vec::new() } else { (0..n).map(|k| Band::new(self.corners[k], self.corners[(k + 1) % n], width)).collect() };
-        Region { rect: nothing, bands }
+        Region { rect: nothing, bands, discs: Vec::new() }
     }
 
     /// `rect` with bands of `width` along the hull's edges that cross it (a rectangle inside
     /// the hull has none: no thin triangle along an edge reaches its window).
-    fn region(&self, rect: Rect, width: f64) -> Region {
+    fn region(&self, rect: Rect, width: f64, discs: &[Disc]) -> Region {
         let bands = match self.corners.len() {
             0..=2 => Vec::new(),
             n => (0..n)
@@ -200,7 +200,7 @@ impl Hull {
                 .map(|(a, b)| Band::new(a, b, width))
                 .collect(),
         };
-        Region { rect, bands }
+        Region { rect, bands, discs: discs.to_vec() }
     }
 
     /// Where points of the hull may lie that `region` does not hold: the hull less half of
@@ -222,24 +222,36 @@ impl Hull {
 pub struct Region {
     pub rect: Rect,
     bands: Vec<Band>,
+    discs: Vec<Disc>,
 }
 
 impl Region {
     /// Whether the region holds `(x, y)`: rounding may add points near its borders, never
     /// leave one out by more than a band's half.
     pub fn holds(&self, x: f64, y: f64) -> bool {
-        self.rect.holds(x, y) || self.bands.iter().any(|band| band.holds([x, y]))
+        self.rect.holds(x, y) || self.bands.iter().any(|band| band.holds([x, y])) || self.discs.iter().any(|disc| disc.holds(x, y))
     }
 
     /// Whether the region may hold points of `rect` (a file's bounds, say).
     pub fn meets(&self, rect: &Rect) -> bool {
         let corners = [[rect.x0, rect.y0], [rect.x1, rect.y0], [rect.x1, rect.y1], [rect.x0, rect.y1]];
-        self.rect.meets(rect) || self.bands.iter().any(|band| corners.iter().any(|&c| band.holds(c)))
+        self.rect.meets(rect) || self.bands.iter().any(|band| corners.iter().any(|&c| band.holds(c))) || self.discs.iter().any(|disc| disc.meets(rect))
     }
 
     /// The rectangle alone.
     pub fn rect(rect: Rect) -> Region {
-        Region { rect, bands: Vec::new() }
+        Region { rect, bands: Vec::new(), discs: Vec::new() }
+    }
+
+    /// Its discs alone, without its rectangle and bands.
+    pub fn discs_only(&self) -> Region {
+        let nothing = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
+        Region { rect: nothing, bands: Vec::new(), discs: self.discs.clone() }
+    }
+
+    /// Whether it has discs.
+    pub fn has_discs(&self) -> bool {
+        !self.discs.is_empty()
     }
 
     /// The widest band (0 without bands).
@@ -320,6 +332,8 @@ pub struct BlockTin {
     pub points: usize,
     /// Regions triangulated, the last one included (1 when the first buffer sufficed).
     pub attempts: u32,
+    /// Discs read around circles too wide for the rectangle (0 for none).
+    pub discs: usize,
 }
 
 /// Where a block's points come from: the whole point set, which [`triangulate_block_from`]
@@ -335,6 +349,10 @@ pub trait BlockSource {
     /// The whole set's points that `region` holds (all of them for `None`), in the set's
     /// order, each with its index in the set; more may come, never fewer.
     fn within(&mut self, region: Option<&Region>) -> Result<Vec<(usize, [f64; 3])>, Self::Error>;
+
+    /// About how many points `region` holds (more rather than fewer): what reading it costs,
+    /// to choose between ways to grow a region.
+    fn estimate(&self, region: &Region) -> usize;
 }
 
 /// A point set in memory is its own source.
@@ -350,6 +368,10 @@ impl BlockSource for InMemory<'_> {
     fn within(&mut self, region: Option<&Region>) -> Result<Vec<(usize, [f64; 3])>, TinError> {
         let inside = |p: &[f64; 3]| region.is_none_or(|r| r.holds(p[0], p[1]));
         Ok(self.0.iter().copied().enumerate().filter(|(_, p)| inside(p)).collect())
+    }
+
+    fn estimate(&self, region: &Region) -> usize {
+        self.0.iter().filter(|p| region.holds(p[0], p[1])).count()
     }
 }
 
@@ -384,11 +406,13 @@ pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, windo
     let mut buffer = [first_buffer(hull, total); 4];
     // Bands start thin: the triangles along a hull edge lie within about a spacing of it.
     let mut band = buffer[0] / 8.0;
+    let first = buffer[0];
+    let mut discs: Vec<Disc> = Vec::new();
     let mut attempts = 0;
     loop {
         attempts += 1;
         let rect = Rect { x0: window.x0 - buffer[0], x1: window.x1 + buffer[1], y0: window.y0 - buffer[2], y1: window.y1 + buffer[3] };
-        let region = hull.region(rect, band);
+        let region = hull.region(rect, band, &discs);
         let mut whole = rect.covers(&bounds) || buffer.iter().any(|b| *b >= COORDINATE_LIMIT);
         let mut chosen = source.within((!whole).then_some(&region))?;
         // A region of more than a quarter of the points costs about the whole TIN: take it all,
@@ -409,7 +433,26 @@ pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, windo
             Ok((mut tin, local_hull)) => {
                 let vertices = &tin.scene.vertices;
                 let kept: Vec<[u32; 3]> = tin.scene.triangles.iter().copied().filter(|t| window.meets_triangle(t.map(|v| vertices[v as usize]))).collect();
-                let unproven = if whole { 0 } else { unproven_sides(&tin, &kept, &local_hull, hull, &region, &outside, &window) };
+                // Circles wider than the first buffer (across a lake, a removed building) may be
+                // read as discs, when that costs fewer points than growing the rectangle.
+                let wide = if discs.len() < MAX_DISCS { first } else { f64::INFINITY };
+                let Unproven { mut sides, wide_sides, wide_circles } =
+                    if whole { Unproven::default() } else { unproven_sides(&tin, &kept, &local_hull, hull, &region, &outside, &window, wide) };
+                if !wide_circles.is_empty() {
+                    let mut with_discs = discs.clone();
+                    with_discs.extend(wide_circles.iter().map(|c| c.read_as(first / 8.0)));
+                    let grown = grown_sides(buffer, sides | wide_sides, &outside);
+                    let rect_grown = Rect { x0: window.x0 - grown[0], x1: window.x1 + grown[1], y0: window.y0 - grown[2], y1: window.y1 + grown[3] };
+                    if source.estimate(&hull.region(rect, band, &with_discs)) <= source.estimate(&hull.region(rect_grown, band, &discs)) {
+                        discs = with_discs;
+                        if sides == 0 {
+                            continue;
+                        }
+                    } else {
+                        sides |= wide_sides;
+                    }
+                }
+                let unproven = sides;
                 if unproven == 0 {
                     tin.scene.triangles = kept;
                     tin.source.iter_mut().for_each(|s| *s = chosen[*s].0);
@@ -417,7 +460,7 @@ pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, windo
                         true => (Rect { x0: rect.x0.min(bounds.x0), y0: rect.y0.min(bounds.y0), x1: rect.x1.max(bounds.x1), y1: rect.y1.max(bounds.y1) }, 0.0),
                         false => (rect, region.band_width()),
                     };
-                    return Ok(BlockTin { tin, region, band, points: chosen.len(), attempts });
+                    return Ok(BlockTin { tin, region, band, discs: if whole { 0 } else { discs.len() }, points: chosen.len(), attempts });
                 }
                 unproven
             }
@@ -426,10 +469,7 @@ pub fn triangulate_block_from<S: BlockSource>(source: &mut S, hull: &Hull, windo
             Err(TinError::OutOfRange { index, x, y, limit }) => return Err(TinError::OutOfRange { index: chosen[index].0, x, y, limit }.into()),
             Err(e) => return Err(e.into()),
         };
-        // Grow the sides the proof failed on, of those the hull reaches past.
-        let reaching = (0..4).filter(|&k| !outside[k].is_empty()).fold(0, |m, k| m | 1 << k);
-        let grow = if unproven & reaching != 0 { unproven & reaching } else { reaching };
-        (0..4).filter(|&k| grow & 1 << k != 0).for_each(|k| buffer[k] *= 2.0);
+        buffer = grown_sides(buffer, unproven, &outside);
         // A triangle along a hull edge whose disc reaches deeper than the bands: wider bands.
         if unproven & BANDS != 0 {
             band *= 2.0;
@@ -442,12 +482,47 @@ type Sides = u8;
 const ALL_SIDES: Sides = 0b1111;
 const BANDS: Sides = 0b10000;
 
+/// At most this many discs a block reads ([`Disc`]); beyond, its rectangle grows.
+const MAX_DISCS: usize = 64;
+
+/// The buffers with the sides the proof failed on doubled, of those the hull reaches past (all
+/// of those when it failed on none of them).
+fn grown_sides(mut buffer: [f64; 4], unproven: Sides, outside: &[Vec<[f64; 2]>; 4]) -> [f64; 4] {
+    let reaching = (0..4).filter(|&k| !outside[k].is_empty()).fold(0, |m, k| m | 1 << k);
+    let grow = if unproven & reaching != 0 { unproven & reaching } else { reaching };
+    (0..4).filter(|&k| grow & 1 << k != 0).for_each(|k| buffer[k] *= 2.0);
+    buffer
+}
+
+/// What a region left unproven ([`unproven_sides`]).
+#[derive(Default)]
+struct Unproven {
+    /// Sides (and bands) to grow.
+    sides: Sides,
+    /// The sides the wide circles failed on, should the rectangle grow for them instead.
+    wide_sides: Sides,
+    /// Circles wider than asked that failed, one for each that nearly coincide.
+    wide_circles: Vec<Circle>,
+}
+
 /// The sides (bits of [`Sides`]) beyond which a point could change the kept triangles: where
 /// a kept triangle's circumdisc may meet the hull's part beyond the side (`outside`), or an
 /// edge of the region's hull (`local_hull`) that faces the window is not on the whole hull's
 /// boundary (the hull's parts it faces); 0 when the block is proven.
 /// A kept triangle with a corner in a band whose disc is unclear adds [`BANDS`].
-fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &Hull, region: &Region, outside: &[Vec<[f64; 2]>; 4], window: &Rect) -> Sides {
+/// A kept triangle whose circle lies inside one of the region's discs is proven; one whose
+/// unclear circle is wider than `wide` is returned apart.
+#[allow(clippy::too_many_arguments)]
+fn unproven_sides(
+    tin: &Tin,
+    kept: &[[u32; 3]],
+    local_hull: &[[u32; 2]],
+    hull: &Hull,
+    region: &Region,
+    outside: &[Vec<[f64; 2]>; 4],
+    window: &Rect,
+    wide: f64,
+) -> Unproven {
     let at = |v: u32| {
         let p = tin.scene.vertices[v as usize];
         Coord { x: p[0] + 0.0, y: p[1] + 0.0 }
@@ -464,11 +539,97 @@ fn unproven_sides(tin: &Tin, kept: &[[u32; 3]], local_hull: &[[u32; 2]], hull: &
     }
     let bounds = outside.each_ref().map(|part| Rect::around(part));
     let in_band = |c: Coord<f64>| region.bands.iter().any(|band| band.holds([c.x, c.y]));
-    kept.iter().fold(unproven, |m, t| {
+    let mut result = Unproven { sides: unproven, ..Unproven::default() };
+    for t in kept {
         let corners = t.map(at);
+        let circle = Circle::through(corners);
+        if circle.is_some_and(|c| region.discs.iter().any(|disc| c.inside(disc))) {
+            continue;
+        }
         let unclear = disc_unclear(corners, outside, &bounds);
-        m | unclear | if unclear != 0 && corners.iter().any(|&c| in_band(c)) { BANDS } else { 0 }
-    })
+        match circle {
+            _ if unclear == 0 => {}
+            Some(c) if c.r_hi > wide => {
+                result.wide_sides |= unclear;
+                // One disc for circles that nearly coincide (a round lake's shore).
+                if !result.wide_circles.iter().any(|w| c.inside(&w.read_as(0.0))) {
+                    result.wide_circles.push(c);
+                }
+            }
+            _ => result.sides |= unclear | if corners.iter().any(|&c| in_band(c)) { BANDS } else { 0 },
+        }
+    }
+    result
+}
+
+/// A triangle's circumcircle as `f64` computes it, with rigorous bounds: the true centre lies
+/// within `centre_err` of `centre`, and the true radius is at most `r_hi`.
+#[derive(Debug, Clone, Copy)]
+struct Circle {
+    centre: [f64; 2],
+    centre_err: f64,
+    r_hi: f64,
+}
+
+impl Circle {
+    /// `None` for a triangle too thin for the bounds to be useful.
+    fn through([a, b, c]: [Coord<f64>; 3]) -> Option<Circle> {
+        // Unit roundoff; each bound below is at least four times the first-order error of the
+        // operations it covers (relative errors of `u` per rounding, on the magnitudes bounded).
+        const U: f64 = f64::EPSILON / 2.0;
+        let (bx, by, cx, cy) = (b.x - a.x, b.y - a.y, c.x - a.x, c.y - a.y);
+        let l = bx.abs().max(by.abs()).max(cx.abs()).max(cy.abs());
+        // Twice the signed area, and the circumcentre relative to `a`: `u = n / d`.
+        let d = 2.0 * (bx * cy - by * cx);
+        let d_err = 64.0 * U * l * l;
+        if d.is_nan() || d.abs() <= 2.0 * d_err {
+            return None;
+        }
+        let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+        let (ux, uy) = ((cy * b2 - by * c2) / d, (bx * c2 - cx * b2) / d);
+        let u = ux.abs().max(uy.abs());
+        let n_err = 256.0 * U * l * l * l;
+        // |n/d − ñ/d̃| ≤ (|n − ñ| + |u|·|d − d̃|) / (|d̃| − |d − d̃|), and |d̃| > 2·d_err.
+        let u_err = 2.0 * (n_err + 2.0 * u * d_err) / d.abs() + 8.0 * U * u;
+        let centre = [a.x + ux, a.y + uy];
+        let centre_err = u_err + 8.0 * U * (a.x.abs().max(a.y.abs()) + u);
+        let r_hi = ux.hypot(uy) * (1.0 + 16.0 * U) + 2.0 * u_err;
+        Some(Circle { centre, centre_err, r_hi })
+    }
+
+    /// Whether every point of the closed disc lies in `disc`, by a margin that covers the
+    /// rounding of `disc`'s own test ([`Disc::holds`]).
+    fn inside(&self, disc: &Disc) -> bool {
+        let gap = (self.centre[0] - disc.centre[0]).hypot(self.centre[1] - disc.centre[1]);
+        gap + self.centre_err + self.r_hi <= disc.radius * (1.0 - 1e-9)
+    }
+
+    /// The disc a block reads around it: a quarter wider, and `margin` more.
+    fn read_as(&self, margin: f64) -> Disc {
+        Disc { centre: self.centre, radius: 1.25 * self.r_hi + self.centre_err + margin }
+    }
+}
+
+/// A disc whose points a block reads: around a triangle's circumcircle too wide for the
+/// rectangle, such as one across a lake, whose disc is empty but for its shore.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Disc {
+    pub centre: [f64; 2],
+    pub radius: f64,
+}
+
+impl Disc {
+    /// Whether `(x, y)` lies in the closed disc (in `f64`).
+    pub fn holds(&self, x: f64, y: f64) -> bool {
+        let (dx, dy) = (x - self.centre[0], y - self.centre[1]);
+        dx * dx + dy * dy <= self.radius * self.radius
+    }
+
+    /// Whether the disc meets `rect`.
+    pub fn meets(&self, rect: &Rect) -> bool {
+        let (gx, gy) = ((rect.x0 - self.centre[0]).max(self.centre[0] - rect.x1).max(0.0), (rect.y0 - self.centre[1]).max(self.centre[1] - rect.y1).max(0.0));
+        gx * gx + gy * gy <= self.radius * self.radius
+    }
 }
 
 /// The sides whose part of the hull (`parts`) the closed circumdisc of the corners may meet:
@@ -479,26 +640,7 @@ fn disc_unclear([a, b, c]: [Coord<f64>; 3], parts: &[Vec<[f64; 2]>; 4], bounds: 
     if reaching == 0 {
         return 0;
     }
-    // Unit roundoff; each bound below is at least four times the first-order error of the
-    // operations it covers (relative errors of `u` per rounding, on the magnitudes bounded).
-    const U: f64 = f64::EPSILON / 2.0;
-    let (bx, by, cx, cy) = (b.x - a.x, b.y - a.y, c.x - a.x, c.y - a.y);
-    let l = bx.abs().max(by.abs()).max(cx.abs()).max(cy.abs());
-    // Twice the signed area, and the circumcentre relative to `a`: `u = n / d`.
-    let d = 2.0 * (bx * cy - by * cx);
-    let d_err = 64.0 * U * l * l;
-    if d.is_nan() || d.abs() <= 2.0 * d_err {
-        return reaching;
-    }
-    let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
-    let (ux, uy) = ((cy * b2 - by * c2) / d, (bx * c2 - cx * b2) / d);
-    let u = ux.abs().max(uy.abs());
-    let n_err = 256.0 * U * l * l * l;
-    // |n/d − ñ/d̃| ≤ (|n − ñ| + |u|·|d − d̃|) / (|d̃| − |d − d̃|), and |d̃| > 2·d_err.
-    let u_err = 2.0 * (n_err + 2.0 * u * d_err) / d.abs() + 8.0 * U * u;
-    let centre = [a.x + ux, a.y + uy];
-    let centre_err = u_err + 8.0 * U * (a.x.abs().max(a.y.abs()) + u);
-    let r_hi = ux.hypot(uy) * (1.0 + 16.0 * U) + 2.0 * u_err;
+    let Some(Circle { centre, centre_err, r_hi }) = Circle::through([a, b, c]) else { return reaching };
     let clear = |part: &Vec<[f64; 2]>, bounds: &Option<Rect>| {
         let Some(b) = bounds else { return true };
         // The parts' cut corners are rounded, and the distances below take a few roundings
@@ -629,6 +771,21 @@ mod tests {
             }
         }
         assert!(grew > 0, "the hole makes some buffer grow");
+    }
+
+    /// A block by a lake reads the shore across it as discs where they hold fewer points than
+    /// a rectangle that holds the lake's circles, and still has the whole TIN's triangles.
+    #[test]
+    fn a_block_by_a_lake_reads_the_far_shore_as_discs() {
+        let mut r = random(5);
+        let points: Vec<[f64; 3]> =
+            (0..40_000).map(|_| [r() * 1000.0, r() * 1000.0, r() * 10.0]).filter(|p| (p[0] - 500.0).hypot(p[1] - 500.0) > 200.0).collect();
+        let hull = Hull::of(&points);
+        let window = Rect { x0: 290.0, y0: 480.0, x1: 310.0, y1: 520.0 };
+        let block = triangulate_block(&points, &hull, window).unwrap();
+        assert_whole_over(&points, &block.tin, &window, "by the lake");
+        assert!(block.discs > 0, "the lake's circles are read as discs");
+        assert!(block.points < points.len() / 5, "{} of {} points", block.points, points.len());
     }
 
     /// Bands and a grid of blocks together give each whole-TIN triangle that meets the area

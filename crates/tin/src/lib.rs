@@ -23,7 +23,7 @@ pub mod block;
 mod canonical;
 pub mod nearest;
 
-pub use block::{BlockSource, BlockTin, Hull, Rect, Region, first_buffer, triangulate_block, triangulate_block_from};
+pub use block::{BlockSource, BlockTin, Disc, Hull, Rect, Region, first_buffer, triangulate_block, triangulate_block_from};
 pub use nearest::NearestPoints;
 use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};

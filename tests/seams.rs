@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use tileraster::dem::{self, DemError, ReadOptions};
 use tileraster::{Backend, Grid, Params, Raster, Window, rasterise, rasterise_window};
-use tileraster_testkit::scenes::Rng;
+use tileraster_testkit::scenes::{Rng, TWELVE_ON_A_CIRCLE};
 
 /// Points at UTM-like coordinates: random ground, a lattice patch (four cocircular points to
 /// each square), rings of twelve cocircular points, a round hole with no points, and
@@ -22,22 +22,8 @@ fn terrain(n: usize, seed: u64) -> Vec<[f64; 3]> {
         .filter(|p| (p[0] - e - 420.0).hypot(p[1] - north - 250.0) > 45.0)
         .collect();
     points.extend((0..40 * 25).map(|k| [e + 100.0 + (k % 40) as f64 * 2.0, north + 60.0 + (k / 40) as f64 * 2.0, (k % 13) as f64]));
-    let ring = [
-        (3.0, 4.0),
-        (4.0, 3.0),
-        (-3.0, 4.0),
-        (-4.0, 3.0),
-        (3.0, -4.0),
-        (4.0, -3.0),
-        (-3.0, -4.0),
-        (-4.0, -3.0),
-        (0.0, 5.0),
-        (5.0, 0.0),
-        (0.0, -5.0),
-        (-5.0, 0.0),
-    ];
     for (cx, cy) in [(250.0, 300.0), (300.5, 120.25)] {
-        points.extend(ring.iter().map(|&(x, y)| [e + cx + x, north + cy + y, 120.0 + x]));
+        points.extend(TWELVE_ON_A_CIRCLE.iter().map(|&(x, y)| [e + cx + x, north + cy + y, 120.0 + x]));
     }
     let repeats: Vec<[f64; 3]> = points.iter().step_by(53).map(|p| [p[0], p[1], p[2] + 3.0]).collect();
     points.extend(repeats);

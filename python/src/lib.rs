@@ -593,18 +593,24 @@ fn grid_of((xmin, xmax, ymin, ymax, width, height): GridTuple) -> tileraster::Gr
     tileraster::Grid::new(xmin, xmax, ymin, ymax, width, height)
 }
 
-/// Rasterise `window` of a block's scene; `None` when interrupted.
+/// Rasterise `window` of `grid` from the block scene `block` makes, on a thread of its own
+/// ([`interruptible`]), with how the block was made.
 fn rasterise_block(
-    scene: &RustScene,
+    py: Python<'_>,
     grid: tileraster::Grid,
     window: Window,
-    settings: &Settings,
-    cancel: &AtomicBool,
-) -> PyResult<Option<(RustRaster, Vec<Stats>)>> {
-    let params = settings.params(grid);
-    let prepared = tileraster::prepare(scene, &params, Some(window)).map_err(error)?;
-    let mut prepared = PreparedScene::from_prepared(prepared, settings.backend_for(&grid, Some(window)));
-    rasterise_banded(&mut prepared, window, cancel).map_err(error)
+    settings: Settings,
+    block: impl FnOnce() -> Result<dem::Input, dem::DemError> + Send + 'static,
+) -> PyResult<Raster> {
+    let done = interruptible(py, move |cancel| -> PyResult<_> {
+        let input = block().map_err(error)?;
+        let params = settings.params(grid);
+        let prepared = tileraster::prepare(&input.scene, &params, Some(window)).map_err(error)?;
+        let mut prepared = PreparedScene::from_prepared(prepared, settings.backend_for(&grid, Some(window)));
+        Ok(rasterise_banded(&mut prepared, window, cancel).map_err(error)?.map(|done| (done, input.block)))
+    })??;
+    let ((raster, stats), block) = done.ok_or_else(|| error("interrupted"))?;
+    Ok(Raster { block, ..Raster::new(py, raster, &stats)? })
 }
 
 /// `window` of `grid` from the points of the summarised `files` (in their order, as one file's),
@@ -631,12 +637,7 @@ fn block_dem(
         summaries.push(dem::FileSummary { path, points, bounds, hull: tileraster_tin::Hull::of(&hull), density });
     }
     let (options, grid, window) = (read_options(classes, max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
-    let done = interruptible(py, move |cancel| {
-        let input = dem::block_scene_of_files(&summaries, &grid, window, &options, &()).map_err(error)?;
-        PyResult::Ok(rasterise_block(&input.scene, grid, window, &settings, cancel)?.map(|done| (done, input.block)))
-    })??;
-    let ((raster, stats), block) = done.ok_or_else(|| error("interrupted"))?;
-    Ok(Raster { block, ..Raster::new(py, raster, &stats)? })
+    rasterise_block(py, grid, window, settings, move || dem::block_scene_of_files(&summaries, &grid, window, &options, &()))
 }
 
 /// `window` of `grid` from `points` ((N, 3) x, y, z, all of them), triangulating only those
@@ -657,12 +658,7 @@ fn block_dem_points(
     let settings = Settings::new(backend, mode, nodata, false)?;
     let points = vertices_of(points, "points")?;
     let (options, grid, window) = (read_options(Vec::new(), max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
-    let done = interruptible(py, move |cancel| {
-        let input = dem::block_scene(&points, &grid, window, &options, &()).map_err(error)?;
-        PyResult::Ok(rasterise_block(&input.scene, grid, window, &settings, cancel)?.map(|done| (done, input.block)))
-    })??;
-    let ((raster, stats), block) = done.ok_or_else(|| error("interrupted"))?;
-    Ok(Raster { block, ..Raster::new(py, raster, &stats)? })
+    rasterise_block(py, grid, window, settings, move || dem::block_scene(&points, &grid, window, &options, &()))
 }
 
 fn vertices_of_two(array: &Bound<'_, PyArray2<f64>>) -> PyResult<Vec<[f64; 2]>> {

@@ -6,7 +6,7 @@
 //! a first pass over the files ([`summarise_files`]) learns each one's point count, bounds and
 //! convex hull, and a block then reads only the files its region meets, more as it grows.
 
-use super::input::{InputKind, PointsRead, ReadOptions, describe, drop_long_triangles, read_kinds};
+use super::input::{InputKind, PointsRead, ReadOptions, describe, drop_long_triangles, read_points};
 use super::{DemError, Input, Progress};
 use crate::{Grid, Window};
 use rayon::prelude::*;
@@ -108,14 +108,7 @@ pub fn summarise_file(path: &Path, options: &ReadOptions) -> Result<FileSummary,
 }
 
 fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
-    let kind = InputKind::of(path)?;
-    if !kind.is_points() {
-        return Err(DemError::MeshAmongInputs { path: path.to_path_buf(), inputs: 1 });
-    }
-    if kind != InputKind::Las && !options.classes.is_empty() {
-        return Err(DemError::ClassesOfText { path: path.to_path_buf() });
-    }
-    read_kinds(&[path.to_path_buf()], &[kind], options)
+    read_points(std::slice::from_ref(&path.to_path_buf()), options)
 }
 
 /// The scene of `window` of `grid` as a block ([`block_scene`]) of the points of `files` (in
@@ -251,8 +244,7 @@ impl HeldPoints {
         let (hull, total) = hull_of(files);
         let width = tileraster_tin::first_buffer(&hull, total);
         let points = read_region(files, options, &hull.strip(width))?;
-        let nothing = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
-        Ok(HeldPoints { rect: nothing, width, points })
+        Ok(HeldPoints { rect: Rect::EMPTY, width, points })
     }
 
     /// The points of `files` in the cells of `window` of `grid` and a margin of four first
@@ -261,16 +253,6 @@ impl HeldPoints {
         let (hull, total) = hull_of(files);
         let rect = block_cells(grid, window).grown(4.0 * tileraster_tin::first_buffer(&hull, total));
         Ok(HeldPoints { rect, width: 0.0, points: read_region(files, options, &Region::rect(rect))? })
-    }
-
-    /// How many points it holds.
-    pub fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// Whether it holds none.
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
     }
 }
 

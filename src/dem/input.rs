@@ -203,7 +203,7 @@ pub fn read_points(paths: &[PathBuf], options: &ReadOptions) -> Result<Vec<[f64;
     read_kinds(paths, &kinds, options)
 }
 
-pub(super) fn read_kinds(paths: &[PathBuf], kinds: &[InputKind], options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
+fn read_kinds(paths: &[PathBuf], kinds: &[InputKind], options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
     use rayon::prelude::*;
     let read = |(path, kind): (&PathBuf, &InputKind)| match kind {
         InputKind::Las => tileraster_io::read_las_classes(path, &options.classes),

@@ -3,6 +3,11 @@
 
 use crate::{Grid, Scene};
 
+/// Twelve points on the circle of radius 5 about the origin, all with integer coordinates
+/// (Pythagorean triples): exactly cocircular, the hardest tie a Delaunay triangulation meets.
+pub const TWELVE_ON_A_CIRCLE: [(f64, f64); 12] =
+    [(3.0, 4.0), (4.0, 3.0), (-3.0, 4.0), (-4.0, 3.0), (3.0, -4.0), (4.0, -3.0), (-3.0, -4.0), (-4.0, -3.0), (0.0, 5.0), (5.0, 0.0), (0.0, -5.0), (-5.0, 0.0)];
+
 /// SplitMix64: tiny, fast and good enough for test geometry.
 #[derive(Debug, Clone)]
 pub struct Rng(u64);

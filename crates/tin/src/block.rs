@@ -36,6 +36,9 @@ pub struct Rect {
 }
 
 impl Rect {
+    /// The rectangle that holds and meets nothing.
+    pub const EMPTY: Rect = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
+
     /// The least rectangle holding the points' x and y; `None` for no points.
     pub fn around<const N: usize>(points: &[[f64; N]]) -> Option<Rect> {
         let (first, rest) = points.split_first()?;
@@ -183,10 +186,9 @@ impl Hull {
     /// Bands of `width` along every edge of the hull, and no rectangle: where the blocks at
     /// the hull find their bands' points.
     pub fn strip(&self, width: f64) -> Region {
-        let nothing = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
         let n = self.corners.len();
         let bands = if n < 3 { Vec::new() } else { (0..n).map(|k| Band::new(self.corners[k], self.corners[(k + 1) % n], width)).collect() };
-        Region { rect: nothing, bands, discs: Vec::new() }
+        Region { rect: Rect::EMPTY, bands, discs: Vec::new() }
     }
 
     /// `rect` with bands of `width` along the hull's edges that cross it (a rectangle inside
@@ -245,8 +247,7 @@ impl Region {
 
     /// Its discs alone, without its rectangle and bands.
     pub fn discs_only(&self) -> Region {
-        let nothing = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
-        Region { rect: nothing, bands: Vec::new(), discs: self.discs.clone() }
+        Region { rect: Rect::EMPTY, bands: Vec::new(), discs: self.discs.clone() }
     }
 
     /// Whether it has discs.
@@ -678,6 +679,7 @@ fn distance(p: [f64; 2], polygon: &[[f64; 2]]) -> f64 {
 mod tests {
     use super::*;
     use crate::triangulate;
+    use tileraster_testkit::scenes::TWELVE_ON_A_CIRCLE;
 
     /// A hash-based generator: the tests' points without a dependency.
     fn random(seed: u64) -> impl FnMut() -> f64 {
@@ -718,21 +720,7 @@ mod tests {
         let mut r = random(seed);
         let mut points: Vec<[f64; 3]> = (0..n).map(|_| [r() * 1000.0, r() * 600.0, r() * 50.0]).filter(|p| (p[0] - 700.0).hypot(p[1] - 300.0) > 80.0).collect();
         points.extend((0..30 * 30).map(|k| [100.0 + (k % 30) as f64 * 4.0, 200.0 + (k / 30) as f64 * 4.0, k as f64]));
-        let ring = [
-            (3.0, 4.0),
-            (4.0, 3.0),
-            (-3.0, 4.0),
-            (-4.0, 3.0),
-            (3.0, -4.0),
-            (4.0, -3.0),
-            (-3.0, -4.0),
-            (-4.0, -3.0),
-            (0.0, 5.0),
-            (5.0, 0.0),
-            (0.0, -5.0),
-            (-5.0, 0.0),
-        ];
-        points.extend(ring.iter().map(|&(x, y)| [400.0 + x * 3.0, 450.0 + y * 3.0, 7.0]));
+        points.extend(TWELVE_ON_A_CIRCLE.iter().map(|&(x, y)| [400.0 + x * 3.0, 450.0 + y * 3.0, 7.0]));
         let repeats: Vec<[f64; 3]> = points.iter().step_by(97).map(|p| [p[0], p[1], p[2] + 1.0]).collect();
         points.extend(repeats);
         points

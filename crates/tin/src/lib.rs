@@ -231,23 +231,7 @@ mod tests {
         }
         assert_eq!(triangles_within(&shuffled, 1.0, 10.0), alone, "the same points in another order");
 
-        let ring = |cx: f64, cy: f64| -> Vec<[f64; 3]> {
-            let offsets = [
-                (3.0, 4.0),
-                (4.0, 3.0),
-                (-3.0, 4.0),
-                (-4.0, 3.0),
-                (3.0, -4.0),
-                (4.0, -3.0),
-                (-3.0, -4.0),
-                (-4.0, -3.0),
-                (0.0, 5.0),
-                (5.0, 0.0),
-                (0.0, -5.0),
-                (-5.0, 0.0),
-            ];
-            offsets.iter().map(|&(x, y)| [cx + x, cy + y, 0.0]).collect()
-        };
+        let ring = |cx: f64, cy: f64| -> Vec<[f64; 3]> { tileraster_testkit::scenes::TWELVE_ON_A_CIRCLE.iter().map(|&(x, y)| [cx + x, cy + y, 0.0]).collect() };
         let alone = triangles_within(&ring(0.0, 0.0), -5.0, 5.0);
         assert_eq!(alone.len(), 10, "a convex 12-gon has 10 triangles");
         for k in 0..6 {

@@ -334,11 +334,13 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         (empty, grid, Some((files, total)))
     } else if blocked {
         let start = Instant::now();
-        // Several files: a pass over them for their counts, bounds and hulls, holding one file
-        // at a time, then only the files the band needs. One file: its points, read once.
-        let (files, points) = match inputs.len() {
-            1 => (Vec::new(), dem::read_points(&inputs, &options).map_err(|e| e.to_string())?),
-            _ => (dem::summarise_files(&inputs, &options).map_err(|e| e.to_string())?, Vec::new()),
+        // Several files, or a COPC file: a pass over them for their counts, bounds and hulls,
+        // holding one file at a time, then only the files (and COPC nodes) the band needs.
+        // One other file: its points, read once.
+        let summarise = inputs.len() > 1 || dem::is_copc(&inputs[0]).map_err(|e| e.to_string())?;
+        let (files, points) = match summarise {
+            false => (Vec::new(), dem::read_points(&inputs, &options).map_err(|e| e.to_string())?),
+            true => (dem::summarise_files(&inputs, &options).map_err(|e| e.to_string())?, Vec::new()),
         };
         let read_time = start.elapsed();
         let total = points.len() + files.iter().map(|f| f.points).sum::<usize>();
@@ -356,9 +358,14 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         .map_err(|e| e.to_string())?;
         let (block, summary) = (read.block.expect("a block's scene says how it was made"), read.points.expect("a block is of points"));
         let (k, n) = part.expect("blocked runs are parts");
+        let records: u64 = files.iter().filter_map(|f| f.records).sum();
         let files_read = match files.len() {
             0 => String::new(),
+            1 => String::new(),
             n => format!(", from {} of the {n} files", block.files_read),
+        } + &match records {
+            0 => String::new(),
+            r => format!(", decoding {} points from COPC octree nodes (which hold {r}) over its tries", block.points_decoded),
         };
         let around = match (block.points == total, block.attempts) {
             (true, _) => "every point (the band's triangles need points that far)".to_string(),

@@ -643,6 +643,37 @@ fn parts_of_many_point_files_read_what_their_bands_need_and_give_the_single_run(
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A COPC file: `--part K/N` summarises it from its octree and decodes the nodes its band
+/// needs, the parts and a run in blocks give the single run's cells, and with `--class` too.
+#[test]
+fn a_copc_file_in_parts_and_in_blocks_gives_its_single_run() {
+    let dir = scratch("copc-parts");
+    let copc = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/autzen_trim.copc.laz");
+    for class in [None, Some("2")] {
+        let grid: Vec<&str> = ["--tr", "2", "2"].into_iter().chain(class.map(|c| ["--class", c]).into_iter().flatten()).collect();
+        let single = dir.join("single.tif");
+        let out = rasterise_cli(&copc, &single, &grid);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let (mut bands, mut fewer) = (Vec::new(), 0);
+        for k in 0..4 {
+            let part = dir.join(format!("part-{k}.tif"));
+            let out = rasterise_cli(&copc, &part, &[&grid[..], &["--part", &format!("{k}/4")]].concat());
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(out.status.success(), "{stderr}");
+            let decoded: usize = stderr.split(", decoding ").nth(1).and_then(|rest| rest.split(' ').next()).and_then(|n| n.parse().ok()).expect(&stderr);
+            fewer += usize::from(decoded < 110_000);
+            bands.extend(read_tif_values(&part));
+        }
+        assert!(fewer > 0, "some part decodes fewer points than the file holds");
+        assert_same_bits(&bands, &read_tif_values(&single), &format!("the COPC file's parts (class {class:?}) against its single run"));
+        let blocks = dir.join("blocks.tif");
+        let out = rasterise_cli(&copc, &blocks, &[&grid[..], &["--memory", "20"]].concat());
+        assert!(out.status.success() && String::from_utf8_lossy(&out.stderr).contains("blocks in bands"), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_same_bits(&read_tif_values(&blocks), &read_tif_values(&single), &format!("the COPC file in blocks (class {class:?})"));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `--tin` writes the triangulation a point file was rasterised through; rasterising that
 /// OBJ gives the same cells, and `--owner`'s indices are its faces.
 #[test]

@@ -159,6 +159,43 @@ fn a_real_lidar_tiles_blocks_are_the_whole_run_bit_for_bit() {
     assert_blocks_are_the_whole_run(&points, grid, &ReadOptions::default(), "autzen_trim");
 }
 
+/// A COPC file (the same tile as an octree of nodes): its summary reads only the nodes that
+/// may hold corners of its hull and finds the exact hull; its blocks decode only the nodes their
+/// regions meet and are the whole run of the file's points, with and without `--class`.
+#[test]
+fn a_copc_files_blocks_decode_their_nodes_and_are_the_whole_run() {
+    let copc = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/autzen_trim.copc.laz");
+    assert!(dem::is_copc(&copc).unwrap() && !dem::is_copc(&autzen()).unwrap());
+    for classes in [vec![], vec![2]] {
+        let options = ReadOptions { classes: classes.clone(), ..Default::default() };
+        let points = dem::read_points(std::slice::from_ref(&copc), &options).unwrap();
+        let mut sorted = dem::read_points(&[autzen()], &options).unwrap();
+        let mut ours = points.clone();
+        let key = |p: &[f64; 3]| p.map(f64::to_bits);
+        sorted.sort_by_key(key);
+        ours.sort_by_key(key);
+        assert_eq!(ours, sorted, "the COPC file holds the LAZ file's points, in its own order");
+        let files = dem::summarise_files(std::slice::from_ref(&copc), &options).unwrap();
+        assert_eq!(files[0].records, Some(110_000));
+        assert_eq!(files[0].hull, tileraster_tin::Hull::of(&points), "the summary's hull is exact (classes {classes:?})");
+        if classes.is_empty() {
+            assert_eq!(files[0].points, 110_000);
+        }
+        let hull = tileraster_tin::Rect::around(&points).unwrap();
+        let (width, height) = (((hull.x1 - hull.x0) / 2.0).ceil() as u32, ((hull.y1 - hull.y0) / 2.0).ceil() as u32);
+        let grid = Grid::new(hull.x0, hull.x0 + 2.0 * width as f64, hull.y0, hull.y0 + 2.0 * height as f64, width, height);
+        let fewer = std::cell::Cell::new(0);
+        let what = format!("autzen_trim as COPC, classes {classes:?}");
+        assert_blocks_of_are_the_whole_run(&points, grid, &options, &what, |window| {
+            let block = dem::block_scene_of_files(&files, &grid, window, &options, &())?;
+            let made = block.block.unwrap();
+            fewer.set(fewer.get() + usize::from(made.attempts == 1 && made.points_decoded < 110_000));
+            Ok(block)
+        });
+        assert!(fewer.get() > 0, "{what}: some block decodes fewer points than the file holds");
+    }
+}
+
 /// A triangle wider than the finest snapping lattice allows coarsens the whole run's lattice;
 /// the block that holds it says so instead of giving other bits, and a block beside it (that
 /// cannot know) is still whole-run bits whenever no block errs.

@@ -390,7 +390,8 @@ impl Raster {
     }
 
     /// For a block of a larger DEM (`tileraster.dask`), how its TIN was made: the points
-    /// triangulated, the files read, the regions tried, the widest buffer beyond the window
+    /// triangulated, the files read, the points decoded from them (a COPC file's nodes), the
+    /// regions tried, the widest buffer beyond the window
     /// and the width of the bands along the hull's edges (map units); `None` for other rasters.
     #[getter]
     fn block<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
@@ -398,6 +399,7 @@ impl Raster {
         let dict = PyDict::new(py);
         dict.set_item("points", block.points)?;
         dict.set_item("files_read", block.files_read)?;
+        dict.set_item("points_decoded", block.points_decoded)?;
         dict.set_item("attempts", block.attempts)?;
         dict.set_item("buffer", block.buffer)?;
         dict.set_item("band", block.band)?;
@@ -564,8 +566,8 @@ fn rasterise(
 
 /// A point file summarised for blocks, as Python keeps it (plain values, so that Dask can
 /// ship it): (path, points, bounds (west, south, east, north) or `None`, hull corners (K, 2),
-/// density counts).
-type SummaryTuple<'py> = (PathBuf, usize, Option<(f64, f64, f64, f64)>, Bound<'py, PyArray2<f64>>, Vec<u32>);
+/// density counts, a COPC file's records or `None`).
+type SummaryTuple<'py> = (PathBuf, usize, Option<(f64, f64, f64, f64)>, Bound<'py, PyArray2<f64>>, Vec<u32>, Option<u64>);
 
 /// The files that `inputs` (files, directories, glob patterns) name, as the command line
 /// finds them.
@@ -586,7 +588,7 @@ fn summarise_points(py: Python<'_>, path: PathBuf, classes: Vec<u8>) -> PyResult
     let summary = interruptible(py, move |_| dem::summarise_file(&path, &options))?.map_err(error)?;
     let bounds = summary.bounds.map(|b| (b.x0, b.y0, b.x1, b.y1));
     let hull = rows(summary.hull.corners().iter().flatten().copied().collect(), 2).into_pyarray(py);
-    Ok((summary.path, summary.points, bounds, hull, summary.density))
+    Ok((summary.path, summary.points, bounds, hull, summary.density, summary.records))
 }
 
 fn grid_of((xmin, xmax, ymin, ymax, width, height): GridTuple) -> tileraster::Grid {
@@ -631,10 +633,10 @@ fn block_dem(
 ) -> PyResult<Raster> {
     let settings = Settings::new(backend, mode, nodata, false)?;
     let mut summaries = Vec::with_capacity(files.len());
-    for (path, points, bounds, hull, density) in files {
+    for (path, points, bounds, hull, density, records) in files {
         let hull = vertices_of_two(&hull)?;
         let bounds = bounds.map(|(x0, y0, x1, y1)| tileraster_tin::Rect { x0, y0, x1, y1 });
-        summaries.push(dem::FileSummary { path, points, bounds, hull: tileraster_tin::Hull::of(&hull), density });
+        summaries.push(dem::FileSummary { path, points, bounds, hull: tileraster_tin::Hull::of(&hull), density, records });
     }
     let (options, grid, window) = (read_options(classes, max_edge), grid_of(grid), window_of(Some(window)).expect("given"));
     rasterise_block(py, grid, window, settings, move || dem::block_scene_of_files(&summaries, &grid, window, &options, &()))

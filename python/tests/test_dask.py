@@ -77,6 +77,20 @@ def test_a_real_lidar_tiles_ground_in_chunks_on_threads(tmp_path):
     assert values.tobytes() == expected.tobytes(), f"{np.count_nonzero(values != expected)} cells differ from the single run"
 
 
+def test_a_copc_files_chunks_decode_their_nodes(tmp_path):
+    copc = REPO / "tests" / "data" / "autzen_trim.copc.laz"
+    cli("rasterise", copc, "-o", tmp_path / "cli.tif", "--backend", "cpu", "--tr", "2", "2", "--class", "2")
+    expected, _, _ = read_tif(tmp_path / "cli.tif")
+    dem = tileraster.dask.points_to_dem(copc, tileraster.Grid(tr=(2, 2)), chunks=(100, 200), classes=[2])
+    with dask.config.set(scheduler="threads"):
+        values = dem.values
+    assert values.tobytes() == expected.tobytes(), f"{np.count_nonzero(values != expected)} cells differ from the single run"
+    summary = tileraster._native.summarise_points(str(copc), classes=[2])
+    grid = tileraster.Grid(tr=(2, 2)).resolve(summary[2])
+    block = tileraster._native.block_dem([summary], grid, (250, 120, 50, 50), classes=[2]).block
+    assert summary[5] == 110_000 and 0 < block["points_decoded"] < 110_000, block
+
+
 def test_an_array_of_points_on_a_given_extent_is_lazy_and_exact():
     points = survey(8_000, seed=9)
     grid = tileraster.Grid(txe=(500_010.0, 500_590.0), tye=(5_000_005.0, 5_000_395.0), outsize=(580, 390))

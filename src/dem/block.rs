@@ -12,6 +12,7 @@ use crate::{Grid, Window};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+use tileraster_io::{Copc, CopcNode};
 use tileraster_tin::{BlockSource, BlockTin, Hull, Rect, Region, TinError};
 
 /// How a block's TIN was made ([`block_scene`]).
@@ -29,6 +30,9 @@ pub struct BlockRead {
     pub band: f64,
     /// Input files read (0 for points in memory).
     pub files_read: usize,
+    /// Points decoded from the files, over every region tried: all of a file read whole (of
+    /// `--class`), and the records of the nodes of a COPC file read (0 for points in memory).
+    pub points_decoded: usize,
 }
 
 /// Cells beyond a block's window whose triangles the block keeps: more than the rasteriser's
@@ -61,12 +65,22 @@ pub struct FileSummary {
     /// Its points counted in each cell of a `DENSITY_SIDE`² grid over `bounds`, row by row
     /// from the south (empty without points): what reading a region of it costs.
     pub density: Vec<u32>,
+    /// For a COPC file, the point records its header counts: its points are read by octree
+    /// node and numbered by record, and with `--class`, `points` and `density` are estimates
+    /// from the nodes the summary read. `None` for a file read whole.
+    pub records: Option<u64>,
 }
 
 /// Cells along each side of a file's density grid ([`FileSummary::density`]).
 pub const DENSITY_SIDE: usize = 32;
 
 impl FileSummary {
+    /// The numbers its points take in the whole set's order: its points, or a COPC file's
+    /// records.
+    fn span(&self) -> usize {
+        self.records.map_or(self.points, |r| r as usize)
+    }
+
     /// About how many of its points `region` holds: those of the density cells it meets.
     fn estimate(&self, region: &Region) -> usize {
         let Some(b) = self.bounds.filter(|b| region.meets(b)) else { return 0 };
@@ -98,13 +112,102 @@ pub fn summarise_files(paths: &[PathBuf], options: &ReadOptions) -> Result<Vec<F
 }
 
 /// Read `path` and summarise it; a non-finite coordinate is refused as the whole run refuses it.
+/// A COPC file is summarised from its index and the nodes that may hold corners of its hull.
 pub fn summarise_file(path: &Path, options: &ReadOptions) -> Result<FileSummary, DemError> {
+    if let Some(copc) = open_copc(path)? {
+        return summarise_copc(&copc, path, options);
+    }
     let points = read_file(path, options)?;
     if let Some((index, &[x, y, z])) = points.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
         return Err(DemError::Triangulation { path: path.to_path_buf(), source: TinError::NonFinite { index, x, y, z } });
     }
     let bounds = Rect::around(&points);
-    Ok(FileSummary { path: path.to_path_buf(), points: points.len(), bounds, hull: Hull::of(&points), density: density(&points, bounds) })
+    Ok(FileSummary { path: path.to_path_buf(), points: points.len(), bounds, hull: Hull::of(&points), density: density(&points, bounds), records: None })
+}
+
+/// Whether `path` is a COPC file, whose blocks read only the octree nodes their regions meet.
+pub fn is_copc(path: &Path) -> Result<bool, DemError> {
+    Ok(open_copc(path)?.is_some())
+}
+
+/// The COPC index of `path` when it is a LAS/LAZ file that is one.
+fn open_copc(path: &Path) -> Result<Option<Copc>, DemError> {
+    Ok(match InputKind::of(path)? {
+        InputKind::Las => Copc::open(path)?,
+        _ => None,
+    })
+}
+
+/// A node's cube as a rectangle.
+fn cube(node: &CopcNode) -> Rect {
+    let [x0, y0, x1, y1] = node.bounds;
+    Rect { x0, y0, x1, y1 }
+}
+
+/// A COPC file's summary. Its hull is exact: nodes are read until every node not read lies
+/// strictly inside the hull of the points read (first those whose cubes reach the extremes,
+/// then those the hull does not surround), so no point left unread can be a corner of it.
+/// With `--class`, its points and density scale the index's counts by the share of the
+/// points read that are of those classes.
+fn summarise_copc(copc: &Copc, path: &Path, options: &ReadOptions) -> Result<FileSummary, DemError> {
+    let cubes: Vec<Rect> = copc.nodes.iter().map(cube).collect();
+    let Some(outer) = cubes.iter().copied().reduce(|a, b| Rect { x0: a.x0.min(b.x0), y0: a.y0.min(b.y0), x1: a.x1.max(b.x1), y1: a.y1.max(b.y1) }) else {
+        return Err(DemError::Io(tileraster_io::IoError::Format { path: path.to_owned(), message: "the file holds no points".into() }));
+    };
+    let mut wanted: Vec<usize> = (0..cubes.len())
+        .filter(|&k| [cubes[k].x0 == outer.x0, cubes[k].x1 == outer.x1, cubes[k].y0 == outer.y0, cubes[k].y1 == outer.y1].contains(&true))
+        .collect();
+    let (mut read, mut corners, mut kept, mut decoded) = (vec![false; cubes.len()], Vec::new(), 0u64, 0u64);
+    while !wanted.is_empty() {
+        let nodes = copc.read(&wanted, &options.classes)?;
+        wanted.iter().for_each(|&k| read[k] = true);
+        kept += nodes.points.len() as u64;
+        decoded += nodes.decoded;
+        corners.extend(nodes.points.iter().map(|&(_, p)| [p[0], p[1]]));
+        corners = Hull::of(&corners).corners().to_vec();
+        let hull = Hull::of(&corners);
+        wanted = (0..cubes.len()).filter(|&k| !read[k] && !hull.surrounds(&cubes[k])).collect();
+    }
+    let hull = Hull::of(&corners);
+    if hull.corners().is_empty() {
+        // No point of the classes asked for where the hull was sought: maybe elsewhere.
+        if copc.read(&(0..cubes.len()).collect::<Vec<_>>(), &options.classes)?.points.is_empty() {
+            read_file(path, options)?; // the whole file's own error: which classes it holds
+        }
+        return Err(DemError::Io(tileraster_io::IoError::Format {
+            path: path.to_owned(),
+            message: "its points of the classes asked for lie inside its hull's nodes only".into(),
+        }));
+    }
+    let share = if decoded > 0 { kept as f64 / decoded as f64 } else { 1.0 };
+    let bounds = hull.bounds();
+    let density = bounds.map_or_else(Vec::new, |b| node_density(&copc.nodes, &b, share));
+    Ok(FileSummary { path: path.to_owned(), points: (copc.records as f64 * share).round() as usize, bounds, hull, density, records: Some(copc.records) })
+}
+
+/// The density grid over `bounds` from a COPC index: each node's count, times `share`, spread
+/// over the cells by the part of its cube in each.
+fn node_density(nodes: &[CopcNode], bounds: &Rect, share: f64) -> Vec<u32> {
+    let mut counts = vec![0f64; DENSITY_SIDE * DENSITY_SIDE];
+    let n = DENSITY_SIDE as f64;
+    let (w, h) = ((bounds.x1 - bounds.x0) / n, (bounds.y1 - bounds.y0) / n);
+    for node in nodes {
+        let c = cube(node);
+        let (cw, ch) = (c.x1 - c.x0, c.y1 - c.y0);
+        let span = |lo: f64, hi: f64, origin: f64, step: f64| {
+            if step > 0.0 { ((((lo - origin) / step).floor().max(0.0)) as usize, (((hi - origin) / step).ceil().clamp(0.0, n)) as usize) } else { (0, 1) }
+        };
+        let (i0, i1) = span(c.x0, c.x1, bounds.x0, w);
+        let (j0, j1) = span(c.y0, c.y1, bounds.y0, h);
+        for j in j0..j1.max(j0 + 1).min(DENSITY_SIDE) {
+            for i in i0..i1.max(i0 + 1).min(DENSITY_SIDE) {
+                let part = |lo: f64, hi: f64, a: f64, b: f64, whole: f64| if whole > 0.0 { ((hi.min(b) - lo.max(a)) / whole).clamp(0.0, 1.0) } else { 1.0 };
+                let (x0, y0) = (bounds.x0 + i as f64 * w, bounds.y0 + j as f64 * h);
+                counts[j * DENSITY_SIDE + i] += node.count as f64 * share * part(c.x0, c.x1, x0, x0 + w, cw) * part(c.y0, c.y1, y0, y0 + h, ch);
+            }
+        }
+    }
+    counts.iter().map(|&c| c.ceil() as u32).collect()
 }
 
 fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<[f64; 3]>, DemError> {
@@ -129,6 +232,7 @@ pub fn block_scene_of_files(files: &[FileSummary], grid: &Grid, window: Window, 
     })?;
     if let Some(block) = &mut input.block {
         block.files_read = source.read.iter().filter(|&&r| r).count();
+        block.points_decoded = source.decoded;
     }
     Ok(input)
 }
@@ -169,11 +273,24 @@ struct FileSource<'a> {
     offsets: Vec<usize>,
     /// Which files were read.
     read: Vec<bool>,
+    /// The COPC files' indices, once opened.
+    copc: Vec<Option<Copc>>,
+    /// Points decoded so far ([`BlockRead::points_decoded`]).
+    decoded: usize,
 }
+
+/// Points, each with its number in the whole set's order.
+type Indexed = Vec<(usize, [f64; 3])>;
 
 enum SourceError {
     Tin(TinError),
     Read(DemError),
+}
+
+impl From<DemError> for SourceError {
+    fn from(e: DemError) -> Self {
+        SourceError::Read(e)
+    }
 }
 
 impl From<TinError> for SourceError {
@@ -184,8 +301,8 @@ impl From<TinError> for SourceError {
 
 impl<'a> FileSource<'a> {
     fn new(files: &'a [FileSummary], options: &'a ReadOptions) -> Self {
-        let offsets = files.iter().scan(0, |start, f| Some(std::mem::replace(start, *start + f.points))).collect();
-        FileSource { files, options, offsets, read: vec![false; files.len()] }
+        let offsets = files.iter().scan(0, |start, f| Some(std::mem::replace(start, *start + f.span()))).collect();
+        FileSource { files, options, offsets, read: vec![false; files.len()], copc: vec![None; files.len()], decoded: 0 }
     }
 }
 
@@ -198,19 +315,36 @@ impl BlockSource for FileSource<'_> {
 
     fn within(&mut self, region: Option<&Region>) -> Result<Vec<(usize, [f64; 3])>, SourceError> {
         let wanted: Vec<usize> = (0..self.files.len()).filter(|&k| self.files[k].bounds.is_some_and(|b| region.is_none_or(|r| r.meets(&b)))).collect();
-        let read = |&k: &usize| -> Result<Vec<(usize, [f64; 3])>, DemError> {
+        for &k in &wanted {
             let file = &self.files[k];
+            if let (Some(records), None) = (file.records, &self.copc[k]) {
+                let copc = open_copc(&file.path)?.filter(|c| c.records == records);
+                let read = copc.as_ref().map_or(0, |c| c.records as usize);
+                self.copc[k] = Some(copc.ok_or(DemError::InputChanged { path: file.path.clone(), summarised: records as usize, read })?);
+            }
+        }
+        // Each file's points the region holds, and the points decoded for them.
+        let read = |&k: &usize| -> Result<(Indexed, usize), DemError> {
+            let file = &self.files[k];
+            let inside = |p: &[f64; 3]| region.is_none_or(|r| r.holds(p[0], p[1]));
+            if let Some(copc) = &self.copc[k] {
+                // The nodes whose cubes the region meets, in file order, numbered by record.
+                let nodes: Vec<usize> = (0..copc.nodes.len()).filter(|&n| region.is_none_or(|r| r.meets(&cube(&copc.nodes[n])))).collect();
+                let read = copc.read(&nodes, &self.options.classes)?;
+                let held = read.points.into_iter().filter(|(_, p)| inside(p)).map(|(record, p)| (self.offsets[k] + record as usize, p)).collect();
+                return Ok((held, read.decoded as usize));
+            }
             let points = read_file(&file.path, self.options)?;
             if points.len() != file.points {
                 return Err(DemError::InputChanged { path: file.path.clone(), summarised: file.points, read: points.len() });
             }
-            let inside = |p: &[f64; 3]| region.is_none_or(|r| r.holds(p[0], p[1]));
-            Ok(points.iter().enumerate().filter(|(_, p)| inside(p)).map(|(i, &p)| (self.offsets[k] + i, p)).collect())
+            Ok((points.iter().enumerate().filter(|(_, p)| inside(p)).map(|(i, &p)| (self.offsets[k] + i, p)).collect(), points.len()))
         };
         let parts = wanted.par_iter().map(read).collect::<Result<Vec<_>, _>>().map_err(SourceError::Read)?;
         wanted.iter().for_each(|&k| self.read[k] = true);
+        self.decoded += parts.iter().map(|(_, n)| n).sum::<usize>();
         // In the files' order, each file's points in its own: the whole set's order.
-        Ok(parts.concat())
+        Ok(parts.into_iter().flat_map(|(points, _)| points).collect())
     }
 
     fn estimate(&self, region: &Region) -> usize {
@@ -288,6 +422,7 @@ pub fn block_scene_held(
     })?;
     if let Some(block) = &mut input.block {
         block.files_read = source.files.read.iter().filter(|&&r| r).count();
+        block.points_decoded = source.files.decoded;
     }
     Ok(input)
 }
@@ -358,6 +493,6 @@ fn block_of(
         points: Some(summary),
         long_triangles,
         points_read: None,
-        block: Some(BlockRead { points: block.points, buffer, attempts: block.attempts, band: block.band, files_read: 0 }),
+        block: Some(BlockRead { points: block.points, buffer, attempts: block.attempts, band: block.band, files_read: 0, points_decoded: 0 }),
     })
 }

@@ -35,7 +35,7 @@ mod linear;
 mod stream;
 
 pub use block::{
-    BYTES_PER_POINT, BlockRead, FileSummary, HeldPoints, block_band_rows, block_scene, block_scene_held, block_scene_of_files, estimated_points,
+    BYTES_PER_POINT, BlockRead, FileSummary, HeldPoints, block_band_rows, block_scene, block_scene_held, block_scene_of_files, estimated_points, is_copc,
     summarise_file, summarise_files,
 };
 pub use grid::{GridSize, GridSpec, part_window};

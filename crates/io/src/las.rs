@@ -41,7 +41,36 @@ pub fn parse_las(bytes: &[u8], origin: &Path) -> Result<Vec<[f64; 3]>, IoError> 
 const DECODING_STACK: usize = 256 << 20;
 const DECODING_DEPTH: usize = 16 << 20;
 
-fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, IoError> {
+fn read_from<R: Read + Seek + Send + Sync + 'static>(source: R, origin: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, IoError> {
+    let (points, seen) = decode(source, origin, classes, |_, p| p)?;
+    let fail = |message: String| IoError::Format { path: origin.to_owned(), message };
+    if points.is_empty() && seen.iter().any(|&n| n > 0) {
+        let held: Vec<String> = (0..256).filter(|&c| seen[c] > 0).map(|c| format!("class {c}: {} points", seen[c])).collect();
+        let asked: Vec<String> = classes.iter().map(u8::to_string).collect();
+        return Err(fail(format!(
+            "no point is of class {} (the file holds {}); choose other classes or leave --class out",
+            asked.join(" or "),
+            held.join(", ")
+        )));
+    }
+    if points.is_empty() {
+        return Err(fail("the file holds no points".into()));
+    }
+    Ok(points)
+}
+
+/// Points of each classification a decoding saw, kept or not.
+pub(crate) type Seen = [u64; 256];
+
+/// Decode the LAS or LAZ file in `source` (`origin` names it in errors): `keep` of each record
+/// number and its point (x, y, z with the file's scale and offset) whose classification is one
+/// of `classes` (every one when it is empty), in file order; and the points of each class seen.
+pub(crate) fn decode<R: Read + Seek + Send + Sync + 'static, T: Send + 'static>(
+    mut source: R,
+    origin: &Path,
+    classes: &[u8],
+    keep: fn(u64, [f64; 3]) -> T,
+) -> Result<(Vec<T>, Seen), IoError> {
     let io = |source| IoError::Io { path: origin.to_owned(), source };
     let len = source.seek(SeekFrom::End(0)).map_err(io)?;
     let plan = vet(&mut source, len).map_err(|e| unreadable(origin, e))?;
@@ -64,7 +93,7 @@ fn read_from<R: Read + Seek + Send + Sync + 'static>(mut source: R, origin: &Pat
             let guard = Guard { source, at: 0, plan, next: 0, armed: armed.clone(), base: stack_address() };
             let mut reader = las::Reader::new(guard).map_err(|e| unreadable(&path, e))?;
             armed.store(true, Ordering::Relaxed);
-            points(&mut reader, len, &classes, &fail)
+            points(&mut reader, len, &classes, &fail, keep)
         })
         .map_err(io)?;
     decoding.join().unwrap_or_else(|panic| {
@@ -92,16 +121,21 @@ fn silence_laz_panics() {
     });
 }
 
-fn unreadable(path: &Path, e: impl std::fmt::Display) -> IoError {
+pub(crate) fn unreadable(path: &Path, e: impl std::fmt::Display) -> IoError {
     IoError::Format { path: path.to_owned(), message: format!("not a readable LAS/LAZ file: {e}") }
 }
 
-fn points(reader: &mut las::Reader, len: u64, classes: &[u8], fail: &dyn Fn(String) -> IoError) -> Result<Vec<[f64; 3]>, IoError> {
+fn points<T>(
+    reader: &mut las::Reader,
+    len: u64,
+    classes: &[u8],
+    fail: &dyn Fn(String) -> IoError,
+    keep: fn(u64, [f64; 3]) -> T,
+) -> Result<(Vec<T>, Seen), IoError> {
     let header = reader.header();
     // No more than the input's bytes hold uncompressed (a LAZ file's grow past that).
     let record_len = u64::from(header.point_format().len()).max(1);
     let mut points = Vec::with_capacity(header.number_of_points().min(len / record_len) as usize);
-    // Points of each classification, for the error when none is kept.
     let mut seen = [0u64; 256];
     for (record, point) in reader.points().enumerate() {
         let p = point.map_err(|e| fail(format!("point record {record}: {e}")))?;
@@ -113,21 +147,9 @@ fn points(reader: &mut las::Reader, len: u64, classes: &[u8], fail: &dyn Fn(Stri
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             return Err(fail(format!("point record {record}: ({}, {}, {}) is not finite", p.x, p.y, p.z)));
         }
-        points.push([p.x, p.y, p.z]);
+        points.push(keep(record as u64, [p.x, p.y, p.z]));
     }
-    if points.is_empty() && seen.iter().any(|&n| n > 0) {
-        let held: Vec<String> = (0..256).filter(|&c| seen[c] > 0).map(|c| format!("class {c}: {} points", seen[c])).collect();
-        let asked: Vec<String> = classes.iter().map(u8::to_string).collect();
-        return Err(fail(format!(
-            "no point is of class {} (the file holds {}); choose other classes or leave --class out",
-            asked.join(" or "),
-            held.join(", ")
-        )));
-    }
-    if points.is_empty() {
-        return Err(fail("the file holds no points".into()));
-    }
-    Ok(points)
+    Ok((points, seen))
 }
 
 fn stack_address() -> usize {

@@ -1,4 +1,5 @@
-//! File formats: meshes (OBJ, PLY, STL, glTF 2.0), point sets (CSV and XYZ text, LAS and LAZ)
+//! File formats: meshes (OBJ, PLY, STL, glTF 2.0), point sets (CSV and XYZ text, LAS and LAZ,
+//! COPC read by octree node)
 //! and GeoTIFF DEMs in;
 //! OBJ meshes (a point set's TIN),
 //! single-band GeoTIFFs and COGs (streamed band by band), VRT mosaics of them, and PNG hillshade
@@ -7,6 +8,7 @@
 //! so a failed run never leaves a partial file behind.
 
 mod cog;
+mod copc;
 mod dem;
 mod geotiff;
 mod gltf_mesh;
@@ -20,6 +22,7 @@ mod preview;
 mod stl;
 mod vrt;
 
+pub use copc::{Copc, CopcNode, NodePoints};
 pub use dem::{Dem, read_dem};
 pub use geotiff::{
     BigTiff, Compression, GeoTiffOptionError, GeoTiffOptions, GeoTiffWriter, Predictor, Sample, TILE, parse_epsg, write_geotiff, write_geotiff_with,

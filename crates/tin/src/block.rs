@@ -170,6 +170,13 @@ impl Hull {
         }
     }
 
+    /// Whether `rect` lies inside the hull, off its boundary (exactly): no point of `rect`
+    /// can be a corner of the hull or move it.
+    pub fn surrounds(&self, rect: &Rect) -> bool {
+        let corners = [[rect.x0, rect.y0], [rect.x1, rect.y0], [rect.x1, rect.y1], [rect.x0, rect.y1]];
+        self.corners.len() >= 3 && corners.iter().all(|&[x, y]| self.edges().all(|(a, b)| orient2d(a, b, Coord { x, y }) > 0.0))
+    }
+
     /// Whether the segment `p`–`q` lies on the hull's boundary (exactly).
     fn bears(&self, p: Coord<f64>, q: Coord<f64>) -> bool {
         self.edges().any(|(a, b)| {

@@ -1,0 +1,343 @@
+//! COPC, cloud-optimised point clouds: LAZ 1.4 files whose chunks are the nodes of an octree
+//! over the points, indexed by a hierarchy of node keys, offsets and counts
+//! (<https://copc.io>). A reader that needs only a region reads only the nodes whose cubes
+//! meet it.
+//!
+//! A selection of nodes is decoded as a LAZ file of its own, made in memory of the file's
+//! header and VLRs, the selected chunks in file order and a chunk table for them, so that
+//! every check and guard of the LAS/LAZ reader applies to it unchanged. Points keep their
+//! record numbers in the whole file, which orders them as reading the file through does.
+//!
+//! (The `copc-rs` crate does not build against the `las` this crate uses, and its point
+//! iterator panics on a corrupt chunk; the index is little more than a table to read.)
+
+use crate::IoError;
+use crate::las::{decode, unreadable};
+use std::io::{Cursor, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+/// One node of a COPC file's octree that holds points: where its chunk lies, its points, and
+/// the part of the plane its points lie in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CopcNode {
+    /// Level, x, y, z of its key.
+    pub key: [i32; 4],
+    /// West, south, east and north of its cube (with a margin of a unit of the file's
+    /// scaled integers and of rounding, so that it holds its points).
+    pub bounds: [f64; 4],
+    /// Records before its first in the file.
+    pub first: u64,
+    pub count: u64,
+    offset: u64,
+    size: u64,
+}
+
+/// Points read from COPC nodes ([`Copc::read`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodePoints {
+    /// Each kept point's record number in the file, and its x, y, z; in file order.
+    pub points: Vec<(u64, [f64; 3])>,
+    /// The records decoded, kept or not.
+    pub decoded: u64,
+}
+
+/// A COPC file's index: its header, its nodes in file order.
+#[derive(Debug, Clone)]
+pub struct Copc {
+    path: PathBuf,
+    /// Its bytes up to the point data: header and VLRs.
+    head: Vec<u8>,
+    /// The LASzip VLR's data.
+    laszip: Vec<u8>,
+    /// Its point records, as its header counts them.
+    pub records: u64,
+    /// Its nodes with points, in file order.
+    pub nodes: Vec<CopcNode>,
+}
+
+/// LAS 1.4 header fields (byte offsets) a selection's file rewrites.
+const LEGACY_COUNT: usize = 107;
+const LEGACY_BY_RETURN: std::ops::Range<usize> = 111..131;
+const FIRST_EVLR: usize = 235;
+const EVLR_COUNT: usize = 243;
+const COUNT: usize = 247;
+const BY_RETURN: std::ops::Range<usize> = 255..375;
+const HEADER_1_4: usize = 375;
+const VLR_HEADER: usize = 54;
+/// A hierarchy entry: key (4 × i32), offset (u64), byte size (i32), point count (i32).
+const ENTRY: usize = 32;
+/// Deepest octree level read: 2^40 cells a side is finer than any file's scaled integers.
+const MAX_LEVEL: i32 = 40;
+
+fn f64_at(b: &[u8], at: usize) -> f64 {
+    f64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+}
+
+fn u64_at(b: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+}
+
+fn i32_at(b: &[u8], at: usize) -> i32 {
+    i32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
+}
+
+fn u16_at(b: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes(b[at..at + 2].try_into().expect("2 bytes"))
+}
+
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
+}
+
+impl Copc {
+    /// The index of `path` if it is a COPC file (a LAS 1.4 file whose first VLR is COPC's
+    /// info), `None` for any other LAS/LAZ file. A COPC file whose index contradicts itself
+    /// (node chunks overlapping or leaving gaps, counts that do not add up to the header's)
+    /// is an error.
+    pub fn open(path: &Path) -> Result<Option<Copc>, IoError> {
+        let io = |source| IoError::Io { path: path.to_owned(), source };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let len = file.seek(SeekFrom::End(0)).map_err(io)?;
+        let mut first = vec![0u8; (HEADER_1_4 + VLR_HEADER + 160).min(len as usize)];
+        file.seek(SeekFrom::Start(0)).map_err(io)?;
+        file.read_exact(&mut first).map_err(io)?;
+        let is_copc = first.len() == HEADER_1_4 + VLR_HEADER + 160
+            && &first[..4] == b"LASF"
+            && first[24..26] == [1, 4]
+            && usize::from(u16_at(&first, 94)) == HEADER_1_4
+            && first[HEADER_1_4 + 2..HEADER_1_4 + 18].starts_with(b"copc\0")
+            && u16_at(&first, HEADER_1_4 + 18) == 1;
+        if !is_copc {
+            return Ok(None);
+        }
+        let bad = |message: String| IoError::Format { path: path.to_owned(), message: format!("not a readable COPC file: {message}") };
+        let data = u64::from(u32_at(&first, 96));
+        if data > len || data < (HEADER_1_4 + VLR_HEADER + 160) as u64 {
+            return Err(bad(format!("its point data starts at byte {data}, outside its {len} bytes")));
+        }
+        let mut head = vec![0u8; data as usize];
+        file.seek(SeekFrom::Start(0)).map_err(io)?;
+        file.read_exact(&mut head).map_err(io)?;
+        let records = u64_at(&head, COUNT);
+        let info = &head[HEADER_1_4 + VLR_HEADER..];
+        let [cx, cy, _cz, halfsize] = [0, 8, 16, 24].map(|at| f64_at(info, at));
+        let (root_offset, root_size) = (u64_at(info, 40), u64_at(info, 48));
+        if !(cx.is_finite() && cy.is_finite() && halfsize.is_finite() && halfsize > 0.0) {
+            return Err(bad(format!("its octree's cube (centre {cx}, {cy}, half size {halfsize}) is not finite")));
+        }
+        // The LASzip VLR, among the VLRs after the header.
+        let mut laszip = None;
+        let mut at = HEADER_1_4;
+        for _ in 0..u32_at(&head, 100) {
+            if at + VLR_HEADER > head.len() {
+                return Err(bad("its VLRs run past the start of its point data".into()));
+            }
+            let size = usize::from(u16_at(&head, at + 20));
+            let body = at + VLR_HEADER..at + VLR_HEADER + size;
+            if body.end > head.len() {
+                return Err(bad("its VLRs run past the start of its point data".into()));
+            }
+            if head[at + 2..at + 18].starts_with(b"laszip encoded\0") && u16_at(&head, at + 18) == 22204 {
+                laszip = Some(head[body.clone()].to_vec());
+            }
+            at = body.end;
+        }
+        let laszip = laszip.ok_or_else(|| bad("it has no LASzip VLR".into()))?;
+        // The hierarchy: pages of entries, an entry of count -1 naming a further page.
+        let (scale_x, scale_y) = (f64_at(&head, 131), f64_at(&head, 139));
+        let margin = scale_x.abs().max(scale_y.abs()) + 1e-9 * (cx.abs().max(cy.abs()) + halfsize);
+        let mut nodes = Vec::new();
+        let mut pages = vec![(root_offset, root_size)];
+        let mut page_bytes = 0u64;
+        while let Some((offset, size)) = pages.pop() {
+            page_bytes += size;
+            if offset.checked_add(size).is_none_or(|end| end > len) || size % ENTRY as u64 != 0 || page_bytes > len {
+                return Err(bad(format!("its hierarchy page of {size} bytes at byte {offset} does not fit in its {len} bytes")));
+            }
+            let mut page = vec![0u8; size as usize];
+            file.seek(SeekFrom::Start(offset)).map_err(io)?;
+            file.read_exact(&mut page).map_err(io)?;
+            for entry in page.as_chunks::<ENTRY>().0 {
+                let key = [0, 4, 8, 12].map(|at| i32_at(entry, at));
+                let (offset, size, count) = (u64_at(entry, 16), i32_at(entry, 24), i32_at(entry, 28));
+                let [level, x, y, z] = key;
+                if !(0..=MAX_LEVEL).contains(&level) || [x, y, z].iter().any(|&c| c < 0 || i64::from(c) >= 1i64 << level) || size < 0 || count < -1 {
+                    return Err(bad(format!("its hierarchy has an entry it cannot use: key {key:?}, {size} bytes, {count} points")));
+                }
+                match count {
+                    -1 => pages.push((offset, size as u64)),
+                    0 => {}
+                    _ => {
+                        let side = 2.0 * halfsize * 0.5f64.powi(level);
+                        let (x0, y0) = (cx - halfsize + f64::from(x) * side, cy - halfsize + f64::from(y) * side);
+                        let bounds = [x0 - margin, y0 - margin, x0 + side + margin, y0 + side + margin];
+                        nodes.push(CopcNode { key, bounds, first: 0, count: count as u64, offset, size: size as u64 });
+                    }
+                }
+            }
+        }
+        // Chunks follow one another from the point data's chunk-table offset on, as reading
+        // the file through finds them.
+        nodes.sort_by_key(|n| n.offset);
+        let (mut next, mut first) = (data + 8, 0u64);
+        for node in &mut nodes {
+            if node.offset != next {
+                return Err(bad(format!("the chunk of node {:?} starts at byte {}, where the chunks before end at {next}", node.key, node.offset)));
+            }
+            node.first = first;
+            first += node.count;
+            next = node.offset + node.size;
+        }
+        if next > len || first != records {
+            return Err(bad(format!("its hierarchy's nodes hold {first} points in bytes up to {next}; its header counts {records} points in {len} bytes")));
+        }
+        Ok(Some(Copc { path: path.to_owned(), head, laszip, records, nodes }))
+    }
+
+    /// The points of `nodes` (indices into [`Copc::nodes`], in increasing order) whose
+    /// classification is one of `classes` (every one when empty), each with its record number
+    /// in the file, in file order. A point outside its node's cube is an error: a region would
+    /// miss it.
+    pub fn read(&self, nodes: &[usize], classes: &[u8]) -> Result<NodePoints, IoError> {
+        let path = &self.path;
+        let io = |source| IoError::Io { path: path.clone(), source };
+        let chosen: Vec<&CopcNode> = nodes.iter().map(|&k| &self.nodes[k]).collect();
+        if chosen.windows(2).any(|w| w[0].offset >= w[1].offset) {
+            return Err(IoError::Format { path: path.clone(), message: "COPC nodes asked for out of file order".into() });
+        }
+        if chosen.is_empty() {
+            return Ok(NodePoints { points: Vec::new(), decoded: 0 });
+        }
+        // A LAZ file of these chunks alone: the header counting their points, without EVLRs.
+        let mut bytes = self.head.clone();
+        let count: u64 = chosen.iter().map(|n| n.count).sum();
+        bytes[LEGACY_COUNT..LEGACY_COUNT + 4].copy_from_slice(&if u32_at(&self.head, LEGACY_COUNT) == 0 { 0 } else { count as u32 }.to_le_bytes());
+        bytes[LEGACY_BY_RETURN].fill(0);
+        bytes[FIRST_EVLR..FIRST_EVLR + 8].fill(0);
+        bytes[EVLR_COUNT..EVLR_COUNT + 4].fill(0);
+        bytes[COUNT..COUNT + 8].copy_from_slice(&count.to_le_bytes());
+        bytes[BY_RETURN].fill(0);
+        let table_at = bytes.len() as u64 + 8 + chosen.iter().map(|n| n.size).sum::<u64>();
+        bytes.extend_from_slice(&table_at.to_le_bytes());
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let mut table = laz::laszip::ChunkTable::with_capacity(chosen.len());
+        for node in &chosen {
+            let start = bytes.len();
+            bytes.resize(start + node.size as usize, 0);
+            file.seek(SeekFrom::Start(node.offset)).map_err(io)?;
+            file.read_exact(&mut bytes[start..]).map_err(io)?;
+            table.push(laz::laszip::ChunkTableEntry { point_count: node.count, byte_count: node.size });
+        }
+        let vlr = laz::LazVlr::read_from(self.laszip.as_slice()).map_err(|e| unreadable(path, e))?;
+        table.write_to(&mut bytes, &vlr).map_err(io)?;
+        let (points, seen) = decode(Cursor::new(bytes), path, classes, |record, p| (record, p))?;
+        // Record numbers in the selection's file, to the whole file's; each point in its cube.
+        let mut points = points;
+        let (mut k, mut before) = (0, 0u64);
+        for (record, p) in &mut points {
+            while *record >= before + chosen[k].count {
+                before += chosen[k].count;
+                k += 1;
+            }
+            let node = chosen[k];
+            let [x0, y0, x1, y1] = node.bounds;
+            if !(x0..=x1).contains(&p[0]) || !(y0..=y1).contains(&p[1]) {
+                return Err(IoError::Format {
+                    path: path.clone(),
+                    message: format!("COPC node {:?} holds point record {} at ({}, {}), outside its cube", node.key, node.first + *record - before, p[0], p[1]),
+                });
+            }
+            *record = node.first + *record - before;
+        }
+        Ok(NodePoints { points, decoded: seen.iter().sum() })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(name)
+    }
+
+    /// Every node read gives the file's points as reading it through as LAZ does, in its
+    /// order; some nodes give those of their record ranges; `--class` filters alike. (Two
+    /// COPC files from laspy's tests, one with its hierarchy in two pages.)
+    #[test]
+    fn nodes_read_as_the_whole_file_reads() {
+        for name in ["simple.copc.laz", "simple_with_page.copc.laz"] {
+            let path = data(name);
+            let copc = Copc::open(&path).unwrap().expect("a COPC file");
+            let whole = crate::read_las(&path).unwrap();
+            assert_eq!(copc.records, whole.len() as u64);
+            assert!(copc.nodes.len() > 4, "{name}: {} nodes", copc.nodes.len());
+            let all: Vec<usize> = (0..copc.nodes.len()).collect();
+            let points = copc.read(&all, &[]).unwrap().points;
+            assert_eq!(points.iter().map(|&(_, p)| p).collect::<Vec<_>>(), whole, "{name}");
+            assert!(points.iter().enumerate().all(|(k, &(record, _))| record == k as u64));
+            let some: Vec<usize> = all.iter().copied().filter(|k| k % 3 != 1).collect();
+            let points = copc.read(&some, &[]).unwrap().points;
+            let expected: Vec<(u64, [f64; 3])> = some
+                .iter()
+                .flat_map(|&k| {
+                    let n = copc.nodes[k];
+                    (n.first..n.first + n.count).map(|r| (r, whole[r as usize]))
+                })
+                .collect();
+            assert_eq!(points, expected, "{name}");
+            for class in [1u8, 2] {
+                let read = copc.read(&all, &[class]).unwrap();
+                assert_eq!(read.points.iter().map(|&(_, p)| p).collect::<Vec<_>>(), crate::read_las_classes(&path, &[class]).unwrap(), "{name}");
+                assert_eq!(read.decoded, copc.records);
+            }
+        }
+        assert!(Copc::open(&data("autzen_trim.laz")).unwrap().is_none(), "a plain LAZ file");
+    }
+
+    /// A corrupt index or chunk is the file's error, never a panic nor points of another node.
+    #[test]
+    fn a_corrupt_index_or_chunk_is_an_error() {
+        let path = data("simple_with_page.copc.laz");
+        let bytes = std::fs::read(&path).unwrap();
+        let copc = Copc::open(&path).unwrap().unwrap();
+        let dir = std::env::temp_dir().join(format!("tileraster-copc-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let info = HEADER_1_4 + VLR_HEADER;
+        let root = u64_at(&bytes, info + 40) as usize;
+        let written = |name: &str, edit: &dyn Fn(&mut Vec<u8>)| {
+            let mut b = bytes.clone();
+            edit(&mut b);
+            let p = dir.join(name);
+            std::fs::write(&p, b).unwrap();
+            p
+        };
+        // A root entry's count one more: the nodes no longer add up to the header.
+        let p = written("count.copc.laz", &|b| {
+            let n = i32_at(b, root + 28);
+            b[root + 28..root + 32].copy_from_slice(&(n + 1).to_le_bytes());
+        });
+        assert!(Copc::open(&p).unwrap_err().to_string().contains("hold"), "count");
+        // A page past the end of the file.
+        let p = written("page.copc.laz", &|b| b[info + 40..info + 48].copy_from_slice(&(1u64 << 40).to_le_bytes()));
+        assert!(Copc::open(&p).unwrap_err().to_string().contains("does not fit"), "page");
+        // A key deeper than its level allows.
+        let p = written("key.copc.laz", &|b| b[root + 4..root + 8].copy_from_slice(&5i32.to_le_bytes()));
+        assert!(Copc::open(&p).unwrap_err().to_string().contains("cannot use"), "key");
+        // Garbage in every node's chunk: each read fails or gives its records' count, in its cube.
+        let p = written("chunk.copc.laz", &|b| {
+            for n in &copc.nodes {
+                for k in (n.offset as usize + 40..(n.offset + n.size) as usize).step_by(7) {
+                    b[k] ^= 0x5a;
+                }
+            }
+        });
+        let broken = Copc::open(&p).unwrap().unwrap();
+        for k in 0..broken.nodes.len() {
+            if let Ok(read) = broken.read(&[k], &[]) {
+                assert_eq!(read.points.len() as u64, broken.nodes[k].count);
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

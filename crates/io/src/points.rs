@@ -9,6 +9,7 @@
 //! - Every problem is reported with the file, the line and what is wrong there.
 
 use crate::IoError;
+use rayon::prelude::*;
 use std::path::Path;
 
 /// Which column holds a coordinate.
@@ -68,13 +69,34 @@ impl Separator {
     }
 
     fn fields(self, line: &str) -> Vec<&str> {
+        let mut fields = Vec::new();
+        self.each_field(line, |_, field| {
+            fields.push(field);
+            true
+        });
+        fields
+    }
+
+    /// `visit` each field of `line` with its 0-based position, while it returns true.
+    #[inline]
+    fn each_field<'a>(self, line: &'a str, mut visit: impl FnMut(usize, &'a str) -> bool) {
+        let mut go = |fields: &mut dyn Iterator<Item = &'a str>| {
+            for (k, field) in fields.enumerate() {
+                if !visit(k, field) {
+                    break;
+                }
+            }
+        };
         match self {
-            Separator::Comma => line.split(',').map(str::trim).collect(),
-            Separator::Semicolon => line.split(';').map(str::trim).collect(),
-            Separator::Blank => line.split_whitespace().collect(),
+            Separator::Comma => go(&mut line.split(',').map(str::trim)),
+            Separator::Semicolon => go(&mut line.split(';').map(str::trim)),
+            Separator::Blank => go(&mut line.split_whitespace()),
         }
     }
 }
+
+/// Text at least this long is parsed in pieces on all cores.
+const PARALLEL_BYTES: usize = 1 << 20;
 
 const DEFAULT_NAMES: [&[&str]; 3] =
     [&["x", "easting", "lon", "longitude"], &["y", "northing", "lat", "latitude"], &["z", "elevation", "height", "alt", "altitude"]];
@@ -122,25 +144,83 @@ pub fn parse_points(text: &str, path: &Path, columns: &PointColumns) -> Result<V
     }
     let needed = at.iter().max().expect("three columns") + 1;
 
-    let mut points = Vec::new();
-    let data = header.is_none().then_some((first_no, first)).into_iter().chain(lines);
-    for (line_no, line) in data {
-        let fields = separator.fields(line);
-        if fields.len() < needed {
-            return Err(fail(line_no, format!("expected at least {needed} fields, found {}", fields.len())));
+    // The data lines: from the first one on (after the header when there is one), parsed in
+    // pieces of whole lines on all cores; an error names the first bad line in file order.
+    let offset = |line: &str| line.as_ptr() as usize - text.as_ptr() as usize;
+    let body = match header {
+        Some(_) => &text[(offset(first) + first.len()).min(text.len())..],
+        None => &text[offset(first)..],
+    };
+    let pieces = if body.len() >= PARALLEL_BYTES { 4 * rayon::current_num_threads() } else { 1 };
+    let parsed: Vec<Parsed> =
+        split_at_lines(body, pieces).into_par_iter().map(|piece| parse_lines(piece, separator, at, needed).map_err(|(line, e)| (offset(line), e))).collect();
+    let mut points = Vec::with_capacity(parsed.iter().map(|p| p.as_ref().map_or(0, Vec::len)).sum());
+    for piece in parsed {
+        match piece {
+            Ok(part) => points.extend(part),
+            Err((at, message)) => return Err(fail(1 + text.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count(), message)),
         }
-        let mut p = [0.0; 3];
-        for (axis, (value, &k)) in p.iter_mut().zip(&at).enumerate() {
-            let field = fields[k];
-            *value = field.parse::<f64>().map_err(|_| fail(line_no, format!("{} (column {}) is '{field}', not a number", ["x", "y", "z"][axis], k + 1)))?;
-            if !value.is_finite() {
-                return Err(fail(line_no, format!("{} (column {}) is {field}; coordinates must be finite", ["x", "y", "z"][axis], k + 1)));
-            }
-        }
-        points.push(p);
     }
     if points.is_empty() {
         return Err(IoError::Format { path: path.to_owned(), message: "no points: the file has a header but no data lines".into() });
+    }
+    Ok(points)
+}
+
+/// A piece's points, or the byte where its first bad line starts and what is wrong with it.
+type Parsed = Result<Vec<[f64; 3]>, (usize, String)>;
+
+/// `text` cut into at most `n` pieces of whole lines, in order.
+fn split_at_lines(text: &str, n: usize) -> Vec<&str> {
+    let mut pieces = Vec::with_capacity(n);
+    let mut rest = text;
+    for k in (1..n).rev() {
+        let cut = rest.len() - rest.len() * k / (k + 1);
+        match rest.as_bytes()[cut.min(rest.len())..].iter().position(|&b| b == b'\n') {
+            Some(at) => {
+                let (piece, tail) = rest.split_at(cut + at + 1);
+                pieces.push(piece);
+                rest = tail;
+            }
+            None => break,
+        }
+    }
+    pieces.push(rest);
+    pieces
+}
+
+/// The points of the data lines of `text` (blank and `#` lines skipped), or the first bad
+/// line and what is wrong with it.
+fn parse_lines(text: &str, separator: Separator, at: [usize; 3], needed: usize) -> Result<Vec<[f64; 3]>, (&str, String)> {
+    let mut points = Vec::with_capacity(text.len() / 32);
+    for line in text.lines() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let (mut p, mut fields, mut bad) = ([0.0; 3], 0, None);
+        let line = line.trim_end_matches('\r');
+        separator.each_field(line, |k, field| {
+            fields = k + 1;
+            for axis in 0..3 {
+                if at[axis] != k || bad.is_some() {
+                    continue;
+                }
+                match field.parse::<f64>() {
+                    Ok(v) if v.is_finite() => p[axis] = v,
+                    Ok(_) => bad = Some(format!("{} (column {}) is {field}; coordinates must be finite", ["x", "y", "z"][axis], k + 1)),
+                    Err(_) => bad = Some(format!("{} (column {}) is '{field}', not a number", ["x", "y", "z"][axis], k + 1)),
+                }
+            }
+            fields < needed
+        });
+        if fields < needed {
+            return Err((line, format!("expected at least {needed} fields, found {fields}")));
+        }
+        if let Some(message) = bad {
+            return Err((line, message));
+        }
+        points.push(p);
     }
     Ok(points)
 }
@@ -190,5 +270,28 @@ mod tests {
         let by_name = PointColumns { z: Some(Column::Name("h".into())), ..Default::default() };
         assert!(parse("1 2 3\n", &by_name).unwrap_err().contains("no header line"));
         assert!(parse("x y z\n1 2 3\n", &by_name).unwrap_err().contains("no column named 'h' for z; the header has: x, y, z"));
+    }
+
+    /// Text parsed in pieces on all cores gives the points in file order, and the first bad
+    /// line in file order, wherever the pieces are cut.
+    #[test]
+    fn long_text_is_parsed_in_pieces_in_order() {
+        let line = |k: usize| format!("{}.25,{},{}\r\n", 500_000 + k, 5_000_000 + 3 * k, k % 97);
+        let mut text = String::from("# survey\nx,y,z\n");
+        let mut expected = Vec::new();
+        for k in 0..120_000 {
+            text += &line(k);
+            if k % 1000 == 0 {
+                text += "\n# a comment\n";
+            }
+            expected.push([500_000.0 + k as f64 + 0.25, 5_000_000.0 + 3.0 * k as f64, (k % 97) as f64]);
+        }
+        assert!(text.len() > 2 * PARALLEL_BYTES);
+        assert_eq!(parse(&text, &PointColumns::default()).unwrap(), expected);
+        // Two bad lines: the first is named.
+        let lines: Vec<&str> = text.split_inclusive('\n').collect();
+        let (first, second) = (lines.len() / 3, 2 * lines.len() / 3);
+        let bad: String = lines.iter().enumerate().map(|(k, l)| if k == first || k == second { "1,2,x\n" } else { l }).collect();
+        assert!(parse(&bad, &PointColumns::default()).unwrap_err().starts_with(&format!("pts.csv:{}: z (column 3) is 'x'", first + 1)));
     }
 }

@@ -26,6 +26,7 @@ pub mod nearest;
 pub use block::{BlockSource, BlockTin, Disc, Hull, Rect, Region, first_buffer, triangulate_block, triangulate_block_from};
 pub use nearest::NearestPoints;
 use rayon::prelude::*;
+use spade::handles::FixedUndirectedEdgeHandle;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use tileraster_core::Scene;
 
@@ -125,27 +126,40 @@ pub(crate) fn triangulate_with_hull(points: &[[f64; 3]]) -> Result<(Tin, Vec<[u3
         let mut neighbours: Vec<[u32; 3]> = dt.inner_faces().map(across).collect();
         canonical::canonical(&sites, &mut triangles, &mut neighbours);
     }
-    in_input_order(&mut triangles);
+    in_input_order(&mut triangles, keep.len());
     let vertices = keep.iter().map(|&i| points[i]).collect();
     Ok((Tin { scene: Scene::new(vertices, triangles), source: keep, duplicates }, hull))
 }
 
 /// Each face from its first corner in input order (turned, so still counter-clockwise), the
 /// faces sorted by their corners: an order that any order-keeping subset of the points gives
-/// its faces too.
-fn in_input_order(triangles: &mut [[u32; 3]]) {
+/// its faces too. (Counted into place by first corner, of which `vertices` there are, then
+/// each corner's few faces sorted.)
+fn in_input_order(triangles: &mut [[u32; 3]], vertices: usize) {
     triangles.par_iter_mut().for_each(|t| {
         let first = (0..3).min_by_key(|&k| t[k]).expect("three corners");
         t.rotate_left(first);
     });
-    triangles.par_sort_unstable();
+    let mut start = vec![0usize; vertices + 1];
+    triangles.iter().for_each(|t| start[t[0] as usize + 1] += 1);
+    (0..vertices).for_each(|v| start[v + 1] += start[v]);
+    let mut sorted = vec![[0u32; 3]; triangles.len()];
+    let mut next = start.clone();
+    for &t in triangles.iter() {
+        sorted[next[t[0] as usize]] = t;
+        next[t[0] as usize] += 1;
+    }
+    (0..vertices).for_each(|v| sorted[start[v]..start[v + 1]].sort_unstable());
+    triangles.copy_from_slice(&sorted);
 }
 
-/// Whether an inner edge of `dt` has the four points of its two faces on one circle, exactly.
+/// Whether an inner edge of `dt` has the four points of its two faces on one circle, exactly
+/// (the edges looked at on all cores).
 fn has_cocircular_edge(dt: &DelaunayTriangulation<Site>) -> bool {
     let at = |p: Point2<f64>| robust::Coord { x: p.x, y: p.y };
-    dt.undirected_edges().any(|edge| {
-        let e = edge.as_directed();
+    let edges: Vec<FixedUndirectedEdgeHandle> = dt.fixed_undirected_edges().collect();
+    edges.into_par_iter().any(|edge| {
+        let e = dt.undirected_edge(edge).as_directed();
         match (e.opposite_vertex(), e.rev().opposite_vertex()) {
             (Some(c), Some(d)) => robust::incircle(at(e.from().position()), at(e.to().position()), at(c.position()), at(d.position())) == 0.0,
             _ => false,
@@ -156,11 +170,10 @@ fn has_cocircular_edge(dt: &DelaunayTriangulation<Site>) -> bool {
 /// Input indices of the first point at each distinct (x, y), in input order.
 fn first_of_each_position(points: &[[f64; 3]]) -> Vec<usize> {
     // `+ 0.0` turns -0.0 into 0.0, so that the two compare equal bit for bit.
-    let key = |i: usize| ((points[i][0] + 0.0).to_bits(), (points[i][1] + 0.0).to_bits());
-    let mut order: Vec<usize> = (0..points.len()).collect();
-    order.sort_by_key(|&i| (key(i), i));
-    let mut keep: Vec<usize> = order.chunk_by(|&a, &b| key(a) == key(b)).map(|run| run[0]).collect();
-    keep.sort_unstable();
+    let mut keys: Vec<(u64, u64, usize)> = points.par_iter().enumerate().map(|(i, p)| ((p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits(), i)).collect();
+    keys.par_sort_unstable();
+    let mut keep: Vec<usize> = keys.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)).map(|run| run[0].2).collect();
+    keep.par_sort_unstable();
     keep
 }
 

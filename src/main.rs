@@ -63,8 +63,9 @@ enum Command {
 /// `tileraster rasterise`: gdal_grid's flags, with two dashes, and tileraster's own.
 #[derive(Args)]
 struct RasteriseArgs {
-    /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points (`.las`, `.laz`, or
-    /// delimited text: `.csv`, `.xyz`, `.txt`, `.pts`), triangulated by Delaunay. Several point
+    /// Input: a mesh (`.obj`, `.ply`, `.stl`; heights in z) or points (`.las`, `.laz`, COPC,
+    /// delimited text: `.csv`, `.xyz`, `.txt`, `.pts`, or a NumPy array of shape (n, 3) saved
+    /// as `.npy`), triangulated by Delaunay. Several point
     /// inputs (files, directories of them, quoted glob patterns such as "tiles/*.laz") are
     /// triangulated together, as if their points were one file's in the order given
     /// (a directory's and a pattern's files by name).

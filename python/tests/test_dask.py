@@ -91,6 +91,32 @@ def test_a_copc_files_chunks_decode_their_nodes(tmp_path):
     assert summary[5] == 110_000 and 0 < block["points_decoded"] < 110_000, block
 
 
+def test_dask_arrays_and_dataframes_count_as_their_partitions_in_order(tmp_path):
+    import dask.array as da
+    import dask.dataframe as dd
+    import pandas as pd
+    points = survey(20_000, seed=3)
+    grid = tileraster.Grid(tr=(1.0, 1.0))
+    single = tileraster.points_to_dem(points, grid, backend="cpu").values
+    dem = tileraster.dask.points_to_dem(da.from_array(points, chunks=(3_000, 3)), grid, chunks=(150, 250), spill=tmp_path / "array")
+    # The grid's extent comes from the points: the partitions are written at the call.
+    assert dem.data.numblocks == (3, 3) and len(list((tmp_path / "array").glob("*.npy"))) == 7, "a partition a file"
+    with dask.config.set(scheduler="threads"):
+        assert dem.values.tobytes() == single.tobytes()
+    # A DataFrame in x order whose first partition the filter empties, computed in processes.
+    ordered = points[np.argsort(points[:, 0], kind="stable")]
+    frame = dd.from_pandas(pd.DataFrame(ordered, columns=["easting", "northing", "h"]), npartitions=5, sort=False)
+    kept = frame[frame.easting > ordered[len(ordered) // 5 + 10, 0]]
+    expected = tileraster.points_to_dem(kept.compute().to_numpy(), grid, backend="cpu").values
+    dem = tileraster.dask.points_to_dem(kept, grid, chunks=(300, 300), columns=("easting", "northing", "h"), spill=tmp_path / "frame")
+    with dask.config.set(scheduler="processes"):
+        assert dem.values.tobytes() == expected.tobytes()
+    with pytest.raises(tileraster.TilerasterError, match="missing"):
+        tileraster.dask.points_to_dem(frame, grid, spill=tmp_path / "bad")
+    with pytest.raises(tileraster.TilerasterError, match="shape"):
+        tileraster.dask.points_to_dem(da.zeros((10, 2)), grid, spill=tmp_path / "bad")
+
+
 def test_an_array_of_points_on_a_given_extent_is_lazy_and_exact():
     points = survey(8_000, seed=9)
     grid = tileraster.Grid(txe=(500_010.0, 500_590.0), tye=(5_000_005.0, 5_000_395.0), outsize=(580, 390))

@@ -20,6 +20,8 @@ pub enum InputKind {
     Las,
     /// Delimited text points: `.csv`, `.xyz`, `.txt`, `.pts`.
     Text,
+    /// A NumPy array of points, a row each: `.npy`.
+    Array,
 }
 
 impl InputKind {
@@ -33,6 +35,7 @@ impl InputKind {
             "gltf" | "glb" => InputKind::Gltf,
             "las" | "laz" => InputKind::Las,
             "csv" | "xyz" | "txt" | "pts" => InputKind::Text,
+            "npy" => InputKind::Array,
             "tif" | "tiff" => return Err(DemError::RasterInput { path: path.to_owned() }),
             _ => return Err(DemError::UnsupportedInput { path: path.to_owned(), extension }),
         })
@@ -40,7 +43,7 @@ impl InputKind {
 
     /// Whether the file holds points (triangulated by Delaunay) rather than a mesh.
     pub fn is_points(self) -> bool {
-        matches!(self, InputKind::Las | InputKind::Text)
+        matches!(self, InputKind::Las | InputKind::Text | InputKind::Array)
     }
 }
 
@@ -103,12 +106,12 @@ fn read_mesh(path: &Path, kind: InputKind) -> Result<Scene, DemError> {
             let m = tileraster_io::read_gltf(path, None)?;
             Scene::new(m.positions, m.triangles)
         }
-        InputKind::Las | InputKind::Text => unreachable!("point files are triangulated"),
+        InputKind::Las | InputKind::Text | InputKind::Array => unreachable!("point files are triangulated"),
     })
 }
 
 /// The files `inputs` name, in their order: a file as it is; a directory's point files
-/// (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`, `.pts`; not its subdirectories') by name; a glob
+/// (`.las`, `.laz`, `.csv`, `.xyz`, `.txt`, `.pts`, `.npy`; not its subdirectories') by name; a glob
 /// pattern's matches by name (a pattern the shell left alone: `"tiles/*.laz"`). A directory or
 /// pattern that names no file is an error, and so is a file named twice.
 pub fn input_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, DemError> {
@@ -207,6 +210,7 @@ fn read_kinds(paths: &[PathBuf], kinds: &[InputKind], options: &ReadOptions) -> 
     use rayon::prelude::*;
     let read = |(path, kind): (&PathBuf, &InputKind)| match kind {
         InputKind::Las => tileraster_io::read_las_classes(path, &options.classes),
+        InputKind::Array => tileraster_io::read_npy(path, &options.columns),
         _ => tileraster_io::read_points(path, &options.columns),
     };
     let parts = paths.par_iter().zip(kinds).map(read).collect::<Result<Vec<_>, _>>()?;

@@ -1,5 +1,5 @@
 //! File formats: meshes (OBJ, PLY, STL, glTF 2.0), point sets (CSV and XYZ text, LAS and LAZ,
-//! COPC read by octree node)
+//! COPC read by octree node, NumPy arrays)
 //! and GeoTIFF DEMs in;
 //! OBJ meshes (a point set's TIN),
 //! single-band GeoTIFFs and COGs (streamed band by band), VRT mosaics of them, and PNG hillshade
@@ -15,6 +15,7 @@ mod gltf_mesh;
 mod gltf_pose;
 mod gltf_rig;
 mod las;
+mod npy;
 mod obj;
 mod ply;
 mod points;
@@ -30,6 +31,7 @@ pub use geotiff::{
 pub use gltf_mesh::{GltfCamera, GltfProjection, read_gltf, read_gltf_cameras, read_gltf_posable, read_gltf_world};
 pub use gltf_rig::PosableGltf;
 pub use las::{las_point_count, parse_las, read_las, read_las_classes};
+pub use npy::read_npy;
 pub use obj::{parse_obj, parse_obj_mesh, read_obj, read_obj_mesh, read_texture, write_obj, write_obj_textured};
 pub use ply::{parse_ply, parse_ply_mesh, read_ply, read_ply_mesh};
 pub use points::{Column, PointColumns, parse_points, read_points};

@@ -194,6 +194,9 @@ fn a_copc_files_blocks_decode_their_nodes_and_are_the_whole_run() {
         });
         assert!(fewer.get() > 0, "{what}: some block decodes fewer points than the file holds");
     }
+    let none = ReadOptions { classes: vec![99], ..Default::default() };
+    let err = dem::summarise_files(std::slice::from_ref(&copc), &none).unwrap_err().to_string();
+    assert!(err.contains("no point is of class 99") && err.contains("class 2:"), "{err}");
 }
 
 /// A triangle wider than the finest snapping lattice allows coarsens the whole run's lattice;

@@ -170,14 +170,10 @@ fn summarise_copc(copc: &Copc, path: &Path, options: &ReadOptions) -> Result<Fil
     }
     let hull = Hull::of(&corners);
     if hull.corners().is_empty() {
-        // No point of the classes asked for where the hull was sought: maybe elsewhere.
-        if copc.read(&(0..cubes.len()).collect::<Vec<_>>(), &options.classes)?.points.is_empty() {
-            read_file(path, options)?; // the whole file's own error: which classes it holds
-        }
-        return Err(DemError::Io(tileraster_io::IoError::Format {
-            path: path.to_owned(),
-            message: "its points of the classes asked for lie inside its hull's nodes only".into(),
-        }));
+        // Every node was read (an empty hull surrounds none) and none holds a point of the
+        // classes asked for: the whole file's own error names the classes it holds.
+        read_file(path, options)?;
+        return Err(DemError::Io(tileraster_io::IoError::Format { path: path.to_owned(), message: "the file holds no points".into() }));
     }
     let share = if decoded > 0 { kept as f64 / decoded as f64 } else { 1.0 };
     let bounds = hull.bounds();

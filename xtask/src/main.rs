@@ -15,6 +15,10 @@
 //! - `cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]`: the cluster recipe run locally
 //!   (parts as separate processes, a VRT mosaic, compared with the single run) and a grid
 //!   larger than its address-space limit streamed to disk (default 100,000 points, 32768², 1536 MiB).
+//! - `cargo xtask scale-report TILES [--copc DIR] [--class N] [--tr R] [--memory MIB] [--chunks N]
+//!   [--python PY]`: a DEM at scale from a directory of point tiles: the command line as one
+//!   process (time, peak memory, points a second), the tiles as COPC, and `tileraster.dask` on a
+//!   two-process `LocalCluster` (time and each worker's memory), cells compared.
 //! - `cargo xtask fingerprint`: a hash per scene × mode of what `prepare` made and of the CPU
 //!   raster, to show that a change (speed work, say) changed no bit: run it before and after.
 //! - `cargo xtask render-report [--quick | --fragment | --textures]`: the render pipeline
@@ -36,6 +40,7 @@ mod delaunay_report;
 mod fingerprint;
 mod gdal_report;
 mod render_report;
+mod scale_report;
 mod skip_report;
 mod stage_times;
 mod stream_report;
@@ -51,7 +56,7 @@ const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment | --textures]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--walk always|never|auto] [--runs N] [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]"
+        "usage: cargo xtask kernels\n       cargo xtask bench-report [--quick] [--tables-only] [--out DIR]\n       cargo xtask skip-report [--quick]\n       cargo xtask render-report [--quick | --fragment | --textures]\n       cargo xtask fingerprint\n       cargo xtask stage-times [--walk always|never|auto] [--runs N] [--cpu | --gpu] [NAME_PART]\n       cargo xtask delaunay-report [POINTS]\n       cargo xtask gdal-report [POINTS] [SIZE]\n       cargo xtask stream-report [POINTS] [SIZE] [LIMIT_MIB]\n       cargo xtask scale-report TILES [--copc DIR] [--class N] [--tr R] [--memory MIB] [--chunks N] [--python PY]"
     );
     ExitCode::from(2)
 }
@@ -152,6 +157,32 @@ fn main() -> ExitCode {
             Some(n) => print_markdown("stream-report", stream_report::run(n[0] as usize, n[1] as u32, n[2])),
             None => usage(),
         },
+        ["scale-report", tiles, rest @ ..] => {
+            let mut options = scale_report::Options { tiles: tiles.into(), copc: None, class: None, tr: 1.0, memory_mib: 1536, chunks: 2000, python: None };
+            let mut rest = rest.iter();
+            while let Some(flag) = rest.next() {
+                let Some(value) = rest.next() else { return usage() };
+                let parsed = match *flag {
+                    "--copc" => {
+                        options.copc = Some(value.into());
+                        true
+                    }
+                    "--python" => {
+                        options.python = Some(value.into());
+                        true
+                    }
+                    "--class" => value.parse().map(|c| options.class = Some(c)).is_ok(),
+                    "--tr" => value.parse().map(|r| options.tr = r).is_ok(),
+                    "--memory" => value.parse().map(|m| options.memory_mib = m).is_ok(),
+                    "--chunks" => value.parse().map(|c| options.chunks = c).is_ok(),
+                    _ => false,
+                };
+                if !parsed {
+                    return usage();
+                }
+            }
+            print_markdown("scale-report", scale_report::run(&options))
+        }
         ["fingerprint"] => print_markdown("fingerprint", fingerprint::run()),
         ["stage-times", rest @ ..] => {
             // `--walk always | never`: how the GPU's heightfield tiles meet their bins

@@ -67,7 +67,7 @@ fn limited_address_space(command: &Command, limit: u64) -> Command {
 }
 
 /// The peak resident memory GNU time reported on `stderr`.
-fn peak_of(stderr: &str) -> Result<u64, String> {
+pub(crate) fn peak_of(stderr: &str) -> Result<u64, String> {
     stderr
         .lines()
         .find_map(|l| l.strip_prefix("peak resident KiB: "))

@@ -400,6 +400,7 @@ impl Raster {
         dict.set_item("points", block.points)?;
         dict.set_item("files_read", block.files_read)?;
         dict.set_item("points_decoded", block.points_decoded)?;
+        dict.set_item("discs", block.discs)?;
         dict.set_item("attempts", block.attempts)?;
         dict.set_item("buffer", block.buffer)?;
         dict.set_item("band", block.band)?;

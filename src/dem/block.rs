@@ -30,6 +30,8 @@ pub struct BlockRead {
     pub band: f64,
     /// Input files read (0 for points in memory).
     pub files_read: usize,
+    /// Discs read around circles too wide for the rectangle (across a lake, say).
+    pub discs: usize,
     /// Points decoded from the files, over every region tried: all of a file read whole (of
     /// `--class`), and the records of the nodes of a COPC file read (0 for points in memory).
     pub points_decoded: usize,
@@ -489,6 +491,14 @@ fn block_of(
         points: Some(summary),
         long_triangles,
         points_read: None,
-        block: Some(BlockRead { points: block.points, buffer, attempts: block.attempts, band: block.band, files_read: 0, points_decoded: 0 }),
+        block: Some(BlockRead {
+            points: block.points,
+            buffer,
+            attempts: block.attempts,
+            band: block.band,
+            discs: block.discs,
+            files_read: 0,
+            points_decoded: 0,
+        }),
     })
 }

@@ -150,7 +150,7 @@ impl Copc {
         let mut pages = vec![(root_offset, root_size)];
         let mut page_bytes = 0u64;
         while let Some((offset, size)) = pages.pop() {
-            page_bytes += size;
+            page_bytes = page_bytes.saturating_add(size);
             if offset.checked_add(size).is_none_or(|end| end > len) || size % ENTRY as u64 != 0 || page_bytes > len {
                 return Err(bad(format!("its hierarchy page of {size} bytes at byte {offset} does not fit in its {len} bytes")));
             }
@@ -181,12 +181,12 @@ impl Copc {
         nodes.sort_by_key(|n| n.offset);
         let (mut next, mut first) = (data + 8, 0u64);
         for node in &mut nodes {
-            if node.offset != next {
+            if node.offset != next || next > len {
                 return Err(bad(format!("the chunk of node {:?} starts at byte {}, where the chunks before end at {next}", node.key, node.offset)));
             }
             node.first = first;
-            first += node.count;
-            next = node.offset + node.size;
+            first = first.saturating_add(node.count);
+            next = node.offset.saturating_add(node.size);
         }
         if next > len || first != records {
             return Err(bad(format!("its hierarchy's nodes hold {first} points in bytes up to {next}; its header counts {records} points in {len} bytes")));
@@ -321,6 +321,8 @@ mod tests {
         // A page past the end of the file.
         let p = written("page.copc.laz", &|b| b[info + 40..info + 48].copy_from_slice(&(1u64 << 40).to_le_bytes()));
         assert!(Copc::open(&p).unwrap_err().to_string().contains("does not fit"), "page");
+        let p = written("size.copc.laz", &|b| b[info + 48..info + 56].copy_from_slice(&u64::MAX.to_le_bytes()));
+        assert!(Copc::open(&p).unwrap_err().to_string().contains("does not fit"), "page size");
         // A key deeper than its level allows.
         let p = written("key.copc.laz", &|b| b[root + 4..root + 8].copy_from_slice(&5i32.to_le_bytes()));
         assert!(Copc::open(&p).unwrap_err().to_string().contains("cannot use"), "key");

@@ -12,8 +12,8 @@
 //! iterator panics on a corrupt chunk; the index is little more than a table to read.)
 
 use crate::IoError;
-use crate::las::{decode, unreadable};
-use std::io::{Cursor, Read, Seek, SeekFrom};
+use crate::chunks::{COUNT, Chunk, HEADER_1_4, VLR_HEADER, decode_chunks, laszip_vlr, u16_at, u32_at, u64_at};
+use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 /// One node of a COPC file's octree that holds points: where its chunk lies, its points, and
@@ -32,10 +32,11 @@ pub struct CopcNode {
     size: u64,
 }
 
-/// Points read from COPC nodes ([`Copc::read`]).
+/// Points decoded from chunks of a LAZ file: from a COPC file's nodes ([`Copc::read`]), each
+/// with its record number in the whole file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NodePoints {
-    /// Each kept point's record number in the file, and its x, y, z; in file order.
+    /// Each kept point's record number and its x, y, z; in file order.
     pub points: Vec<(u64, [f64; 3])>,
     /// The records decoded, kept or not.
     pub decoded: u64,
@@ -55,15 +56,6 @@ pub struct Copc {
     pub nodes: Vec<CopcNode>,
 }
 
-/// LAS 1.4 header fields (byte offsets) a selection's file rewrites.
-const LEGACY_COUNT: usize = 107;
-const LEGACY_BY_RETURN: std::ops::Range<usize> = 111..131;
-const FIRST_EVLR: usize = 235;
-const EVLR_COUNT: usize = 243;
-const COUNT: usize = 247;
-const BY_RETURN: std::ops::Range<usize> = 255..375;
-const HEADER_1_4: usize = 375;
-const VLR_HEADER: usize = 54;
 /// A hierarchy entry: key (4 × i32), offset (u64), byte size (i32), point count (i32).
 const ENTRY: usize = 32;
 /// Deepest octree level read: 2^40 cells a side is finer than any file's scaled integers.
@@ -73,20 +65,8 @@ fn f64_at(b: &[u8], at: usize) -> f64 {
     f64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
 }
 
-fn u64_at(b: &[u8], at: usize) -> u64 {
-    u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
-}
-
 fn i32_at(b: &[u8], at: usize) -> i32 {
     i32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
-}
-
-fn u16_at(b: &[u8], at: usize) -> u16 {
-    u16::from_le_bytes(b[at..at + 2].try_into().expect("2 bytes"))
-}
-
-fn u32_at(b: &[u8], at: usize) -> u32 {
-    u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
 }
 
 impl Copc {
@@ -125,24 +105,7 @@ impl Copc {
         if !(cx.is_finite() && cy.is_finite() && halfsize.is_finite() && halfsize > 0.0) {
             return Err(bad(format!("its octree's cube (centre {cx}, {cy}, half size {halfsize}) is not finite")));
         }
-        // The LASzip VLR, among the VLRs after the header.
-        let mut laszip = None;
-        let mut at = HEADER_1_4;
-        for _ in 0..u32_at(&head, 100) {
-            if at + VLR_HEADER > head.len() {
-                return Err(bad("its VLRs run past the start of its point data".into()));
-            }
-            let size = usize::from(u16_at(&head, at + 20));
-            let body = at + VLR_HEADER..at + VLR_HEADER + size;
-            if body.end > head.len() {
-                return Err(bad("its VLRs run past the start of its point data".into()));
-            }
-            if head[at + 2..at + 18].starts_with(b"laszip encoded\0") && u16_at(&head, at + 18) == 22204 {
-                laszip = Some(head[body.clone()].to_vec());
-            }
-            at = body.end;
-        }
-        let laszip = laszip.ok_or_else(|| bad("it has no LASzip VLR".into()))?;
+        let laszip = laszip_vlr(&head).map_err(bad)?;
         // The hierarchy: pages of entries, an entry of count -1 naming a further page.
         let (scale_x, scale_y) = (f64_at(&head, 131), f64_at(&head, 139));
         let margin = scale_x.abs().max(scale_y.abs()) + 1e-9 * (cx.abs().max(cy.abs()) + halfsize);
@@ -194,13 +157,27 @@ impl Copc {
         Ok(Some(Copc { path: path.to_owned(), head, laszip, records, nodes }))
     }
 
+    /// Every point whose classification is one of `classes` (all when empty), in file order:
+    /// the nodes decoded in runs of about equal counts, four a core, on all cores.
+    pub fn read_all(&self, classes: &[u8]) -> Result<Vec<[f64; 3]>, IoError> {
+        use rayon::prelude::*;
+        let runs = (4 * rayon::current_num_threads()).max(1) as u64;
+        let per_run = self.records.div_ceil(runs).max(1);
+        let groups: Vec<Vec<usize>> = (0..self.nodes.len())
+            .collect::<Vec<_>>()
+            .chunk_by(|&a, &b| self.nodes[a].first / per_run == self.nodes[b].first / per_run)
+            .map(<[usize]>::to_vec)
+            .collect();
+        let parts = groups.par_iter().map(|nodes| self.read(nodes, classes)).collect::<Result<Vec<_>, _>>()?;
+        Ok(parts.into_iter().flat_map(|part| part.points.into_iter().map(|(_, p)| p)).collect())
+    }
+
     /// The points of `nodes` (indices into [`Copc::nodes`], in increasing order) whose
     /// classification is one of `classes` (every one when empty), each with its record number
     /// in the file, in file order. A point outside its node's cube is an error: a region would
     /// miss it.
     pub fn read(&self, nodes: &[usize], classes: &[u8]) -> Result<NodePoints, IoError> {
         let path = &self.path;
-        let io = |source| IoError::Io { path: path.clone(), source };
         let chosen: Vec<&CopcNode> = nodes.iter().map(|&k| &self.nodes[k]).collect();
         if chosen.windows(2).any(|w| w[0].offset >= w[1].offset) {
             return Err(IoError::Format { path: path.clone(), message: "COPC nodes asked for out of file order".into() });
@@ -208,31 +185,9 @@ impl Copc {
         if chosen.is_empty() {
             return Ok(NodePoints { points: Vec::new(), decoded: 0 });
         }
-        // A LAZ file of these chunks alone: the header counting their points, without EVLRs.
-        let mut bytes = self.head.clone();
-        let count: u64 = chosen.iter().map(|n| n.count).sum();
-        bytes[LEGACY_COUNT..LEGACY_COUNT + 4].copy_from_slice(&if u32_at(&self.head, LEGACY_COUNT) == 0 { 0 } else { count as u32 }.to_le_bytes());
-        bytes[LEGACY_BY_RETURN].fill(0);
-        bytes[FIRST_EVLR..FIRST_EVLR + 8].fill(0);
-        bytes[EVLR_COUNT..EVLR_COUNT + 4].fill(0);
-        bytes[COUNT..COUNT + 8].copy_from_slice(&count.to_le_bytes());
-        bytes[BY_RETURN].fill(0);
-        let table_at = bytes.len() as u64 + 8 + chosen.iter().map(|n| n.size).sum::<u64>();
-        bytes.extend_from_slice(&table_at.to_le_bytes());
-        let mut file = std::fs::File::open(path).map_err(io)?;
-        let mut table = laz::laszip::ChunkTable::with_capacity(chosen.len());
-        for node in &chosen {
-            let start = bytes.len();
-            bytes.resize(start + node.size as usize, 0);
-            file.seek(SeekFrom::Start(node.offset)).map_err(io)?;
-            file.read_exact(&mut bytes[start..]).map_err(io)?;
-            table.push(laz::laszip::ChunkTableEntry { point_count: node.count, byte_count: node.size });
-        }
-        let vlr = laz::LazVlr::read_from(self.laszip.as_slice()).map_err(|e| unreadable(path, e))?;
-        table.write_to(&mut bytes, &vlr).map_err(io)?;
-        let (points, seen) = decode(Cursor::new(bytes), path, classes, |record, p| (record, p))?;
+        let runs: Vec<Chunk> = chosen.iter().map(|n| Chunk { offset: n.offset, size: n.size, count: n.count }).collect();
+        let NodePoints { mut points, decoded } = decode_chunks(path, &self.head, &self.laszip, &runs, classes)?;
         // Record numbers in the selection's file, to the whole file's; each point in its cube.
-        let mut points = points;
         let (mut k, mut before) = (0, 0u64);
         for (record, p) in &mut points {
             while *record >= before + chosen[k].count {
@@ -249,7 +204,7 @@ impl Copc {
             }
             *record = node.first + *record - before;
         }
-        Ok(NodePoints { points, decoded: seen.iter().sum() })
+        Ok(NodePoints { points, decoded })
     }
 }
 
@@ -269,7 +224,8 @@ mod tests {
         for name in ["simple.copc.laz", "simple_with_page.copc.laz"] {
             let path = data(name);
             let copc = Copc::open(&path).unwrap().expect("a COPC file");
-            let whole = crate::read_las(&path).unwrap();
+            let whole = crate::las::read_through(&path, &[]).unwrap();
+            assert_eq!(crate::read_las(&path).unwrap(), whole, "{name}: its nodes decoded on all cores");
             assert_eq!(copc.records, whole.len() as u64);
             assert!(copc.nodes.len() > 4, "{name}: {} nodes", copc.nodes.len());
             let all: Vec<usize> = (0..copc.nodes.len()).collect();
@@ -288,7 +244,8 @@ mod tests {
             assert_eq!(points, expected, "{name}");
             for class in [1u8, 2] {
                 let read = copc.read(&all, &[class]).unwrap();
-                assert_eq!(read.points.iter().map(|&(_, p)| p).collect::<Vec<_>>(), crate::read_las_classes(&path, &[class]).unwrap(), "{name}");
+                assert_eq!(read.points.iter().map(|&(_, p)| p).collect::<Vec<_>>(), crate::las::read_through(&path, &[class]).unwrap(), "{name}");
+                assert_eq!(crate::read_las_classes(&path, &[class]).unwrap(), crate::las::read_through(&path, &[class]).unwrap());
                 assert_eq!(read.decoded, copc.records);
             }
         }

@@ -17,7 +17,76 @@ pub fn read_las(path: &Path) -> Result<Vec<[f64; 3]>, IoError> {
 
 /// Read the points of a LAS or LAZ file whose classification is one of `classes` (all points
 /// when it is empty): `&[2]` keeps the ground points, the usual step before a bare-earth DEM.
+/// A LAZ file of several chunks (a COPC file's nodes among them) is decoded in runs of chunks
+/// on all cores: the same points in the same order.
 pub fn read_las_classes(path: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, IoError> {
+    if let Some(copc) = crate::Copc::open(path)? {
+        let points = copc.read_all(classes)?;
+        if !points.is_empty() {
+            return Ok(points);
+        }
+        // None of the classes asked for: the error below names those the file holds.
+    } else if let Some(points) = read_in_chunks(path, classes) {
+        return Ok(points);
+    }
+    read_through(path, classes)
+}
+
+/// The points of a chunked LAZ file, its chunks decoded in runs on all cores; `None` for a
+/// file of one chunk or none, or one whose chunk table, checks or decoding fail: reading it
+/// through then gives its points or its error, as for any file.
+fn read_in_chunks(path: &Path, classes: &[u8]) -> Option<Vec<[f64; 3]>> {
+    use crate::chunks::{Chunk, decode_chunks, laszip_vlr, u16_at, u32_at};
+    use rayon::prelude::*;
+    let mut file = std::fs::File::open(path).ok()?;
+    let len = file.seek(SeekFrom::End(0)).ok()?;
+    vet(&mut file, len).ok()?;
+    file.seek(SeekFrom::Start(0)).ok()?;
+    let raw = las::raw::Header::read_from(&mut file).ok()?;
+    let count = match (raw.number_of_point_records, raw.large_file) {
+        (0, Some(large)) => large.number_of_point_records,
+        (legacy, _) => u64::from(legacy),
+    };
+    let data = u64::from(raw.offset_to_point_data);
+    if raw.point_data_record_format & 0x80 == 0 || data > len {
+        return None;
+    }
+    let mut head = vec![0u8; data as usize];
+    file.seek(SeekFrom::Start(0)).ok()?;
+    file.read_exact(&mut head).ok()?;
+    let laszip = laszip_vlr(&head).ok()?;
+    if !matches!(u16_at(&laszip, 0), POINT_WISE_CHUNKED | LAYERED_CHUNKED) {
+        return None;
+    }
+    let vlr = laz::LazVlr::read_from(laszip.as_slice()).ok()?;
+    file.seek(SeekFrom::Start(data)).ok()?;
+    let table = laz::laszip::ChunkTable::read_from(&mut file, &vlr).ok()?;
+    // Fixed-size chunks: the table has their sizes only, the last holds what is left.
+    let fixed = (!vlr.uses_variable_size_chunks()).then(|| u64::from(u32_at(&laszip, 12)));
+    let (mut chunks, mut offset, mut before) = (Vec::with_capacity(table.len()), data + 8, 0u64);
+    for entry in &table {
+        let points = fixed.map_or(entry.point_count, |size| size.min(count.saturating_sub(before)));
+        chunks.push(Chunk { offset, size: entry.byte_count, count: points });
+        offset = offset.checked_add(entry.byte_count)?;
+        before += points;
+    }
+    if chunks.len() < 2 || before != count || offset > len || chunks.iter().any(|c| c.count == 0) {
+        return None;
+    }
+    // Runs of whole chunks, about four a core; only the last run ends with a short chunk.
+    let runs = (4 * rayon::current_num_threads()).clamp(1, chunks.len());
+    let per_run = chunks.len().div_ceil(runs);
+    let parts: Vec<Option<Vec<[f64; 3]>>> = chunks
+        .par_chunks(per_run)
+        .map(|run| decode_chunks(path, &head, &laszip, run, classes).ok().map(|read| read.points.into_iter().map(|(_, p)| p).collect()))
+        .collect();
+    let points: Vec<[f64; 3]> = parts.into_iter().collect::<Option<Vec<_>>>()?.concat();
+    (!points.is_empty()).then_some(points)
+}
+
+/// [`read_las_classes`] record by record from the start, on one thread: how any LAS/LAZ file
+/// reads, a COPC file included.
+pub(crate) fn read_through(path: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, IoError> {
     let file = std::fs::File::open(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
     read_from(BufReader::new(file), path, classes)
 }
@@ -509,6 +578,29 @@ mod tests {
                 assert_eq!(parse(&file(minor, format, chunk, &points)), Ok(points.clone()), "LAS 1.{minor}, format {format}, chunks {chunk:?}");
             }
         }
+    }
+
+    /// A file of several chunks is decoded in runs of chunks on all cores, with the points
+    /// and order of reading it through; with `--class` too.
+    #[test]
+    fn chunks_decoded_apart_give_the_points_read_through() {
+        let dir = std::env::temp_dir().join(format!("tileraster-las-chunks-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let points = grid_points(4000);
+        for (minor, format) in [(2, 1), (4, 6), (4, 8)] {
+            for chunk in [Some(7), Some(500), Some(50_000), None] {
+                let path = dir.join(format!("c-{minor}-{format}-{chunk:?}.laz"));
+                std::fs::write(&path, file(minor, format, chunk, &points)).unwrap();
+                let what = format!("LAS 1.{minor}, format {format}, chunks {chunk:?}");
+                let apart = read_in_chunks(&path, &[]);
+                assert_eq!(apart.is_some(), matches!(chunk, Some(7 | 500)), "{what}");
+                assert_eq!(read_las(&path).unwrap(), points, "{what}");
+                assert_eq!(read_through(&path, &[]).unwrap(), points, "{what}");
+                assert_eq!(read_las_classes(&path, &[0]).unwrap(), points, "{what}");
+                assert!(read_las_classes(&path, &[2]).unwrap_err().to_string().contains("no point is of class 2"), "{what}");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

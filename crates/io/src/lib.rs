@@ -7,6 +7,7 @@
 //! Writers go through a temporary file in the destination's folder and rename it into place,
 //! so a failed run never leaves a partial file behind.
 
+mod chunks;
 mod cog;
 mod copc;
 mod dem;

@@ -81,7 +81,14 @@ fn read_in_chunks(path: &Path, classes: &[u8]) -> Option<Vec<[f64; 3]>> {
         .map(|run| decode_chunks(path, &head, &laszip, run, classes).ok().map(|read| read.points.into_iter().map(|(_, p)| p).collect()))
         .collect();
     let points: Vec<[f64; 3]> = parts.into_iter().collect::<Option<Vec<_>>>()?.concat();
-    (!points.is_empty()).then_some(points)
+    // A run that starts where no chunk does (a table whose sizes are wrong, which reading
+    // through never looks at) decodes noise: every point must lie in the header's bounds.
+    let slack = |scale: f64, lo: f64, hi: f64| 2.0 * scale.abs() + 1e-9 * lo.abs().max(hi.abs());
+    let box_of = |scale: f64, lo: f64, hi: f64| (lo - slack(scale, lo, hi), hi + slack(scale, lo, hi));
+    let [(x0, x1), (y0, y1), (z0, z1)] =
+        [box_of(raw.x_scale_factor, raw.min_x, raw.max_x), box_of(raw.y_scale_factor, raw.min_y, raw.max_y), box_of(raw.z_scale_factor, raw.min_z, raw.max_z)];
+    let inside = |p: &[f64; 3]| (x0..=x1).contains(&p[0]) && (y0..=y1).contains(&p[1]) && (z0..=z1).contains(&p[2]);
+    (!points.is_empty() && points.iter().all(inside)).then_some(points)
 }
 
 /// [`read_las_classes`] record by record from the start, on one thread: how any LAS/LAZ file
@@ -599,6 +606,29 @@ mod tests {
                 assert_eq!(read_las_classes(&path, &[0]).unwrap(), points, "{what}");
                 assert!(read_las_classes(&path, &[2]).unwrap_err().to_string().contains("no point is of class 2"), "{what}");
             }
+        }
+        // A chunk table whose sizes are wrong (a boundary moved), which reading through ignores:
+        // the runs start where no chunk does, and the points are still those read through.
+        for format in [1, 6] {
+            let mut bytes = file(if format == 1 { 2 } else { 4 }, format, Some(7), &points);
+            let data = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as usize;
+            let at = i64::from_le_bytes(bytes[data..data + 8].try_into().unwrap()) as usize;
+            let header = las::Reader::new(Cursor::new(bytes.clone())).unwrap().header().clone();
+            let vlr = laz::LazVlr::read_from(header.vlrs().iter().find(|v| las::laz::is_laszip_vlr(v)).unwrap().data.as_slice()).unwrap();
+            let mut cursor = Cursor::new(bytes.clone());
+            cursor.set_position(data as u64);
+            let table = laz::laszip::ChunkTable::read_from(&mut cursor, &vlr).unwrap();
+            let mut entries: Vec<laz::laszip::ChunkTableEntry> = table.as_ref().to_vec();
+            entries[0].byte_count += 5;
+            entries[1].byte_count -= 5;
+            let mut swapped = laz::laszip::ChunkTable::with_capacity(entries.len());
+            entries.into_iter().for_each(|e| swapped.push(e));
+            bytes.truncate(at);
+            swapped.write_to(&mut bytes, &vlr).unwrap();
+            let path = dir.join(format!("swapped-{format}.laz"));
+            std::fs::write(&path, &bytes).unwrap();
+            assert_eq!(read_through(&path, &[]).unwrap(), points, "format {format}");
+            assert_eq!(read_las(&path).unwrap(), points, "format {format}: a wrong chunk table");
         }
         std::fs::remove_dir_all(&dir).ok();
     }

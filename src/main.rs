@@ -361,8 +361,7 @@ fn rasterise_command(args: Box<RasteriseArgs>) -> Result<ExitCode, String> {
         let (k, n) = part.expect("blocked runs are parts");
         let records: u64 = files.iter().filter_map(|f| f.records).sum();
         let files_read = match files.len() {
-            0 => String::new(),
-            1 => String::new(),
+            0 | 1 => String::new(),
             n => format!(", from {} of the {n} files", block.files_read),
         } + &match records {
             0 => String::new(),

@@ -160,17 +160,17 @@ fn summarise_copc(copc: &Copc, path: &Path, options: &ReadOptions) -> Result<Fil
         .filter(|&k| [cubes[k].x0 == outer.x0, cubes[k].x1 == outer.x1, cubes[k].y0 == outer.y0, cubes[k].y1 == outer.y1].contains(&true))
         .collect();
     let (mut read, mut corners, mut kept, mut decoded) = (vec![false; cubes.len()], Vec::new(), 0u64, 0u64);
+    let mut hull = Hull::of(&corners);
     while !wanted.is_empty() {
         let nodes = copc.read(&wanted, &options.classes)?;
         wanted.iter().for_each(|&k| read[k] = true);
         kept += nodes.points.len() as u64;
         decoded += nodes.decoded;
         corners.extend(nodes.points.iter().map(|&(_, p)| [p[0], p[1]]));
-        corners = Hull::of(&corners).corners().to_vec();
-        let hull = Hull::of(&corners);
+        hull = Hull::of(&corners);
+        corners = hull.corners().to_vec();
         wanted = (0..cubes.len()).filter(|&k| !read[k] && !hull.surrounds(&cubes[k])).collect();
     }
-    let hull = Hull::of(&corners);
     if hull.corners().is_empty() {
         // Every node was read (an empty hull surrounds none) and none holds a point of the
         // classes asked for: the whole file's own error names the classes it holds.
@@ -201,7 +201,7 @@ fn node_density(nodes: &[CopcNode], bounds: &Rect, share: f64) -> Vec<u32> {
             for i in i0..i1.max(i0 + 1).min(DENSITY_SIDE) {
                 let part = |lo: f64, hi: f64, a: f64, b: f64, whole: f64| if whole > 0.0 { ((hi.min(b) - lo.max(a)) / whole).clamp(0.0, 1.0) } else { 1.0 };
                 let (x0, y0) = (bounds.x0 + i as f64 * w, bounds.y0 + j as f64 * h);
-                counts[j * DENSITY_SIDE + i] += node.count as f64 * share * part(c.x0, c.x1, x0, x0 + w, cw) * part(c.y0, c.y1, y0, y0 + h, ch);
+                counts[j * DENSITY_SIDE + i] += node.count() as f64 * share * part(c.x0, c.x1, x0, x0 + w, cw) * part(c.y0, c.y1, y0, y0 + h, ch);
             }
         }
     }

@@ -119,11 +119,7 @@ fn report(bin: &Path, dir: &Path, options: &Options) -> Result<String, String> {
         let run = run_cli(bin, input, &out, options)?;
         let points = note_number(&run.notes, "tileraster: ", 0).unwrap_or(records as f64);
         let first = note_number(&run.notes, "read in ", 0).map_or("–".into(), |ms| format!("{:.1} s", ms / 1e3));
-        let blocks = note_number(&run.notes, "tileraster: ", 0)
-            .and(run.notes.split(" blocks in bands").next())
-            .and_then(|t| t.rsplit(' ').next())
-            .unwrap_or("–")
-            .to_string();
+        let blocks = run.notes.split_once(" blocks in bands").and_then(|(before, _)| before.rsplit(' ').next()).unwrap_or("–").to_string();
         let range = run.notes.split("triangulated ").last().and_then(|t| t.split(" of the").next()).filter(|t| t.contains(" to ")).unwrap_or("–").to_string();
         let _ = writeln!(
             s,

@@ -29,31 +29,27 @@ const BY_RETURN: std::ops::Range<usize> = 255..375;
 pub(crate) const HEADER_1_4: usize = 375;
 pub(crate) const VLR_HEADER: usize = 54;
 
-pub(crate) fn u16_at(b: &[u8], at: usize) -> u16 {
-    u16::from_le_bytes(b[at..at + 2].try_into().expect("2 bytes"))
+/// Little-endian numbers at byte `at` of `b`, or none where `b` ends first.
+pub(crate) fn u16_at(b: &[u8], at: usize) -> Option<u16> {
+    Some(u16::from_le_bytes(b.get(at..at + 2)?.try_into().ok()?))
 }
 
-pub(crate) fn u32_at(b: &[u8], at: usize) -> u32 {
-    u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
-}
-
-pub(crate) fn u64_at(b: &[u8], at: usize) -> u64 {
-    u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+pub(crate) fn u32_at(b: &[u8], at: usize) -> Option<u32> {
+    Some(u32::from_le_bytes(b.get(at..at + 4)?.try_into().ok()?))
 }
 
 /// The LASzip VLR's data among the VLRs of `head` (a file's bytes up to its point data), or
 /// why there is none to use.
 pub(crate) fn laszip_vlr(head: &[u8]) -> Result<Vec<u8>, String> {
-    let mut at = usize::from(u16_at(head, 94));
-    for _ in 0..u32_at(head, 100) {
-        if at + VLR_HEADER > head.len() {
-            return Err("its VLRs run past the start of its point data".into());
-        }
-        let body = at + VLR_HEADER..at + VLR_HEADER + usize::from(u16_at(head, at + 20));
+    let past = || "its VLRs run past the start of its point data".to_string();
+    let (mut at, vlrs) = (usize::from(u16_at(head, 94).ok_or_else(past)?), u32_at(head, 100).ok_or_else(past)?);
+    for _ in 0..vlrs {
+        let (Some(size), Some(record)) = (u16_at(head, at + 20), u16_at(head, at + 18)) else { return Err(past()) };
+        let body = at + VLR_HEADER..at + VLR_HEADER + usize::from(size);
         if body.end > head.len() {
-            return Err("its VLRs run past the start of its point data".into());
+            return Err(past());
         }
-        if head[at + 2..at + 18].starts_with(b"laszip encoded\0") && u16_at(head, at + 18) == 22204 {
+        if head[at + 2..at + 18].starts_with(b"laszip encoded\0") && record == 22204 {
             return Ok(head[body].to_vec());
         }
         at = body.end;
@@ -72,13 +68,16 @@ pub(crate) fn decode_chunks(path: &Path, head: &[u8], laszip: &[u8], chunks: &[C
     if chunks.is_empty() {
         return Ok(NodePoints { points: Vec::new(), decoded: 0 });
     }
+    if head.len() < HEADER_1_4.min(usize::from(u16_at(head, 94).unwrap_or(u16::MAX))) {
+        return Err(IoError::Format { path: path.to_owned(), message: "its header runs past the start of its point data".into() });
+    }
     // The header counting these chunks' points, without EVLRs (LAS 1.4) or returns' counts.
     let mut bytes = head.to_vec();
     let count: u64 = chunks.iter().map(|c| c.count).sum();
-    let legacy = if u32_at(head, LEGACY_COUNT) == 0 { 0 } else { u32::try_from(count).unwrap_or(0) };
+    let legacy = if u32_at(head, LEGACY_COUNT) == Some(0) { 0 } else { u32::try_from(count).unwrap_or(0) };
     bytes[LEGACY_COUNT..LEGACY_COUNT + 4].copy_from_slice(&legacy.to_le_bytes());
     bytes[LEGACY_BY_RETURN].fill(0);
-    if head[25] >= 4 && usize::from(u16_at(head, 94)) >= HEADER_1_4 {
+    if head[25] >= 4 && head.len() >= HEADER_1_4 && u16_at(head, 94).is_some_and(|size| usize::from(size) >= HEADER_1_4) {
         bytes[FIRST_EVLR..FIRST_EVLR + 8].fill(0);
         bytes[EVLR_COUNT..EVLR_COUNT + 4].fill(0);
         bytes[COUNT..COUNT + 8].copy_from_slice(&count.to_le_bytes());

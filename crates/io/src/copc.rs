@@ -12,7 +12,7 @@
 //! iterator panics on a corrupt chunk; the index is little more than a table to read.)
 
 use crate::IoError;
-use crate::chunks::{COUNT, Chunk, HEADER_1_4, VLR_HEADER, decode_chunks, laszip_vlr, u16_at, u32_at, u64_at};
+use crate::chunks::{COUNT, Chunk, HEADER_1_4, VLR_HEADER, decode_chunks, laszip_vlr};
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
@@ -27,9 +27,15 @@ pub struct CopcNode {
     pub bounds: [f64; 4],
     /// Records before its first in the file.
     pub first: u64,
-    pub count: u64,
-    offset: u64,
-    size: u64,
+    /// Its chunk: where it lies, and its points.
+    pub(crate) chunk: Chunk,
+}
+
+impl CopcNode {
+    /// Its points.
+    pub fn count(&self) -> u64 {
+        self.chunk.count
+    }
 }
 
 /// Points decoded from chunks of a LAZ file: from a COPC file's nodes ([`Copc::read`]), each
@@ -61,12 +67,22 @@ const ENTRY: usize = 32;
 /// Deepest octree level read: 2^40 cells a side is finer than any file's scaled integers.
 const MAX_LEVEL: i32 = 40;
 
+/// Numbers of the buffers `Copc::open` has checked the length of (the header and its first
+/// VLR, a hierarchy entry): a shorter one is a bug here, not in the file.
+fn number<const N: usize>(b: &[u8], at: usize) -> [u8; N] {
+    b[at..at + N].try_into().expect("a buffer of checked length")
+}
+
 fn f64_at(b: &[u8], at: usize) -> f64 {
-    f64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+    f64::from_le_bytes(number(b, at))
 }
 
 fn i32_at(b: &[u8], at: usize) -> i32 {
-    i32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
+    i32::from_le_bytes(number(b, at))
+}
+
+fn u64_of(b: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(number(b, at))
 }
 
 impl Copc {
@@ -84,24 +100,24 @@ impl Copc {
         let is_copc = first.len() == HEADER_1_4 + VLR_HEADER + 160
             && &first[..4] == b"LASF"
             && first[24..26] == [1, 4]
-            && usize::from(u16_at(&first, 94)) == HEADER_1_4
+            && u16::from_le_bytes(number(&first, 94)) as usize == HEADER_1_4
             && first[HEADER_1_4 + 2..HEADER_1_4 + 18].starts_with(b"copc\0")
-            && u16_at(&first, HEADER_1_4 + 18) == 1;
+            && u16::from_le_bytes(number(&first, HEADER_1_4 + 18)) == 1;
         if !is_copc {
             return Ok(None);
         }
         let bad = |message: String| IoError::Format { path: path.to_owned(), message: format!("not a readable COPC file: {message}") };
-        let data = u64::from(u32_at(&first, 96));
+        let data = u64::from(u32::from_le_bytes(number(&first, 96)));
         if data > len || data < (HEADER_1_4 + VLR_HEADER + 160) as u64 {
             return Err(bad(format!("its point data starts at byte {data}, outside its {len} bytes")));
         }
         let mut head = vec![0u8; data as usize];
         file.seek(SeekFrom::Start(0)).map_err(io)?;
         file.read_exact(&mut head).map_err(io)?;
-        let records = u64_at(&head, COUNT);
+        let records = u64_of(&head, COUNT);
         let info = &head[HEADER_1_4 + VLR_HEADER..];
         let [cx, cy, _cz, halfsize] = [0, 8, 16, 24].map(|at| f64_at(info, at));
-        let (root_offset, root_size) = (u64_at(info, 40), u64_at(info, 48));
+        let (root_offset, root_size) = (u64_of(info, 40), u64_of(info, 48));
         if !(cx.is_finite() && cy.is_finite() && halfsize.is_finite() && halfsize > 0.0) {
             return Err(bad(format!("its octree's cube (centre {cx}, {cy}, half size {halfsize}) is not finite")));
         }
@@ -122,7 +138,7 @@ impl Copc {
             file.read_exact(&mut page).map_err(io)?;
             for entry in page.as_chunks::<ENTRY>().0 {
                 let key = [0, 4, 8, 12].map(|at| i32_at(entry, at));
-                let (offset, size, count) = (u64_at(entry, 16), i32_at(entry, 24), i32_at(entry, 28));
+                let (offset, size, count) = (u64_of(entry, 16), i32_at(entry, 24), i32_at(entry, 28));
                 let [level, x, y, z] = key;
                 if !(0..=MAX_LEVEL).contains(&level) || [x, y, z].iter().any(|&c| c < 0 || i64::from(c) >= 1i64 << level) || size < 0 || count < -1 {
                     return Err(bad(format!("its hierarchy has an entry it cannot use: key {key:?}, {size} bytes, {count} points")));
@@ -134,22 +150,23 @@ impl Copc {
                         let side = 2.0 * halfsize * 0.5f64.powi(level);
                         let (x0, y0) = (cx - halfsize + f64::from(x) * side, cy - halfsize + f64::from(y) * side);
                         let bounds = [x0 - margin, y0 - margin, x0 + side + margin, y0 + side + margin];
-                        nodes.push(CopcNode { key, bounds, first: 0, count: count as u64, offset, size: size as u64 });
+                        nodes.push(CopcNode { key, bounds, first: 0, chunk: Chunk { offset, size: size as u64, count: count as u64 } });
                     }
                 }
             }
         }
         // Chunks follow one another from the point data's chunk-table offset on, as reading
         // the file through finds them.
-        nodes.sort_by_key(|n| n.offset);
+        nodes.sort_by_key(|n| n.chunk.offset);
         let (mut next, mut first) = (data + 8, 0u64);
         for node in &mut nodes {
-            if node.offset != next || next > len {
-                return Err(bad(format!("the chunk of node {:?} starts at byte {}, where the chunks before end at {next}", node.key, node.offset)));
+            let Chunk { offset, size, count } = node.chunk;
+            if offset != next || next > len {
+                return Err(bad(format!("the chunk of node {:?} starts at byte {offset}, where the chunks before end at {next}", node.key)));
             }
             node.first = first;
-            first = first.saturating_add(node.count);
-            next = node.offset.saturating_add(node.size);
+            first = first.saturating_add(count);
+            next = offset.saturating_add(size);
         }
         if next > len || first != records {
             return Err(bad(format!("its hierarchy's nodes hold {first} points in bytes up to {next}; its header counts {records} points in {len} bytes")));
@@ -179,19 +196,13 @@ impl Copc {
     pub fn read(&self, nodes: &[usize], classes: &[u8]) -> Result<NodePoints, IoError> {
         let path = &self.path;
         let chosen: Vec<&CopcNode> = nodes.iter().map(|&k| &self.nodes[k]).collect();
-        if chosen.windows(2).any(|w| w[0].offset >= w[1].offset) {
-            return Err(IoError::Format { path: path.clone(), message: "COPC nodes asked for out of file order".into() });
-        }
-        if chosen.is_empty() {
-            return Ok(NodePoints { points: Vec::new(), decoded: 0 });
-        }
-        let runs: Vec<Chunk> = chosen.iter().map(|n| Chunk { offset: n.offset, size: n.size, count: n.count }).collect();
-        let NodePoints { mut points, decoded } = decode_chunks(path, &self.head, &self.laszip, &runs, classes)?;
+        let chunks: Vec<Chunk> = chosen.iter().map(|n| n.chunk).collect();
+        let NodePoints { mut points, decoded } = decode_chunks(path, &self.head, &self.laszip, &chunks, classes)?;
         // Record numbers in the selection's file, to the whole file's; each point in its cube.
         let (mut k, mut before) = (0, 0u64);
         for (record, p) in &mut points {
-            while *record >= before + chosen[k].count {
-                before += chosen[k].count;
+            while *record >= before + chosen[k].chunk.count {
+                before += chosen[k].chunk.count;
                 k += 1;
             }
             let node = chosen[k];
@@ -238,7 +249,7 @@ mod tests {
                 .iter()
                 .flat_map(|&k| {
                     let n = copc.nodes[k];
-                    (n.first..n.first + n.count).map(|r| (r, whole[r as usize]))
+                    (n.first..n.first + n.count()).map(|r| (r, whole[r as usize]))
                 })
                 .collect();
             assert_eq!(points, expected, "{name}");
@@ -261,7 +272,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("tileraster-copc-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let info = HEADER_1_4 + VLR_HEADER;
-        let root = u64_at(&bytes, info + 40) as usize;
+        let root = u64_of(&bytes, info + 40) as usize;
         let written = |name: &str, edit: &dyn Fn(&mut Vec<u8>)| {
             let mut b = bytes.clone();
             edit(&mut b);
@@ -286,7 +297,7 @@ mod tests {
         // Garbage in every node's chunk: each read fails or gives its records' count, in its cube.
         let p = written("chunk.copc.laz", &|b| {
             for n in &copc.nodes {
-                for k in (n.offset as usize + 40..(n.offset + n.size) as usize).step_by(7) {
+                for k in (n.chunk.offset as usize + 40..(n.chunk.offset + n.chunk.size) as usize).step_by(7) {
                     b[k] ^= 0x5a;
                 }
             }
@@ -294,7 +305,7 @@ mod tests {
         let broken = Copc::open(&p).unwrap().unwrap();
         for k in 0..broken.nodes.len() {
             if let Ok(read) = broken.read(&[k], &[]) {
-                assert_eq!(read.points.len() as u64, broken.nodes[k].count);
+                assert_eq!(read.points.len() as u64, broken.nodes[k].count());
             }
         }
         std::fs::remove_dir_all(&dir).ok();

@@ -5,6 +5,7 @@
 //! index and to allocate by; `vet` checks those against the input's length first.
 
 use crate::IoError;
+use crate::chunks::{u16_at, u32_at};
 use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
 use std::path::Path;
 use std::sync::Arc;
@@ -36,7 +37,7 @@ pub fn read_las_classes(path: &Path, classes: &[u8]) -> Result<Vec<[f64; 3]>, Io
 /// file of one chunk or none, or one whose chunk table, checks or decoding fail: reading it
 /// through then gives its points or its error, as for any file.
 fn read_in_chunks(path: &Path, classes: &[u8]) -> Option<Vec<[f64; 3]>> {
-    use crate::chunks::{Chunk, decode_chunks, laszip_vlr, u16_at, u32_at};
+    use crate::chunks::{Chunk, decode_chunks, laszip_vlr};
     use rayon::prelude::*;
     let mut file = std::fs::File::open(path).ok()?;
     let len = file.seek(SeekFrom::End(0)).ok()?;
@@ -55,14 +56,17 @@ fn read_in_chunks(path: &Path, classes: &[u8]) -> Option<Vec<[f64; 3]>> {
     file.seek(SeekFrom::Start(0)).ok()?;
     file.read_exact(&mut head).ok()?;
     let laszip = laszip_vlr(&head).ok()?;
-    if !matches!(u16_at(&laszip, 0), POINT_WISE_CHUNKED | LAYERED_CHUNKED) {
+    if !matches!(u16_at(&laszip, 0)?, POINT_WISE_CHUNKED | LAYERED_CHUNKED) {
         return None;
     }
     let vlr = laz::LazVlr::read_from(laszip.as_slice()).ok()?;
     file.seek(SeekFrom::Start(data)).ok()?;
     let table = laz::laszip::ChunkTable::read_from(&mut file, &vlr).ok()?;
     // Fixed-size chunks: the table has their sizes only, the last holds what is left.
-    let fixed = (!vlr.uses_variable_size_chunks()).then(|| u64::from(u32_at(&laszip, 12)));
+    let fixed = match vlr.uses_variable_size_chunks() {
+        true => None,
+        false => Some(u64::from(u32_at(&laszip, 12)?)),
+    };
     let (mut chunks, mut offset, mut before) = (Vec::with_capacity(table.len()), data + 8, 0u64);
     for entry in &table {
         let points = fixed.map_or(entry.point_count, |size| size.min(count.saturating_sub(before)));
@@ -306,14 +310,6 @@ impl<R: Seek> Seek for Guard<R> {
 
 /// Size of an extended VLR's header.
 const EVLR_HEADER: u64 = 60;
-
-fn u16_at(bytes: &[u8], at: usize) -> Option<u16> {
-    Some(u16::from_le_bytes(bytes.get(at..at + 2)?.try_into().ok()?))
-}
-
-fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
-    Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
-}
 
 /// `n` bytes at byte `at` of `source`, or none if it ends first.
 fn bytes_at<R: Read + Seek>(source: &mut R, at: u64, n: usize) -> Option<Vec<u8>> {
@@ -629,6 +625,19 @@ mod tests {
             std::fs::write(&path, &bytes).unwrap();
             assert_eq!(read_through(&path, &[]).unwrap(), points, "format {format}");
             assert_eq!(read_las(&path).unwrap(), points, "format {format}: a wrong chunk table");
+        }
+        // A byte changed anywhere (header, VLRs, chunks, table): decoding apart gives what
+        // reading through gives, points or an error, and never panics.
+        for format in [1, 6] {
+            let bytes = file(if format == 1 { 2 } else { 4 }, format, Some(500), &points);
+            let path = dir.join(format!("flipped-{format}.laz"));
+            for at in (0..bytes.len()).step_by(bytes.len() / 150) {
+                let mut flipped = bytes.clone();
+                flipped[at] ^= 0x5a;
+                std::fs::write(&path, &flipped).unwrap();
+                let (apart, through) = (read_las(&path).map_err(|e| e.to_string()), read_through(&path, &[]).map_err(|e| e.to_string()));
+                assert_eq!(apart, through, "format {format}, byte {at} changed");
+            }
         }
         std::fs::remove_dir_all(&dir).ok();
     }

@@ -18,9 +18,11 @@ use tileraster::dem::{self, GridSize, GridSpec};
 use tileraster::{Backend, Mode, Outputs, Params, PreparedScene, Raster as RustRaster, Scene as RustScene, Stats, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
+mod render;
+
 create_exception!(tileraster, TilerasterError, PyValueError, "What tileraster refused, with what was wrong and how to fix it.");
 
-fn error(e: impl std::fmt::Display) -> PyErr {
+pub(crate) fn error(e: impl std::fmt::Display) -> PyErr {
     TilerasterError::new_err(e.to_string())
 }
 
@@ -145,13 +147,13 @@ fn rows_of_three<'py>(value: &Bound<'py, PyAny>, what: &str, dtype: &str) -> PyR
     numpy.call_method1("ascontiguousarray", (array, dtype))
 }
 
-fn vertices_of(value: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f64; 3]>> {
+pub(crate) fn vertices_of(value: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f64; 3]>> {
     let array = rows_of_three(value, what, "float64")?;
     let array: PyReadonlyArray2<'_, f64> = array.extract()?;
     Ok(array.as_slice().map_err(error)?.as_chunks::<3>().0.to_vec())
 }
 
-fn triangles_of(value: &Bound<'_, PyAny>) -> PyResult<Vec<[u32; 3]>> {
+pub(crate) fn triangles_of(value: &Bound<'_, PyAny>) -> PyResult<Vec<[u32; 3]>> {
     let array = rows_of_three(value, "triangles", "int64")?;
     let array: PyReadonlyArray2<'_, i64> = array.extract()?;
     let flat = array.as_slice().map_err(error)?;
@@ -202,7 +204,7 @@ fn window_of(window: Option<(u32, u32, u32, u32)>) -> Option<Window> {
 /// Run `work` on a thread of its own while this one waits without the GIL and checks for
 /// signals: Ctrl-C raises `KeyboardInterrupt` at once and sets the flag `work` is given,
 /// which banded work checks between bands to stop.
-fn interruptible<T: Send + 'static>(py: Python<'_>, work: impl FnOnce(&AtomicBool) -> T + Send + 'static) -> PyResult<T> {
+pub(crate) fn interruptible<T: Send + 'static>(py: Python<'_>, work: impl FnOnce(&AtomicBool) -> T + Send + 'static) -> PyResult<T> {
     let cancel = Arc::new(AtomicBool::new(false));
     let flag = cancel.clone();
     let (send, mut receive) = mpsc::channel();
@@ -694,5 +696,6 @@ fn _native(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(summarise_points, module)?)?;
     module.add_function(wrap_pyfunction!(block_dem, module)?)?;
     module.add_function(wrap_pyfunction!(block_dem_points, module)?)?;
+    render::register(module)?;
     Ok(())
 }

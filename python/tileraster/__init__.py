@@ -1,4 +1,5 @@
-"""tileraster: deterministic rasterisation of TINs and point clouds to DEMs.
+"""tileraster: deterministic rasterisation of TINs and point clouds to DEMs, and of meshes to
+frames.
 
 The same cells, bit for bit, on the CPU backend and on any Vulkan GPU, with gdal_grid's grid
 semantics. Arrays come in as numpy arrays and go out as numpy arrays::
@@ -14,6 +15,10 @@ Errors raise ``TilerasterError`` (a ``ValueError``) with the library's message, 
 stops a long call with ``KeyboardInterrupt``. ``tileraster.dask.points_to_dem`` makes DEMs
 of many point files as lazy ``xarray`` arrays whose chunks Dask computes apart, with the
 single run's cells.
+
+``render`` draws a mesh (a file, or numpy arrays as a ``Mesh``) as ``tileraster render`` does,
+the same bytes for the same options: ``frame.colour`` (H, W, 4) uint8, ``frame.depth``,
+``frame.ids`` (the face each pixel shows); ``Renderer`` keeps a mesh for many frames.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import tempfile
 
 from ._native import Grid, Prepared, Raster, Scene, TilerasterError, backends
 from ._native import rasterise as _rasterise
+from ._render import Frame, Mesh, Renderer, render
 
 
 def _give_vulkan_a_runtime_dir() -> None:
@@ -45,7 +51,8 @@ def _give_vulkan_a_runtime_dir() -> None:
 
 _give_vulkan_a_runtime_dir()
 
-__all__ = ["Grid", "Prepared", "Raster", "Scene", "TilerasterError", "backends", "rasterise", "points_to_dem", "tin"]
+__all__ = ["Frame", "Grid", "Mesh", "Prepared", "Raster", "Renderer", "Scene", "TilerasterError", "backends", "points_to_dem", "rasterise", "render",
+           "tin"]
 
 
 def tin(points, *, max_edge: float | None = None) -> Scene:

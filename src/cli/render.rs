@@ -4,12 +4,9 @@ use super::progress::{note, set_quiet};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 use std::time::Instant;
-use tileraster::dem::InputKind;
 use tileraster::render::{
-    Address, Camera, Cull, Filter, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Projection, RenderParams, Shading, Up, VertexStage, Wireframe,
-    World, format_up, is_geotiff, posed_positions, read_dem_grid, read_mesh_at, read_posable_at, read_world_at, render_world,
+    Address, CameraChoice, Cull, Filter, Interpolation, Lens, LineRule, MeshSource, Model, ModelOptions, Shading, Up, VertexStage, ViewOptions, render_world,
 };
 use tileraster::{Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
@@ -234,35 +231,6 @@ fn seconds(s: &str) -> Result<f64, String> {
     }
 }
 
-/// The camera of `input` that `wanted` names (in the pose at `time`): a node index, a node's
-/// name or a camera's name.
-fn gltf_camera(input: &std::path::Path, wanted: &str, time: Option<f64>) -> Result<tileraster_io::GltfCamera, String> {
-    if !matches!(InputKind::of(input), Ok(InputKind::Gltf)) {
-        return Err(format!("--camera-node: {} is not a glTF file (.gltf, .glb); only glTF files hold cameras", input.display()));
-    }
-    let cameras = tileraster_io::read_gltf_cameras(input, time).map_err(|e| format!("--camera-node: {e}"))?;
-    // A node's index first, then a node's name, then a camera's (so a node named "2" is found).
-    let found = wanted
-        .parse::<usize>()
-        .ok()
-        .and_then(|node| cameras.iter().find(|c| c.node == node))
-        .or_else(|| cameras.iter().find(|c| c.node_name.as_deref() == Some(wanted)))
-        .or_else(|| cameras.iter().find(|c| c.name.as_deref() == Some(wanted)));
-    found.cloned().ok_or_else(|| {
-        let listed: Vec<String> = cameras
-            .iter()
-            .map(|c| {
-                let named = |what: &str, name: &Option<String>| name.as_ref().map(|n| format!(" {what}{n:?}")).unwrap_or_default();
-                format!("node {}{}{}", c.node, named("", &c.node_name), named("camera ", &c.name))
-            })
-            .collect();
-        match listed.is_empty() {
-            true => format!("--camera-node {wanted}: {} places no camera in its scene", input.display()),
-            false => format!("--camera-node {wanted}: no such camera node; the scene's cameras: {}", listed.join(", ")),
-        }
-    })
-}
-
 /// `N` comma-separated numbers.
 fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     let values: Vec<f64> = s.split(',').map(|v| v.trim().parse::<f64>().map_err(|e| format!("'{v}': {e}"))).collect::<Result<_, _>>()?;
@@ -303,178 +271,78 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         no_skip,
         quiet,
     } = args;
-    if !(z_scale.is_finite() && z_scale != 0.0) {
-        return Err(format!("--z-scale {z_scale}: give a finite, non-zero factor"));
-    }
     set_quiet(quiet);
-    let node_camera = match &camera_node {
-        Some(wanted) => Some(gltf_camera(&input, wanted, time)?),
-        None => None,
-    };
-    let (width, height) = match (size, &node_camera) {
-        (Some(size), _) => (size[0], size[1]),
-        (None, Some(c)) => {
-            let aspect = match c.projection {
-                tileraster_io::GltfProjection::Perspective { aspect_ratio, .. } => aspect_ratio.unwrap_or(16.0 / 9.0),
-                tileraster_io::GltfProjection::Orthographic { xmag, ymag, .. } => (xmag / ymag).abs(),
-            };
-            match aspect.is_finite() && aspect > 0.0 {
-                true => (1280, ((1280.0 / aspect).round() as u32).clamp(1, MAX_RENDER_DIM)),
-                false => (1280, 720),
-            }
-        }
-        (None, None) => (1280, 720),
-    };
-    // A DEM is drawn by the kernels' built-in heightfield program: its flat grid, lifted in the
-    // vertex stage by its heights as a vertex texture (the same frame as its mesh's). Its points
-    // would include the cells without a height, and `--z-scale` scales about the lowest height:
-    // both take the mesh.
-    let lifted = match is_geotiff(&input) && instances.is_none() && points.is_none() && z_scale == 1.0 {
-        true => read_dem_grid(&input).map_err(|e| e.to_string())?,
-        false => None,
-    };
-    // A glTF file's skins and morph targets are posed by the kernels' built-in deform program:
-    // the file at rest, and its pose at `--time` as a vertex texture (the same frame as the
-    // host's pose gives). `--z-scale` scales the posed mesh: the host poses it then.
-    let posable = match instances.is_none() && lifted.is_none() && z_scale == 1.0 {
-        true => read_posable_at(&input, time).map_err(|e| e.to_string())?,
-        false => None,
-    };
-    let (world, pose) = match (&instances, lifted, posable) {
-        (None, Some((grid, texture)), _) => (World::single(grid), Some((VertexStage::HEIGHTS, texture, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))),
-        (None, None, Some(posable)) => (World::single(posable.mesh), Some((VertexStage::DEFORM, posable.texture, posable.constants))),
-        (Some(file), ..) => (World::instanced(read_mesh_at(&input, time).map_err(|e| e.to_string())?, &read_transforms(file)?), None),
-        (None, None, None) => (read_world_at(&input, time).map_err(|e| e.to_string())?, None),
-    };
-    let mut posing = RenderParams::new(1, 1, IDENTITY);
-    if let Some((stage, texture, constants)) = pose {
-        (posing.vertex, posing.vertex_texture, posing.vertex_constants) = (Some(stage), Some(Arc::new(texture)), constants);
-    }
-    // A single mesh is scaled and framed as it is; instances by the box holding them all.
-    let single = world.instances.len() == 1 && world.instances[0].transform == IDENTITY;
-    let (mut world, mut model) = (world, IDENTITY);
-    let mesh = if single {
-        let mut mesh = world.meshes.swap_remove(0);
-        if z_scale != 1.0 {
-            let lowest = mesh.positions.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
-            for p in &mut mesh.positions {
-                p[2] = lowest + z_scale * (p[2] - lowest);
-            }
-        }
-        world = World::single(mesh);
-        match posing.vertex {
-            // Framed as posed, by the vertices its faces use (not a DEM's cells without a height).
-            Some(_) => {
-                let grid = &world.meshes[0];
-                let mut used = vec![false; grid.positions.len()];
-                grid.triangles.iter().flatten().for_each(|&v| used[v as usize] = true);
-                let posed = posed_positions(grid, &posing).map_err(|e| e.to_string())?;
-                &Mesh { positions: posed.into_iter().zip(used).filter_map(|(p, used)| used.then_some(p)).collect(), ..Default::default() }
-            }
-            None => &world.meshes[0],
-        }
-    } else {
-        let [lo, hi] = world.bounds().map_err(|e| e.to_string())?;
-        model[2] = [0.0, 0.0, z_scale, lo[2] * (1.0 - z_scale)];
-        let scaled = |z: f64| lo[2] + z_scale * (z - lo[2]);
-        let corners =
-            (0..8).map(|k| [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, scaled(if k & 4 == 0 { lo[2] } else { hi[2] })]);
-        &Mesh { positions: corners.collect(), triangles: vec![[0, 1, 2]], ..Default::default() }
-    };
-    let aspect = width as f64 / height.max(1) as f64;
-    let projection = match ortho {
-        Some(width) => Projection::Orthographic { width: width.unwrap_or(1.0) },
-        None => Projection::Perspective { fov_deg: fov },
-    };
-    let up = match up {
-        Some(UpArg::Y) => Up::Y,
-        Some(UpArg::Z) => Up::Z,
-        None => format_up(&input).map_err(|e| e.to_string())?,
-    };
-    // The matrix, and the viewer the lighting takes where a camera names it (the default
-    // perspective camera's is its matrix's centre of projection, and an `--mvp`'s too).
-    let named = |camera: Camera, flag: &str| match camera.view_projection(width, height) {
-        Ok(m) => Ok((m, Some(camera.viewer()))),
-        Err(e) => Err(format!("{flag}: {e}")),
-    };
-    let (view_projection, viewer) = match (mvp, &node_camera, camera) {
-        (Some(m), ..) => (std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c])), None),
-        (None, Some(c), _) => named(Camera::of_gltf(c, mesh, aspect), "--camera-node")?,
-        (None, None, Some(c)) => {
-            let look = Camera::look_at([c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]], projection, mesh);
-            named(if ortho == Some(None) { look.fit_orthographic(mesh, aspect) } else { look }, "--camera")?
-        }
-        (None, None, None) => {
-            let mut framed = Camera::framing(mesh, aspect, projection, up);
-            if let Some(Some(seen)) = ortho {
-                framed.projection = Projection::Orthographic { width: seen };
-            }
-            (framed.view_projection(width, height).map_err(|e| e.to_string())?, ortho.map(|_| framed.viewer()))
-        }
-    };
-    for (flag, colour) in [("--background", Some(background)), ("--wire-colour", wire_colour)] {
-        if let Some(c) = colour.iter().flatten().find(|c| !(0.0..=255.0).contains(*c) || c.fract() != 0.0) {
-            return Err(format!("{flag}: {c} is not a whole number from 0 to 255"));
-        }
-    }
-    let mut params = RenderParams::new(width, height, view_projection);
-    params.model = model;
-    params.background = background.map(|c| c as u8);
-    params.cull = match cull {
-        CullArg::Back => Cull::Back,
-        CullArg::Front => Cull::Front,
-        CullArg::None => Cull::None,
-    };
-    params.blend = blend;
-    params.count_fragments = stats || heat_map.is_some();
-    params.count_tiles = heat_map.is_some();
-    // The depth layer only where it is written or checksummed (the GPU then reads it back).
-    params.return_depth = depth.is_some() || stats;
-    (params.points, params.faces, params.samples) = (points, !no_faces, msaa);
-    params.wireframe = wireframe.map(|rule| Wireframe {
-        rule: match rule {
+    let instances = instances.as_deref().map(read_transforms).transpose()?;
+    let options = ModelOptions { time, z_scale, instances, points: points.is_some() };
+    let model = Model::load(MeshSource::File(input), &options).map_err(|e| e.to_string())?;
+    let view = ViewOptions {
+        size: size.map(|s| [s[0], s[1]]),
+        camera: match (mvp, camera_node, camera) {
+            (Some(m), ..) => CameraChoice::Matrix(std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c]))),
+            (None, Some(node), _) => CameraChoice::Node(node),
+            (None, None, Some(c)) => CameraChoice::LookAt { eye: [c[0], c[1], c[2]], target: [c[3], c[4], c[5]], up: [c[6], c[7], c[8]] },
+            (None, None, None) => CameraChoice::Framing,
+        },
+        lens: match ortho {
+            Some(width) => Lens::Orthographic { width },
+            None => Lens::Perspective { fov_deg: fov },
+        },
+        up: up.map(|up| match up {
+            UpArg::Y => Up::Y,
+            UpArg::Z => Up::Z,
+        }),
+        background,
+        cull: match cull {
+            CullArg::Back => Cull::Back,
+            CullArg::Front => Cull::Front,
+            CullArg::None => Cull::None,
+        },
+        shading: match shading {
+            ShadingArg::Unlit => Shading::Unlit,
+            ShadingArg::Flat => Shading::Flat,
+            ShadingArg::Smooth => Shading::Smooth,
+            ShadingArg::Phong => Shading::Phong,
+            ShadingArg::Depth => Shading::Depth,
+            ShadingArg::Normals => Shading::Normals,
+            ShadingArg::Ids => Shading::Ids,
+        },
+        interpolation: match interpolation {
+            InterpolationArg::Perspective => Interpolation::Perspective,
+            InterpolationArg::Screen => Interpolation::Screen,
+            InterpolationArg::Flat => Interpolation::Flat,
+        },
+        points,
+        faces: !no_faces,
+        wireframe: wireframe.map(|rule| match rule {
             LineRuleArg::DiamondExit => LineRule::DiamondExit,
             LineRuleArg::Bresenham => LineRule::Bresenham,
             LineRuleArg::Rectangle => LineRule::Rectangle,
-        },
-        colour: match (wire_colour, no_faces) {
-            (Some(c), _) => Some(c.map(|c| (c / 255.0) as f32)),
-            (None, false) => Some([0.0, 0.0, 0.0, 1.0]),
-            (None, true) => None,
-        },
-    });
-    params.texture_filter = filter.map(|f| match f {
-        FilterArg::Nearest => Filter::Nearest,
-        FilterArg::Bilinear => Filter::Bilinear,
-        FilterArg::Trilinear => Filter::Trilinear,
-    });
-    params.texture_address = address.map(|a| match a {
-        AddressArg::Repeat => Address::Repeat,
-        AddressArg::Clamp => Address::ClampToEdge,
-        AddressArg::Mirror => Address::MirroredRepeat,
-    });
-    for skip in no_skip {
-        params.skips = params.skips.without(skip);
-    }
-    params.interpolation = match interpolation {
-        InterpolationArg::Perspective => Interpolation::Perspective,
-        InterpolationArg::Screen => Interpolation::Screen,
-        InterpolationArg::Flat => Interpolation::Flat,
+        }),
+        wire_colour,
+        msaa,
+        filter: filter.map(|f| match f {
+            FilterArg::Nearest => Filter::Nearest,
+            FilterArg::Bilinear => Filter::Bilinear,
+            FilterArg::Trilinear => Filter::Trilinear,
+        }),
+        address: address.map(|a| match a {
+            AddressArg::Repeat => Address::Repeat,
+            AddressArg::Clamp => Address::ClampToEdge,
+            AddressArg::Mirror => Address::MirroredRepeat,
+        }),
+        blend,
+        no_skip,
+        // The depth layer only where it is written or checksummed (the GPU then reads it back).
+        return_depth: depth.is_some() || stats,
+        count_fragments: stats || heat_map.is_some(),
+        count_tiles: heat_map.is_some(),
     };
-    params.shading = match shading {
-        ShadingArg::Unlit => Shading::Unlit,
-        ShadingArg::Flat => Shading::Flat,
-        ShadingArg::Smooth => Shading::Smooth,
-        ShadingArg::Phong => Shading::Phong,
-        ShadingArg::Depth => Shading::Depth,
-        ShadingArg::Normals => Shading::Normals,
-        ShadingArg::Ids => Shading::Ids,
-    };
-    params.eye = viewer;
-    (params.vertex, params.vertex_texture, params.vertex_constants) = (posing.vertex, posing.vertex_texture, posing.vertex_constants);
+    let params = model.params(&view).map_err(|e| e.to_string())?;
+    let (width, height) = (params.width, params.height);
+    let world = model.world();
     let (backend, chosen) = crate::choose_backend(backend, width as u64 * height as u64);
     let start = Instant::now();
-    let frame = render_world(&world, &params, backend).map_err(|e| e.to_string())?;
+    let frame = render_world(world, &params, backend).map_err(|e| e.to_string())?;
     let took = start.elapsed();
     tileraster_io::write_rgba_png(&output, width, height, &frame.rgba8()).map_err(|e| e.to_string())?;
     if let Some(path) = &heat_map {
@@ -495,8 +363,8 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     note(format!(
         "tileraster: {} triangles{}{} → {width}×{height} on the {} backend in {:.1} ms ({} rasterised, {} pixels covered) → {}",
         world.instances.iter().map(|i| world.meshes[i.mesh as usize].triangles.len() as u64).sum::<u64>(),
-        if single { String::new() } else { format!(" in {} instances ({} culled)", world.instances.len(), frame.stats.geometry.instances_culled) },
-        match posing.vertex {
+        if model.is_single() { String::new() } else { format!(" in {} instances ({} culled)", world.instances.len(), frame.stats.geometry.instances_culled) },
+        match model.vertex_stage() {
             Some(stage) if stage == VertexStage::HEIGHTS => " (the DEM's heights lifted by the vertex stage)",
             Some(stage) if stage == VertexStage::DEFORM => " (skins and morph targets posed by the vertex stage)",
             _ => "",

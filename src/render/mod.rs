@@ -22,10 +22,12 @@
 
 mod camera;
 mod diagnostics;
+mod options;
 mod terrain;
 
 pub use camera::{Camera, Projection, Up};
 pub use diagnostics::{Checksums, TileCounts};
+pub use options::{CameraChoice, FrameError, Lens, MeshSource, Model, ModelOptions, PreparedModel, ViewOptions};
 pub use terrain::{dem_grid, dem_mesh};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{

@@ -19,8 +19,8 @@ struct Cli {
     command: Command,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-enum BackendArg {
+#[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
+pub(crate) enum BackendArg {
     /// A hardware GPU if there is one, otherwise the CPU backend.
     Auto,
     Cpu,
@@ -45,6 +45,11 @@ enum Command {
     /// Render a mesh in perspective, depth-tested and shaded, to a PNG (and optionally its
     /// depth and triangle-id rasters): the same bits on both backends.
     Render(Box<cli::render::RenderArgs>),
+    /// Show a mesh on a page in the browser (a local web server): drag to rotate, wheel to
+    /// zoom, right-drag to pan, W/A/S/D to move; keys for shading, wireframe, vertices, MSAA,
+    /// projection, heat map, backend and a reference CRC. The page shows each frame's
+    /// `tileraster render` command line and CRC-32.
+    View(Box<cli::view::ViewArgs>),
     /// Rasterise a built-in procedural terrain TIN on both backends, time them, compare them
     /// bit for bit, and write a GeoTIFF and a PNG preview.
     Demo {
@@ -193,6 +198,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
         Command::Rasterise(args) => rasterise_command(args),
         Command::Render(args) => cli::render::render_command(*args),
+        Command::View(args) => cli::view::view_command(*args),
         Command::Mosaic { output, parts } => {
             let parts = parts.iter().map(|p| tileraster_io::read_part(p)).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
             let mosaic = tileraster_io::write_mosaic_vrt(&output, &parts).map_err(|e| e.to_string())?;
@@ -582,7 +588,7 @@ fn stop_cleanly_when_interrupted() {
 
 /// The backend a call of `pixels` cells runs on, and what `auto` chose and why (`None` where
 /// the user named the backend).
-fn choose_backend(arg: BackendArg, pixels: u64) -> (Backend, Option<tileraster::BackendChoice>) {
+pub(crate) fn choose_backend(arg: BackendArg, pixels: u64) -> (Backend, Option<tileraster::BackendChoice>) {
     match arg {
         BackendArg::Cpu => (Backend::Cpu, None),
         BackendArg::Gpu => (Backend::Gpu, None),

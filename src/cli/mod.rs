@@ -1,4 +1,5 @@
-//! The command line's parts: messages and the progress bar, and `render`.
+//! The command line's parts: messages and the progress bar, `render` and `view`.
 
 pub mod progress;
 pub mod render;
+pub mod view;

@@ -2,13 +2,13 @@
 
 use super::progress::{note, set_quiet};
 use clap::{Args, ValueEnum};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use tileraster::render::{
     Address, CameraChoice, Cull, Filter, Interpolation, Lens, LineRule, MeshSource, Model, ModelOptions, Shading, Up, VertexStage, ViewOptions, render_world,
 };
-use tileraster::{Grid, Window};
+use tileraster::{Backend, Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
 
 #[derive(Args)]
@@ -22,6 +22,32 @@ pub struct RenderArgs {
     /// The PNG to write (RGBA).
     #[arg(short, long)]
     output: PathBuf,
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// Also write the depth raster (Float32 GeoTIFF, 1 where no triangle is).
+    #[arg(long, value_name = "DEPTH.tif")]
+    depth: Option<PathBuf>,
+    /// Also write the triangle-id raster (UInt32 GeoTIFF: the input's faces in file order from
+    /// 0, 4294967295 where no triangle is).
+    #[arg(long, value_name = "IDS.tif")]
+    ids: Option<PathBuf>,
+    /// Print what the frame did (instances, clipped, culled, rasterised, fragments, overdraw,
+    /// the kernels' tiles and hidden triangles) and a CRC-32 of each output layer as JSON on
+    /// stderr; equal on both backends.
+    #[arg(long)]
+    stats: bool,
+    /// Also write a tile heat map (PNG, three panels: triangles per tile, overdraw, triangles
+    /// the tiles' depth bounds hid).
+    #[arg(long, value_name = "HEAT.png")]
+    heat_map: Option<PathBuf>,
+    /// No messages on stderr but errors (and --stats when asked for).
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+/// What a frame is: the options `tileraster render` and `tileraster view` share.
+#[derive(Args)]
+pub struct FrameArgs {
     /// Frame width and height in pixels (default 1280 × 720; with --camera-node, 1280 wide and
     /// as high as the camera's aspect ratio makes it, 16:9 where it names none).
     #[arg(long, num_args = 2, value_names = ["WIDTH", "HEIGHT"])]
@@ -108,75 +134,56 @@ pub struct RenderArgs {
     /// colours' alpha), as a graphics API with blending on does.
     #[arg(long)]
     blend: bool,
-    /// Also write the depth raster (Float32 GeoTIFF, 1 where no triangle is).
-    #[arg(long, value_name = "DEPTH.tif")]
-    depth: Option<PathBuf>,
-    /// Also write the triangle-id raster (UInt32 GeoTIFF: the input's faces in file order from
-    /// 0, 4294967295 where no triangle is).
-    #[arg(long, value_name = "IDS.tif")]
-    ids: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "auto")]
     backend: crate::BackendArg,
-    /// Print what the frame did (instances, clipped, culled, rasterised, fragments, overdraw,
-    /// the kernels' tiles and hidden triangles) and a CRC-32 of each output layer as JSON on
-    /// stderr; equal on both backends.
-    #[arg(long)]
-    stats: bool,
-    /// Also write a tile heat map (PNG, three panels: triangles per tile, overdraw, triangles
-    /// the tiles' depth bounds hid).
-    #[arg(long, value_name = "HEAT.png")]
-    heat_map: Option<PathBuf>,
     /// Turn one of the pipeline's skips off (repeatable), to measure its gain; the frame does
     /// not change. Names: cull_window, empty_tiles, hidden_triangles, cull_instances.
     #[arg(long = "no-skip", value_name = "SKIP", value_parser = crate::skip_name)]
     no_skip: Vec<tileraster::Skip>,
-    /// No messages on stderr but errors (and --stats when asked for).
-    #[arg(short, long)]
-    quiet: bool,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum LineRuleArg {
     DiamondExit,
     Bresenham,
     Rectangle,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum FilterArg {
     Nearest,
     Bilinear,
     Trilinear,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum AddressArg {
     Repeat,
     Clamp,
     Mirror,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum UpArg {
     Y,
     Z,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum CullArg {
     Back,
     Front,
     None,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum InterpolationArg {
     Perspective,
     Screen,
     Flat,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum ShadingArg {
     Unlit,
     Flat,
@@ -237,106 +244,212 @@ fn numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     values.try_into().map_err(|v: Vec<f64>| format!("expected {N} comma-separated numbers, got {}", v.len()))
 }
 
-pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
-    let RenderArgs {
-        input,
-        output,
-        size,
-        camera,
-        fov,
-        ortho,
-        up,
-        camera_node,
-        time,
-        mvp,
-        instances,
-        z_scale,
-        background,
-        cull,
-        shading,
-        interpolation,
-        points,
-        no_faces,
-        wireframe,
-        msaa,
-        wire_colour,
-        filter,
-        address,
-        blend,
-        depth,
-        ids,
-        backend,
-        stats,
-        heat_map,
-        no_skip,
-        quiet,
-    } = args;
-    set_quiet(quiet);
-    let instances = instances.as_deref().map(read_transforms).transpose()?;
-    let options = ModelOptions { time, z_scale, instances, points: points.is_some() };
-    let model = Model::load(MeshSource::File(input), &options).map_err(|e| e.to_string())?;
-    let view = ViewOptions {
-        size: size.map(|s| [s[0], s[1]]),
-        camera: match (mvp, camera_node, camera) {
-            (Some(m), ..) => CameraChoice::Matrix(std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c]))),
-            (None, Some(node), _) => CameraChoice::Node(node),
-            (None, None, Some(c)) => CameraChoice::LookAt { eye: [c[0], c[1], c[2]], target: [c[3], c[4], c[5]], up: [c[6], c[7], c[8]] },
-            (None, None, None) => CameraChoice::Framing,
-        },
-        lens: match ortho {
-            Some(width) => Lens::Orthographic { width },
-            None => Lens::Perspective { fov_deg: fov },
-        },
-        up: up.map(|up| match up {
-            UpArg::Y => Up::Y,
-            UpArg::Z => Up::Z,
-        }),
-        background,
-        cull: match cull {
-            CullArg::Back => Cull::Back,
-            CullArg::Front => Cull::Front,
-            CullArg::None => Cull::None,
-        },
-        shading: match shading {
-            ShadingArg::Unlit => Shading::Unlit,
-            ShadingArg::Flat => Shading::Flat,
-            ShadingArg::Smooth => Shading::Smooth,
-            ShadingArg::Phong => Shading::Phong,
-            ShadingArg::Depth => Shading::Depth,
-            ShadingArg::Normals => Shading::Normals,
-            ShadingArg::Ids => Shading::Ids,
-        },
-        interpolation: match interpolation {
-            InterpolationArg::Perspective => Interpolation::Perspective,
-            InterpolationArg::Screen => Interpolation::Screen,
-            InterpolationArg::Flat => Interpolation::Flat,
-        },
-        points,
-        faces: !no_faces,
-        wireframe: wireframe.map(|rule| match rule {
-            LineRuleArg::DiamondExit => LineRule::DiamondExit,
-            LineRuleArg::Bresenham => LineRule::Bresenham,
-            LineRuleArg::Rectangle => LineRule::Rectangle,
-        }),
-        wire_colour,
-        msaa,
-        filter: filter.map(|f| match f {
-            FilterArg::Nearest => Filter::Nearest,
-            FilterArg::Bilinear => Filter::Bilinear,
-            FilterArg::Trilinear => Filter::Trilinear,
-        }),
-        address: address.map(|a| match a {
-            AddressArg::Repeat => Address::Repeat,
-            AddressArg::Clamp => Address::ClampToEdge,
-            AddressArg::Mirror => Address::MirroredRepeat,
-        }),
-        blend,
-        no_skip,
-        // The depth layer only where it is written or checksummed (the GPU then reads it back).
-        return_depth: depth.is_some() || stats,
-        count_fragments: stats || heat_map.is_some(),
-        count_tiles: heat_map.is_some(),
+impl FrameArgs {
+    /// The file `--instances` names.
+    pub fn instances_path(&self) -> Option<PathBuf> {
+        self.instances.clone()
+    }
+
+    /// The model's options and the frame's, as the library takes them, and the backend asked for.
+    pub fn options(self) -> Result<(ModelOptions, ViewOptions, crate::BackendArg), String> {
+        let FrameArgs {
+            size,
+            camera,
+            fov,
+            ortho,
+            up,
+            camera_node,
+            time,
+            mvp,
+            instances,
+            z_scale,
+            background,
+            cull,
+            shading,
+            interpolation,
+            points,
+            no_faces,
+            wireframe,
+            msaa,
+            wire_colour,
+            filter,
+            address,
+            blend,
+            backend,
+            no_skip,
+        } = self;
+        let instances = instances.as_deref().map(read_transforms).transpose()?;
+        let model = ModelOptions { time, z_scale, instances, points: points.is_some() };
+        let view = ViewOptions {
+            size: size.map(|s| [s[0], s[1]]),
+            camera: match (mvp, camera_node, camera) {
+                (Some(m), ..) => CameraChoice::Matrix(std::array::from_fn(|r| std::array::from_fn(|c| m[r * 4 + c]))),
+                (None, Some(node), _) => CameraChoice::Node(node),
+                (None, None, Some(c)) => CameraChoice::LookAt { eye: [c[0], c[1], c[2]], target: [c[3], c[4], c[5]], up: [c[6], c[7], c[8]] },
+                (None, None, None) => CameraChoice::Framing,
+            },
+            lens: match ortho {
+                Some(width) => Lens::Orthographic { width },
+                None => Lens::Perspective { fov_deg: fov },
+            },
+            up: up.map(|up| library(&UPS, up)),
+            background,
+            cull: library(&CULLS, cull),
+            shading: library(&SHADINGS, shading),
+            interpolation: library(&INTERPOLATIONS, interpolation),
+            points,
+            faces: !no_faces,
+            wireframe: wireframe.map(|rule| library(&LINE_RULES, rule)),
+            wire_colour,
+            msaa,
+            filter: filter.map(|f| library(&FILTERS, f)),
+            address: address.map(|a| library(&ADDRESSES, a)),
+            blend,
+            no_skip,
+            return_depth: false,
+            count_fragments: false,
+            count_tiles: false,
+        };
+        Ok((model, view, backend))
+    }
+}
+
+/// The `tileraster render` command line that draws the frame of `model` and `view` on
+/// `backend` into `output`: [`FrameArgs::options`] of its arguments gives them back (the
+/// instances read from `instances`, the file they came from). Options at their defaults are
+/// left out; numbers are written as Rust writes them, the shortest text that reads back as the
+/// same number.
+pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model: &ModelOptions, view: &ViewOptions, backend: Backend) -> Vec<String> {
+    let mut args: Vec<String> = vec!["tileraster".into(), "render".into(), input.display().to_string(), "-o".into(), output.into()];
+    let mut flag = |name: &str, values: &[String]| {
+        args.push(format!("--{name}"));
+        args.extend(values.iter().cloned());
     };
+    let joined = |values: &[f64]| values.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",");
+    if let Some([w, h]) = view.size {
+        flag("size", &[w.to_string(), h.to_string()]);
+    }
+    match &view.camera {
+        CameraChoice::Framing => {}
+        CameraChoice::LookAt { eye, target, up } => flag("camera", &[joined(&[*eye, *target, *up].concat())]),
+        CameraChoice::Node(node) => flag("camera-node", std::slice::from_ref(node)),
+        CameraChoice::Matrix(m) => flag("mvp", &[joined(&m.concat())]),
+    }
+    let lens_given = matches!(view.camera, CameraChoice::Framing | CameraChoice::LookAt { .. });
+    match view.lens {
+        Lens::Perspective { fov_deg } if lens_given && fov_deg != 45.0 => flag("fov", &[fov_deg.to_string()]),
+        Lens::Orthographic { width: None } if lens_given => flag("ortho", &[]),
+        Lens::Orthographic { width: Some(w) } if lens_given => flag(&format!("ortho={w}"), &[]),
+        _ => {}
+    }
+    if let (Some(up), CameraChoice::Framing) = (view.up, &view.camera) {
+        flag("up", &[named(&UPS, up)]);
+    }
+    if let Some(time) = model.time {
+        flag("time", &[time.to_string()]);
+    }
+    if let Some(path) = instances {
+        flag("instances", &[path.display().to_string()]);
+    }
+    if model.z_scale != 1.0 {
+        flag("z-scale", &[model.z_scale.to_string()]);
+    }
+    if view.background != [0.0; 4] {
+        flag("background", &[joined(&view.background)]);
+    }
+    if view.cull != Cull::Back {
+        flag("cull", &[named(&CULLS, view.cull)]);
+    }
+    if view.shading != Shading::Smooth {
+        flag("shading", &[named(&SHADINGS, view.shading)]);
+    }
+    if view.interpolation != Interpolation::Perspective {
+        flag("interpolation", &[named(&INTERPOLATIONS, view.interpolation)]);
+    }
+    if let Some(points) = view.points {
+        flag("points", &[points.to_string()]);
+    }
+    if !view.faces {
+        flag("no-faces", &[]);
+    }
+    if let Some(rule) = view.wireframe {
+        flag("wireframe", &[named(&LINE_RULES, rule)]);
+    }
+    if let Some(colour) = view.wire_colour {
+        flag("wire-colour", &[joined(&colour)]);
+    }
+    if view.msaa != 1 {
+        flag("msaa", &[view.msaa.to_string()]);
+    }
+    if let Some(filter) = view.filter {
+        flag("filter", &[named(&FILTERS, filter)]);
+    }
+    if let Some(address) = view.address {
+        flag("address", &[named(&ADDRESSES, address)]);
+    }
+    if view.blend {
+        flag("blend", &[]);
+    }
+    for skip in &view.no_skip {
+        flag("no-skip", &[skip.name().into()]);
+    }
+    flag("backend", &[backend.name().into()]);
+    args
+}
+
+/// Each command-line value beside the library's, read both ways.
+const CULLS: [(CullArg, Cull); 3] = [(CullArg::Back, Cull::Back), (CullArg::Front, Cull::Front), (CullArg::None, Cull::None)];
+const SHADINGS: [(ShadingArg, Shading); 7] = [
+    (ShadingArg::Unlit, Shading::Unlit),
+    (ShadingArg::Flat, Shading::Flat),
+    (ShadingArg::Smooth, Shading::Smooth),
+    (ShadingArg::Phong, Shading::Phong),
+    (ShadingArg::Depth, Shading::Depth),
+    (ShadingArg::Normals, Shading::Normals),
+    (ShadingArg::Ids, Shading::Ids),
+];
+const INTERPOLATIONS: [(InterpolationArg, Interpolation); 3] = [
+    (InterpolationArg::Perspective, Interpolation::Perspective),
+    (InterpolationArg::Screen, Interpolation::Screen),
+    (InterpolationArg::Flat, Interpolation::Flat),
+];
+const LINE_RULES: [(LineRuleArg, LineRule); 3] =
+    [(LineRuleArg::DiamondExit, LineRule::DiamondExit), (LineRuleArg::Bresenham, LineRule::Bresenham), (LineRuleArg::Rectangle, LineRule::Rectangle)];
+const FILTERS: [(FilterArg, Filter); 3] =
+    [(FilterArg::Nearest, Filter::Nearest), (FilterArg::Bilinear, Filter::Bilinear), (FilterArg::Trilinear, Filter::Trilinear)];
+const ADDRESSES: [(AddressArg, Address); 3] =
+    [(AddressArg::Repeat, Address::Repeat), (AddressArg::Clamp, Address::ClampToEdge), (AddressArg::Mirror, Address::MirroredRepeat)];
+const UPS: [(UpArg, Up); 2] = [(UpArg::Y, Up::Y), (UpArg::Z, Up::Z)];
+
+/// The shading `--shading NAME` names.
+pub fn shading_named(name: &str) -> Option<Shading> {
+    ShadingArg::from_str(name, false).ok().map(|arg| library(&SHADINGS, arg))
+}
+
+/// `--shading`'s name of `shading`.
+pub fn shading_name(shading: Shading) -> String {
+    named(&SHADINGS, shading)
+}
+
+/// The library's value of a command-line value.
+fn library<A: PartialEq + Copy, L: Copy>(table: &[(A, L)], arg: A) -> L {
+    table.iter().find(|(a, _)| *a == arg).expect("every value is in its table").1
+}
+
+/// The command line's name of a library value.
+fn named<A: ValueEnum + Copy, L: PartialEq>(table: &[(A, L)], value: L) -> String {
+    let arg = table.iter().find(|(_, l)| *l == value).expect("every value is in its table").0;
+    arg.to_possible_value().expect("every value is named").get_name().to_string()
+}
+
+pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
+    let RenderArgs { input, output, frame, depth, ids, stats, heat_map, quiet } = args;
+    set_quiet(quiet);
+    let (options, mut view, backend) = frame.options()?;
+    let model = Model::load(MeshSource::File(input), &options).map_err(|e| e.to_string())?;
+    // The depth layer only where it is written or checksummed (the GPU then reads it back).
+    view.return_depth = depth.is_some() || stats;
+    (view.count_fragments, view.count_tiles) = (stats || heat_map.is_some(), heat_map.is_some());
     let params = model.params(&view).map_err(|e| e.to_string())?;
     let (width, height) = (params.width, params.height);
     let world = model.world();
@@ -383,4 +496,55 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
         eprintln!("{},\"checksums\":{}}}", &json[..json.len() - 1], frame.checksums().to_json());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: RenderArgs,
+    }
+
+    /// The options `args` (after `tileraster render`) give.
+    fn options_of(args: &[String]) -> (ModelOptions, ViewOptions, crate::BackendArg) {
+        let cli = Cli::try_parse_from(std::iter::once("tileraster").chain(args.iter().map(String::as_str))).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        cli.args.frame.options().unwrap()
+    }
+
+    /// The command line written for the options of any command line gives those options back.
+    #[test]
+    fn a_written_command_line_reads_back_as_its_options() {
+        let dir = std::env::temp_dir().join(format!("tileraster-command-line-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let transforms = dir.join("two.txt");
+        std::fs::write(&transforms, "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n1 0 0 0.1 0 1 0 -3e-7 0 0 1 2 0 0 0 1\n").unwrap();
+        let cases: Vec<Vec<&str>> = vec![
+            vec![],
+            vec!["--size", "640", "480", "--fov", "33.3", "--shading", "phong", "--msaa", "8", "--cull", "none"],
+            vec!["--camera", "0.1,-2.5e-3,1e17,5,6,7,0,0,1", "--ortho", "--background", "1,2,3,255", "--interpolation", "screen"],
+            vec!["--ortho=12.75", "--up", "z", "--points", "2.5", "--no-faces", "--wireframe", "bresenham", "--wire-colour", "9,8,7,6"],
+            vec!["--mvp", "1,0,0,0,0,1,0,0,0,0,0.5,0.5,0,0,0,1", "--filter", "trilinear", "--address", "mirror", "--blend"],
+            vec!["--camera-node", "my camera's node", "--time", "0.3333333333333333", "--no-skip", "empty_tiles", "--no-skip", "cull_window"],
+            vec!["--instances", transforms.to_str().unwrap(), "--z-scale", "2.5", "--shading", "ids", "--backend", "gpu"],
+        ];
+        for case in cases {
+            let given: Vec<String> = ["mesh dir/it's.obj", "-o", "out.png"].iter().copied().chain(case.iter().copied()).map(String::from).collect();
+            let (model, view, backend) = options_of(&given);
+            let backend = if backend == crate::BackendArg::Gpu { Backend::Gpu } else { Backend::Cpu };
+            let instances = case.iter().position(|&a| a == "--instances").map(|k| Path::new(case[k + 1]));
+            let written = command_line(Path::new("mesh dir/it's.obj"), "out.png", instances, &model, &view, backend);
+            assert_eq!(&written[..2], ["tileraster", "render"]);
+            // Through a shell's quoting and back.
+            let read = shell_words::split(&shell_words::join(&written)).unwrap();
+            assert_eq!(read, written);
+            let (model_again, view_again, backend_again) = options_of(&read[2..]);
+            assert_eq!((model_again, view_again), (model, view), "{case:?} → {written:?}");
+            assert_eq!(backend_again == crate::BackendArg::Gpu, backend == Backend::Gpu);
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

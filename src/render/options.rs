@@ -31,7 +31,7 @@ pub enum MeshSource {
 }
 
 /// What is decided once a mesh: its pose and placements.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ModelOptions {
     /// Seconds into a glTF file's first animation; `None`: its rest pose.
     pub time: Option<f64>,
@@ -77,7 +77,7 @@ pub enum Lens {
 }
 
 /// What each frame of a model may choose. The defaults are `tileraster render`'s.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ViewOptions {
     /// Width and height in pixels; `None`: 1280 × 720, or with a glTF camera 1280 wide and as
     /// high as its aspect ratio makes it.
@@ -337,6 +337,31 @@ impl Model {
         Ok(params)
     }
 
+    /// The look-at camera `view` draws with: its framing or its look-at, as wide as frames the
+    /// mesh where the orthographic width is not given; `None` for a matrix or a glTF camera.
+    pub fn look_at(&self, view: &ViewOptions, width: u32, height: u32) -> Option<Camera> {
+        let mesh = self.framed();
+        let aspect = width as f64 / height.max(1) as f64;
+        let projection = match view.lens {
+            Lens::Orthographic { width } => Projection::Orthographic { width: width.unwrap_or(1.0) },
+            Lens::Perspective { fov_deg } => Projection::Perspective { fov_deg },
+        };
+        match view.camera {
+            CameraChoice::LookAt { eye, target, up } => {
+                let look = Camera::look_at(eye, target, up, projection, mesh);
+                Some(if view.lens == (Lens::Orthographic { width: None }) { look.fit_orthographic(mesh, aspect) } else { look })
+            }
+            CameraChoice::Framing => {
+                let mut framed = Camera::framing(mesh, aspect, projection, view.up.unwrap_or(self.up));
+                if let Lens::Orthographic { width: Some(seen) } = view.lens {
+                    framed.projection = Projection::Orthographic { width: seen };
+                }
+                Some(framed)
+            }
+            CameraChoice::Node(_) | CameraChoice::Matrix(_) => None,
+        }
+    }
+
     /// The view-projection matrix, and the viewer the lighting takes where a camera names it
     /// (the default perspective camera's is its matrix's centre of projection, and a matrix's
     /// too).
@@ -347,38 +372,16 @@ impl Model {
         width: u32,
         height: u32,
     ) -> Result<([[f64; 4]; 4], Option<super::Eye>), FrameError> {
-        let mesh = self.framed();
-        let aspect = width as f64 / height.max(1) as f64;
-        let projection = match view.lens {
-            Lens::Orthographic { width } => Projection::Orthographic { width: width.unwrap_or(1.0) },
-            Lens::Perspective { fov_deg } => Projection::Perspective { fov_deg },
+        let orthographic = matches!(view.lens, Lens::Orthographic { .. });
+        let (camera, option) = match (&view.camera, node) {
+            (CameraChoice::Matrix(m), _) => return Ok((*m, None)),
+            (_, Some(c)) => (Camera::of_gltf(c, self.framed(), width as f64 / height.max(1) as f64), "camera-node"),
+            (CameraChoice::LookAt { .. }, None) => (self.look_at(view, width, height).ok_or_else(|| option_error("camera", "no camera"))?, "camera"),
+            _ => (self.look_at(view, width, height).ok_or_else(|| option_error("camera-node", "no such camera"))?, if orthographic { "ortho" } else { "fov" }),
         };
-        let named = |camera: Camera, option: &'static str| match camera.view_projection(width, height) {
-            Ok(m) => Ok((m, Some(camera.viewer()))),
-            Err(e) => Err(option_error(option, e.to_string())),
-        };
-        match (&view.camera, node) {
-            (CameraChoice::Matrix(m), _) => Ok((*m, None)),
-            (CameraChoice::Node(_), Some(c)) => named(Camera::of_gltf(c, mesh, aspect), "camera-node"),
-            (&CameraChoice::LookAt { eye, target, up }, _) => {
-                let look = Camera::look_at(eye, target, up, projection, mesh);
-                named(if view.lens == (Lens::Orthographic { width: None }) { look.fit_orthographic(mesh, aspect) } else { look }, "camera")
-            }
-            _ => {
-                let mut framed = Camera::framing(mesh, aspect, projection, view.up.unwrap_or(self.up));
-                let orthographic = match view.lens {
-                    Lens::Orthographic { width } => {
-                        if let Some(seen) = width {
-                            framed.projection = Projection::Orthographic { width: seen };
-                        }
-                        true
-                    }
-                    Lens::Perspective { .. } => false,
-                };
-                let m = framed.view_projection(width, height).map_err(|e| option_error(if orthographic { "ortho" } else { "fov" }, e.to_string()))?;
-                Ok((m, orthographic.then(|| framed.viewer())))
-            }
-        }
+        let matrix = camera.view_projection(width, height).map_err(|e| option_error(option, e.to_string()))?;
+        let framing = view.camera == CameraChoice::Framing;
+        Ok((matrix, (!framing || orthographic).then(|| camera.viewer())))
     }
 
     /// The camera of the glTF file that `wanted` names (posed at the model's time): a node
@@ -432,9 +435,20 @@ impl PreparedModel {
         self.prepared.render(params, backend)
     }
 
+    /// [`PreparedModel::render`] into `frame`, whose layers (of any earlier frame) are reused.
+    pub fn render_into(&mut self, params: &RenderParams, backend: Backend, frame: &mut Frame) -> Result<(), Error> {
+        self.prepared.render_into(params, backend, frame)
+    }
+
     /// The kernels' built-in vertex program that poses the mesh, if one does.
     pub fn vertex_stage(&self) -> Option<VertexStage> {
         self.model.vertex_stage()
+    }
+
+    /// The look-at camera a frame of `view` draws with ([`Model::look_at`]).
+    pub fn look_at(&self, view: &ViewOptions) -> Option<Camera> {
+        let params = self.model.params(view).ok()?;
+        self.model.look_at(view, params.width, params.height)
     }
 
     /// The lowest and highest corners of the box holding what the frames draw (posed, scaled

@@ -112,16 +112,16 @@ fn choice<T: Copy>(what: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T>
 #[pymethods]
 impl View {
     #[new]
-    #[pyo3(signature = (*, size = None, camera = None, mvp = None, camera_node = None, fov = 45.0, ortho = None, up = None, background = [0.0; 4],
+    #[pyo3(signature = (*, size = None, camera = None, mvp = None, camera_node = None, fov = None, ortho = None, up = None, background = [0.0; 4],
         cull = "back", shading = "smooth", interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
-        filter = None, address = None, blend = false, no_skip = Vec::new(), count_fragments = false, backend = "auto"))]
+        filter = None, address = None, blend = false, no_skip = Vec::new(), count_fragments = false, projection = None, jitter = 1, backend = "auto"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         size: Option<(u32, u32)>,
         camera: Option<[[f64; 3]; 3]>,
         mvp: Option<[[f64; 4]; 4]>,
         camera_node: Option<&Bound<'_, PyAny>>,
-        fov: f64,
+        fov: Option<f64>,
         ortho: Option<&Bound<'_, PyAny>>,
         up: Option<&str>,
         background: [f64; 4],
@@ -138,6 +138,8 @@ impl View {
         blend: bool,
         no_skip: Vec<String>,
         count_fragments: bool,
+        projection: Option<&str>,
+        jitter: u32,
         backend: &str,
     ) -> PyResult<View> {
         let given = [camera.is_some(), mvp.is_some(), camera_node.is_some()];
@@ -154,17 +156,15 @@ impl View {
             (None, None, None) => CameraChoice::Framing,
         };
         // `ortho=True` frames the whole mesh; a number is the width seen (a bool is an int too).
-        let lens = match ortho {
-            None => Lens::Perspective { fov_deg: fov },
-            Some(o) if o.is_instance_of::<PyBool>() => match o.extract::<bool>()? {
-                true => Lens::Orthographic { width: None },
-                false => Lens::Perspective { fov_deg: fov },
-            },
+        let ortho = match ortho {
+            None => None,
+            Some(o) if o.is_instance_of::<PyBool>() => o.extract::<bool>()?.then_some(None),
             Some(o) => match o.extract::<f64>() {
-                Ok(w) if w > 0.0 && w.is_finite() => Lens::Orthographic { width: Some(w) },
+                Ok(w) if w > 0.0 && w.is_finite() => Some(Some(w)),
                 _ => return Err(error(format!("ortho={}: give True (as wide as frames the mesh) or a positive width", o.repr()?))),
             },
         };
+        let lens = Lens::of(projection, fov, ortho).map_err(frame_error)?;
         let wireframe = match wireframe {
             None => None,
             Some(w) if w.is_instance_of::<PyBool>() => w.extract::<bool>()?.then_some(LineRule::DiamondExit),
@@ -213,6 +213,7 @@ impl View {
                 .transpose()?,
             blend,
             no_skip: no_skip?,
+            jitter,
             return_depth: true,
             count_fragments,
             count_tiles: false,
@@ -268,7 +269,8 @@ pub(crate) fn render<'py>(
     let frame = interruptible(py, move |_| -> Result<Frame, FrameError> {
         let model = Model::load(source, &options)?;
         let params = model.params(&view_options)?;
-        Ok(render_world(model.world(), &params, backend_for(backend, &params))?)
+        let backend = backend_for(backend, &params);
+        model.draw(&view_options, &mut |params| render_world(model.world(), params, backend))
     })?
     .map_err(frame_error)?;
     Ok(frame_tuple(py, frame))
@@ -311,7 +313,9 @@ impl Renderer {
         let frame = interruptible(py, move |_| {
             let mut prepared = inner.lock().unwrap_or_else(|e| e.into_inner());
             let params = prepared.params(&options)?;
-            Ok::<_, FrameError>(prepared.render(&params, backend_for(backend, &params))?)
+            let mut frame = Frame::default();
+            prepared.render_view(&options, backend_for(backend, &params), &mut frame)?;
+            Ok::<_, FrameError>(frame)
         })?
         .map_err(frame_error)?;
         Ok(frame_tuple(py, frame))

@@ -144,7 +144,9 @@ def test_the_viewer_in_a_browser(mesh, tmp_path):
             page.keyboard.press("c")
             assert "saved" in page.text_content("#check")
             reference = page.text_content("#crc")
-            for key, flag in [("f", "--shading phong"), ("m", "--wireframe diamond-exit"), ("v", "--points 3"), ("x", "--msaa 4"), ("p", "--ortho=")]:
+            steps = [("f", "--shading phong"), ("m", "--wireframe diamond-exit"), ("v", "--points 3"), ("x", "--msaa 4"), ("p", "--ortho="),
+                     ("p", "--projection cylindrical"), ("p", "--projection equirectangular"), ("p", "--projection fisheye")]
+            for key, flag in steps:
                 page.keyboard.press(key)
                 shown, command = shown_is_reproduced()
                 assert flag in command, (key, command)
@@ -153,6 +155,18 @@ def test_the_viewer_in_a_browser(mesh, tmp_path):
                 page.keyboard.press(key)
                 settled()
             assert page.text_content("#crc") == reference and page.text_content("#check") == "= the reference"
+
+            # Jitter, and temporal accumulation once the camera rests.
+            page.keyboard.press("j")
+            _, command = shown_is_reproduced()
+            assert "--jitter 8" in command
+            page.keyboard.press("j")
+            page.keyboard.press("t")
+            page.wait_for_function("document.getElementById('command').textContent.includes('--jitter 32')", timeout=60_000)
+            _, command = shown_is_reproduced()
+            assert "--jitter 32" in command and page.text_content("#crc") != reference
+            page.keyboard.press("t")
+            assert shown_is_reproduced()[0] == reference
 
             # The heat map: its own image, and the command line that writes it.
             page.keyboard.press("h")

@@ -24,6 +24,9 @@ _VIEW_OPTIONS = """
       ``mvp=`` a 4×4 matrix to Vulkan's clip space; ``camera_node=`` a glTF camera's node
       index or name. Default: the whole mesh framed from its front.
     - ``fov=45.0`` degrees, or ``ortho=True`` (as wide as frames the mesh) or ``ortho=WIDTH``;
+      or ``projection="cylindrical"``, ``"equirectangular"`` or ``"fisheye"``: a panorama
+      around the camera's eye, each pixel a pixel of a cube face drawn as an exact perspective
+      frame (``fov`` is then the cylinder's height, 90, or the fisheye's width, 180);
       ``up="y"`` or ``"z"`` for the default camera (default: the format's; ``"y"`` for a
       ``Mesh``).
     - ``shading="smooth"``: ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"depth"``,
@@ -33,6 +36,7 @@ _VIEW_OPTIONS = """
     - ``points=PIXELS`` (the vertices as squares), ``wireframe=True`` (or ``"bresenham"``,
       ``"rectangle"``), ``wire_colour=(r, g, b, a)``, ``faces=False``; ``filter=``,
       ``address=`` for every texture; ``blend=True``; ``no_skip=["empty_tiles", ...]``.
+    - ``jitter=N``: N frames at sub-pixel offsets averaged (anti-aliasing without MSAA).
     - ``count_fragments=True`` counts each pixel's fragments (``Frame.stats``' overdraw).
     - ``backend="auto"``: ``"cpu"``, ``"gpu"`` or ``"auto"``; both give the same bits.
 """

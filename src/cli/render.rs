@@ -55,9 +55,18 @@ pub struct FrameArgs {
     /// A look-at camera: eye, target and up vector, in the mesh's coordinates.
     #[arg(long, value_name = "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ", value_parser = numbers::<9>, allow_hyphen_values = true, conflicts_with_all = ["mvp", "camera_node"])]
     camera: Option<[f64; 9]>,
-    /// Vertical field of view of --camera (and of the default camera), degrees.
-    #[arg(long, default_value_t = 45.0, conflicts_with_all = ["ortho", "camera_node", "mvp"])]
-    fov: f64,
+    /// Vertical field of view of --camera (and of the default camera), degrees (default 45); of
+    /// a cylindrical projection, from the frame's bottom to its top (default 90); of a fisheye,
+    /// across the frame's width (default 180, at most 360).
+    #[arg(long, conflicts_with_all = ["ortho", "camera_node", "mvp"])]
+    fov: Option<f64>,
+    /// How the camera projects: perspective (the default), orthographic (as --ortho), or around
+    /// the eye, resampled from the faces of a cube map drawn as exact perspective frames (each
+    /// pixel a face pixel: its colour, depth and face id): cylindrical (360° across), equirectangular
+    /// (360° × 180°: a panorama from a point, as a visibility study needs) or fisheye
+    /// (equidistant).
+    #[arg(long, value_enum, conflicts_with_all = ["ortho", "camera_node", "mvp"])]
+    projection: Option<ProjectionArg>,
     /// Project orthographically (parallel, the viewer at infinity: lighting takes the viewing
     /// direction) instead of in perspective, seeing WIDTH in the mesh's units across the frame;
     /// without WIDTH, as wide as frames the whole mesh. With --camera or the default camera.
@@ -140,6 +149,11 @@ pub struct FrameArgs {
     /// not change. Names: cull_window, empty_tiles, hidden_triangles, cull_instances.
     #[arg(long = "no-skip", value_name = "SKIP", value_parser = crate::skip_name)]
     no_skip: Vec<tileraster::Skip>,
+    /// Draw N frames at a fixed sequence of sub-pixel offsets (Halton's, bases 2 and 3) and
+    /// average their colours in integers, in order: an anti-aliased frame without MSAA's memory,
+    /// the same bits on every backend (depth and ids are the first sample's). At most 256.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    jitter: u32,
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -161,6 +175,15 @@ enum AddressArg {
     Repeat,
     Clamp,
     Mirror,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum ProjectionArg {
+    Perspective,
+    Orthographic,
+    Cylindrical,
+    Equirectangular,
+    Fisheye,
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -256,6 +279,7 @@ impl FrameArgs {
             size,
             camera,
             fov,
+            projection,
             ortho,
             up,
             camera_node,
@@ -277,6 +301,7 @@ impl FrameArgs {
             blend,
             backend,
             no_skip,
+            jitter,
         } = self;
         let instances = instances.as_deref().map(read_transforms).transpose()?;
         let model = ModelOptions { time, z_scale, instances, points: points.is_some() };
@@ -288,10 +313,7 @@ impl FrameArgs {
                 (None, None, Some(c)) => CameraChoice::LookAt { eye: [c[0], c[1], c[2]], target: [c[3], c[4], c[5]], up: [c[6], c[7], c[8]] },
                 (None, None, None) => CameraChoice::Framing,
             },
-            lens: match ortho {
-                Some(width) => Lens::Orthographic { width },
-                None => Lens::Perspective { fov_deg: fov },
-            },
+            lens: Lens::of(projection.map(value_name).as_deref(), fov, ortho).map_err(|e| e.to_string())?,
             up: up.map(|up| library(&UPS, up)),
             background,
             cull: library(&CULLS, cull),
@@ -306,6 +328,7 @@ impl FrameArgs {
             address: address.map(|a| library(&ADDRESSES, a)),
             blend,
             no_skip,
+            jitter,
             return_depth: false,
             count_fragments: false,
             count_tiles: false,
@@ -336,11 +359,14 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
         CameraChoice::Matrix(m) => flag("mvp", &[joined(&m.concat())]),
     }
     let lens_given = matches!(view.camera, CameraChoice::Framing | CameraChoice::LookAt { .. });
+    let (projection, fov) = view.lens.projection();
     match view.lens {
-        Lens::Perspective { fov_deg } if lens_given && fov_deg != 45.0 => flag("fov", &[fov_deg.to_string()]),
-        Lens::Orthographic { width: None } if lens_given => flag("ortho", &[]),
         Lens::Orthographic { width: Some(w) } if lens_given => flag(&format!("ortho={w}"), &[]),
+        _ if lens_given && projection != "perspective" => flag("projection", &[projection.into()]),
         _ => {}
+    }
+    if let Some((fov, _)) = fov.filter(|&(fov, default)| lens_given && fov != default) {
+        flag("fov", &[fov.to_string()]);
     }
     if let (Some(up), CameraChoice::Framing) = (view.up, &view.camera) {
         flag("up", &[named(&UPS, up)]);
@@ -393,6 +419,9 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
     for skip in &view.no_skip {
         flag("no-skip", &[skip.name().into()]);
     }
+    if view.jitter != 1 {
+        flag("jitter", &[view.jitter.to_string()]);
+    }
     flag("backend", &[backend.name().into()]);
     args
 }
@@ -436,10 +465,14 @@ fn library<A: PartialEq + Copy, L: Copy>(table: &[(A, L)], arg: A) -> L {
     table.iter().find(|(a, _)| *a == arg).expect("every value is in its table").1
 }
 
+/// The name of a command-line value.
+fn value_name<A: ValueEnum>(arg: A) -> String {
+    arg.to_possible_value().expect("every value is named").get_name().to_string()
+}
+
 /// The command line's name of a library value.
 fn named<A: ValueEnum + Copy, L: PartialEq>(table: &[(A, L)], value: L) -> String {
-    let arg = table.iter().find(|(_, l)| *l == value).expect("every value is in its table").0;
-    arg.to_possible_value().expect("every value is named").get_name().to_string()
+    value_name(table.iter().find(|(_, l)| *l == value).expect("every value is in its table").0)
 }
 
 pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
@@ -455,7 +488,7 @@ pub fn render_command(args: RenderArgs) -> Result<ExitCode, String> {
     let world = model.world();
     let (backend, chosen) = crate::choose_backend(backend, width as u64 * height as u64);
     let start = Instant::now();
-    let frame = render_world(world, &params, backend).map_err(|e| e.to_string())?;
+    let frame = model.draw(&view, &mut |params| render_world(world, params, backend)).map_err(|e| e.to_string())?;
     let took = start.elapsed();
     tileraster_io::write_rgba_png(&output, width, height, &frame.rgba8()).map_err(|e| e.to_string())?;
     if let Some(path) = &heat_map {
@@ -530,6 +563,11 @@ mod tests {
             vec!["--mvp", "1,0,0,0,0,1,0,0,0,0,0.5,0.5,0,0,0,1", "--filter", "trilinear", "--address", "mirror", "--blend"],
             vec!["--camera-node", "my camera's node", "--time", "0.3333333333333333", "--no-skip", "empty_tiles", "--no-skip", "cull_window"],
             vec!["--instances", transforms.to_str().unwrap(), "--z-scale", "2.5", "--shading", "ids", "--backend", "gpu"],
+            vec!["--projection", "equirectangular", "--camera", "1,2,3,4,5,6,0,0,1"],
+            vec!["--projection", "fisheye", "--fov", "220"],
+            vec!["--projection", "cylindrical"],
+            vec!["--projection", "orthographic", "--jitter", "16"],
+            vec!["--projection", "perspective", "--fov", "60", "--jitter", "4"],
         ];
         for case in cases {
             let given: Vec<String> = ["mesh dir/it's.obj", "-o", "out.png"].iter().copied().chain(case.iter().copied()).map(String::from).collect();

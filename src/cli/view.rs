@@ -29,7 +29,7 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tileraster::Backend;
-use tileraster::render::{CameraChoice, Frame, Lens, MeshSource, Model, ModelOptions, PreparedModel, ViewOptions};
+use tileraster::render::{CameraChoice, Frame, Lens, MAX_JITTER, MeshSource, Model, ModelOptions, PreparedModel, ViewOptions};
 
 /// The largest request body the server reads.
 pub const MAX_REQUEST_BYTES: usize = 4096;
@@ -84,7 +84,7 @@ struct LookAt {
 struct FrameRequest {
     size: Option<[u32; 2]>,
     camera: Option<LookAt>,
-    /// `"perspective"` or `"orthographic"`.
+    /// One of `--projection`'s values.
     projection: Option<String>,
     /// The orthographic width seen across the frame (`None`: as wide as frames the mesh).
     ortho_width: Option<f64>,
@@ -93,6 +93,8 @@ struct FrameRequest {
     wireframe: Option<bool>,
     points: Option<bool>,
     msaa: Option<u32>,
+    /// Samples at sub-pixel offsets averaged into the frame (`--jitter`).
+    jitter: Option<u32>,
     /// The tile heat map instead of the frame.
     heat: Option<bool>,
     /// `"cpu"` or `"gpu"`.
@@ -117,6 +119,7 @@ struct FrameReply {
     wireframe: bool,
     points: bool,
     msaa: u32,
+    jitter: u32,
     heat: bool,
 }
 
@@ -148,13 +151,17 @@ impl Viewer {
         }
         let fov = match view.lens {
             Lens::Perspective { fov_deg } => fov_deg,
-            Lens::Orthographic { .. } => 45.0,
+            _ => 45.0,
         };
-        match request.projection.as_deref() {
-            None => {}
-            Some("perspective") => view.lens = Lens::Perspective { fov_deg: fov },
-            Some("orthographic") => view.lens = Lens::Orthographic { width: request.ortho_width },
-            Some(other) => return Err(bad(format!("projection {other:?}: give \"perspective\" or \"orthographic\""))),
+        if let Some(name) = request.projection.as_deref() {
+            let ortho = (name == "orthographic").then_some(request.ortho_width);
+            view.lens = Lens::of(Some(name).filter(|&n| n != "orthographic"), (name == "perspective").then_some(fov), ortho).map_err(|e| bad(e.to_string()))?;
+        }
+        if let Some(samples) = request.jitter {
+            if !(1..=MAX_JITTER).contains(&samples) {
+                return Err(bad(format!("jitter {samples}: give from 1 to {MAX_JITTER} samples")));
+            }
+            view.jitter = samples;
         }
         if let Some(name) = &request.shading {
             view.shading = super::render::shading_named(name).ok_or_else(|| bad(format!("shading {name:?}: give one of --shading's values")))?;
@@ -176,6 +183,9 @@ impl Viewer {
             return Err(bad(format!("{w} × {h} pixels at {} samples: at most {MAX_SAMPLES} samples a frame", view.msaa)));
         }
         let heat = request.heat.unwrap_or(false);
+        if heat && !Model::is_plain(&view) {
+            return Err(bad("the tile heat map shows one frame of the pipeline: turn jitter and panoramas off"));
+        }
         (view.count_fragments, view.count_tiles, view.return_depth) = (heat, heat, false);
         let backend = match request.backend.as_deref() {
             None => self.backend,
@@ -192,10 +202,10 @@ impl Viewer {
         let (view, backend) = self.view_of(request)?;
         let mut guard = self.prepared.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let (prepared, frame) = &mut *guard;
-        let params = prepared.params(&view).map_err(|e| bad(e.to_string()))?;
+        prepared.params(&view).map_err(|e| bad(e.to_string()))?;
         let camera = prepared.look_at(&view).map(|c| LookAt { eye: c.eye, target: c.target, up: c.up });
         let start = Instant::now();
-        prepared.render_into(&params, backend, frame).map_err(|e| Refusal(StatusCode::UNPROCESSABLE_ENTITY, e.to_string()))?;
+        prepared.render_view(&view, backend, frame).map_err(|e| Refusal(StatusCode::UNPROCESSABLE_ENTITY, e.to_string()))?;
         let ms = start.elapsed().as_secs_f64() * 1e3;
         let heat = request.heat.unwrap_or(false);
         // The colour's bytes as `--stats` checksums them (each pixel's word little-endian).
@@ -222,12 +232,10 @@ impl Viewer {
             camera,
             fov: match view.lens {
                 Lens::Perspective { fov_deg } => fov_deg,
-                Lens::Orthographic { .. } => 45.0,
+                _ => 45.0,
             },
-            projection: match view.lens {
-                Lens::Perspective { .. } => "perspective",
-                Lens::Orthographic { .. } => "orthographic",
-            },
+            projection: view.lens.projection().0,
+            jitter: view.jitter,
             shading: super::render::shading_name(view.shading),
             wireframe: view.wireframe.is_some(),
             points: view.points.is_some(),

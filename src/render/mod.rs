@@ -22,12 +22,16 @@
 
 mod camera;
 mod diagnostics;
+mod jitter;
 mod options;
+mod panorama;
 mod terrain;
 
 pub use camera::{Camera, Projection, Up};
 pub use diagnostics::{Checksums, TileCounts};
+pub use jitter::{MAX_JITTER, accumulate, jitter_offset, jittered};
 pub use options::{CameraChoice, FrameError, Lens, MeshSource, Model, ModelOptions, PreparedModel, ViewOptions};
+pub use panorama::{Panorama, face_camera, panorama_frame};
 pub use terrain::{dem_grid, dem_mesh};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{

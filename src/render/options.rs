@@ -13,8 +13,9 @@
 //! ```
 
 use super::{
-    Address, Camera, Cull, Filter, Frame, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, PreparedMesh, Projection, RenderParams, Shading, Up,
-    VertexStage, Wireframe, World, format_up, is_geotiff, posed_positions, read_dem_grid, read_mesh_at, read_posable_at, read_world_at,
+    Address, Camera, Cull, Filter, Frame, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Panorama, PreparedMesh, Projection, RenderParams, Shading,
+    Up, VertexStage, Wireframe, World, accumulate, format_up, is_geotiff, panorama_frame, posed_positions, read_dem_grid, read_mesh_at, read_posable_at,
+    read_world_at,
 };
 use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Skip};
@@ -74,6 +75,45 @@ pub enum Lens {
     /// Parallel projection seeing `width` in the mesh's units across the frame; `None`: as
     /// wide as frames the whole mesh.
     Orthographic { width: Option<f64> },
+    /// Around the camera's eye, resampled from the faces of a cube map ([`Panorama`]).
+    Panorama(Panorama),
+}
+
+impl Lens {
+    /// The projections' names, as the front ends take them.
+    pub const PROJECTIONS: [&str; 5] = ["perspective", "orthographic", "cylindrical", "equirectangular", "fisheye"];
+
+    /// The lens a projection's name, a field of view and an orthographic width (`Some(None)`:
+    /// as wide as frames the mesh) give: perspective (45° unless told) unless the width or
+    /// another name is given; a cylinder 90° high and a fisheye 180° wide unless told.
+    pub fn of(projection: Option<&str>, fov_deg: Option<f64>, ortho: Option<Option<f64>>) -> Result<Lens, FrameError> {
+        let fov = |default: f64| fov_deg.unwrap_or(default);
+        Ok(match (projection, ortho) {
+            (Some(p), Some(_)) if p != "orthographic" => return Err(option_error("projection", format!("{p}, and an orthographic width: give one of them"))),
+            (_, Some(width)) => Lens::Orthographic { width },
+            (None | Some("perspective"), None) => Lens::Perspective { fov_deg: fov(45.0) },
+            (Some("orthographic"), None) => Lens::Orthographic { width: None },
+            (Some("cylindrical"), None) => Lens::Panorama(Panorama::Cylindrical { fov_deg: fov(90.0) }),
+            (Some("equirectangular"), None) if fov_deg.is_some() => {
+                return Err(option_error("fov", "an equirectangular frame sees every direction; leave the field of view out"));
+            }
+            (Some("equirectangular"), None) => Lens::Panorama(Panorama::Equirectangular),
+            (Some("fisheye"), None) => Lens::Panorama(Panorama::Fisheye { fov_deg: fov(180.0) }),
+            (Some(other), None) => return Err(option_error("projection", format!("{other:?}: give one of {}", Lens::PROJECTIONS.join(", ")))),
+        })
+    }
+
+    /// The lens's projection's name, and its field of view with the one [`Lens::of`] takes
+    /// where none is given (`None` for a lens without one).
+    pub fn projection(self) -> (&'static str, Option<(f64, f64)>) {
+        match self {
+            Lens::Perspective { fov_deg } => ("perspective", Some((fov_deg, 45.0))),
+            Lens::Orthographic { .. } => ("orthographic", None),
+            Lens::Panorama(Panorama::Cylindrical { fov_deg }) => ("cylindrical", Some((fov_deg, 90.0))),
+            Lens::Panorama(Panorama::Equirectangular) => ("equirectangular", None),
+            Lens::Panorama(Panorama::Fisheye { fov_deg }) => ("fisheye", Some((fov_deg, 180.0))),
+        }
+    }
 }
 
 /// What each frame of a model may choose. The defaults are `tileraster render`'s.
@@ -105,6 +145,8 @@ pub struct ViewOptions {
     pub blend: bool,
     /// The pipeline's skips turned off (the frame does not change).
     pub no_skip: Vec<Skip>,
+    /// Samples at sub-pixel offsets averaged into the frame ([`accumulate`]); 1: one frame.
+    pub jitter: u32,
     pub return_depth: bool,
     pub count_fragments: bool,
     pub count_tiles: bool,
@@ -130,6 +172,7 @@ impl Default for ViewOptions {
             address: None,
             blend: false,
             no_skip: Vec::new(),
+            jitter: 1,
             return_depth: true,
             count_fragments: false,
             count_tiles: false,
@@ -306,6 +349,18 @@ impl Model {
         if width.max(height) > MAX_RENDER_DIM {
             return Err(option_error("size", format!("{width} × {height}: a frame is at most {MAX_RENDER_DIM} pixels a side")));
         }
+        if !(1..=super::MAX_JITTER).contains(&view.jitter) {
+            return Err(option_error("jitter", format!("{}: give from 1 to {} samples", view.jitter, super::MAX_JITTER)));
+        }
+        if let Lens::Panorama(panorama) = view.lens {
+            panorama.check().map_err(|e| option_error("fov", e))?;
+            if view.jitter > 1 {
+                return Err(option_error("jitter", "a panorama is resampled from its cube's faces: jitter perspective and orthographic frames"));
+            }
+            if !matches!(view.camera, CameraChoice::Framing | CameraChoice::LookAt { .. }) {
+                return Err(option_error("projection", "a panorama is seen from a look-at camera's eye: give --camera, or no camera"));
+            }
+        }
         let (view_projection, viewer) = self.camera(view, node_camera.as_ref(), width, height)?;
         for (option, colour) in [("background", Some(view.background)), ("wire-colour", view.wire_colour)] {
             if let Some(c) = colour.iter().flatten().find(|c| !(0.0..=255.0).contains(*c) || c.fract() != 0.0) {
@@ -337,6 +392,25 @@ impl Model {
         Ok(params)
     }
 
+    /// The frame `view` describes, each of its exact frames drawn by `draw`: one frame, the
+    /// average of [`ViewOptions::jitter`] frames at sub-pixel offsets, or a panorama resampled
+    /// from the cube faces it needs.
+    pub fn draw(&self, view: &ViewOptions, draw: &mut dyn FnMut(&RenderParams) -> Result<Frame, Error>) -> Result<Frame, FrameError> {
+        let params = self.params(view)?;
+        match view.lens {
+            Lens::Panorama(panorama) => {
+                let camera = self.look_at(view, params.width, params.height).ok_or_else(|| option_error("projection", "a panorama needs a look-at camera"))?;
+                Ok(panorama_frame(panorama, &camera, self.framed(), &params, draw)?)
+            }
+            _ => Ok(accumulate(&params, view.jitter, draw)?),
+        }
+    }
+
+    /// Whether a frame of `view` is one frame of the pipeline (no jitter, no panorama).
+    pub fn is_plain(view: &ViewOptions) -> bool {
+        view.jitter <= 1 && !matches!(view.lens, Lens::Panorama(_))
+    }
+
     /// The look-at camera `view` draws with: its framing or its look-at, as wide as frames the
     /// mesh where the orthographic width is not given; `None` for a matrix or a glTF camera.
     pub fn look_at(&self, view: &ViewOptions, width: u32, height: u32) -> Option<Camera> {
@@ -345,6 +419,8 @@ impl Model {
         let projection = match view.lens {
             Lens::Orthographic { width } => Projection::Orthographic { width: width.unwrap_or(1.0) },
             Lens::Perspective { fov_deg } => Projection::Perspective { fov_deg },
+            // A panorama's eye and axes; its faces are 90° perspective frames.
+            Lens::Panorama(_) => Projection::Perspective { fov_deg: 90.0 },
         };
         match view.camera {
             CameraChoice::LookAt { eye, target, up } => {
@@ -438,6 +514,18 @@ impl PreparedModel {
     /// [`PreparedModel::render`] into `frame`, whose layers (of any earlier frame) are reused.
     pub fn render_into(&mut self, params: &RenderParams, backend: Backend, frame: &mut Frame) -> Result<(), Error> {
         self.prepared.render_into(params, backend, frame)
+    }
+
+    /// The frame `view` describes ([`Model::draw`]) on `backend`, into `frame`: a plain frame
+    /// reuses its layers.
+    pub fn render_view(&mut self, view: &ViewOptions, backend: Backend, frame: &mut Frame) -> Result<(), FrameError> {
+        if Model::is_plain(view) {
+            let params = self.model.params(view)?;
+            return Ok(self.prepared.render_into(&params, backend, frame)?);
+        }
+        let prepared = &mut self.prepared;
+        *frame = self.model.draw(view, &mut |params| prepared.render(params, backend))?;
+        Ok(())
     }
 
     /// The kernels' built-in vertex program that poses the mesh, if one does.

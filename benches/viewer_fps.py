@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import statistics
 import subprocess
 import sys
@@ -45,11 +44,17 @@ def main() -> None:
     parser.add_argument("--backend", default="cpu")
     parser.add_argument("--shading", default="smooth")
     parser.add_argument("--msaa", default="1")
+    parser.add_argument("--mesh", help="this mesh instead of the 100,000-triangle terrain")
+    parser.add_argument("--size", type=int, nargs=2, default=[1280, 720])
+    parser.add_argument("--camera", help="the viewer's starting --camera (default: its framing); "
+                        "1000,600,900,1000,600,80,0,1,0 fills the frame with the terrain")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as d:
         mesh = Path(d) / "terrain.obj"
-        triangles = terrain_obj(mesh, 225)
-        server = subprocess.Popen([args.binary, "view", str(mesh), "--port", "0", "--backend", args.backend, "--shading", args.shading, "--msaa", args.msaa],
+        triangles = terrain_obj(mesh, 225) if args.mesh is None else None
+        mesh = Path(args.mesh) if args.mesh else mesh
+        server = subprocess.Popen([args.binary, "view", str(mesh), "--port", "0", "--backend", args.backend, "--shading", args.shading, "--msaa", args.msaa,
+                                   "--size", *map(str, args.size), *(["--camera", args.camera] if args.camera else [])],
                                   stderr=subprocess.PIPE, text=True)
         url = next(line for line in server.stderr if "http://" in line).split("tileraster view: ")[1].split()[0]
         try:
@@ -63,12 +68,18 @@ def main() -> None:
                 page.mouse.move(x, y)
                 page.mouse.down()
                 first, start = page.evaluate("window.viewer.frames"), time.perf_counter()
-                k = 0
-                # A move every 30 ms or so: the camera changes faster than frames come.
-                while time.perf_counter() - start < args.seconds:
-                    k += 1
-                    page.mouse.move(x + 200 * math.sin(k / 15), y + 60 * math.sin(k / 23))
-                    time.sleep(0.03)
+                # The drag's moves come from the page itself, every 8 ms (a mouse reports at
+                # 125 Hz or more): the camera changes faster than frames come, and no round trip
+                # to this script paces them.
+                page.evaluate("""([x, y, seconds]) => new Promise(done => {
+                    const start = performance.now();
+                    let k = 0;
+                    const timer = setInterval(() => {
+                        k += 1;
+                        window.dispatchEvent(new MouseEvent("mousemove", { clientX: x + 200 * Math.sin(k / 40), clientY: y + 60 * Math.sin(k / 61) }));
+                        if (performance.now() - start > seconds * 1000) { clearInterval(timer); done(); }
+                    }, 8);
+                })""", [x, y, args.seconds])
                 frames, elapsed = page.evaluate("window.viewer.frames") - first, time.perf_counter() - start
                 server_ms = page.evaluate("window.viewer.serverMs")[-frames:]
                 page.mouse.up()
@@ -77,8 +88,8 @@ def main() -> None:
         finally:
             server.terminate()
             server.wait()
-    print(json.dumps({"triangles": triangles, "size": [1280, 720], "backend": args.backend, "shading": args.shading, "msaa": int(args.msaa),
-                      "seconds": round(elapsed, 2), "frames": frames, "frames_per_second": round(frames / elapsed, 1),
+    print(json.dumps({"triangles": triangles, "size": args.size, "backend": args.backend, "shading": args.shading, "msaa": int(args.msaa),
+                      "seconds": round(elapsed, 2), "frames": frames, "frames_per_second": round(frames / elapsed, 1), "camera": args.camera or "framing",
                       "server_frame_ms_median": round(statistics.median(server_ms), 1), "last_command": command}))
 
 

@@ -11,6 +11,7 @@ import shlex
 import socket
 import subprocess
 import time
+import zlib
 from pathlib import Path
 
 import pytest
@@ -68,8 +69,16 @@ class Server:
             return status, data.decode(), None
         length = int.from_bytes(data[:4], "little")
         reply = json.loads(data[4:4 + length])
-        assert len(data) == 4 + length + 4 * reply["width"] * reply["height"]
-        return status, reply, data[4 + length:]
+        # The image: the top-left pixel everywhere, then each row's span of kept pixels.
+        width, height, at = reply["width"], reply["height"], 4 + length
+        fill, image = data[at:at + 4], bytearray(data[at:at + 4] * (width * height))
+        spans, at = data[at + 4:at + 4 + 4 * height], at + 4 + 4 * height
+        for y in range(height):
+            first, count = int.from_bytes(spans[4 * y:4 * y + 2], "little"), int.from_bytes(spans[4 * y + 2:4 * y + 4], "little")
+            image[4 * (y * width + first):4 * (y * width + first + count)] = data[at:at + 4 * count]
+            at += 4 * count
+        assert at == len(data) and image[:4] == fill
+        return status, reply, bytes(image)
 
     def close(self):
         self.process.terminate()
@@ -109,12 +118,24 @@ def test_the_viewer_in_a_browser(mesh, tmp_path):
                 page.wait_for_function("window.viewer.frames > 0 && window.viewer.idle", timeout=60_000)
                 return page.text_content("#crc"), page.text_content("#command")
 
+            def canvas_crc():
+                """The CRC-32 of the canvas's own pixels, read back in the page (exact for the
+                opaque pixels of these frames)."""
+                return page.evaluate("""() => {
+                    const c = document.getElementById("frame"), bytes = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+                    const table = Array.from({ length: 256 }, (_, n) => { for (let k = 0; k < 8; k++) n = n & 1 ? 0xedb88320 ^ (n >>> 1) : n >>> 1; return n >>> 0; });
+                    let crc = 0xffffffff;
+                    for (let i = 0; i < bytes.length; i++) crc = table[(crc ^ bytes[i]) & 0xff] ^ (crc >>> 8);
+                    return ((crc ^ 0xffffffff) >>> 0).toString(16).padStart(8, "0");
+                }""")
+
             def shown_is_reproduced():
                 crc, command = settled()
                 assert crc == crc_of(command, tmp_path), command
                 return crc, command
 
             crc, command = shown_is_reproduced()
+            assert canvas_crc() == crc, "the canvas holds the engine's bytes"
             assert "--camera" not in command and "--backend cpu" in command and "--size 480 320" in command
             assert page.eval_on_selector("#frame", "c => [c.width, c.height]") == [480, 320]
 
@@ -127,6 +148,7 @@ def test_the_viewer_in_a_browser(mesh, tmp_path):
             page.mouse.up()
             dragged, command = shown_is_reproduced()
             assert dragged != crc and "--camera" in command
+            assert canvas_crc() == dragged
 
             # The wheel zooms, a right-drag pans, W moves: each a new camera.
             page.mouse.move(x, y)
@@ -205,6 +227,7 @@ def test_the_server_answers_bad_requests_and_goes_on(mesh):
         assert status == 200 and b"tileraster view" in page
         status, reply, pixels = server.frame()
         assert status == 200 and reply["width"] == 160 and reply["command"].startswith("tileraster render ")
+        assert f"{zlib.crc32(pixels):08x}" == reply["crc"], "the spans rebuild the frame's bytes"
         bad = [
             ("GET", "/../../etc/passwd", None, 404),
             ("GET", "/frame", None, 405),

@@ -246,8 +246,36 @@ impl Viewer {
         let mut body = Vec::with_capacity(4 + json.len() + rgba.len());
         body.extend((json.len() as u32).to_le_bytes());
         body.extend(json);
-        body.extend(rgba);
+        put_spans(&mut body, &rgba, width as usize);
         Ok(body)
+    }
+}
+
+/// The image's rows as spans, without the pixels equal to its top-left pixel (the background,
+/// mostly) at either end of each row: that pixel's word (4 bytes), then each row's first kept
+/// column and count (2 bytes each, little-endian), then the kept pixels, row by row. The page
+/// fills the rest with the top-left pixel: the same bytes, fewer sent where the model does not
+/// fill the frame.
+fn put_spans(body: &mut Vec<u8>, rgba: &[u8], width: usize) {
+    let fill: [u8; 4] = rgba.get(..4).map_or([0; 4], |p| p.try_into().expect("four bytes"));
+    body.extend(fill);
+    let rows: Vec<(usize, usize)> = rgba
+        .chunks_exact(4 * width.max(1))
+        .map(|row| {
+            let kept = |p: &[u8]| p != fill;
+            let pixels: Vec<&[u8]> = row.chunks_exact(4).collect();
+            match pixels.iter().position(|p| kept(p)) {
+                None => (0, 0),
+                Some(first) => (first, pixels.iter().rposition(|p| kept(p)).expect("a kept pixel") + 1 - first),
+            }
+        })
+        .collect();
+    for &(first, count) in &rows {
+        body.extend((first as u16).to_le_bytes());
+        body.extend((count as u16).to_le_bytes());
+    }
+    for (row, &(first, count)) in rgba.chunks_exact(4 * width.max(1)).zip(&rows) {
+        body.extend(&row[4 * first..4 * (first + count)]);
     }
 }
 

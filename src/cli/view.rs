@@ -262,11 +262,10 @@ fn put_spans(body: &mut Vec<u8>, rgba: &[u8], width: usize) {
     let rows: Vec<(usize, usize)> = rgba
         .chunks_exact(4 * width.max(1))
         .map(|row| {
-            let kept = |p: &[u8]| p != fill;
-            let pixels: Vec<&[u8]> = row.chunks_exact(4).collect();
-            match pixels.iter().position(|p| kept(p)) {
+            let pixels = row.as_chunks::<4>().0;
+            match pixels.iter().position(|p| *p != fill) {
                 None => (0, 0),
-                Some(first) => (first, pixels.iter().rposition(|p| kept(p)).expect("a kept pixel") + 1 - first),
+                Some(first) => (first, pixels.iter().rposition(|p| *p != fill).expect("a kept pixel") + 1 - first),
             }
         })
         .collect();

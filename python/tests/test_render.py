@@ -110,15 +110,24 @@ def test_render_gives_the_command_lines_bytes(files, tmp_path, case):
 def test_numpy_meshes_in_any_layout_give_the_files_frame(files):
     vertices, triangles = files["vertices"], files["triangles"]
     want = crcs(tileraster.render(files["obj"], backend="cpu", shading="phong", size=(240, 160)))
+    # Every dtype and layout the DEM API takes: Fortran order, 32-bit and unsigned indices,
+    # lists, strided views.
     for positions, faces in [
         (vertices, triangles),
-        (np.asfortranarray(vertices), triangles.astype(np.int32)),
-        (vertices.tolist(), triangles.astype(np.uint32)[:, :]),
+        (np.asfortranarray(vertices), np.asfortranarray(triangles)),
+        (vertices, triangles.astype(np.int32)),
+        (vertices, triangles.astype(np.uint32)),
+        (vertices.tolist(), triangles.tolist()),
+        (np.repeat(vertices, 2, axis=0)[::2], np.repeat(triangles, 3, axis=1)[:, ::3]),
     ]:
         assert crcs(tileraster.render((positions, faces), backend="cpu", shading="phong", size=(240, 160))) == want
         mesh = tileraster.Mesh(positions, faces)
         assert len(mesh) == len(triangles)
         assert crcs(tileraster.render(mesh, backend="cpu", shading="phong", size=(240, 160))) == want
+    # float32 positions are taken at their value.
+    v32 = vertices.astype(np.float32)
+    assert crcs(tileraster.render((v32, triangles), backend="cpu", size=(120, 80))) == crcs(
+        tileraster.render((v32.astype(np.float64), triangles), backend="cpu", size=(120, 80)))
     # Colours as bytes or as floats in [0, 1] are the same colours; with normals and uvs.
     n = len(vertices)
     rng = np.random.default_rng(1)

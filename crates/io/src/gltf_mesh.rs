@@ -2,7 +2,7 @@
 //! nodes (or, without scenes, every root node), each node's mesh placed by its world transform
 //! (the product of its ancestors' matrices), every triangle primitive's positions, normals
 //! (transformed by the inverse transpose and normalised), `COLOR_0` times the material's base
-//! colour factor, and `TEXCOORD_0`. Faces count the triangles in that order: nodes depth first
+//! colour factor, and `TEXCOORD_0` (moved by the texture's `KHR_texture_transform`). Faces count the triangles in that order: nodes depth first
 //! in document order, primitives in order, triangles in index order (strips and fans unrolled).
 //!
 //! The nodes stand in a pose (`gltf_pose`): at rest, or at a time of the file's first
@@ -209,11 +209,14 @@ pub fn read_gltf_cameras(path: &Path, time: Option<f64>) -> Result<Vec<GltfCamer
     Ok(cameras)
 }
 
-/// The document and its buffers, with required extensions refused.
+/// The extensions a file may require: the reader implements them.
+const IMPLEMENTED_EXTENSIONS: [&str; 1] = ["KHR_texture_transform"];
+
+/// The document and its buffers, with required extensions it does not implement refused.
 fn open(path: &Path) -> Result<(gltf::Gltf, Vec<gltf::buffer::Data>), IoError> {
     let format = |message: String| IoError::Format { path: path.to_owned(), message };
     let gltf = gltf::Gltf::open(path).map_err(|e| format(format!("not a readable glTF 2.0 file: {e}")))?;
-    if let Some(ext) = gltf.document.extensions_required().next() {
+    if let Some(ext) = gltf.document.extensions_required().find(|ext| !IMPLEMENTED_EXTENSIONS.contains(ext)) {
         return Err(format(format!("unsupported glTF feature: the file requires the extension {ext}, which this reader does not implement")));
     }
     let buffers = gltf::import_buffers(&gltf.document, path.parent(), gltf.blob.clone()).map_err(|e| format(format!("reading its buffers: {e}")))?;
@@ -390,9 +393,12 @@ fn add_primitive(
         None => out.positions.extend(positions.iter().map(|p| place(m, p))),
     }
     let material = primitive.material();
-    let texture = match material.pbr_metallic_roughness().base_color_texture() {
-        Some(info) if info.tex_coord() != 0 => {
-            return Err(format!("unsupported glTF feature: {}'s base colour texture reads TEXCOORD_{}", name(), info.tex_coord()));
+    let base_colour = material.pbr_metallic_roughness().base_color_texture();
+    let transform = base_colour.as_ref().and_then(|info| info.texture_transform());
+    let tex_coord = |info: &gltf::texture::Info| transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
+    let texture = match &base_colour {
+        Some(info) if tex_coord(info) != 0 => {
+            return Err(format!("unsupported glTF feature: {}'s base colour texture reads TEXCOORD_{}", name(), tex_coord(info)));
         }
         Some(info) => {
             let t = info.texture();
@@ -440,9 +446,21 @@ fn add_primitive(
         // Vertices of earlier primitives without coordinates get zeros.
         out.uvs.resize(base, [0.0; 2]);
         out.with_uvs += 1;
-        out.uvs.extend(uvs.into_f32());
+        match &transform {
+            Some(t) => out.uvs.extend(uvs.into_f32().map(|uv| transformed(t, uv))),
+            None => out.uvs.extend(uvs.into_f32()),
+        }
     }
     Ok(())
+}
+
+/// `uv` moved by a `KHR_texture_transform`: scaled, rotated (counter-clockwise in the image as
+/// the specification's matrix turns it), then offset, in `f64` with `libm`'s sine and cosine.
+fn transformed(t: &gltf::texture::TextureTransform, [u, v]: [f32; 2]) -> [f32; 2] {
+    let ([ox, oy], r, [sx, sy]) = (t.offset().map(f64::from), f64::from(t.rotation()), t.scale().map(f64::from));
+    let (s, c) = (libm::sin(r), libm::cos(r));
+    let (u, v) = (sx * f64::from(u), sy * f64::from(v));
+    [(c * u + s * v + ox) as f32, (-s * u + c * v + oy) as f32]
 }
 
 /// The determinant of `m`'s linear part.
@@ -739,11 +757,11 @@ pub(crate) mod tests {
         bin.resize(92, 0);
         let image_at = bin.len();
         bin.extend_from_slice(&png);
-        let document = |image: &str| {
+        let document_with = |image: &str, base_colour: &str, extensions: &str| {
             format!(
-                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+                r#"{{"asset": {{"version": "2.0"}}, {extensions} "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
   "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "indices": 2, "material": 0}}]}}],
-  "materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}}}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {base_colour}}}}}],
   "textures": [{{"source": 0, "sampler": 0}}],
   "samplers": [{{"magFilter": 9728, "minFilter": 9728, "wrapS": 33071, "wrapT": 33648}}],
   "images": [{image}],
@@ -759,6 +777,7 @@ pub(crate) mod tests {
                 png.len()
             )
         };
+        let document = |image: &str| document_with(image, r#"{"index": 0}"#, "");
         std::fs::write(dir.join("tex.png"), &png).unwrap();
         std::fs::write(dir.join("file.glb"), glb(&document(r#"{"uri": "tex.png"}"#), &bin)).unwrap();
         std::fs::write(dir.join("embedded.glb"), glb(&document(r#"{"bufferView": 3, "mimeType": "image/png"}"#), &bin)).unwrap();
@@ -769,6 +788,16 @@ pub(crate) mod tests {
             assert_eq!((t.srgb, t.filter, t.address_u, t.address_v), (true, Filter::Nearest, Address::ClampToEdge, Address::MirroredRepeat), "{name}");
             assert_eq!(mesh.face_textures, Some(vec![0, 0]), "{name}");
             assert_eq!(mesh.uvs.as_ref().unwrap()[1], [1.0, 1.0], "{name}");
+        }
+        // KHR_texture_transform, required: the coordinates scaled, rotated a quarter turn, offset.
+        let transform = r#"{"index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.25], "rotation": 1.5707963267948966, "scale": [2, 3]}}}"#;
+        let required = r#""extensionsUsed": ["KHR_texture_transform"], "extensionsRequired": ["KHR_texture_transform"],"#;
+        std::fs::write(dir.join("moved.glb"), glb(&document_with(r#"{"uri": "tex.png"}"#, transform, required), &bin)).unwrap();
+        let moved = read_gltf(&dir.join("moved.glb"), None).unwrap();
+        for (got, [u, v]) in moved.uvs.unwrap().iter().zip(uvs) {
+            // u' = s·(3v) + 0.5 and v' = −(2u) + 0.25 at a quarter turn (cos 0 to within 1e-16).
+            let want = [3.0 * v as f64 + 0.5, -2.0 * u as f64 + 0.25];
+            assert!((got[0] as f64 - want[0]).abs() < 1e-6 && (got[1] as f64 - want[1]).abs() < 1e-6, "{got:?} against {want:?}");
         }
         std::fs::remove_file(dir.join("tex.png")).unwrap();
         let e = read_gltf(&dir.join("file.glb"), None).unwrap_err().to_string();

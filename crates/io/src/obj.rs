@@ -118,10 +118,10 @@ pub fn read_obj_mesh(path: &Path) -> Result<Mesh, IoError> {
     let text = std::fs::read_to_string(path).map_err(|source| IoError::Io { path: path.to_owned(), source })?;
     let folder = path.parent().unwrap_or(Path::new("."));
     let materials = |name: &str| {
-        let mtl = folder.join(name);
+        let mtl = local_path(folder, name);
         std::fs::read_to_string(&mtl).map_err(|source| IoError::Io { path: mtl, source })
     };
-    parse_obj_mesh(&text, path, &materials, &|name| read_texture(&folder.join(name)))
+    parse_obj_mesh(&text, path, &materials, &|name| read_texture(&local_path(folder, name)))
 }
 
 /// An image file (PNG or JPEG) as an sRGB base-colour texture, trilinear and repeated.
@@ -179,7 +179,9 @@ pub fn parse_obj_mesh(
             Some("mtllib") => {
                 for name in words {
                     let mtl = materials(name)?;
-                    let folder = Path::new(name).parent().unwrap_or(Path::new(""));
+                    // Its textures' paths are from its own folder (Windows tools separate with backslashes).
+                    let unix = name.replace('\\', "/");
+                    let folder = Path::new(&unix).parent().unwrap_or(Path::new(""));
                     parse_mtl(&mtl, folder, &mut colours);
                 }
             }
@@ -250,6 +252,16 @@ pub fn parse_obj_mesh(
     mesh.colours = any_colour.then_some(out_colours);
     mesh.face_textures = (!mesh.textures.is_empty()).then_some(face_textures);
     Ok(mesh)
+}
+
+/// `name`, a path from `folder` as an OBJ or MTL file names it: as it is where that file
+/// exists, else with its backslashes read as separators (Windows tools write `.\tex.jpg`).
+fn local_path(folder: &Path, name: &str) -> std::path::PathBuf {
+    let literal = folder.join(name);
+    if literal.exists() || !name.contains('\\') {
+        return literal;
+    }
+    folder.join(name.replace('\\', "/"))
 }
 
 /// An MTL material: its diffuse colour and texture (a path from the OBJ's folder).
@@ -352,6 +364,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("brick.png") && e.contains("broken"), "{e}");
+    }
+
+    /// Paths written by Windows tools (`mtllib models\m.mtl`, `map_Kd .\tex.png`) are found
+    /// with their backslashes read as separators.
+    #[test]
+    fn windows_paths_in_obj_and_mtl_files_are_found() {
+        let dir = std::env::temp_dir().join(format!("tileraster-obj-windows-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("models")).unwrap();
+        image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 10, 10, 255])).save(dir.join("models").join("tex.png")).unwrap();
+        std::fs::write(dir.join("models").join("m.mtl"), "newmtl red\r\nKd 1 1 1\r\nmap_Kd .\\tex.png\r\n").unwrap();
+        let obj = "mtllib models\\m.mtl\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nvt 0 0\r\nvt 1 0\r\nvt 0 1\r\nusemtl red\r\nf 1/1 2/2 3/3\r\n";
+        std::fs::write(dir.join("w.obj"), obj).unwrap();
+        let mesh = read_obj_mesh(&dir.join("w.obj")).unwrap();
+        assert_eq!((mesh.textures.len(), mesh.triangles.len()), (1, 1));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

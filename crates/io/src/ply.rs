@@ -2,7 +2,9 @@
 //! `y`, `z` properties (any numeric type), its normals (`nx`, `ny`, `nz`) and colours (`red`,
 //! `green`, `blue`, optionally `alpha`: integers scaled from their type's range, floats as they
 //! are) where present, and the `face` element's index list (`vertex_indices` or `vertex_index`)
-//! are read; polygons are fanned into triangles; other elements and properties are skipped.
+//! are read; polygons are fanned into triangles. A `tristrips` element's lists (as some scanners
+//! write their faces) are triangle strips, `-1` ending each strip. Other elements and properties
+//! are skipped.
 //! Errors name the line (ASCII) or the element record (binary).
 
 use crate::IoError;
@@ -187,12 +189,14 @@ pub fn parse_ply_mesh(bytes: &[u8], path: &Path) -> Result<Mesh, IoError> {
         });
         has_normals |= normal.is_some();
         has_colours |= colour.is_some();
-        let face_list = (element.name == "face")
+        let faces = matches!(element.name.as_str(), "face" | "tristrips");
+        let face_list = faces
             .then(|| element.properties.iter().position(|p| matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index")))
             .flatten();
-        if element.name == "face" && face_list.is_none() {
-            return Err(format_err("the face element has no 'vertex_indices' list".into()));
+        if faces && face_list.is_none() {
+            return Err(format_err(format!("the {} element has no 'vertex_indices' list", element.name)));
         }
+        let strips = element.name == "tristrips";
         for record in 0..element.count {
             reader.start_record().map_err(|m| reader.error(path, &element.name, record, m))?;
             let mut v = [0.0; 3];
@@ -219,17 +223,27 @@ pub fn parse_ply_mesh(bytes: &[u8], path: &Path) -> Result<Mesh, IoError> {
                         }
                         if face_list == Some(k) {
                             let vertices = scene.vertices.len();
-                            let ids: Vec<u32> = items
-                                .iter()
-                                .map(|&i| {
-                                    if i >= 0.0 && (i as usize) < vertices && i.fract() == 0.0 {
-                                        Ok(i as u32)
-                                    } else {
-                                        Err(format!("vertex index {i} is out of range: there are {vertices} vertices"))
-                                    }
-                                })
-                                .collect::<Result<_, _>>()
-                                .map_err(|m| reader.error(path, &element.name, record, m))?;
+                            let index = |i: f64| {
+                                if i >= 0.0 && (i as usize) < vertices && i.fract() == 0.0 {
+                                    Ok(i as u32)
+                                } else {
+                                    Err(format!("vertex index {i} is out of range: there are {vertices} vertices"))
+                                }
+                            };
+                            if strips {
+                                // Strips end at -1; every triangle alternates its winding so that all
+                                // face the same way, and those with a repeated corner (the strips'
+                                // joins) have no area.
+                                for strip in items.split(|&i| i == -1.0) {
+                                    let ids: Vec<u32> =
+                                        strip.iter().map(|&i| index(i)).collect::<Result<_, _>>().map_err(|m| reader.error(path, &element.name, record, m))?;
+                                    let triangles = ids.windows(3).enumerate().map(|(k, w)| if k % 2 == 0 { [w[0], w[1], w[2]] } else { [w[1], w[0], w[2]] });
+                                    scene.triangles.extend(triangles.filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]));
+                                }
+                                continue;
+                            }
+                            let ids: Vec<u32> =
+                                items.iter().map(|&i| index(i)).collect::<Result<_, _>>().map_err(|m| reader.error(path, &element.name, record, m))?;
                             if ids.len() < 3 {
                                 return Err(reader.error(path, &element.name, record, format!("face has {} corners; a face needs at least 3", ids.len())));
                             }
@@ -361,6 +375,28 @@ mod tests {
         // Only a red channel: no colours; no normals.
         let plain = parse_ply_mesh(ASCII.as_bytes(), Path::new("a.ply")).unwrap();
         assert!(plain.colours.is_none() && plain.normals.is_none());
+    }
+
+    /// Triangle strips, as scanners write them (`element tristrips` with one list, `-1` between
+    /// strips): the triangles of each strip, every other one turned to face the same way, the
+    /// joins' degenerate triangles dropped.
+    #[test]
+    fn triangle_strips_are_read_as_their_triangles() {
+        let strips = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n0 0 0\n0 1 0\n1 0 0\n1 1 0\n2 0 0\n2 1 0\n9 0 1 2 3 -1 2 3 4 5\n";
+        let mesh = parse_ply_mesh(strips.as_bytes(), Path::new("s.ply")).unwrap();
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [2, 1, 3], [2, 3, 4], [4, 3, 5]]);
+        // All four face the same way (+z here: counter-clockwise seen from above... or all the other way).
+        let area = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        };
+        let signs: Vec<bool> = mesh.triangles.iter().map(|t| area(t) > 0.0).collect();
+        assert!(signs.iter().all(|&s| s == signs[0]), "{signs:?}");
+        // A join by repeated indices gives no triangle; a bad index names its record.
+        let joined = strips.replace("9 0 1 2 3 -1 2 3 4 5", "10 0 1 2 3 3 2 2 3 4 5");
+        assert_eq!(parse_ply_mesh(joined.as_bytes(), Path::new("s.ply")).unwrap().triangles.len(), 4);
+        let bad = strips.replace("2 3 4 5\n", "2 3 4 7\n");
+        assert!(parse_ply_mesh(bad.as_bytes(), Path::new("s.ply")).unwrap_err().to_string().contains("tristrips 0: vertex index 7 is out of range"));
     }
 
     #[test]

@@ -73,16 +73,21 @@ fn exp_reduced(r: f32) -> f32 {
     (p * r + r) + 1.0
 }
 
+/// An exponential's value where `x` is NaN (NaN) or outside `[low, high]` (`+0`, `+∞`).
+#[inline]
+fn beyond(x: f32, low: f32, high: f32) -> Option<f32> {
+    match () {
+        _ if is_nan(x) => Some(x),
+        _ if x > high => Some(f32::from_bits(0x7f80_0000)),
+        _ if x < low => Some(0.0),
+        _ => None,
+    }
+}
+
 /// `e^x`, within 2 ulp where the result is normal.
 pub fn exp(x: f32) -> f32 {
-    if is_nan(x) {
-        return x;
-    }
-    if x > 89.0 {
-        return f32::from_bits(0x7f80_0000);
-    }
-    if x < -104.0 {
-        return 0.0;
+    if let Some(outside) = beyond(x, -104.0, 89.0) {
+        return outside;
     }
     let n = nearest(x * LOG2_E);
     let r = (x - n as f32 * LN2_HI) - n as f32 * LN2_LO;
@@ -91,14 +96,8 @@ pub fn exp(x: f32) -> f32 {
 
 /// `2^x`, within 2 ulp where the result is normal.
 pub fn exp2(x: f32) -> f32 {
-    if is_nan(x) {
-        return x;
-    }
-    if x > 129.0 {
-        return f32::from_bits(0x7f80_0000);
-    }
-    if x < -150.0 {
-        return 0.0;
+    if let Some(outside) = beyond(x, -150.0, 129.0) {
+        return outside;
     }
     let n = nearest(x);
     // Exact: `x` and `n` are within half of each other.
@@ -147,33 +146,37 @@ fn finite(x: f32) -> bool {
     x.to_bits() & 0x7f80_0000 != 0x7f80_0000
 }
 
+/// A logarithm's value where it is not computed: NaN for NaN and below zero, `−∞` at zero,
+/// `+∞` at `+∞`.
+#[inline]
+fn log_special(x: f32) -> Option<f32> {
+    match () {
+        _ if is_nan(x) || x < 0.0 => Some(f32::from_bits(0x7fc0_0000)),
+        _ if x == 0.0 => Some(f32::from_bits(0xff80_0000)),
+        _ if !finite(x) => Some(x),
+        _ => None,
+    }
+}
+
 /// `ln x`, within 2 ulp for positive finite `x`.
 pub fn ln(x: f32) -> f32 {
-    match () {
-        _ if is_nan(x) || x < 0.0 => f32::from_bits(0x7fc0_0000),
-        _ if x == 0.0 => f32::from_bits(0xff80_0000),
-        _ if !finite(x) => x,
-        _ => {
-            let (e, s, c) = log_parts(x);
-            let twice = s + s;
-            e * LN2_HI + (e * LN2_LO + (twice + twice * c))
-        }
+    if let Some(special) = log_special(x) {
+        return special;
     }
+    let (e, s, c) = log_parts(x);
+    let twice = s + s;
+    e * LN2_HI + (e * LN2_LO + (twice + twice * c))
 }
 
 /// `log2 x`, within 3 ulp for positive finite `x` (`2s` scaled by `2 log2 e` rounds once
 /// more than `ln`'s sum).
 pub fn log2(x: f32) -> f32 {
-    match () {
-        _ if is_nan(x) || x < 0.0 => f32::from_bits(0x7fc0_0000),
-        _ if x == 0.0 => f32::from_bits(0xff80_0000),
-        _ if !finite(x) => x,
-        _ => {
-            let (e, s, c) = log_parts(x);
-            let a = s * TWO_LOG2_E;
-            e + (a + a * c)
-        }
+    if let Some(special) = log_special(x) {
+        return special;
     }
+    let (e, s, c) = log_parts(x);
+    let a = s * TWO_LOG2_E;
+    e + (a + a * c)
 }
 
 /// `x^y` for `x ≥ 0` as `2^(y · log2 x)`: its relative error grows with `t = y · log2 x`, as

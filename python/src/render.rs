@@ -238,11 +238,6 @@ fn source_of(mesh: &Bound<'_, PyAny>) -> PyResult<MeshSource> {
         .map_err(|_| error(format!("mesh: {} is neither a path nor a tileraster.Mesh", mesh.get_type().name().map_or("this".into(), |n| n.to_string()))))
 }
 
-/// The model's options from `render`'s and `Renderer`'s keyword arguments.
-fn model_options(time: Option<f64>, z_scale: f64, instances: Option<Vec<[[f64; 4]; 4]>>, points: bool) -> ModelOptions {
-    ModelOptions { time, z_scale, instances, points }
-}
-
 /// A frame as Python takes it: (width, height, colour as u32 RGBA words, depth, ids, stats as
 /// JSON, checksums as JSON), the layers handed over, not copied.
 type FrameTuple<'py> = (u32, u32, Bound<'py, PyArray1<u32>>, Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<u32>>, String, String);
@@ -264,7 +259,7 @@ pub(crate) fn render<'py>(
     instances: Option<Vec<[[f64; 4]; 4]>>,
 ) -> PyResult<FrameTuple<'py>> {
     let source = source_of(mesh)?;
-    let options = model_options(time, z_scale, instances, view.options.points.is_some());
+    let options = ModelOptions { time, z_scale, instances, points: view.options.points.is_some() };
     let (view_options, backend) = (view.options.clone(), view.backend);
     let frame = interruptible(py, move |_| -> Result<Frame, FrameError> {
         let model = Model::load(source, &options)?;
@@ -295,7 +290,7 @@ impl Renderer {
         points: bool,
     ) -> PyResult<Renderer> {
         let source = source_of(mesh)?;
-        let options = model_options(time, z_scale, instances, points);
+        let options = ModelOptions { time, z_scale, instances, points };
         let prepared = interruptible(py, move |_| Model::load(source, &options)?.prepare())?.map_err(frame_error)?;
         Ok(Renderer { inner: Arc::new(Mutex::new(prepared)) })
     }
@@ -312,9 +307,10 @@ impl Renderer {
         let (options, backend) = (view.options.clone(), view.backend);
         let frame = interruptible(py, move |_| {
             let mut prepared = inner.lock().unwrap_or_else(|e| e.into_inner());
-            let params = prepared.params(&options)?;
+            // `auto` decides by the frame's size, which the options settle.
+            let chosen = backend_for(backend, &prepared.params(&options)?);
             let mut frame = Frame::default();
-            prepared.render_view(&options, backend_for(backend, &params), &mut frame)?;
+            prepared.render_view(&options, chosen, &mut frame)?;
             Ok::<_, FrameError>(frame)
         })?
         .map_err(frame_error)?;

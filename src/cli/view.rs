@@ -29,7 +29,7 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tileraster::Backend;
-use tileraster::render::{CameraChoice, Frame, Lens, MAX_JITTER, MeshSource, Model, ModelOptions, PreparedModel, ViewOptions};
+use tileraster::render::{CameraChoice, Frame, FrameError, Lens, MAX_JITTER, MeshSource, Model, ModelOptions, PreparedModel, ViewOptions};
 
 /// The largest request body the server reads.
 pub const MAX_REQUEST_BYTES: usize = 4096;
@@ -149,10 +149,7 @@ impl Viewer {
         if let Some(c) = request.camera {
             view.camera = CameraChoice::LookAt { eye: c.eye, target: c.target, up: c.up };
         }
-        let fov = match view.lens {
-            Lens::Perspective { fov_deg } => fov_deg,
-            _ => 45.0,
-        };
+        let fov = perspective_fov(view.lens);
         if let Some(name) = request.projection.as_deref() {
             let ortho = (name == "orthographic").then_some(request.ortho_width);
             view.lens = Lens::of(Some(name).filter(|&n| n != "orthographic"), (name == "perspective").then_some(fov), ortho).map_err(|e| bad(e.to_string()))?;
@@ -202,11 +199,13 @@ impl Viewer {
         let (view, backend) = self.view_of(request)?;
         let mut guard = self.prepared.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let (prepared, frame) = &mut *guard;
-        prepared.params(&view).map_err(|e| bad(e.to_string()))?;
-        let camera = prepared.look_at(&view).map(|c| LookAt { eye: c.eye, target: c.target, up: c.up });
         let start = Instant::now();
-        prepared.render_view(&view, backend, frame).map_err(|e| Refusal(StatusCode::UNPROCESSABLE_ENTITY, e.to_string()))?;
+        let params = prepared.render_view(&view, backend, frame).map_err(|e| match e {
+            FrameError::Render(e) => Refusal(StatusCode::UNPROCESSABLE_ENTITY, e.to_string()),
+            options => bad(options.to_string()),
+        })?;
         let ms = start.elapsed().as_secs_f64() * 1e3;
+        let camera = prepared.look_at(&view, params.width, params.height).map(|c| LookAt { eye: c.eye, target: c.target, up: c.up });
         let heat = request.heat.unwrap_or(false);
         // The colour's bytes as `--stats` checksums them (each pixel's word little-endian).
         let colour: Vec<u8> = frame.colour.iter().flat_map(|c| c.to_le_bytes()).collect();
@@ -230,10 +229,7 @@ impl Viewer {
             ms,
             backend: backend.name(),
             camera,
-            fov: match view.lens {
-                Lens::Perspective { fov_deg } => fov_deg,
-                _ => 45.0,
-            },
+            fov: perspective_fov(view.lens),
             projection: view.lens.projection().0,
             jitter: view.jitter,
             shading: super::render::shading_name(view.shading),
@@ -275,6 +271,14 @@ fn put_spans(body: &mut Vec<u8>, rgba: &[u8], width: usize) {
     }
     for (row, &(first, count)) in rgba.chunks_exact(4 * width.max(1)).zip(&rows) {
         body.extend(&row[4 * first..4 * (first + count)]);
+    }
+}
+
+/// The field of view the page's perspective takes: the lens's, or the default.
+fn perspective_fov(lens: Lens) -> f64 {
+    match lens {
+        Lens::Perspective { fov_deg } => fov_deg,
+        _ => 45.0,
     }
 }
 

@@ -189,6 +189,15 @@ impl Camera {
     /// from what the caller chose to what follows from it, so that each error names its own
     /// cause.
     fn view(&self) -> Result<[[f64; 4]; 4], Error> {
+        let [r, u, f] = self.axes()?;
+        let t = |a: [f64; 3]| -(a[0] * self.eye[0] + a[1] * self.eye[1] + a[2] * self.eye[2]);
+        Ok([[r[0], r[1], r[2], t(r)], [-u[0], -u[1], -u[2], -t(u)], [f[0], f[1], f[2], t(f)], [0.0, 0.0, 0.0, 1.0]])
+    }
+
+    /// The camera's own unit axes: right, up and forward (the image's x, its y upwards, the
+    /// viewing direction); checked from what the caller chose to what follows from it, so that
+    /// each error names its own cause.
+    pub(super) fn axes(&self) -> Result<[[f64; 3]; 3], Error> {
         let singular = |reason: &str| Err(Error::SingularCamera { reason: reason.into() });
         if !self.eye.iter().chain(&self.target).chain(&self.up).all(|c| c.is_finite()) {
             return Err(Error::SingularCamera {
@@ -208,9 +217,7 @@ impl Camera {
             return singular("the up vector is parallel to the viewing direction (or zero); choose another up");
         }
         let r = scale(side, 1.0 / norm(side));
-        let u = cross(r, f);
-        let t = |a: [f64; 3]| -(a[0] * self.eye[0] + a[1] * self.eye[1] + a[2] * self.eye[2]);
-        Ok([[r[0], r[1], r[2], t(r)], [-u[0], -u[1], -u[2], -t(u)], [f[0], f[1], f[2], t(f)], [0.0, 0.0, 0.0, 1.0]])
+        Ok([r, cross(r, f), f])
     }
 
     /// World to clip space for a `width` × `height` frame, row-major.
@@ -300,15 +307,23 @@ fn bounding_sphere(mesh: &Mesh) -> ([f64; 3], f64) {
     (centre, radius)
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(super) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+pub(super) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(super) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 

@@ -252,9 +252,8 @@ impl Model {
     /// Scale the heights (a single mesh's vertices; instances by the model matrix) and find
     /// what the default camera frames.
     fn place(&mut self, z_scale: f64) -> Result<(), FrameError> {
-        let world = &mut self.world;
-        let single = world.instances.len() == 1 && world.instances[0].transform == IDENTITY;
-        if single {
+        if self.is_single() {
+            let world = &mut self.world;
             let mesh = &mut world.meshes[0];
             if z_scale != 1.0 {
                 let lowest = mesh.positions.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
@@ -274,7 +273,7 @@ impl Model {
             }
             return Ok(());
         }
-        let [lo, hi] = world.bounds()?;
+        let [lo, hi] = self.world.bounds()?;
         self.model[2] = [0.0, 0.0, z_scale, lo[2] * (1.0 - z_scale)];
         let scaled = |z: f64| lo[2] + z_scale * (z - lo[2]);
         let corners =
@@ -396,13 +395,17 @@ impl Model {
     /// average of [`ViewOptions::jitter`] frames at sub-pixel offsets, or a panorama resampled
     /// from the cube faces it needs.
     pub fn draw(&self, view: &ViewOptions, draw: &mut dyn FnMut(&RenderParams) -> Result<Frame, Error>) -> Result<Frame, FrameError> {
-        let params = self.params(view)?;
+        self.draw_with(&self.params(view)?, view, draw)
+    }
+
+    /// [`Model::draw`] with `params`, which [`Model::params`] gave for `view`.
+    fn draw_with(&self, params: &RenderParams, view: &ViewOptions, draw: &mut dyn FnMut(&RenderParams) -> Result<Frame, Error>) -> Result<Frame, FrameError> {
         match view.lens {
             Lens::Panorama(panorama) => {
                 let camera = self.look_at(view, params.width, params.height).ok_or_else(|| option_error("projection", "a panorama needs a look-at camera"))?;
-                Ok(panorama_frame(panorama, &camera, self.framed(), &params, draw)?)
+                Ok(panorama_frame(panorama, &camera, self.framed(), params, draw)?)
             }
-            _ => Ok(accumulate(&params, view.jitter, draw)?),
+            _ => Ok(accumulate(params, view.jitter, draw)?),
         }
     }
 
@@ -516,27 +519,27 @@ impl PreparedModel {
         self.prepared.render_into(params, backend, frame)
     }
 
-    /// The frame `view` describes ([`Model::draw`]) on `backend`, into `frame`: a plain frame
-    /// reuses its layers.
-    pub fn render_view(&mut self, view: &ViewOptions, backend: Backend, frame: &mut Frame) -> Result<(), FrameError> {
+    /// The frame `view` describes ([`Model::draw`]) on `backend`, into `frame` (a plain frame
+    /// reuses its layers); the parameters it was drawn with.
+    pub fn render_view(&mut self, view: &ViewOptions, backend: Backend, frame: &mut Frame) -> Result<RenderParams, FrameError> {
+        let params = self.model.params(view)?;
         if Model::is_plain(view) {
-            let params = self.model.params(view)?;
-            return Ok(self.prepared.render_into(&params, backend, frame)?);
+            self.prepared.render_into(&params, backend, frame)?;
+        } else {
+            let prepared = &mut self.prepared;
+            *frame = self.model.draw_with(&params, view, &mut |params| prepared.render(params, backend))?;
         }
-        let prepared = &mut self.prepared;
-        *frame = self.model.draw(view, &mut |params| prepared.render(params, backend))?;
-        Ok(())
+        Ok(params)
+    }
+
+    /// The look-at camera a `width` × `height` frame of `view` draws with ([`Model::look_at`]).
+    pub fn look_at(&self, view: &ViewOptions, width: u32, height: u32) -> Option<Camera> {
+        self.model.look_at(view, width, height)
     }
 
     /// The kernels' built-in vertex program that poses the mesh, if one does.
     pub fn vertex_stage(&self) -> Option<VertexStage> {
         self.model.vertex_stage()
-    }
-
-    /// The look-at camera a frame of `view` draws with ([`Model::look_at`]).
-    pub fn look_at(&self, view: &ViewOptions) -> Option<Camera> {
-        let params = self.model.params(view).ok()?;
-        self.model.look_at(view, params.width, params.height)
     }
 
     /// The lowest and highest corners of the box holding what the frames draw (posed, scaled

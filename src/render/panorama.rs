@@ -6,6 +6,7 @@
 //! directions are computed on the host in `f64` with the `libm` crate's functions, the same on
 //! every machine.
 
+use super::camera::{add, cross, dot};
 use super::{Camera, Frame, GeometryCounts, Mesh, NO_FACE, Projection, RenderParams, RenderStats};
 use crate::Error;
 
@@ -25,16 +26,6 @@ pub enum Panorama {
 
 /// Cube faces, in the order a direction's face is chosen among equal components.
 const FACES: usize = 6;
-
-/// The camera's own axes: right, up, forward (as `Camera` builds its view).
-fn basis(camera: &Camera) -> Result<[[f64; 3]; 3], Error> {
-    let forward = normalise(sub(camera.target, camera.eye));
-    let right = normalise(cross(forward, camera.up));
-    if !(forward.iter().chain(&right).all(|v| v.is_finite())) {
-        return Err(Error::SingularCamera { reason: "the eye, target and up vector make no viewing direction".into() });
-    }
-    Ok([right, cross(right, forward), forward])
-}
 
 /// Face `f`'s viewing direction and up vector in the camera's axes (x right, y up, z forward):
 /// front, back, right, left, top, bottom.
@@ -131,7 +122,7 @@ fn face_pixel(d: [f64; 3], size: u32) -> (usize, u32, u32) {
 /// The camera of face `f` around `camera`'s eye: 90° square perspective, the planes `near` and
 /// `far` as every face's.
 pub fn face_camera(camera: &Camera, f: usize, mesh: &Mesh) -> Result<Camera, Error> {
-    let axes = basis(camera)?;
+    let axes = camera.axes()?;
     let world = |v: [f64; 3]| [0, 1, 2].map(|k| axes[0][k] * v[0] + axes[1][k] * v[1] + axes[2][k] * v[2]);
     let (forward, up) = face_axes(f);
     Ok(Camera::look_at(camera.eye, add(camera.eye, world(forward)), world(up), Projection::Perspective { fov_deg: 90.0 }, mesh))
@@ -139,8 +130,7 @@ pub fn face_camera(camera: &Camera, f: usize, mesh: &Mesh) -> Result<Camera, Err
 
 /// The frame of `panorama` around `camera` (its eye and axes), `width` × `height`: the faces it
 /// needs drawn by `draw` from `face_params` (the face's view-projection for a `size`-sided
-/// frame), then resampled. Its statistics are the faces' geometry summed and the frame's own
-/// pixels.
+/// frame), then resampled. Its statistics are the faces' summed and the frame's own pixels.
 pub fn panorama_frame(
     panorama: Panorama,
     camera: &Camera,
@@ -155,7 +145,8 @@ pub fn panorama_frame(
     let mut needed = [false; FACES];
     sources.iter().flatten().for_each(|&(f, ..)| needed[f] = true);
     let mut faces: Vec<Option<Frame>> = vec![None; FACES];
-    let mut geometry = GeometryCounts::default();
+    // The faces' statistics summed (the passes the first face's).
+    let (mut geometry, mut raster) = (GeometryCounts::default(), None::<crate::Stats>);
     for f in (0..FACES).filter(|&f| needed[f]) {
         let face = face_camera(camera, f, mesh)?;
         let mut face_params = params.clone();
@@ -163,7 +154,11 @@ pub fn panorama_frame(
         face_params.view_projection = face.view_projection(size, size)?;
         face_params.eye = Some(face.viewer());
         let frame = draw(&face_params)?;
-        add_counts(&mut geometry, &frame.stats.geometry);
+        geometry.absorb(&frame.stats.geometry);
+        match raster.as_mut() {
+            Some(r) => r.absorb(&frame.stats.raster),
+            None => raster = Some(frame.stats.raster.clone()),
+        }
         faces[f] = Some(frame);
     }
     let background = u32::from_le_bytes(params.background);
@@ -203,63 +198,8 @@ pub fn panorama_frame(
         }
     }
     let covered = out.ids.iter().filter(|&&id| id != NO_FACE).count() as u64;
-    out.stats = RenderStats { geometry, pixels_covered: covered, ..Default::default() };
+    out.stats = RenderStats { geometry, raster: raster.unwrap_or_default(), pixels_covered: covered, ..Default::default() };
     Ok(out)
-}
-
-/// `into` plus `counts`, field by field.
-fn add_counts(into: &mut GeometryCounts, counts: &GeometryCounts) {
-    let GeometryCounts {
-        clipped,
-        culled_frustum,
-        culled_back,
-        culled_front,
-        culled_zero_area,
-        culled_no_centre,
-        rasterised,
-        instances_culled,
-        instances_drawn,
-        points_drawn,
-        points_culled,
-        lines_drawn,
-        lines_culled,
-        bytes_uploaded,
-    } = *counts;
-    into.clipped += clipped;
-    into.culled_frustum += culled_frustum;
-    into.culled_back += culled_back;
-    into.culled_front += culled_front;
-    into.culled_zero_area += culled_zero_area;
-    into.culled_no_centre += culled_no_centre;
-    into.rasterised += rasterised;
-    into.instances_culled += instances_culled;
-    into.instances_drawn += instances_drawn;
-    into.points_drawn += points_drawn;
-    into.points_culled += points_culled;
-    into.lines_drawn += lines_drawn;
-    into.lines_culled += lines_culled;
-    into.bytes_uploaded += bytes_uploaded;
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-fn normalise(a: [f64; 3]) -> [f64; 3] {
-    let n = dot(a, a).sqrt();
-    [a[0] / n, a[1] / n, a[2] / n]
 }
 
 #[cfg(test)]

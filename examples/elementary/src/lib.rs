@@ -28,8 +28,3 @@ pub fn params(width: u32, height: u32, function: usize, [lo, hi]: [f32; 2], y: f
     params.fragment_constants = [function as f32, lo, hi, width as f32, y, 1.0 / (width as f32 * height as f32), 0.0, 0.0];
     Ok(params)
 }
-
-/// The frame's constants as the shader reads them.
-pub fn constants(params: &RenderParams) -> [f32; 8] {
-    params.fragment_constants
-}

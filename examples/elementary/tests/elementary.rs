@@ -6,7 +6,7 @@
 mod common;
 
 use common::render_frame;
-use elementary::{FUNCTIONS, argument, constants, evaluate, params, screen};
+use elementary::{FUNCTIONS, argument, evaluate, params, screen};
 use tileraster::Backend;
 
 /// Each function's arguments across its domain (and `pow`'s exponent).
@@ -29,7 +29,7 @@ fn every_device_computes_the_elementary_functions_with_the_cpus_bits() {
     for (k, name) in FUNCTIONS.iter().enumerate() {
         let (range, y) = DOMAINS[k];
         let p = params(width, height, k, range, y).unwrap();
-        let c = constants(&p);
+        let c = p.fragment_constants;
         let cpu = render_frame(&screen(), &p, Backend::Cpu);
         let mut distinct = std::collections::BTreeSet::new();
         for (n, &word) in cpu.colour.iter().enumerate() {

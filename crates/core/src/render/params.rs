@@ -275,6 +275,26 @@ pub struct GeometryCounts {
 }
 
 impl GeometryCounts {
+    /// Add another frame's counts to these (frames drawn for one picture: a panorama's faces).
+    pub fn absorb(&mut self, other: &GeometryCounts) {
+        self.clipped += other.clipped;
+        self.culled_frustum += other.culled_frustum;
+        self.culled_back += other.culled_back;
+        self.culled_front += other.culled_front;
+        self.culled_zero_area += other.culled_zero_area;
+        self.culled_no_centre += other.culled_no_centre;
+        self.rasterised += other.rasterised;
+        self.instances_culled += other.instances_culled;
+        self.instances_drawn += other.instances_drawn;
+        self.points_drawn += other.points_drawn;
+        self.points_culled += other.points_culled;
+        self.lines_drawn += other.lines_drawn;
+        self.lines_culled += other.lines_culled;
+        self.bytes_uploaded += other.bytes_uploaded;
+    }
+}
+
+impl GeometryCounts {
     pub(super) fn add(mut self, o: GeometryCounts) -> Self {
         self.clipped += o.clipped;
         self.culled_frustum += o.culled_frustum;

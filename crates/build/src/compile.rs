@@ -53,9 +53,11 @@ impl Shader {
         Ok(())
     }
 
-    /// The crate's module, marked and checked.
+    /// The crate's module, marked, optimised and checked.
     fn compile(&self, crate_path: &Path) -> Result<Module, BuildError> {
+        // spirv-opt runs below, once the arithmetic is marked: rust-gpu would run it before.
         let mut builder = SpirvBuilder::new(crate_path, "spirv-unknown-vulkan1.2")
+            .extra_arg("--no-spirv-opt")
             .capability(Capability::Int64)
             .capability(Capability::Int64Atomics)
             .capability(Capability::GroupNonUniform)
@@ -63,6 +65,10 @@ impl Shader {
             .capability(Capability::GroupNonUniformBallot)
             .capability(Capability::GroupNonUniformShuffle);
         builder.build_script.defaults = true;
+        // rustc's output then reaches cargo as the build script's own, shown where the build
+        // fails; forwarded as warnings it would carry rust-gpu's note on every build that
+        // `--no-spirv-opt` skipped its optimiser, which `optimise` runs instead.
+        builder.build_script.forward_rustc_warnings = Some(false);
         let compile_error = |reason: String| BuildError::Compile { crate_path: crate_path.to_path_buf(), reason };
         let result = {
             let _one_at_a_time = builder_lock();
@@ -72,6 +78,8 @@ impl Shader {
         let read_error = |reason: String| BuildError::Read { crate_path: crate_path.to_path_buf(), reason };
         let bytes = std::fs::read(path).map_err(|e| read_error(format!("{}: {e}", path.display())))?;
         let mut module = check::load(&bytes).map_err(read_error)?;
+        mark_no_contraction(&mut module);
+        let module = optimise(&module).map_err(|reason| BuildError::Optimise { crate_path: crate_path.to_path_buf(), reason })?;
         let problems = check::portable(&module);
         if !problems.is_empty() {
             return Err(BuildError::NotPortable { crate_path: crate_path.to_path_buf(), problems });
@@ -80,9 +88,23 @@ impl Shader {
         if !problems.is_empty() {
             return Err(BuildError::EntryPoints { crate_path: crate_path.to_path_buf(), problems });
         }
-        mark_no_contraction(&mut module);
         Ok(module)
     }
+}
+
+/// `module` through spirv-opt's performance passes, as rust-gpu runs them. The arithmetic is marked `NoContraction` first, and spirv-opt folds no
+/// float instruction so marked: it would otherwise merge the constants of a chain
+/// (`(x · c₁) · c₂` into `x · (c₁c₂)`), where the CPU, running the same source natively,
+/// rounds twice.
+fn optimise(module: &Module) -> Result<Module, String> {
+    use spirv_tools::opt::Optimizer;
+    let mut optimizer = spirv_tools::opt::create(Some(spirv_tools::TargetEnv::Vulkan_1_2));
+    optimizer.register_performance_passes();
+    let mut messages = Vec::new();
+    let optimised = optimizer
+        .optimize(module.assemble(), &mut |m: spirv_tools::error::Message| messages.push(m.message), None)
+        .map_err(|e| format!("spirv-opt: {e}; {}", messages.join("; ")))?;
+    rspirv::dr::load_words(optimised.as_words()).map_err(|e| format!("reading spirv-opt's module: {e}"))
 }
 
 fn write_module(module: &Module, out_dir: &str, name: &str, env: &str) -> Result<(), BuildError> {

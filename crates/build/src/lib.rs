@@ -34,6 +34,7 @@ pub use compile::Shader;
 
 use rspirv::dr::{Instruction, Module, Operand};
 use rspirv::spirv::{Capability as SpirvCapability, Decoration, ExecutionMode, Op};
+use std::collections::HashSet;
 use std::path::PathBuf;
 use tileraster_kernels::pipeline::{Stage, StageInfo};
 
@@ -44,6 +45,8 @@ pub enum BuildError {
     Compile { crate_path: PathBuf, reason: String },
     #[error("reading the SPIR-V rust-gpu wrote for {crate_path}: {reason}")]
     Read { crate_path: PathBuf, reason: String },
+    #[error("optimising the module of {crate_path}: {reason}")]
+    Optimise { crate_path: PathBuf, reason: String },
     #[error("the module of {crate_path} breaks tileraster's numeric contract:\n{}\nUse tileraster_kernels::math::float's correctly rounded div, recip and sqrt, and additions, subtractions and multiplications of floats; transcendental functions have no portable bits", .problems.join("\n"))]
     NotPortable { crate_path: PathBuf, problems: Vec<String> },
     #[error("the entry points of {crate_path} are not the stage table's:\n{}", .problems.join("\n"))]
@@ -94,10 +97,24 @@ pub const CONTRACTIBLE: [Op; 14] = [
     Op::Dot,
 ];
 
-/// Decorates every float arithmetic result `NoContraction`.
+/// Decorates every float arithmetic result `NoContraction`, but for those of constants alone
+/// (`1.0 / 255.0`): the optimiser folds them, in IEEE arithmetic with the bits the CPU's
+/// compiler gives them, and the decoration would keep a division that no device divides alike.
 pub fn mark_no_contraction(module: &mut Module) {
-    let contractible: Vec<u32> =
-        module.functions.iter().flat_map(|f| f.all_inst_iter()).filter(|i| CONTRACTIBLE.contains(&i.class.opcode)).filter_map(|i| i.result_id).collect();
+    let constants: HashSet<u32> = module
+        .types_global_values
+        .iter()
+        .filter(|i| matches!(i.class.opcode, Op::Constant | Op::ConstantComposite | Op::ConstantNull))
+        .filter_map(|i| i.result_id)
+        .collect();
+    let of_constants = |i: &Instruction| i.operands.iter().all(|o| matches!(o, Operand::IdRef(id) if constants.contains(id)));
+    let contractible: Vec<u32> = module
+        .functions
+        .iter()
+        .flat_map(|f| f.all_inst_iter())
+        .filter(|i| CONTRACTIBLE.contains(&i.class.opcode) && !of_constants(i))
+        .filter_map(|i| i.result_id)
+        .collect();
     for id in contractible {
         module.annotations.push(Instruction::new(Op::Decorate, None, None, vec![Operand::IdRef(id), Operand::Decoration(Decoration::NoContraction)]));
     }

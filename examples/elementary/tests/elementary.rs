@@ -1,7 +1,8 @@
 //! The kernels' elementary functions computed on the GPU give the CPU's bits: a frame of each
 //! function's values over its domain (65,536 arguments), drawn by a user's fragment shader on
-//! both backends, equals the native functions' bits pixel by pixel. So do chains of float
-//! constants (`chains`), which the build's optimiser must not fold.
+//! both backends, equals the native functions' bits pixel by pixel. So do glTF's BRDF
+//! (`brdf`) and chains of float constants (`chains`), which the build's optimiser must not
+//! fold.
 
 #[path = "../../../tests/common/mod.rs"]
 mod common;
@@ -11,7 +12,7 @@ use elementary::{FUNCTIONS, argument, evaluate, params, screen};
 use tileraster::Backend;
 
 /// Each function's arguments across its domain (and `pow`'s exponent).
-const DOMAINS: [([f32; 2], f32); 10] = [
+const DOMAINS: [([f32; 2], f32); 11] = [
     ([-87.0, 88.72], 0.0),
     ([-125.0, 127.99], 0.0),
     ([1e-30, 1e30], 0.0),
@@ -21,6 +22,7 @@ const DOMAINS: [([f32; 2], f32); 10] = [
     ([-20.0, 20.0], 0.0),
     ([-1.0, 1.0], 0.0),
     ([-1.0, 1.0], 0.0),
+    ([0.0, 1.0], 0.0),
     ([-1000.0, 1000.0], 0.0),
 ];
 

@@ -4,8 +4,9 @@
 //! frames test, key and shade their samples in one stage (`multisample`). What colours a
 //! fragment is a program of its own (`fragment`): the built-in shadings or a user's; so is
 //! where the vertex stage puts a vertex (`vertex`), glTF's morph targets and skins among its
-//! built-in programs (`deform`).
+//! built-in programs (`deform`). glTF's metallic-roughness BRDF is `brdf`.
 
+pub mod brdf;
 pub mod deform;
 pub mod depth;
 pub mod fragment;

@@ -9,15 +9,17 @@
 
 use tileraster_kernels::abi::ShadeParams;
 use tileraster_kernels::math::elementary;
+use tileraster_kernels::programs::brdf::{Cosines, Surface, reflected};
 use tileraster_kernels::programs::fragment::{Fragment, FragmentShader};
 
 /// The shader: stateless.
 #[derive(Clone, Copy, Default)]
 pub struct Values;
 
-/// The functions in the order `constants[0]` numbers them; the last, [`chains`], is no
-/// elementary function but the arithmetic a compiler must leave as written.
-pub const FUNCTIONS: [&str; 10] = ["exp", "exp2", "ln", "log2", "pow", "sin", "cos", "asin", "acos", "chains"];
+/// The functions in the order `constants[0]` numbers them; then glTF's BRDF along a path of
+/// cosines ([`brdf`]), and [`chains`], no function but the arithmetic a compiler must leave as
+/// written.
+pub const FUNCTIONS: [&str; 11] = ["exp", "exp2", "ln", "log2", "pow", "sin", "cos", "asin", "acos", "brdf", "chains"];
 
 impl FragmentShader for Values {
     fn shade(&self, f: &Fragment, params: &ShadeParams) -> [f32; 4] {
@@ -50,8 +52,19 @@ pub fn evaluate(k: u32, x: f32, y: f32) -> f32 {
         6 => elementary::cos(x),
         7 => elementary::asin(x),
         8 => elementary::acos(x),
+        9 => brdf(x),
         _ => chains(x),
     }
+}
+
+/// The red channel of glTF's BRDF (`programs::brdf::reflected`) of a half-metallic, fairly
+/// smooth surface along a path of cosines: `n·h = x` from the edge of the highlight to its
+/// peak, the light and the viewer turning with it.
+#[inline]
+pub fn brdf(x: f32) -> f32 {
+    let s = Surface { base: [0.9, 0.6, 0.3], metallic: 0.5, roughness: 0.3 };
+    let c = Cosines { n_l: 0.25 + 0.75 * x, n_v: 1.0 - 0.5 * x, n_h: x, v_h: 0.5 + 0.5 * x };
+    reflected(&s, &c)[0]
 }
 
 /// `((c₁ − x·c₂·c₃) + c₄)`, each step rounded as written: a chain of multiplications by two

@@ -174,6 +174,30 @@ fn every_shading_mode_is_the_same_bits_on_both_backends() {
     }
 }
 
+/// Metallic-roughness shading: the surface's factors change the frame (a metal loses the
+/// diffuse lobe, a rough surface spreads the highlight), and factors outside `[0, 1]` are
+/// typed errors naming the factor.
+#[test]
+fn pbr_frames_follow_their_surface_and_refuse_factors_outside_zero_to_one() {
+    let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 24, 40);
+    let base = RenderParams { shading: Shading::Pbr, ..RenderParams::new(97, 65, view(97, 65, [2.2, -2.6, 1.4], 0.5, 8.0)) };
+    let frame = |metallic: f64, roughness: f64| render(&mesh, &RenderParams { metallic, roughness, ..base.clone() }, Backend::Cpu).unwrap();
+    let dielectric = frame(0.0, 0.5);
+    for (metallic, roughness) in [(1.0, 0.5), (0.0, 0.1), (0.0, 1.0)] {
+        let other = frame(metallic, roughness);
+        let differing = (0..other.colour.len()).filter(|&k| other.colour[k] != dielectric.colour[k]).count();
+        assert!(differing > 500, "metallic {metallic}, roughness {roughness}: {differing} pixels differ from the default surface");
+    }
+    for (metallic, roughness, what) in
+        [(1.5, 0.5, "metallic factor"), (0.0, -0.1, "roughness"), (f64::NAN, 0.5, "metallic factor"), (0.0, f64::INFINITY, "roughness")]
+    {
+        match render(&mesh, &RenderParams { metallic, roughness, ..base.clone() }, Backend::Cpu) {
+            Err(Error::InvalidMaterial { what: named, .. }) => assert_eq!(named, what),
+            other => panic!("metallic {metallic}, roughness {roughness}: {:?}", other.map(|_| ())),
+        }
+    }
+}
+
 #[test]
 fn depth_functions_writes_and_ties_are_the_same_bits_on_both_backends() {
     // Interpenetrating triangles, and every triangle twice (exact depth ties between copies).

@@ -113,7 +113,7 @@ fn choice<T: Copy>(what: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T>
 impl View {
     #[new]
     #[pyo3(signature = (*, size = None, camera = None, mvp = None, camera_node = None, fov = None, ortho = None, up = None, background = [0.0; 4],
-        cull = "back", shading = "smooth", interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
+        cull = "back", shading = "smooth", metallic = 0.0, roughness = 0.5, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
         filter = None, address = None, blend = false, no_skip = Vec::new(), count_fragments = false, projection = None, jitter = 1, backend = "auto"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -127,6 +127,8 @@ impl View {
         background: [f64; 4],
         cull: &str,
         shading: &str,
+        metallic: f64,
+        roughness: f64,
         interpolation: &str,
         points: Option<f32>,
         faces: bool,
@@ -190,11 +192,14 @@ impl View {
                     ("flat", Shading::Flat),
                     ("smooth", Shading::Smooth),
                     ("phong", Shading::Phong),
+                    ("pbr", Shading::Pbr),
                     ("depth", Shading::Depth),
                     ("normals", Shading::Normals),
                     ("ids", Shading::Ids),
                 ],
             )?,
+            metallic,
+            roughness,
             interpolation: choice(
                 "interpolation",
                 interpolation,

@@ -167,7 +167,7 @@ def test_the_viewer_in_a_browser(mesh, tmp_path):
             page.keyboard.press("c")
             assert "saved" in page.text_content("#check")
             reference = page.text_content("#crc")
-            steps = [("f", "--backend cpu"), ("f", "--shading phong"), ("m", "--wireframe diamond-exit"), ("v", "--points 3"), ("x", "--msaa 4"), ("p", "--ortho="),
+            steps = [("f", "--backend cpu"), ("f", "--shading phong"), ("f", "--shading pbr"), ("m", "--wireframe diamond-exit"), ("v", "--points 3"), ("x", "--msaa 4"), ("p", "--ortho="),
                      ("p", "--projection cylindrical"), ("p", "--projection equirectangular"), ("p", "--projection fisheye")]
             for key, flag in steps:
                 page.keyboard.press(key)
@@ -237,7 +237,7 @@ def test_the_server_answers_bad_requests_and_goes_on(mesh):
             ("POST", "/frame", json.dumps({"size": [100000, 10]}), 400),
             ("POST", "/frame", json.dumps({"size": [4096, 4096], "msaa": 8}), 400),
             ("POST", "/frame", json.dumps({"msaa": 3}), 400),
-            ("POST", "/frame", json.dumps({"shading": "pbr"}), 400),
+            ("POST", "/frame", json.dumps({"shading": "toon"}), 400),
             ("POST", "/frame", json.dumps({"backend": "tpu"}), 400),
             ("POST", "/frame", json.dumps({"camera": {"eye": [1, 1, 1], "target": [1, 1, 1], "up": [0, 0, 1]}}), 400),
             ("POST", "/frame", json.dumps({"camera": {"eye": [1e308, 0, 0], "target": [0, 0, 0], "up": [0, 0, 1]}}), None),

@@ -29,8 +29,9 @@ _VIEW_OPTIONS = """
       frame (``fov`` is then the cylinder's height, 90, or the fisheye's width, 180);
       ``up="y"`` or ``"z"`` for the default camera (default: the format's; ``"y"`` for a
       ``Mesh``).
-    - ``shading="smooth"``: ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"depth"``,
-      ``"normals"`` or ``"ids"``; ``interpolation="perspective"`` (or ``"screen"``,
+    - ``shading="smooth"``: ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"pbr"``,
+      ``"depth"``, ``"normals"`` or ``"ids"``; ``metallic=0.0`` and ``roughness=0.5`` for
+      ``"pbr"`` (glTF's metallic-roughness BRDF); ``interpolation="perspective"`` (or ``"screen"``,
       ``"flat"``); ``cull="back"`` (or ``"front"``, ``"none"``); ``msaa=1`` (or 4, 8);
       ``background=(r, g, b, a)`` 0..255.
     - ``points=PIXELS`` (the vertices as squares), ``wireframe=True`` (or ``"bresenham"``,

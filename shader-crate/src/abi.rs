@@ -473,6 +473,9 @@ pub enum ShadeMode {
     Normals = 3,
     /// A colour per input face id.
     Ids = 4,
+    /// glTF's metallic-roughness BRDF per pixel (`programs::brdf`), from the interpolated
+    /// normal, the frame's lights and `ShadeParams::material`.
+    Pbr = 5,
 }
 
 impl ShadeMode {
@@ -486,6 +489,8 @@ impl ShadeMode {
             ShadeMode::Normals
         } else if code == ShadeMode::Ids as u32 {
             ShadeMode::Ids
+        } else if code == ShadeMode::Pbr as u32 {
+            ShadeMode::Pbr
         } else {
             ShadeMode::Colour
         }
@@ -564,6 +569,8 @@ pub struct ShadeParams {
     pub light_colour: [[f32; 4]; MAX_LIGHTS],
     /// The depth view's range: `[near, 1 / (far − near)]`, depth `near` white, `far` black.
     pub depth_view: [f32; 4],
+    /// Metallic-roughness shading's surface, `[metallic, perceptual roughness, 0, 0]`.
+    pub material: [f32; 4],
     /// Values for a fragment program (`programs::fragment`), as the frame gives them.
     pub constants: [f32; FRAGMENT_CONSTANTS],
 }

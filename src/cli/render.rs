@@ -108,6 +108,12 @@ pub struct FrameArgs {
     cull: CullArg,
     #[arg(long, value_enum, default_value = "smooth")]
     shading: ShadingArg,
+    /// How metallic the surface is, 0 (a dielectric) to 1, for --shading pbr.
+    #[arg(long, value_name = "FACTOR", default_value_t = 0.0)]
+    metallic: f64,
+    /// The surface's perceptual roughness, 0 (a mirror; shaded as 0.045) to 1, for --shading pbr.
+    #[arg(long, value_name = "FACTOR", default_value_t = 0.5)]
+    roughness: f64,
     /// How attributes are interpolated across a triangle: perspective-correct, linear on the
     /// screen (noperspective), or flat (the face's first vertex's values).
     #[arg(long, value_enum, default_value = "perspective")]
@@ -212,6 +218,7 @@ enum ShadingArg {
     Flat,
     Smooth,
     Phong,
+    Pbr,
     Depth,
     Normals,
     Ids,
@@ -290,6 +297,8 @@ impl FrameArgs {
             background,
             cull,
             shading,
+            metallic,
+            roughness,
             interpolation,
             points,
             no_faces,
@@ -318,6 +327,8 @@ impl FrameArgs {
             background,
             cull: library(&CULLS, cull),
             shading: library(&SHADINGS, shading),
+            metallic,
+            roughness,
             interpolation: library(&INTERPOLATIONS, interpolation),
             points,
             faces: !no_faces,
@@ -389,6 +400,12 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
     if view.shading != Shading::Smooth {
         flag("shading", &[named(&SHADINGS, view.shading)]);
     }
+    if view.metallic != 0.0 {
+        flag("metallic", &[view.metallic.to_string()]);
+    }
+    if view.roughness != 0.5 {
+        flag("roughness", &[view.roughness.to_string()]);
+    }
     if view.interpolation != Interpolation::Perspective {
         flag("interpolation", &[named(&INTERPOLATIONS, view.interpolation)]);
     }
@@ -428,11 +445,12 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
 
 /// Each command-line value beside the library's, read both ways.
 const CULLS: [(CullArg, Cull); 3] = [(CullArg::Back, Cull::Back), (CullArg::Front, Cull::Front), (CullArg::None, Cull::None)];
-const SHADINGS: [(ShadingArg, Shading); 7] = [
+const SHADINGS: [(ShadingArg, Shading); 8] = [
     (ShadingArg::Unlit, Shading::Unlit),
     (ShadingArg::Flat, Shading::Flat),
     (ShadingArg::Smooth, Shading::Smooth),
     (ShadingArg::Phong, Shading::Phong),
+    (ShadingArg::Pbr, Shading::Pbr),
     (ShadingArg::Depth, Shading::Depth),
     (ShadingArg::Normals, Shading::Normals),
     (ShadingArg::Ids, Shading::Ids),
@@ -558,6 +576,7 @@ mod tests {
         let cases: Vec<Vec<&str>> = vec![
             vec![],
             vec!["--size", "640", "480", "--fov", "33.3", "--shading", "phong", "--msaa", "8", "--cull", "none"],
+            vec!["--shading", "pbr", "--metallic", "0.8", "--roughness", "0.25"],
             vec!["--camera", "0.1,-2.5e-3,1e17,5,6,7,0,0,1", "--ortho", "--background", "1,2,3,255", "--interpolation", "screen"],
             vec!["--ortho=12.75", "--up", "z", "--points", "2.5", "--no-faces", "--wireframe", "bresenham", "--wire-colour", "9,8,7,6"],
             vec!["--mvp", "1,0,0,0,0,1,0,0,0,0,0.5,0.5,0,0,0,1", "--filter", "trilinear", "--address", "mirror", "--blend"],

@@ -130,6 +130,9 @@ pub struct ViewOptions {
     pub background: [f64; 4],
     pub cull: Cull,
     pub shading: Shading,
+    /// The surface of `Shading::Pbr`: how metallic, and its perceptual roughness, each 0..=1.
+    pub metallic: f64,
+    pub roughness: f64,
     pub interpolation: Interpolation,
     /// Each vertex also drawn as a square this many pixels wide.
     pub points: Option<f32>,
@@ -162,6 +165,8 @@ impl Default for ViewOptions {
             background: [0.0; 4],
             cull: Cull::Back,
             shading: Shading::Smooth,
+            metallic: 0.0,
+            roughness: 0.5,
             interpolation: Interpolation::Perspective,
             points: None,
             faces: true,
@@ -366,8 +371,14 @@ impl Model {
                 return Err(option_error(option, format!("{c} is not a whole number from 0 to 255")));
             }
         }
+        for (option, value) in [("metallic", view.metallic), ("roughness", view.roughness)] {
+            if !(0.0..=1.0).contains(&value) {
+                return Err(option_error(option, format!("{value} is not a number from 0 to 1")));
+            }
+        }
         let mut params = RenderParams::new(width, height, view_projection);
         params.model = self.model;
+        (params.metallic, params.roughness) = (view.metallic, view.roughness);
         params.eye = viewer;
         params.background = view.background.map(|c| c as u8);
         (params.cull, params.blend, params.shading, params.interpolation) = (view.cull, view.blend, view.shading, view.interpolation);

@@ -115,6 +115,9 @@ pub enum Error {
     #[error("{what}'s colour {colour:?} is not linear RGBA within [0, 1]")]
     InvalidColour { what: &'static str, colour: [f32; 4] },
 
+    #[error("the surface's {what} is {value}: give a number from 0 to 1")]
+    InvalidMaterial { what: &'static str, value: f64 },
+
     #[error("instance {instance}: {reason}")]
     InvalidInstance { instance: usize, reason: String },
 

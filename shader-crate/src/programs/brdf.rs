@@ -228,8 +228,8 @@ mod tests {
         let c = Cosines { n_l: 1.0, n_v: 1.0, n_h: 1.0, v_h: 1.0 };
         let got = reflected(&metal, &c);
         let specular = distribution(1.0, 1.0) * visibility(1.0, 1.0, 1.0);
-        for k in 0..3 {
-            assert_eq!(got[k], (metal.base[k] * specular) * 1.0, "channel {k}");
+        for (k, (got, base)) in got.iter().zip(metal.base).enumerate() {
+            assert_eq!(*got, (base * specular) * 1.0, "channel {k}");
         }
     }
 }

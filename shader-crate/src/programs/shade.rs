@@ -15,6 +15,7 @@ use crate::abi::{
 use crate::math::edge::Side;
 use crate::math::fixed::{i32_to_f32, i64_to_f32};
 use crate::math::float::{Divisor, recip, sqrt};
+use crate::programs::brdf::{Cosines, Surface, reflected};
 use crate::programs::depth::{DepthProgram, depth_bits};
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::texture::{self, lod};
@@ -210,6 +211,34 @@ pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> 
     [base[0] * diffuse[0] + sc[0] * specular[0], base[1] * diffuse[1] + sc[1] * specular[1], base[2] * diffuse[2] + sc[2] * specular[2], base[3]]
 }
 
+/// glTF's metallic-roughness BRDF (`programs::brdf`) under the frame's lights at a point with
+/// unit normal `n` on the base colour `base` (its alpha kept), with `params.material`'s metallic
+/// and roughness; `p` is the point in the world. Each light's colour is what it gives a white
+/// Lambertian surface facing it (the BRDF times `π`: the same diffuse light as [`phong`]);
+/// the ambient light lights the base colour as in [`phong`], until image-based lighting
+/// replaces it.
+#[inline]
+pub fn pbr(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
+    let v = normalise(params.towards_viewer(p));
+    let surface = Surface { base: [base[0], base[1], base[2]], metallic: params.material[0], roughness: params.material[1] };
+    let a = &params.ambient;
+    let mut out = [base[0] * a[0], base[1] * a[1], base[2] * a[2]];
+    let n_v = dot(&n, &v);
+    let mut k = 0;
+    while k < MAX_LIGHTS {
+        if (k as u32) < params.lights {
+            let l = [params.light_dir[k][0], params.light_dir[k][1], params.light_dir[k][2]];
+            let c = &params.light_colour[k];
+            let h = normalise([l[0] + v[0], l[1] + v[1], l[2] + v[2]]);
+            let r = reflected(&surface, &Cosines { n_l: dot(&n, &l), n_v, n_h: dot(&n, &h), v_h: dot(&v, &h) });
+            let pi = core::f32::consts::PI;
+            out = [out[0] + (pi * r[0]) * c[0], out[1] + (pi * r[1]) * c[1], out[2] + (pi * r[2]) * c[2]];
+        }
+        k += 1;
+    }
+    [out[0], out[1], out[2], base[3]]
+}
+
 /// Gouraud shading's colour of a vertex (`a`, its attributes as the assembly reads them): its
 /// colour lit with its normal, normalised, at its position in the world. A vertex shared by
 /// several faces is lit alike in each: the colour is a function of its attributes alone.
@@ -330,7 +359,7 @@ pub fn fragment_colour(
             return rgba8([g, g, g, 1.0]);
         }
         ShadeMode::Ids => return id_colour(face),
-        ShadeMode::Colour | ShadeMode::Phong | ShadeMode::Normals => {}
+        ShadeMode::Colour | ShadeMode::Phong | ShadeMode::Normals | ShadeMode::Pbr => {}
     }
     let b = weights(s, t, params, i, j);
     if t.flags & SHADING_UNLIT != 0 {
@@ -344,7 +373,11 @@ pub fn fragment_colour(
     if mode == ShadeMode::Colour {
         return rgba8(base);
     }
-    rgba8(phong(params, base, n, interpolate3(t, &b, ATTR_POSITION)))
+    let p = interpolate3(t, &b, ATTR_POSITION);
+    if mode == ShadeMode::Pbr {
+        return rgba8(pbr(params, base, n, p));
+    }
+    rgba8(phong(params, base, n, p))
 }
 
 /// Source-over of RGBA8 `src` onto RGBA8 `dst` in 8-bit integers, rounded to nearest:

@@ -87,6 +87,7 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4]) -> Shade
     let mode = match params.shading {
         Shading::Unlit | Shading::Flat | Shading::Smooth => ShadeMode::Colour,
         Shading::Phong => ShadeMode::Phong,
+        Shading::Pbr => ShadeMode::Pbr,
         Shading::Depth => ShadeMode::Depth,
         Shading::Normals => ShadeMode::Normals,
         Shading::Ids => ShadeMode::Ids,
@@ -106,6 +107,7 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4]) -> Shade
         samples: params.samples,
         layer_sample: params.layer_sample,
         constants: params.fragment_constants,
+        material: [params.metallic as f32, params.roughness as f32, 0.0, 0.0],
         ..Default::default()
     };
     for (k, l) in lights.iter().enumerate() {

@@ -75,6 +75,9 @@ pub enum Shading {
     Smooth,
     /// Lit per pixel (Lambert + Blinn-Phong) from interpolated normals.
     Phong,
+    /// Lit per pixel with glTF's metallic-roughness BRDF (Lambert + GGX) from interpolated
+    /// normals, the surface's `metallic` and `roughness`.
+    Pbr,
     /// Depth as grey.
     Depth,
     /// Unit normals as RGB.
@@ -84,7 +87,8 @@ pub enum Shading {
 }
 
 impl Shading {
-    pub const ALL: [Shading; 7] = [Shading::Unlit, Shading::Flat, Shading::Smooth, Shading::Phong, Shading::Depth, Shading::Normals, Shading::Ids];
+    pub const ALL: [Shading; 8] =
+        [Shading::Unlit, Shading::Flat, Shading::Smooth, Shading::Phong, Shading::Pbr, Shading::Depth, Shading::Normals, Shading::Ids];
 
     /// Whether the shade stage reads the interpolated attributes (colour, normal, position).
     pub fn reads_attributes(self) -> bool {
@@ -97,6 +101,7 @@ impl Shading {
             Shading::Flat => "flat",
             Shading::Smooth => "smooth",
             Shading::Phong => "phong",
+            Shading::Pbr => "pbr",
             Shading::Depth => "depth",
             Shading::Normals => "normals",
             Shading::Ids => "ids",
@@ -143,6 +148,10 @@ pub struct RenderParams {
     pub ambient: [f64; 3],
     pub specular: [f64; 3],
     pub shininess: u32,
+    /// How metallic the surface is, `[0, 1]`, for `Shading::Pbr` (0 by default: a dielectric).
+    pub metallic: f64,
+    /// The surface's perceptual roughness, `[0, 1]`, for `Shading::Pbr` (0.5 by default).
+    pub roughness: f64,
     /// Count the fragments of every pixel (the frame's `fragments` layer and statistics):
     /// on by default. Off, a triangle a tile's depth bound hides gets no edge test there.
     pub count_fragments: bool,
@@ -218,6 +227,8 @@ impl RenderParams {
             ambient: [0.15, 0.15, 0.15],
             specular: [0.25, 0.25, 0.25],
             shininess: 32,
+            metallic: 0.0,
+            roughness: 0.5,
             count_fragments: true,
             count_tiles: false,
             return_colour: true,

@@ -35,6 +35,11 @@ pub(super) fn validate_params(params: &RenderParams) -> Result<(), Error> {
     {
         return Err(Error::InvalidColour { what: "the wireframe", colour });
     }
+    for (what, value) in [("metallic factor", params.metallic), ("roughness", params.roughness)] {
+        if !(0.0..=1.0).contains(&value) {
+            return Err(Error::InvalidMaterial { what, value });
+        }
+    }
     for (name, m) in [("model", &params.model), ("view-projection", &params.view_projection)] {
         for (row, r) in m.iter().enumerate() {
             for (column, &value) in r.iter().enumerate() {

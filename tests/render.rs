@@ -6,7 +6,7 @@ mod common;
 
 use common::gpu_or_skip;
 use tileraster::render::{
-    Camera, Cull, DepthFunc, Eye, Frame, FrontFace, Interpolation, Mesh, NO_FACE, Projection, RenderParams, Shading, Up, prepare_render, render,
+    Camera, Cull, DepthFunc, Eye, Frame, FrontFace, Interpolation, Light, Mesh, NO_FACE, Projection, RenderParams, Shading, ToneMap, Up, prepare_render, render,
 };
 use tileraster::{Backend, Error, Skips};
 use tileraster_core::render::{GUARD_PX, RENDER_SNAP_BITS};
@@ -171,6 +171,30 @@ fn every_shading_mode_is_the_same_bits_on_both_backends() {
         let params = RenderParams { shading, ..base.clone() };
         let frame = assert_render_parity(&format!("sphere, {}", shading.name()), &mesh, &params);
         assert!(frame.stats.pixels_covered > 4000, "{}: the sphere covers {} pixels", shading.name(), frame.stats.pixels_covered);
+    }
+}
+
+/// The output transforms (each tone map, linear or sRGB-encoded) of lit, coloured
+/// surfaces: the same bits on both backends, each its own frame; lines and the data
+/// views are not transformed.
+#[test]
+fn tone_maps_and_srgb_encoding_are_the_same_bits_on_both_backends() {
+    let mesh = meshes::sphere([0.0, 0.0, 0.0], 1.0, 24, 40);
+    let base = RenderParams::new(97, 65, view(97, 65, [2.2, -2.6, 1.4], 0.5, 8.0));
+    // Bright lights, so that the tone maps have colours above one to compress.
+    let lights = vec![Light { direction: [0.4, -0.5, 0.75], colour: [2.5, 2.2, 1.8] }, Light { direction: [-0.6, -0.2, 0.3], colour: [0.6, 0.7, 1.2] }];
+    for shading in [Shading::Smooth, Shading::Phong, Shading::Pbr, Shading::Normals] {
+        let mut seen = std::collections::HashSet::new();
+        for tone_map in ToneMap::ALL {
+            for srgb in [false, true] {
+                let params = RenderParams { shading, tone_map, srgb, lights: lights.clone(), ..base.clone() };
+                let name = format!("sphere, {}, tone map {}, srgb {srgb}", shading.name(), tone_map.name());
+                let frame = assert_render_parity(&name, &mesh, &params);
+                seen.insert(frame.colour.clone());
+            }
+        }
+        let want = if shading == Shading::Normals { 1 } else { 6 };
+        assert_eq!(seen.len(), want, "{}: distinct frames of the six transforms", shading.name());
     }
 }
 

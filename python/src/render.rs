@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use tileraster::Backend;
 use tileraster::render::{
     Address, CameraChoice, Cull, Filter, Frame, FrameError, Interpolation, Lens, LineRule, Mesh as RustMesh, MeshSource, Model, ModelOptions, PreparedModel,
-    RenderParams, Shading, Up, ViewOptions, render_world,
+    RenderParams, Shading, ToneMap, Up, ViewOptions, render_world,
 };
 
 /// A library error as Python raises it: an option's error names the keyword argument.
@@ -113,7 +113,7 @@ fn choice<T: Copy>(what: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T>
 impl View {
     #[new]
     #[pyo3(signature = (*, size = None, camera = None, mvp = None, camera_node = None, fov = None, ortho = None, up = None, background = [0.0; 4],
-        cull = "back", shading = "smooth", metallic = 0.0, roughness = 0.5, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
+        cull = "back", shading = "smooth", metallic = 0.0, roughness = 0.5, tone_map = "none", srgb = false, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
         filter = None, address = None, blend = false, no_skip = Vec::new(), count_fragments = false, projection = None, jitter = 1, backend = "auto"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -129,6 +129,8 @@ impl View {
         shading: &str,
         metallic: f64,
         roughness: f64,
+        tone_map: &str,
+        srgb: bool,
         interpolation: &str,
         points: Option<f32>,
         faces: bool,
@@ -200,6 +202,8 @@ impl View {
             )?,
             metallic,
             roughness,
+            tone_map: choice("tone_map", tone_map, &[("none", ToneMap::None), ("neutral", ToneMap::Neutral), ("aces", ToneMap::Aces)])?,
+            srgb,
             interpolation: choice(
                 "interpolation",
                 interpolation,

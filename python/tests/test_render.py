@@ -78,6 +78,7 @@ CASES = [
      {"wireframe": "bresenham", "points": 3, "wire_colour": (255, 0, 0, 255), "size": (300, 200)}),
     ("obj", ["--z-scale", "3", "--shading", "flat"], {"z_scale": 3, "shading": "flat"}),
     ("obj", ["--shading", "pbr", "--metallic", "1", "--roughness", "0.3"], {"shading": "pbr", "metallic": 1.0, "roughness": 0.3}),
+    ("obj", ["--shading", "pbr", "--tone-map", "aces", "--srgb"], {"shading": "pbr", "tone_map": "aces", "srgb": True}),
     ("obj", ["--instances", "INSTANCES", "--shading", "ids"], {"instances": "TRANSFORMS", "shading": "ids"}),
     ("obj", ["--jitter", "4", "--size", "160", "100"], {"jitter": 4, "size": (160, 100)}),
     ("obj", ["--projection", "equirectangular", "--camera", "500,300,120,600,300,100,0,0,1", "--size", "256", "128"],

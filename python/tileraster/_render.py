@@ -31,7 +31,9 @@ _VIEW_OPTIONS = """
       ``Mesh``).
     - ``shading="smooth"``: ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"pbr"``,
       ``"depth"``, ``"normals"`` or ``"ids"``; ``metallic=0.0`` and ``roughness=0.5`` for
-      ``"pbr"`` (glTF's metallic-roughness BRDF); ``interpolation="perspective"`` (or ``"screen"``,
+      ``"pbr"`` (glTF's metallic-roughness BRDF); ``tone_map="none"`` (or ``"neutral"``,
+      ``"aces"``) and ``srgb=False`` (``True``: lit colours sRGB-encoded, as files and screens
+      expect); ``interpolation="perspective"`` (or ``"screen"``,
       ``"flat"``); ``cull="back"`` (or ``"front"``, ``"none"``); ``msaa=1`` (or 4, 8);
       ``background=(r, g, b, a)`` 0..255.
     - ``points=PIXELS`` (the vertices as squares), ``wireframe=True`` (or ``"bresenham"``,

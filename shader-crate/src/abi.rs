@@ -555,6 +555,9 @@ pub struct ShadeParams {
     /// snapped box (`stages::setup::edges_fit_i32`), so that the interpolation weights take
     /// them in 32-bit arithmetic (the same bits).
     pub small_edges: u32,
+    /// The output transform of lit colours (`programs::tone`): a tone map in bits 0–1
+    /// (`TONE_NONE`, `TONE_NEUTRAL`, `TONE_ACES`), `OUTPUT_SRGB` for sRGB encoding.
+    pub output: u32,
     /// Ambient light, RGB.
     pub ambient: [f32; 4],
     /// Specular colour, RGB.
@@ -595,7 +598,7 @@ impl ShadeParams {
 
 /// The frame-wide choices of the stages that colour fragments, in one word: the shading mode,
 /// the interpolation, blending, the number of lights, the samples, whether anything is
-/// textured and whether the edge functions fit 32 bits. On the GPU each frame's word is a specialisation constant of its shading
+/// textured, whether the edge functions fit 32 bits, and the output transform. On the GPU each frame's word is a specialisation constant of its shading
 /// pipelines, so that the driver compiles only the branches the frame takes: a CPU
 /// implementation of Vulkan runs every branch of a kernel, taken or not, and a GPU's registers
 /// are sized for the longest. Every field repeats one of `ShadeParams`, so a specialised stage
@@ -626,7 +629,8 @@ impl ShadeVariant {
                 | field(params.lights, 2, 7)
                 | field(params.samples, 4, 9)
                 | field((params.textured != 0) as u32, 1, 13)
-                | field((params.small_edges != 0) as u32, 1, 14),
+                | field((params.small_edges != 0) as u32, 1, 14)
+                | field(params.output, 3, 15),
         )
     }
 
@@ -634,7 +638,7 @@ impl ShadeVariant {
     /// stage).
     #[inline]
     pub fn holds(params: &ShadeParams) -> bool {
-        params.shading < 16 && params.interpolation < 4 && params.lights <= MAX_LIGHTS as u32 && params.samples < 16
+        params.shading < 16 && params.interpolation < 4 && params.lights <= MAX_LIGHTS as u32 && params.samples < 16 && params.output < 8
     }
 
     /// `params` with this word's choices in place of its own (unchanged where generic). A
@@ -651,6 +655,7 @@ impl ShadeVariant {
             p.samples = w >> 9 & 0xf;
             p.textured = w >> 13 & 1;
             p.small_edges = w >> 14 & 1;
+            p.output = w >> 15 & 0x7;
         }
         p
     }

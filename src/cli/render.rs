@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use tileraster::render::{
-    Address, CameraChoice, Cull, Filter, Interpolation, Lens, LineRule, MeshSource, Model, ModelOptions, Shading, Up, VertexStage, ViewOptions, render_world,
+    Address, CameraChoice, Cull, Filter, Interpolation, Lens, LineRule, MeshSource, Model, ModelOptions, Shading, ToneMap, Up, VertexStage, ViewOptions,
+    render_world,
 };
 use tileraster::{Backend, Grid, Window};
 use tileraster_io::{GeoTiffOptions, GeoTiffWriter, Sample};
@@ -114,6 +115,12 @@ pub struct FrameArgs {
     /// The surface's perceptual roughness, 0 (a mirror; shaded as 0.045) to 1, for --shading pbr.
     #[arg(long, value_name = "FACTOR", default_value_t = 0.5)]
     roughness: f64,
+    /// Bring lit colours into range so: clamped (none), Khronos PBR Neutral, or ACES.
+    #[arg(long, value_enum, default_value = "none")]
+    tone_map: ToneMapArg,
+    /// Store lit colours sRGB-encoded, as image files and screens expect (default: linear).
+    #[arg(long)]
+    srgb: bool,
     /// How attributes are interpolated across a triangle: perspective-correct, linear on the
     /// screen (noperspective), or flat (the face's first vertex's values).
     #[arg(long, value_enum, default_value = "perspective")]
@@ -213,6 +220,13 @@ enum InterpolationArg {
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum ToneMapArg {
+    None,
+    Neutral,
+    Aces,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum ShadingArg {
     Unlit,
     Flat,
@@ -299,6 +313,8 @@ impl FrameArgs {
             shading,
             metallic,
             roughness,
+            tone_map,
+            srgb,
             interpolation,
             points,
             no_faces,
@@ -329,6 +345,8 @@ impl FrameArgs {
             shading: library(&SHADINGS, shading),
             metallic,
             roughness,
+            tone_map: library(&TONE_MAPS, tone_map),
+            srgb,
             interpolation: library(&INTERPOLATIONS, interpolation),
             points,
             faces: !no_faces,
@@ -406,6 +424,12 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
     if view.roughness != 0.5 {
         flag("roughness", &[view.roughness.to_string()]);
     }
+    if view.tone_map != ToneMap::None {
+        flag("tone-map", &[named(&TONE_MAPS, view.tone_map)]);
+    }
+    if view.srgb {
+        flag("srgb", &[]);
+    }
     if view.interpolation != Interpolation::Perspective {
         flag("interpolation", &[named(&INTERPOLATIONS, view.interpolation)]);
     }
@@ -455,6 +479,7 @@ const SHADINGS: [(ShadingArg, Shading); 8] = [
     (ShadingArg::Normals, Shading::Normals),
     (ShadingArg::Ids, Shading::Ids),
 ];
+const TONE_MAPS: [(ToneMapArg, ToneMap); 3] = [(ToneMapArg::None, ToneMap::None), (ToneMapArg::Neutral, ToneMap::Neutral), (ToneMapArg::Aces, ToneMap::Aces)];
 const INTERPOLATIONS: [(InterpolationArg, Interpolation); 3] = [
     (InterpolationArg::Perspective, Interpolation::Perspective),
     (InterpolationArg::Screen, Interpolation::Screen),
@@ -576,7 +601,8 @@ mod tests {
         let cases: Vec<Vec<&str>> = vec![
             vec![],
             vec!["--size", "640", "480", "--fov", "33.3", "--shading", "phong", "--msaa", "8", "--cull", "none"],
-            vec!["--shading", "pbr", "--metallic", "0.8", "--roughness", "0.25"],
+            vec!["--shading", "pbr", "--metallic", "0.8", "--roughness", "0.25", "--tone-map", "neutral", "--srgb"],
+            vec!["--tone-map", "aces"],
             vec!["--camera", "0.1,-2.5e-3,1e17,5,6,7,0,0,1", "--ortho", "--background", "1,2,3,255", "--interpolation", "screen"],
             vec!["--ortho=12.75", "--up", "z", "--points", "2.5", "--no-faces", "--wireframe", "bresenham", "--wire-colour", "9,8,7,6"],
             vec!["--mvp", "1,0,0,0,0,1,0,0,0,0,0.5,0.5,0,0,0,1", "--filter", "trilinear", "--address", "mirror", "--blend"],

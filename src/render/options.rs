@@ -14,8 +14,8 @@
 
 use super::{
     Address, Camera, Cull, Filter, Frame, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Panorama, PreparedMesh, Projection, RenderParams, Shading,
-    Up, VertexStage, Wireframe, World, accumulate, format_up, is_geotiff, panorama_frame, posed_positions, read_dem_grid, read_mesh_at, read_posable_at,
-    read_world_at,
+    ToneMap, Up, VertexStage, Wireframe, World, accumulate, format_up, is_geotiff, panorama_frame, posed_positions, read_dem_grid, read_mesh_at,
+    read_posable_at, read_world_at,
 };
 use crate::dem::{DemError, InputKind};
 use crate::{Backend, Error, Skip};
@@ -133,6 +133,9 @@ pub struct ViewOptions {
     /// The surface of `Shading::Pbr`: how metallic, and its perceptual roughness, each 0..=1.
     pub metallic: f64,
     pub roughness: f64,
+    /// The tone map of lit colours, and whether they are stored sRGB-encoded.
+    pub tone_map: ToneMap,
+    pub srgb: bool,
     pub interpolation: Interpolation,
     /// Each vertex also drawn as a square this many pixels wide.
     pub points: Option<f32>,
@@ -167,6 +170,8 @@ impl Default for ViewOptions {
             shading: Shading::Smooth,
             metallic: 0.0,
             roughness: 0.5,
+            tone_map: ToneMap::None,
+            srgb: false,
             interpolation: Interpolation::Perspective,
             points: None,
             faces: true,
@@ -378,7 +383,7 @@ impl Model {
         }
         let mut params = RenderParams::new(width, height, view_projection);
         params.model = self.model;
-        (params.metallic, params.roughness) = (view.metallic, view.roughness);
+        (params.metallic, params.roughness, params.tone_map, params.srgb) = (view.metallic, view.roughness, view.tone_map, view.srgb);
         params.eye = viewer;
         params.background = view.background.map(|c| c as u8);
         (params.cull, params.blend, params.shading, params.interpolation) = (view.cull, view.blend, view.shading, view.interpolation);

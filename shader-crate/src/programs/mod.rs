@@ -4,7 +4,8 @@
 //! frames test, key and shade their samples in one stage (`multisample`). What colours a
 //! fragment is a program of its own (`fragment`): the built-in shadings or a user's; so is
 //! where the vertex stage puts a vertex (`vertex`), glTF's morph targets and skins among its
-//! built-in programs (`deform`). glTF's metallic-roughness BRDF is `brdf`.
+//! built-in programs (`deform`). glTF's metallic-roughness BRDF is `brdf`; the tone mapping
+//! and encoding of the shaded colour, `tone`.
 
 pub mod brdf;
 pub mod deform;
@@ -15,4 +16,5 @@ pub mod multisample;
 pub mod occlusion;
 pub mod shade;
 pub mod texture;
+pub mod tone;
 pub mod vertex;

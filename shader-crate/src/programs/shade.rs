@@ -19,6 +19,7 @@ use crate::programs::brdf::{Cosines, Surface, reflected};
 use crate::programs::depth::{DepthProgram, depth_bits};
 use crate::programs::fragment::FragmentProgram;
 use crate::programs::texture::{self, lod};
+use crate::programs::tone::encoded;
 use crate::stages::fine::side;
 use crate::{FULL_TILE_BIT, NO_OWNER};
 
@@ -334,7 +335,9 @@ pub(crate) fn base_colour(
 }
 
 /// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`,
-/// in the built-in shading the frame names (`programs::fragment::Builtin`).
+/// in the built-in shading the frame names (`programs::fragment::Builtin`); a lit or coloured
+/// surface through the frame's output transform (`programs::tone`), a line's own colour and the
+/// data views (depth, normals, ids) as they are.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn fragment_colour(
@@ -370,14 +373,13 @@ pub fn fragment_colour(
         return rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0]);
     }
     let base = base_colour(params, s, t, textures, texels, &b, i, j);
-    if mode == ShadeMode::Colour {
-        return rgba8(base);
-    }
-    let p = interpolate3(t, &b, ATTR_POSITION);
-    if mode == ShadeMode::Pbr {
-        return rgba8(pbr(params, base, n, p));
-    }
-    rgba8(phong(params, base, n, p))
+    let lit = if mode == ShadeMode::Colour {
+        base
+    } else {
+        let p = interpolate3(t, &b, ATTR_POSITION);
+        if mode == ShadeMode::Pbr { pbr(params, base, n, p) } else { phong(params, base, n, p) }
+    };
+    encoded(params, lit)
 }
 
 /// Source-over of RGBA8 `src` onto RGBA8 `dst` in 8-bit integers, rounded to nearest:

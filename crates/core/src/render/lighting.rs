@@ -4,11 +4,12 @@
 //! assembly runs on every backend and the host's clipping and its path for lines and points
 //! call natively, so a colour is the same bits wherever it is lit.
 
-use super::params::{Eye, Light, RenderParams, Shading};
+use super::params::{Eye, Light, RenderParams, Shading, ToneMap};
 use super::vector::{cross, sub, unit};
 use crate::Error;
 use tileraster_kernels::abi::{ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTRIBUTES, DepthTest, FaceNormal, MAX_LIGHTS, ShadeMode, ShadeParams};
 use tileraster_kernels::programs::shade::{lit_face, lit_vertex};
+use tileraster_kernels::programs::tone::{OUTPUT_SRGB, TONE_ACES, TONE_NEUTRAL, TONE_NONE};
 
 /// A face's values under flat shading ([`Lighting::light_face`]).
 pub(super) struct FaceLight {
@@ -108,6 +109,11 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4]) -> Shade
         layer_sample: params.layer_sample,
         constants: params.fragment_constants,
         material: [params.metallic as f32, params.roughness as f32, 0.0, 0.0],
+        output: match params.tone_map {
+            ToneMap::None => TONE_NONE,
+            ToneMap::Neutral => TONE_NEUTRAL,
+            ToneMap::Aces => TONE_ACES,
+        } | if params.srgb { OUTPUT_SRGB } else { 0 },
         ..Default::default()
     };
     for (k, l) in lights.iter().enumerate() {

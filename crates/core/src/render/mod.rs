@@ -65,7 +65,7 @@ pub use lines::edges;
 pub(crate) use params::GREY;
 pub use params::{
     Cull, Eye, FrontFace, GUARD_PX, GeometryCounts, IDENTITY, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MIN_POINT_SIZE, Mesh, RENDER_SNAP_BITS,
-    RenderParams, Shading, Wireframe, centre_of_projection, face_normals,
+    RenderParams, Shading, ToneMap, Wireframe, centre_of_projection, face_normals,
 };
 use points::{point, surface_bias};
 pub use program::{FragmentConstants, FragmentStage, ProgramStage, ShaderModules, VertexConstants, VertexStage, VertexTexture};

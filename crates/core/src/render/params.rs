@@ -109,6 +109,30 @@ impl Shading {
     }
 }
 
+/// How a lit colour, linear and unbounded, is brought into `[0, 1]` before the 8-bit frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum ToneMap {
+    /// Channels clamped to `[0, 1]`.
+    #[default]
+    None,
+    /// Khronos PBR Neutral: colours below 0.76 kept, brighter ones compressed towards white.
+    Neutral,
+    /// ACES (Hill's fit of its reference transforms, as glTF's sample viewer has it).
+    Aces,
+}
+
+impl ToneMap {
+    pub const ALL: [ToneMap; 3] = [ToneMap::None, ToneMap::Neutral, ToneMap::Aces];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ToneMap::None => "none",
+            ToneMap::Neutral => "neutral",
+            ToneMap::Aces => "aces",
+        }
+    }
+}
+
 /// A directional light.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Light {
@@ -152,6 +176,11 @@ pub struct RenderParams {
     pub metallic: f64,
     /// The surface's perceptual roughness, `[0, 1]`, for `Shading::Pbr` (0.5 by default).
     pub roughness: f64,
+    /// The tone map of lit and coloured surfaces (lines and the data views keep their values).
+    pub tone_map: ToneMap,
+    /// Encode those colours with sRGB's transfer function, as image files and screens expect
+    /// them; off by default: the linear values stored as they are.
+    pub srgb: bool,
     /// Count the fragments of every pixel (the frame's `fragments` layer and statistics):
     /// on by default. Off, a triangle a tile's depth bound hides gets no edge test there.
     pub count_fragments: bool,
@@ -229,6 +258,8 @@ impl RenderParams {
             shininess: 32,
             metallic: 0.0,
             roughness: 0.5,
+            tone_map: ToneMap::None,
+            srgb: false,
             count_fragments: true,
             count_tiles: false,
             return_colour: true,

@@ -9,7 +9,7 @@
 //! within the numeric contract's bound (§10) of the `f64` evaluation of the same dot products.
 
 use crate::math::float::{div, recip, sqrt};
-use crate::programs::shade::powi;
+use crate::programs::shade::{clamp01, per_component, powi};
 
 /// The smallest perceptual roughness shaded (as Filament's): below it `α²` would leave `f32`'s
 /// normal range and the specular peak would be narrower than a pixel's worth of normals.
@@ -42,17 +42,6 @@ pub struct Cosines {
     pub n_v: f32,
     pub n_h: f32,
     pub v_h: f32,
-}
-
-#[inline]
-fn clamp01(x: f32) -> f32 {
-    if x > 1.0 {
-        1.0
-    } else if x > 0.0 {
-        x
-    } else {
-        0.0
-    }
 }
 
 /// `α²` of perceptual roughness `r` (`α = r²`), `r` clamped to `[MIN_ROUGHNESS, 1]`.
@@ -110,28 +99,15 @@ pub fn reflected(s: &Surface, c: &Cosines) -> [f32; 3] {
     let a2 = alpha_squared(s.roughness);
     // D and V are shared by the channels; F and the diffuse colour are not.
     let specular = distribution(c.n_h, a2) * visibility(n_l, n_v, a2);
-    let (mut r, mut g, mut b) = (0.0, 0.0, 0.0);
-    let mut k = 0;
-    while k < 3 {
-        let base = clamp01(match k {
-            0 => s.base[0],
-            1 => s.base[1],
-            _ => s.base[2],
-        });
+    per_component(s.base, |base| {
+        let base = clamp01(base);
         // 1 − F₀ in positive parts: 0.96(1 − metallic) + metallic(1 − base).
         let f0 = DIELECTRIC_F0 * dielectric + base * metallic;
         let one_minus_f0 = (1.0 - DIELECTRIC_F0) * dielectric + metallic * (1.0 - base);
         let (f, one_minus_f) = fresnel(f0, one_minus_f0, c.v_h);
         let diffuse = one_minus_f * (base * dielectric) * INV_PI;
-        let out = (diffuse + f * specular) * n_l;
-        match k {
-            0 => r = out,
-            1 => g = out,
-            _ => b = out,
-        }
-        k += 1;
-    }
-    [r, g, b]
+        (diffuse + f * specular) * n_l
+    })
 }
 
 #[cfg(test)]

@@ -99,18 +99,24 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
     if len <= 1.0e-30 {
         return [0.0; 3];
     }
-    // One copy of the division, its divisor's part shared, and named components (see
-    // `base_colour`).
+    // One copy of the division, its divisor's part shared.
     let len = Divisor::new(len);
+    per_component(v, |c| scale_div(c, &len))
+}
+
+/// `[f(v₀), f(v₁), f(v₂)]` with one copy of `f`: a loop over named components (a driver
+/// reads each inlined copy of a body; and a CPU implementation of Vulkan keeps an array indexed
+/// by the loop in memory and reaches it one lane at a time, see `base_colour`).
+#[inline]
+pub(crate) fn per_component(v: [f32; 3], f: impl Fn(f32) -> f32) -> [f32; 3] {
     let (mut x, mut y, mut z) = (0.0, 0.0, 0.0);
     let mut k = 0;
     while k < 3 {
-        let component = match k {
+        let q = f(match k {
             0 => v[0],
             1 => v[1],
             _ => v[2],
-        };
-        let q = scale_div(component, &len);
+        });
         match k {
             0 => x = q,
             1 => y = q,
@@ -148,8 +154,9 @@ pub fn powi(x: f32, n: u32) -> f32 {
     out
 }
 
+/// `x` clamped to `[0, 1]` (NaN to 0).
 #[inline]
-fn clamp01(x: f32) -> f32 {
+pub(crate) fn clamp01(x: f32) -> f32 {
     if x > 1.0 {
         1.0
     } else if x > 0.0 {

@@ -129,7 +129,7 @@ pub(crate) fn per_component(v: [f32; 3], f: impl Fn(f32) -> f32) -> [f32; 3] {
 
 /// `x / d` for `d > 0` and any finite `x`, by the sign of `x` (one division).
 #[inline]
-fn scale_div(x: f32, d: &Divisor) -> f32 {
+pub(crate) fn scale_div(x: f32, d: &Divisor) -> f32 {
     let q = d.divide(if x > 0.0 { x } else { -x });
     if x > 0.0 {
         q

@@ -7,8 +7,8 @@
 
 use crate::abi::ShadeParams;
 use crate::math::elementary::pow;
-use crate::math::float::div;
-use crate::programs::shade::rgba8;
+use crate::math::float::{Divisor, div};
+use crate::programs::shade::{rgba8, scale_div};
 
 /// `ShadeParams::output`, bits 0–1: no tone mapping (channels clamped to `[0, 1]`).
 pub const TONE_NONE: u32 = 0;
@@ -29,18 +29,6 @@ fn max3(c: [f32; 3]) -> f32 {
 fn min3(c: [f32; 3]) -> f32 {
     let m = if c[0] < c[1] { c[0] } else { c[1] };
     if m < c[2] { m } else { c[2] }
-}
-
-/// `a / b` for `b > 0` and any finite `a` (the division takes positive normal operands).
-#[inline]
-fn signed_div(a: f32, b: f32) -> f32 {
-    if a > 0.0 {
-        div(a, b)
-    } else if a < 0.0 {
-        -div(-a, b)
-    } else {
-        0.0
-    }
 }
 
 /// Khronos PBR Neutral of a non-negative linear colour: below 0.76 unchanged but for a small
@@ -74,7 +62,7 @@ pub fn aces(c: [f32; 3]) -> [f32; 3] {
     let v = [0.59719 * r + 0.35458 * g + 0.04823 * b, 0.07600 * r + 0.90834 * g + 0.01566 * b, 0.02840 * r + 0.13383 * g + 0.83777 * b];
     let fit = |v: f32| {
         let v = if v > 0.0 { v } else { 0.0 };
-        signed_div(v * (v + 0.0245786) - 0.000090537, v * (0.983729 * v + 0.432951) + 0.238081)
+        scale_div(v * (v + 0.0245786) - 0.000090537, &Divisor::new(v * (0.983729 * v + 0.432951) + 0.238081))
     };
     let (r, g, b) = (fit(v[0]), fit(v[1]), fit(v[2]));
     [1.60475 * r - 0.53108 * g - 0.07367 * b, -0.10208 * r + 1.10813 * g - 0.00605 * b, -0.00327 * r - 0.07276 * g + 1.07602 * b]

@@ -30,7 +30,7 @@ fn view(lens: Lens, size: [u32; 2]) -> ViewOptions {
         size: Some(size),
         camera: CameraChoice::LookAt { eye: [0.5, -0.3, 1.5], target: [10.0, 2.0, 1.0], up: [0.0, 0.0, 1.0] },
         lens,
-        shading: Shading::Phong,
+        shading: Some(Shading::Phong),
         cull: tileraster::render::Cull::None,
         ..Default::default()
     }

@@ -120,7 +120,7 @@ struct RecordedMesh {
     lit: Vec<[f32; 4]>,
     face_normals: Vec<tileraster_kernels::abi::FaceNormal>,
     shade: tileraster_kernels::abi::ShadeParams,
-    textures: Vec<u32>,
+    materials: Vec<tileraster_kernels::abi::FaceMaterial>,
     count: tileraster_core::render::AssemblyCount,
     patches: tileraster_core::render::AssemblyPatches,
     inputs: Vec<tileraster_kernels::abi::TriangleInput>,
@@ -178,7 +178,7 @@ impl tileraster::render::GeometryKernels for Recorded {
             lit: mesh.lit.to_vec(),
             face_normals: mesh.face_normals.to_vec(),
             shade: *mesh.shade,
-            textures: mesh.textures.to_vec(),
+            materials: mesh.materials.to_vec(),
             count: count.clone(),
             patches: patches.clone(),
             inputs: inputs.to_vec(),
@@ -311,7 +311,7 @@ fn the_assembly_stages_are_the_same_bits_on_both_backends() {
             lit: &one.lit,
             face_normals: &one.face_normals,
             shade: &one.shade,
-            textures: &one.textures,
+            materials: &one.materials,
             kept: Default::default(),
         };
         let device = tileraster_gpu::assemble_rows(&input, &one.patches).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -113,7 +113,7 @@ fn choice<T: Copy>(what: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T>
 impl View {
     #[new]
     #[pyo3(signature = (*, size = None, camera = None, mvp = None, camera_node = None, fov = None, ortho = None, up = None, background = [0.0; 4],
-        cull = "back", shading = "smooth", metallic = 0.0, roughness = 0.5, tone_map = "none", srgb = false, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
+        cull = "back", shading = None, metallic = 0.0, roughness = 0.5, tone_map = "none", srgb = false, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
         filter = None, address = None, blend = false, no_skip = Vec::new(), count_fragments = false, projection = None, jitter = 1, backend = "auto"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -126,7 +126,7 @@ impl View {
         up: Option<&str>,
         background: [f64; 4],
         cull: &str,
-        shading: &str,
+        shading: Option<&str>,
         metallic: f64,
         roughness: f64,
         tone_map: &str,
@@ -186,7 +186,7 @@ impl View {
             up: up.map(|up| choice("up", up, &[("y", Up::Y), ("z", Up::Z)])).transpose()?,
             background,
             cull: choice("cull", cull, &[("back", Cull::Back), ("front", Cull::Front), ("none", Cull::None)])?,
-            shading: choice("shading", shading, &Shading::ALL.map(|s| (s.name(), s)))?,
+            shading: shading.map(|s| choice("shading", s, &Shading::ALL.map(|s| (s.name(), s)))).transpose()?,
             metallic,
             roughness,
             tone_map: choice("tone_map", tone_map, &ToneMap::ALL.map(|t| (t.name(), t)))?,

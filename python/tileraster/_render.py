@@ -29,9 +29,10 @@ _VIEW_OPTIONS = """
       frame (``fov`` is then the cylinder's height, 90, or the fisheye's width, 180);
       ``up="y"`` or ``"z"`` for the default camera (default: the format's; ``"y"`` for a
       ``Mesh``).
-    - ``shading="smooth"``: ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"pbr"``,
+    - ``shading=None`` (``"pbr"`` for a glTF file, whose materials it draws, else
+      ``"smooth"``): ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"pbr"``,
       ``"depth"``, ``"normals"`` or ``"ids"``; ``metallic=0.0`` and ``roughness=0.5`` for
-      ``"pbr"`` (glTF's metallic-roughness BRDF); ``tone_map="none"`` (or ``"neutral"``,
+      ``"pbr"`` (glTF's metallic-roughness BRDF) where a mesh has no materials; ``tone_map="none"`` (or ``"neutral"``,
       ``"aces"``) and ``srgb=False`` (``True``: lit colours sRGB-encoded, as files and screens
       expect); ``interpolation="perspective"`` (or ``"screen"``,
       ``"flat"``); ``cull="back"`` (or ``"front"``, ``"none"``); ``msaa=1`` (or 4, 8);

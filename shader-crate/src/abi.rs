@@ -474,7 +474,7 @@ pub enum ShadeMode {
     /// A colour per input face id.
     Ids = 4,
     /// glTF's metallic-roughness BRDF per pixel (`programs::brdf`), from the interpolated
-    /// normal, the frame's lights and `ShadeParams::material`.
+    /// normal, the frame's lights and each triangle's `FaceMaterial`.
     Pbr = 5,
 }
 
@@ -572,8 +572,6 @@ pub struct ShadeParams {
     pub light_colour: [[f32; 4]; MAX_LIGHTS],
     /// The depth view's range: `[near, 1 / (far − near)]`, depth `near` white, `far` black.
     pub depth_view: [f32; 4],
-    /// Metallic-roughness shading's surface, `[metallic, perceptual roughness, 0, 0]`.
-    pub material: [f32; 4],
     /// Values for a fragment program (`programs::fragment`), as the frame gives them.
     pub constants: [f32; FRAGMENT_CONSTANTS],
 }
@@ -669,16 +667,39 @@ impl ShadeVariant {
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
 pub struct TriangleShading {
     pub attributes: [[f32; ATTRIBUTES]; 3],
-    /// `1/w` of each vertex in clip space; the fourth is unused.
-    pub inv_w: [f32; 4],
+    /// `1/w` of each vertex in clip space.
+    pub inv_w: [f32; 3],
     /// The input face this triangle comes from (clipping may cut a face into several).
     pub face: u32,
-    /// Its base-colour texture: an index into the frame's `TextureInfo`s, or [`NO_TEXTURE`].
-    pub texture: u32,
-    /// [`SHADING_UNLIT`] or 0.
-    pub flags: u32,
-    pub _pad: u32,
+    /// Its surface: its texture an index into the frame's `TextureInfo`s (or [`NO_TEXTURE`]),
+    /// its flags `SHADING_*`.
+    pub material: FaceMaterial,
 }
+
+/// A face's surface besides its colour: its base-colour texture, how it is drawn and lit
+/// (`SHADING_*` flags), and glTF's metallic and roughness factors in `[0, 1]`. One per face of
+/// a mesh that names its faces' (`FaceMaterials`, the texture an index into the mesh's
+/// textures), else the mesh's `AssembleParams::material`; the assembly copies it into each of
+/// the face's triangles' [`TriangleShading`] (the texture then an index into the frame's).
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct FaceMaterial {
+    pub texture: u32,
+    pub flags: u32,
+    pub metallic: f32,
+    pub roughness: f32,
+}
+
+impl FaceMaterial {
+    /// A surface of `texture` and `flags` with the BRDF's default factors (a dielectric of
+    /// medium roughness), for lines and points, which are not lit with them.
+    pub const fn plain(texture: u32, flags: u32) -> FaceMaterial {
+        FaceMaterial { texture, flags, metallic: 0.0, roughness: 0.5 }
+    }
+}
+
+const _: () = assert!(core::mem::size_of::<AssembleParams>() % 16 == 0 && core::mem::offset_of!(AssembleParams, material) % 16 == 0);
 
 /// 16-byte words per [`TriangleShading`].
 pub const SHADING_VEC4S: u32 = (core::mem::size_of::<TriangleShading>() / 16) as u32;
@@ -763,16 +784,19 @@ impl ShadingRecords for [spirv_std::glam::UVec4] {
                 vertex_attributes(self[at + 3], self[at + 4], self[at + 5]),
                 vertex_attributes(self[at + 6], self[at + 7], self[at + 8]),
             ],
-            inv_w: floats4(self[at + 9]),
-            face: self[at + 10].x,
-            texture: self[at + 10].y,
-            flags: self[at + 10].z,
-            _pad: self[at + 10].w,
+            inv_w: [f32::from_bits(self[at + 9].x), f32::from_bits(self[at + 9].y), f32::from_bits(self[at + 9].z)],
+            face: self[at + 9].w,
+            material: FaceMaterial {
+                texture: self[at + 10].x,
+                flags: self[at + 10].y,
+                metallic: f32::from_bits(self[at + 10].z),
+                roughness: f32::from_bits(self[at + 10].w),
+            },
         })
     }
     #[inline(always)]
     fn face(&self, slot: u32) -> u32 {
-        self[(slot * SHADING_VEC4S + 10) as usize].x
+        self[(slot * SHADING_VEC4S + 9) as usize].w
     }
 }
 
@@ -790,10 +814,22 @@ fn vertex_attributes(a: spirv_std::glam::UVec4, b: spirv_std::glam::UVec4, c: sp
     [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], c[0], c[1], c[2], c[3]]
 }
 
-/// `TriangleShading::flags`: the fragment's colour is its interpolated colour attribute,
+/// `FaceMaterial::flags`: the fragment's colour is its interpolated colour attribute,
 /// neither lit nor textured, in every mode that shows colours (lines: a wireframe keeps its
 /// colour under any shading).
 pub const SHADING_UNLIT: u32 = 1;
+/// `FaceMaterial::flags`, set by the assembly: the triangle shows its back, which a
+/// double-sided surface lights with its normal turned round.
+pub const SHADING_BACK: u32 = 2;
+/// `FaceMaterial::flags`: the face is kept whichever way it faces, whatever the frame culls
+/// (glTF's `doubleSided`).
+pub const SHADING_DOUBLE_SIDED: u32 = 4;
+/// `FaceMaterial::flags`: the surface is opaque: its colour's alpha is 1 (glTF's `OPAQUE`),
+/// where without it the alpha is kept for blending.
+pub const SHADING_OPAQUE: u32 = 8;
+/// `FaceMaterial::flags`: the surface is not lit: its base colour (textured), through the
+/// frame's output transform, in the modes that light (glTF's `KHR_materials_unlit`).
+pub const SHADING_NOT_LIT: u32 = 16;
 
 /// `TriangleShading::texture` of an untextured triangle.
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -994,7 +1030,7 @@ impl ProjectedVertex {
 /// they are culled and snapped, and what their records carry.
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
-#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
 pub struct AssembleParams {
     /// Faces of the mesh, and the id of its first (a frame numbers its instances' faces in turn).
     pub faces: u32,
@@ -1019,11 +1055,11 @@ pub struct AssembleParams {
     /// (flat shading: each face's first vertex's colour lit with its `FaceNormal`, both written
     /// over every corner), with the frame's `ShadeParams`.
     pub lighting: u32,
-    /// 1 where each face names its texture (`FaceTextures`, offset by `first_texture` unless
-    /// `NO_TEXTURE`); else every face takes `texture`.
-    pub face_textures: u32,
+    /// 1 where each face names its surface (`FaceMaterials`, its texture offset by
+    /// `first_texture` unless `NO_TEXTURE`); else every face takes `material`, whose texture is
+    /// the frame's.
+    pub face_materials: u32,
     pub first_texture: u32,
-    pub texture: u32,
     /// 1 where small triangles go to their own list (`Plan::small`, `stages::small`).
     pub split_small: u32,
     /// Faces the host clipped (`AssemblyPatch` entries), and workgroups of faces.
@@ -1041,7 +1077,9 @@ pub struct AssembleParams {
     /// The mesh's first face in the frame's `FaceNormal`s (the placements' one after the
     /// other), under flat shading.
     pub first_face_normal: u32,
-    pub _pad: u32,
+    pub _pad: [u32; 2],
+    /// Every face's surface where they do not name theirs.
+    pub material: FaceMaterial,
 }
 
 /// A face the host clipped, patched into the assembly's output in its place: its pieces'

@@ -7,7 +7,7 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, LightParams, TriangleShading};
+use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, LightParams, TriangleShading};
 use crate::abi::{
     Counter, Coverage, FrameParams, OutputSet, ProjectedVertex, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput, TriangleSetup,
 };
@@ -63,13 +63,14 @@ pub fn assemble_count(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &AssembleParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] faces: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] projected: &[ProjectedVertex],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] group_counts: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] counters: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] clipped: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] materials: &[FaceMaterial],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] group_counts: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] clipped: &mut [u32],
 ) {
     let f = gid.y * params.dispatch_width + gid.x;
     if f < params.faces {
-        let (fate, out) = assemble::count_face(params, faces, projected, f);
+        let (fate, out) = assemble::count_face(params, faces, materials, projected, f);
         if fate == assemble::KEPT {
             group_counts.fetch_add(assemble::count_word(f, out), 1);
         } else if fate == assemble::CLIPPED_ON_HOST {
@@ -111,7 +112,7 @@ pub fn assemble_fill(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lit: &[[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] normals: &[FaceNormal],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] shade: &ShadeParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] textures: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] materials: &[FaceMaterial],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] patches: &[AssemblyPatch],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] piece_inputs: &[TriangleInput],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] piece_shading: &[TriangleShading],
@@ -123,31 +124,13 @@ pub fn assemble_fill(
     #[spirv(workgroup)] shared: &mut [u32; FACE_GROUP as usize],
 ) {
     let f = gid.y * params.dispatch_width + gid.x;
-    let face = assemble::face_fate(params, faces, projected, f);
+    let face = assemble::face_fate(params, faces, materials, projected, f);
     shared[lid as usize] = assemble::fill_output(params, patches, f, &face);
     barrier();
     assemble::fill_ranks(lid, shared);
     barrier();
     let rank = shared[lid as usize];
-    assemble::fill_face(
-        params,
-        attributes,
-        lit,
-        normals,
-        shade,
-        textures,
-        patches,
-        piece_inputs,
-        piece_shading,
-        f,
-        &face,
-        offsets,
-        rank,
-        inputs,
-        shading,
-        listed,
-        small,
-    );
+    assemble::fill_face(params, attributes, lit, normals, shade, patches, piece_inputs, piece_shading, f, &face, offsets, rank, inputs, shading, listed, small);
 }
 
 #[cfg(feature = "entry-points")]

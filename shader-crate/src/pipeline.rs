@@ -105,8 +105,8 @@ pub enum Buffer {
     LitColours,
     /// `FaceNormal` per face of the frame's placed meshes, one after the other (flat shading).
     FaceNormals,
-    /// The texture of each face of the mesh, `u32` (where the faces name theirs).
-    FaceTextures,
+    /// `FaceMaterial` per face of the mesh (where the faces name theirs).
+    FaceMaterials,
     /// Per workgroup of faces, its kept faces' listed and small records (`u32` each).
     GroupCounts,
     /// `ASSEMBLY_COUNTERS` words: faces dropped for each cause and left to the host.
@@ -491,6 +491,7 @@ pub const STAGES: [StageInfo; 14] = [
             read(Buffer::AssembleParams),
             read(Buffer::FaceIndices),
             read(Buffer::Projected),
+            read(Buffer::FaceMaterials),
             write(Buffer::GroupCounts),
             write(Buffer::AssemblyCounters),
             write(Buffer::ClippedFaces),
@@ -522,7 +523,7 @@ pub const STAGES: [StageInfo; 14] = [
             read(Buffer::LitColours),
             read(Buffer::FaceNormals),
             read(Buffer::ShadeParams),
-            read(Buffer::FaceTextures),
+            read(Buffer::FaceMaterials),
             read(Buffer::Patches),
             read(Buffer::Pieces),
             read(Buffer::PieceShading),

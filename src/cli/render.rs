@@ -107,8 +107,9 @@ pub struct FrameArgs {
     background: [f64; 4],
     #[arg(long, value_enum, default_value = "back")]
     cull: CullArg,
-    #[arg(long, value_enum, default_value = "smooth")]
-    shading: ShadingArg,
+    /// How pixels are coloured; by default pbr for a glTF file (its materials), else smooth.
+    #[arg(long, value_enum)]
+    shading: Option<ShadingArg>,
     /// How metallic the surface is, 0 (a dielectric) to 1, for --shading pbr.
     #[arg(long, value_name = "FACTOR", default_value_t = 0.0)]
     metallic: f64,
@@ -342,7 +343,7 @@ impl FrameArgs {
             up: up.map(|up| library(&UPS, up)),
             background,
             cull: library(&CULLS, cull),
-            shading: library(&SHADINGS, shading),
+            shading: shading.map(|s| library(&SHADINGS, s)),
             metallic,
             roughness,
             tone_map: library(&TONE_MAPS, tone_map),
@@ -415,8 +416,8 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
     if view.cull != Cull::Back {
         flag("cull", &[named(&CULLS, view.cull)]);
     }
-    if view.shading != Shading::Smooth {
-        flag("shading", &[named(&SHADINGS, view.shading)]);
+    if let Some(shading) = view.shading {
+        flag("shading", &[named(&SHADINGS, shading)]);
     }
     if view.metallic != 0.0 {
         flag("metallic", &[view.metallic.to_string()]);

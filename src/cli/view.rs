@@ -161,7 +161,7 @@ impl Viewer {
             view.jitter = samples;
         }
         if let Some(name) = &request.shading {
-            view.shading = super::render::shading_named(name).ok_or_else(|| bad(format!("shading {name:?}: give one of --shading's values")))?;
+            view.shading = Some(super::render::shading_named(name).ok_or_else(|| bad(format!("shading {name:?}: give one of --shading's values")))?);
         }
         if let Some(on) = request.wireframe {
             view.wireframe = on.then_some(self.base.wireframe.unwrap_or(tileraster::render::LineRule::DiamondExit));
@@ -232,7 +232,7 @@ impl Viewer {
             fov: perspective_fov(view.lens),
             projection: view.lens.projection().0,
             jitter: view.jitter,
-            shading: super::render::shading_name(view.shading),
+            shading: super::render::shading_name(params.shading),
             wireframe: view.wireframe.is_some(),
             points: view.points.is_some(),
             msaa: view.msaa,

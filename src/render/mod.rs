@@ -35,10 +35,10 @@ pub use panorama::{Panorama, face_camera, panorama_frame};
 pub use terrain::{dem_grid, dem_mesh};
 pub use tileraster_core::kernels::abi::{DepthFunc, Interpolation};
 pub use tileraster_core::render::{
-    Address, Cull, DeformLayout, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryKernels, GeometryMemory, GeometryPass,
-    IDENTITY, Instance, KeptMesh, LaidOutTextures, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Mesh, NO_TEXTURE,
-    RenderParams, Shading, Texture, ToneMap, VertexConstants, VertexStage, VertexTexture, Wireframe, World, edges, face_normals, posed_normals,
-    posed_positions, validate_mesh,
+    Address, AlphaMode, Cull, DeformLayout, Eye, Filter, FragmentConstants, FragmentStage, FrontFace, GeometryCounts, GeometryKernels, GeometryMemory,
+    GeometryPass, IDENTITY, Instance, KeptMesh, LaidOutTextures, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MAX_TEXTURE_DIM, MIN_POINT_SIZE, Material,
+    Mesh, NO_TEXTURE, RenderParams, Shading, Texture, ToneMap, VertexConstants, VertexStage, VertexTexture, Wireframe, World, edges, face_normals,
+    posed_normals, posed_positions, validate_mesh,
 };
 
 use crate::dem::{DemError, InputKind};

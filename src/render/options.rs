@@ -13,8 +13,8 @@
 //! ```
 
 use super::{
-    Address, Camera, Cull, Filter, Frame, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Panorama, PreparedMesh, Projection, RenderParams, Shading,
-    ToneMap, Up, VertexStage, Wireframe, World, accumulate, format_up, is_geotiff, panorama_frame, posed_positions, read_dem_grid, read_mesh_at,
+    Address, AlphaMode, Camera, Cull, Filter, Frame, IDENTITY, Interpolation, LineRule, MAX_RENDER_DIM, Mesh, Panorama, PreparedMesh, Projection, RenderParams,
+    Shading, ToneMap, Up, VertexStage, Wireframe, World, accumulate, format_up, is_geotiff, panorama_frame, posed_positions, read_dem_grid, read_mesh_at,
     read_posable_at, read_world_at,
 };
 use crate::dem::{DemError, InputKind};
@@ -128,9 +128,13 @@ pub struct ViewOptions {
     pub up: Option<Up>,
     /// RGBA of pixels no triangle covers, whole numbers 0..=255.
     pub background: [f64; 4],
+    /// Which faces are dropped by facing (a double-sided material's faces never are).
     pub cull: Cull,
-    pub shading: Shading,
-    /// The surface of `Shading::Pbr`: how metallic, and its perceptual roughness, each 0..=1.
+    /// `None`: `Shading::Pbr` where the meshes have materials (a glTF file), else
+    /// `Shading::Smooth` ([`Model::shading`]).
+    pub shading: Option<Shading>,
+    /// The surface of `Shading::Pbr` where a mesh has no materials: how metallic, and its
+    /// perceptual roughness, each 0..=1.
     pub metallic: f64,
     pub roughness: f64,
     /// The tone map of lit colours, and whether they are stored sRGB-encoded.
@@ -167,7 +171,7 @@ impl Default for ViewOptions {
             up: None,
             background: [0.0; 4],
             cull: Cull::Back,
-            shading: Shading::Smooth,
+            shading: None,
             metallic: 0.0,
             roughness: 0.5,
             tone_map: ToneMap::None,
@@ -226,6 +230,9 @@ pub struct Model {
     up: Up,
     /// Whether the frames may draw points (see [`ModelOptions::points`]).
     points: bool,
+    /// Whether the meshes have materials, and whether one of them is blended (glTF's `BLEND`).
+    materials: bool,
+    blended: bool,
 }
 
 impl Model {
@@ -254,7 +261,9 @@ impl Model {
                 (world, None, None, Up::Y)
             }
         };
-        let mut model = Model { world, path, time, framing: None, model: IDENTITY, pose, up, points };
+        let materials = world.meshes.iter().any(|m| !m.materials.is_empty());
+        let blended = world.meshes.iter().flat_map(|m| &m.materials).any(|m| m.alpha == AlphaMode::Blend);
+        let mut model = Model { world, path, time, framing: None, model: IDENTITY, pose, up, points, materials, blended };
         model.place(z_scale)?;
         Ok(model)
     }
@@ -329,6 +338,12 @@ impl Model {
         self.framing.as_ref().unwrap_or_else(|| &self.world.meshes[0])
     }
 
+    /// The shading of a frame of `view`: its own, or `Shading::Pbr` for meshes with materials
+    /// and `Shading::Smooth` for the rest.
+    pub fn shading(&self, view: &ViewOptions) -> Shading {
+        view.shading.unwrap_or(if self.materials { Shading::Pbr } else { Shading::Smooth })
+    }
+
     /// One frame's parameters: its size, camera, shading and outputs.
     pub fn params(&self, view: &ViewOptions) -> Result<RenderParams, FrameError> {
         if view.points.is_some() && !self.points && self.vertex_stage() == Some(VertexStage::HEIGHTS) {
@@ -386,7 +401,9 @@ impl Model {
         (params.metallic, params.roughness, params.tone_map, params.srgb) = (view.metallic, view.roughness, view.tone_map, view.srgb);
         params.eye = viewer;
         params.background = view.background.map(|c| c as u8);
-        (params.cull, params.blend, params.shading, params.interpolation) = (view.cull, view.blend, view.shading, view.interpolation);
+        (params.cull, params.shading, params.interpolation) = (view.cull, self.shading(view), view.interpolation);
+        // Blended materials blend where a frame can (one sample per pixel).
+        params.blend = view.blend || (view.msaa <= 1 && self.blended);
         (params.count_fragments, params.count_tiles, params.return_depth) = (view.count_fragments, view.count_tiles, view.return_depth);
         (params.points, params.faces, params.samples) = (view.points, view.faces, view.msaa);
         params.wireframe = view.wireframe.map(|rule| Wireframe {

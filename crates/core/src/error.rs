@@ -80,6 +80,9 @@ pub enum Error {
     #[error("the mesh has {len} {attribute} for {vertex_count} vertices; give one per vertex, or none")]
     AttributeLength { attribute: &'static str, len: usize, vertex_count: usize },
 
+    #[error("the mesh has {len} {what} for {faces} faces; give one per face, or none")]
+    FaceListLength { what: &'static str, len: usize, faces: usize },
+
     #[error("vertex {vertex} has a non-finite {attribute} ({value}); every attribute must be a finite number")]
     NonFiniteAttribute { attribute: &'static str, vertex: usize, value: f64 },
 
@@ -117,6 +120,12 @@ pub enum Error {
 
     #[error("the surface's {what} is {value}: give a number from 0 to 1")]
     InvalidMaterial { what: &'static str, value: f64 },
+
+    #[error("material {material}'s {what} is {value}: give a number from 0 to 1")]
+    InvalidMeshMaterial { material: usize, what: &'static str, value: f64 },
+
+    #[error("face {face} takes material {material}, but the mesh has {materials}: give each face an index into the mesh's materials")]
+    InvalidFaceMaterial { face: usize, material: usize, materials: usize },
 
     #[error("instance {instance}: {reason}")]
     InvalidInstance { instance: usize, reason: String },

@@ -1,7 +1,7 @@
 //! The geometry stages on the device, as the host prepares a frame (`GeometryKernels`): the
 //! vertex stage, and the assembly's rows (`assemble_count`, `assemble_scan`, `assemble_fill`,
 //! `stages::assemble`). The projected vertices stay where the vertex stage wrote them, a
-//! prepared mesh's faces, face textures, attributes and face normals stay on the device between its frames,
+//! prepared mesh's faces, face materials, attributes and face normals stay on the device between its frames,
 //! and the fill writes the frame's records and lists where setup and binning read them
 //! ([`HeldRecords`]). The count comes back (a few words a group of faces, and the faces left to
 //! the host's clipping), and so do the records, for the host's plan (its pass over them is
@@ -33,7 +33,7 @@ pub struct GeometryDevice {
     /// The frame's projected vertices where the vertex stage left them (`None` after a stage in
     /// parts: the twins assemble that frame).
     projected: Option<wgpu::Buffer>,
-    /// A prepared mesh's faces and face textures, and the frame's vertex attributes and face
+    /// A prepared mesh's faces and their surfaces, and the frame's vertex attributes and face
     /// normals, on the device by their keys (`KeptInputs`).
     faces: Option<(u64, wgpu::Buffer, wgpu::Buffer)>,
     attributes: Option<(u64, wgpu::Buffer, wgpu::Buffer)>,
@@ -92,7 +92,7 @@ pub(super) struct HeldRecords {
 #[derive(Debug, Clone)]
 struct CountedMesh {
     faces: wgpu::Buffer,
-    textures: wgpu::Buffer,
+    materials: wgpu::Buffer,
     projected: wgpu::Buffer,
     attributes: wgpu::Buffer,
     face_normals: wgpu::Buffer,
@@ -118,15 +118,15 @@ impl GeometryDevice {
     /// The buffers of a mesh's kept (or this frame's) inputs, uploaded where not held by key.
     fn mesh_buffers(&mut self, ctx: &GpuContext, mesh: &AssemblyMesh<'_>, projected: wgpu::Buffer) -> CountedMesh {
         let faces = match (&self.faces, mesh.kept.faces) {
-            (Some((held, faces, textures)), Some(key)) if *held == key => (faces.clone(), textures.clone()),
+            (Some((held, faces, materials)), Some(key)) if *held == key => (faces.clone(), materials.clone()),
             _ => {
                 self.faces = None;
                 let faces = ctx.storage_with("face indices", bytemuck::cast_slice(mesh.faces), 0);
-                let textures = ctx.storage_with("face textures", bytemuck::cast_slice(mesh.textures), 0);
+                let materials = ctx.storage_with("face materials", bytemuck::cast_slice(mesh.materials), 0);
                 if let Some(key) = mesh.kept.faces {
-                    self.faces = Some((key, faces.clone(), textures.clone()));
+                    self.faces = Some((key, faces.clone(), materials.clone()));
                 }
-                (faces, textures)
+                (faces, materials)
             }
         };
         let (attributes, face_normals) = match (&self.attributes, mesh.kept.attributes) {
@@ -142,7 +142,7 @@ impl GeometryDevice {
             }
         };
         let group_counts = ctx.storage_with("group counts", &[], 8 * mesh.params.faces.div_ceil(FACE_GROUP) as u64);
-        CountedMesh { faces: faces.0, textures: faces.1, projected, attributes, face_normals, group_counts }
+        CountedMesh { faces: faces.0, materials: faces.1, projected, attributes, face_normals, group_counts }
     }
 }
 
@@ -498,6 +498,7 @@ impl GpuContext {
             Buffer::AssembleParams => Some(params_buf.clone()),
             Buffer::FaceIndices => Some(buffers.faces.clone()),
             Buffer::Projected => Some(buffers.projected.clone()),
+            Buffer::FaceMaterials => Some(buffers.materials.clone()),
             Buffer::GroupCounts => Some(buffers.group_counts.clone()),
             Buffer::AssemblyCounters => Some(counters.clone()),
             Buffer::ClippedFaces => Some(clipped.clone()),
@@ -554,7 +555,7 @@ impl GpuContext {
             Buffer::LitColours => Some(lit.clone()),
             Buffer::FaceNormals => Some(buffers.face_normals.clone()),
             Buffer::ShadeParams => Some(shade.clone()),
-            Buffer::FaceTextures => Some(buffers.textures.clone()),
+            Buffer::FaceMaterials => Some(buffers.materials.clone()),
             Buffer::GroupCounts => Some(buffers.group_counts.clone()),
             Buffer::Patches => Some(patch_buf.clone()),
             Buffer::Pieces => Some(pieces.clone()),
@@ -574,7 +575,7 @@ impl GpuContext {
         let mesh = AssemblyMesh { params: AssembleParams { first_listed: 0, first_small: 0, ..mesh.params }, ..*mesh };
         let buffers = CountedMesh {
             faces: self.storage_with("face indices", bytemuck::cast_slice(mesh.faces), 0),
-            textures: self.storage_with("face textures", bytemuck::cast_slice(mesh.textures), 0),
+            materials: self.storage_with("face materials", bytemuck::cast_slice(mesh.materials), 0),
             projected: self.storage_with("projected vertices", bytemuck::cast_slice(mesh.projected), 0),
             attributes: self.storage_with("vertex attributes", bytemuck::cast_slice(mesh.attributes), 0),
             face_normals: self.storage_with("face normals", bytemuck::cast_slice(mesh.face_normals), 0),

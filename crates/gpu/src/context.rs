@@ -1206,7 +1206,7 @@ impl GpuContext {
                 | Buffer::FaceNormals
                 | Buffer::LightParams
                 | Buffer::LitColours
-                | Buffer::FaceTextures
+                | Buffer::FaceMaterials
                 | Buffer::GroupCounts
                 | Buffer::AssemblyCounters
                 | Buffer::ClippedFaces

@@ -16,7 +16,7 @@ use crate::gltf_pose::{IDENTITY, Matrix, Pose};
 use crate::gltf_rig::{Binding, Offsets, PosableGltf, Rig, SkinWeights};
 use gltf::accessor::{DataType, Dimensions};
 use std::path::Path;
-use tileraster_core::render::{Address, Filter, Instance, Mesh, NO_TEXTURE, Texture, World, normal_matrix, transform_normal};
+use tileraster_core::render::{Address, AlphaMode, Filter, Instance, Material, Mesh, NO_TEXTURE, Texture, World, normal_matrix, transform_normal};
 
 /// Read a glTF 2.0 file (`.gltf` or `.glb`) as one mesh in world coordinates, posed `time`
 /// seconds into its first animation (at rest without a time).
@@ -210,7 +210,7 @@ pub fn read_gltf_cameras(path: &Path, time: Option<f64>) -> Result<Vec<GltfCamer
 }
 
 /// The extensions a file may require: the reader implements them.
-const IMPLEMENTED_EXTENSIONS: [&str; 1] = ["KHR_texture_transform"];
+const IMPLEMENTED_EXTENSIONS: [&str; 2] = ["KHR_texture_transform", "KHR_materials_unlit"];
 
 /// The document and its buffers, with required extensions it does not implement refused.
 fn open(path: &Path) -> Result<(gltf::Gltf, Vec<gltf::buffer::Data>), IoError> {
@@ -240,6 +240,10 @@ struct Parts {
     textures: Vec<Texture>,
     texture_of: std::collections::HashMap<usize, u32>,
     face_textures: Vec<u32>,
+    /// Materials, by glTF material index (`None`: the default material), and each face's.
+    materials: Vec<Material>,
+    material_of: std::collections::HashMap<Option<usize>, u32>,
+    face_materials: Vec<u32>,
 }
 
 /// Where a file's images come from: its folder and its buffers.
@@ -297,16 +301,27 @@ impl Sources<'_> {
 }
 
 impl Parts {
-    /// The mesh the primitives add up to; `None` without triangles.
-    fn into_mesh(self) -> Option<Mesh> {
+    /// The mesh the primitives add up to; `None` without triangles. The faces of blended
+    /// materials come after the others (each in the file's order), so that a frame that draws
+    /// in order blends them over the opaque surfaces.
+    fn into_mesh(mut self) -> Option<Mesh> {
         if self.triangles.is_empty() {
             return None;
+        }
+        let blended = |f: &usize| self.materials[self.face_materials[*f] as usize].alpha == AlphaMode::Blend;
+        let order: Vec<usize> = (0..self.triangles.len()).filter(|f| !blended(f)).chain((0..self.triangles.len()).filter(blended)).collect();
+        if order.iter().enumerate().any(|(k, &f)| k != f) {
+            let permuted = |v: &[u32]| order.iter().map(|&f| v[f]).collect::<Vec<u32>>();
+            (self.face_textures, self.face_materials) = (permuted(&self.face_textures), permuted(&self.face_materials));
+            self.triangles = order.iter().map(|&f| self.triangles[f]).collect();
         }
         let vertex_count = self.positions.len();
         let textured = self.face_textures.iter().any(|&t| t != NO_TEXTURE);
         Some(Mesh {
             face_textures: textured.then_some(self.face_textures),
             textures: self.textures,
+            face_materials: (self.materials.len() > 1).then_some(self.face_materials),
+            materials: self.materials,
             positions: self.positions,
             triangles: self.triangles,
             normals: (self.with_normals == self.primitives).then_some(self.normals),
@@ -415,6 +430,16 @@ fn add_primitive(
         None => NO_TEXTURE,
     };
     out.face_textures.extend(std::iter::repeat_n(texture, triangles.len()));
+    let material_index = match out.material_of.get(&material.index()) {
+        Some(&k) => k,
+        None => {
+            out.materials.push(surface(&material).map_err(|e| format!("{}: {e}", name()))?);
+            let k = out.materials.len() as u32 - 1;
+            out.material_of.insert(material.index(), k);
+            k
+        }
+    };
+    out.face_materials.extend(std::iter::repeat_n(material_index, triangles.len()));
     out.triangles.extend(triangles);
     out.primitives += 1;
     match (normals, &skinned) {
@@ -452,6 +477,25 @@ fn add_primitive(
         }
     }
     Ok(())
+}
+
+/// A glTF material as the renderer draws it: its metallic and roughness factors, whether it is
+/// double-sided and unlit, and its alpha mode (`MASK` is drawn as `BLEND`: its alpha kept, the
+/// cutoff not applied).
+fn surface(material: &gltf::Material) -> Result<Material, String> {
+    let pbr = material.pbr_metallic_roughness();
+    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
+    for (what, value) in [("metallicFactor", metallic), ("roughnessFactor", roughness)] {
+        if !(0.0..=1.0).contains(&value) {
+            let which = material.index().map_or("the default material".to_owned(), |k| format!("material {k}"));
+            return Err(format!("{which}'s {what} is {value}, outside [0, 1]"));
+        }
+    }
+    let alpha = match material.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Mask | gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+    };
+    Ok(Material { metallic, roughness, double_sided: material.double_sided(), alpha, unlit: material.unlit() })
 }
 
 /// `uv` moved by a `KHR_texture_transform`: scaled, rotated (counter-clockwise in the image as
@@ -715,6 +759,36 @@ pub(crate) mod tests {
         check(&from_gltf);
         std::fs::write(dir.join("quad.glb"), glb(&document(None, 4, ""), &quad_buffer())).unwrap();
         assert_eq!(read_gltf(&dir.join("quad.glb"), None).unwrap(), from_gltf);
+    }
+
+    /// Each primitive's material as the renderer draws it (its factors, `doubleSided`,
+    /// `alphaMode`, `KHR_materials_unlit`; the default material where it names none), the
+    /// faces of blended materials after the rest, and factors outside [0, 1] refused.
+    #[test]
+    fn materials_are_read_and_blended_faces_come_last() {
+        let dir = scratch("materials");
+        let one = r#""materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1]}}]"#;
+        let two = r#""materials": [
+    {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1]}},
+    {"pbrMetallicRoughness": {"metallicFactor": 0.25, "roughnessFactor": 0.75}, "alphaMode": "BLEND", "doubleSided": true,
+     "extensions": {"KHR_materials_unlit": {}}}
+  ]"#;
+        let doc = document(None, 4, r#""extensionsUsed": ["KHR_materials_unlit"],"#).replace(one, two).replacen(
+            r#""indices": 3}]"#,
+            r#""indices": 3, "material": 1}]"#,
+            1,
+        );
+        std::fs::write(dir.join("materials.glb"), glb(&doc, &quad_buffer())).unwrap();
+        let mesh = read_gltf(&dir.join("materials.glb"), None).unwrap();
+        let blended = Material { metallic: 0.25, roughness: 0.75, double_sided: true, alpha: AlphaMode::Blend, unlit: true };
+        assert_eq!(mesh.materials, vec![blended, Material::default()], "in the order the primitives name them");
+        // The root's primitive (blended) is drawn after its child's.
+        assert_eq!(mesh.triangles, vec![[4, 5, 6], [4, 6, 7], [0, 1, 2], [0, 2, 3]]);
+        assert_eq!(mesh.face_materials, Some(vec![1, 1, 0, 0]));
+        let bad = doc.replace(r#""metallicFactor": 0.25"#, r#""metallicFactor": 1.5"#);
+        std::fs::write(dir.join("bad.glb"), glb(&bad, &quad_buffer())).unwrap();
+        let message = read_gltf(&dir.join("bad.glb"), None).unwrap_err().to_string();
+        assert!(message.contains("material 1's metallicFactor is 1.5, outside [0, 1]"), "{message}");
     }
 
     /// As a world, each mesh is read once in its own coordinates and each node places one:

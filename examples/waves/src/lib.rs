@@ -37,7 +37,7 @@ pub fn sea(n: u32) -> Mesh {
         }
     }
     let colours = Some(vec![[0.10, 0.32, 0.52, 1.0]; positions.len()]);
-    Mesh { positions, triangles, normals: None, colours, uvs: None, textures: Vec::new(), face_textures: None }
+    Mesh { positions, triangles, normals: None, colours, uvs: None, textures: Vec::new(), face_textures: None, ..Default::default() }
 }
 
 /// A `width` × `height` frame of `mesh` (a [`sea`]) at `time` seconds, posed by the waves

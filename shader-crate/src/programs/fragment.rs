@@ -16,7 +16,7 @@
 //! whose bits differ between devices.
 
 use crate::abi::{ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
-use crate::programs::shade::{base_colour, colour_at, fragment_colour, interpolate, interpolate3, normalise, rgba8, weights};
+use crate::programs::shade::{base_colour, colour_at, facing_normal, fragment_colour, interpolate, interpolate3, normalise, rgba8, weights};
 
 /// How the shade stage colours a fragment: triangle `(s, t)` at pixel `(i, j)`, of depth
 /// `depth_bits`, as RGBA8 (red in the low byte). `face` is `t.face` as the backend keeps it
@@ -70,12 +70,18 @@ pub struct Fragment {
     pub depth: f32,
     /// The input face it belongs to.
     pub face: u32,
-    /// `SHADING_UNLIT` where the triangle is part of a line drawn in its own colour (the
-    /// wireframe's), which the built-in shadings neither light nor texture; else 0.
+    /// Its surface's `SHADING_*` flags: `SHADING_UNLIT` where the triangle is part of a line
+    /// drawn in its own colour (the wireframe's), which the built-in shadings neither light nor
+    /// texture; `SHADING_BACK` on the back of a double-sided surface; the material's
+    /// `SHADING_DOUBLE_SIDED`, `SHADING_OPAQUE` and `SHADING_NOT_LIT`.
     pub flags: u32,
+    /// Its surface's metallic and roughness factors.
+    pub metallic: f32,
+    pub roughness: f32,
     /// The point in the world.
     pub position: [f32; 3],
-    /// The interpolated normal, of unit length (zero where it has no direction).
+    /// The interpolated normal, of unit length (zero where it has no direction), turned round
+    /// on the back of a double-sided surface.
     pub normal: [f32; 3],
     /// The vertex colour, RGBA in `[0, 1]`.
     pub colour: [f32; 4],
@@ -107,9 +113,11 @@ impl Fragment {
             pixel: [i, j],
             depth: f32::from_bits(depth_bits),
             face,
-            flags: t.flags,
+            flags: t.material.flags,
+            metallic: t.material.metallic,
+            roughness: t.material.roughness,
             position: interpolate3(t, &b, ATTR_POSITION),
-            normal: normalise(interpolate3(t, &b, ATTR_NORMAL)),
+            normal: facing_normal(t.material.flags, normalise(interpolate3(t, &b, ATTR_NORMAL))),
             colour: colour_at(t, &b),
             uv: [interpolate(t, &b, ATTR_UV), interpolate(t, &b, ATTR_UV + 1)],
             base: base_colour(params, s, t, textures, texels, &b, i, j),

@@ -9,8 +9,8 @@
 //! rounding addition (`math::fixed::i64_to_f32`). So the colour is the same on every device.
 
 use crate::abi::{
-    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, Interpolation, MAX_LIGHTS, NO_TEXTURE, SHADING_UNLIT, ShadeMode, ShadeParams, ShadingRecords,
-    TextureInfo, TriangleSetup, TriangleShading,
+    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, FaceMaterial, Interpolation, MAX_LIGHTS, NO_TEXTURE, SHADING_BACK, SHADING_NOT_LIT,
+    SHADING_OPAQUE, SHADING_UNLIT, ShadeMode, ShadeParams, ShadingRecords, TextureInfo, TriangleSetup, TriangleShading,
 };
 use crate::math::edge::Side;
 use crate::math::fixed::{i32_to_f32, i64_to_f32};
@@ -220,15 +220,15 @@ pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> 
 }
 
 /// glTF's metallic-roughness BRDF (`programs::brdf`) under the frame's lights at a point with
-/// unit normal `n` on the base colour `base` (its alpha kept), with `params.material`'s metallic
-/// and roughness; `p` is the point in the world. Each light's colour is what it gives a white
+/// unit normal `n` on the base colour `base` (its alpha kept), with `material`'s metallic and
+/// roughness; `p` is the point in the world. Each light's colour is what it gives a white
 /// Lambertian surface facing it (the BRDF times `π`: the same diffuse light as [`phong`]);
 /// the ambient light lights the base colour as in [`phong`], until image-based lighting
 /// replaces it.
 #[inline]
-pub fn pbr(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
+pub fn pbr(params: &ShadeParams, material: &FaceMaterial, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
     let v = normalise(params.towards_viewer(p));
-    let surface = Surface { base: [base[0], base[1], base[2]], metallic: params.material[0], roughness: params.material[1] };
+    let surface = Surface { base: [base[0], base[1], base[2]], metallic: material.metallic, roughness: material.roughness };
     let a = &params.ambient;
     let mut out = [base[0] * a[0], base[1] * a[1], base[2] * a[2]];
     let n_v = dot(&n, &v);
@@ -311,10 +311,10 @@ pub(crate) fn base_colour(
     j: i32,
 ) -> [f32; 4] {
     let colour = colour_at(t, b);
-    if params.textured == 0 || t.texture == NO_TEXTURE {
+    if params.textured == 0 || t.material.texture == NO_TEXTURE {
         return colour;
     }
-    let info = &textures[t.texture as usize];
+    let info = &textures[t.material.texture as usize];
     let (u, v) = (interpolate(t, b, ATTR_UV), interpolate(t, b, ATTR_UV + 1));
     let level = if info.filter() == crate::abi::Filter::Trilinear && info.levels > 1 {
         // The quad's top-left pixel, the one right of it and the one below, in one loop (one
@@ -372,21 +372,32 @@ pub fn fragment_colour(
         ShadeMode::Colour | ShadeMode::Phong | ShadeMode::Normals | ShadeMode::Pbr => {}
     }
     let b = weights(s, t, params, i, j);
-    if t.flags & SHADING_UNLIT != 0 {
+    let flags = t.material.flags;
+    if flags & SHADING_UNLIT != 0 {
         return rgba8(colour_at(t, &b));
     }
-    let n = if mode == ShadeMode::Colour { [0.0; 3] } else { normalise(interpolate3(t, &b, ATTR_NORMAL)) };
+    let n = if mode == ShadeMode::Colour { [0.0; 3] } else { facing_normal(flags, normalise(interpolate3(t, &b, ATTR_NORMAL))) };
     if mode == ShadeMode::Normals {
         return rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0]);
     }
-    let base = base_colour(params, s, t, textures, texels, &b, i, j);
-    let lit = if mode == ShadeMode::Colour {
+    let mut base = base_colour(params, s, t, textures, texels, &b, i, j);
+    if flags & SHADING_OPAQUE != 0 {
+        base[3] = 1.0;
+    }
+    let lit = if mode == ShadeMode::Colour || flags & SHADING_NOT_LIT != 0 {
         base
     } else {
         let p = interpolate3(t, &b, ATTR_POSITION);
-        if mode == ShadeMode::Pbr { pbr(params, base, n, p) } else { phong(params, base, n, p) }
+        if mode == ShadeMode::Pbr { pbr(params, &t.material, base, n, p) } else { phong(params, base, n, p) }
     };
     encoded(params, lit)
+}
+
+/// The normal a fragment is lit with: `n`, turned round on the back of a double-sided surface
+/// (`SHADING_BACK` is set only there), as glTF lights it.
+#[inline]
+pub fn facing_normal(flags: u32, n: [f32; 3]) -> [f32; 3] {
+    if flags & SHADING_BACK != 0 { [-n[0], -n[1], -n[2]] } else { n }
 }
 
 /// Source-over of RGBA8 `src` onto RGBA8 `dst` in 8-bit integers, rounded to nearest:

@@ -8,7 +8,8 @@
 //! differences stay below `2^29` and the doubled area below `2^59`.
 
 use crate::abi::{
-    ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, FloatCoeffs, NO_TEXTURE, PixelRect, ProjectedVertex, ShadeParams,
+    ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, FloatCoeffs, NO_TEXTURE, PixelRect, ProjectedVertex,
+    SHADING_BACK, SHADING_DOUBLE_SIDED, ShadeParams,
 };
 use crate::abi::{LIGHT_FACES, LIGHT_VERTICES};
 use crate::abi::{TriangleInput, TriangleShading};
@@ -73,6 +74,8 @@ pub struct Snapped {
     pub area: u64,
     /// The pixels it may cover.
     pub rect: PixelRect,
+    /// 1 where it shows its back to the viewer.
+    pub back: u32,
 }
 
 /// The triangle of snapped corners `x`, `y`: dropped (zero area, culled by facing, no pixel
@@ -87,6 +90,7 @@ pub fn snap_triangle(x: [i64; 3], y: [i64; 3], a: &Assembly) -> Snapped {
     // Vulkan's rule: with y down, a triangle counter-clockwise on the screen has a negative
     // cross product here.
     let front = (signed < 0) == (a.front_counter_clockwise == 1);
+    t.back = u32::from(!front);
     if a.cull == CULL_BACK && !front {
         t.dropped = DROPPED_BACK;
         return t;
@@ -128,15 +132,16 @@ pub fn assemble_face(corners: [ProjectedVertex; 3], a: &Assembly) -> Snapped {
 }
 
 /// The records of a kept triangle: for setup (its corners, pixels and depth coefficients) and
-/// for shading (its corners' attributes and `1/w`, its face and texture). `depth`, `inv_w` and
-/// `attributes` are its corners' in the order it was given (before [`snap_triangle`] oriented it).
+/// for shading (its corners' attributes and `1/w`, its face and surface, `SHADING_BACK` added
+/// where a double-sided one shows its back). `depth`, `inv_w` and `attributes` are its corners'
+/// in the order it was given (before [`snap_triangle`] oriented it).
 pub fn triangle_records(
     t: &Snapped,
     depth: &[f32; 3],
     inv_w: &[f32; 3],
     attributes: &[[f32; ATTRIBUTES]; 3],
     face: u32,
-    texture: u32,
+    material: FaceMaterial,
 ) -> (TriangleInput, TriangleShading) {
     // Entry k of the kernels' per-vertex data belongs to the vertex opposite edge k.
     let opposite = [t.order[2], t.order[0], t.order[1]];
@@ -145,13 +150,25 @@ pub fn triangle_records(
         TriangleInput { x: t.x, y: t.y, rect: t.rect, coeffs, ..Default::default() },
         TriangleShading {
             attributes: [pick(attributes, opposite[0]), pick(attributes, opposite[1]), pick(attributes, opposite[2])],
-            inv_w: [pick(inv_w, opposite[0]), pick(inv_w, opposite[1]), pick(inv_w, opposite[2]), 0.0],
+            inv_w: [pick(inv_w, opposite[0]), pick(inv_w, opposite[1]), pick(inv_w, opposite[2])],
             face,
-            texture,
-            flags: 0,
-            _pad: 0,
+            material: shown(material, t),
         },
     )
+}
+
+/// `material` as triangle `t` shows it: `SHADING_BACK` added where it is double-sided and shows
+/// its back.
+#[inline]
+fn shown(material: FaceMaterial, t: &Snapped) -> FaceMaterial {
+    let back = material.flags & SHADING_DOUBLE_SIDED != 0 && t.back == 1;
+    FaceMaterial { flags: material.flags | if back { SHADING_BACK } else { 0 }, ..material }
+}
+
+/// The frame's assembly for a face of `material`: a double-sided one is never culled.
+#[inline]
+pub fn assembly_for(a: Assembly, material: &FaceMaterial) -> Assembly {
+    if material.flags & SHADING_DOUBLE_SIDED != 0 { Assembly { cull: CULL_NONE, ..a } } else { a }
 }
 
 /// Entry `k` (0, 1 or 2) of `v`, chosen rather than indexed: a private array indexed by a
@@ -238,21 +255,23 @@ pub struct FaceFate {
     pub tri: [u32; 3],
     pub corners: [ProjectedVertex; 3],
     pub t: Snapped,
+    pub material: FaceMaterial,
 }
 
 /// What [`face_fate`] says past the mesh's last face (an invocation of the last group with no
 /// face): nothing to write, nothing counted.
 pub const NO_FACE: u32 = 7;
 
-/// Face `f` through [`assemble_face`].
+/// Face `f` (of surface `materials[f]` where the faces name theirs) through [`assemble_face`].
 #[inline]
-pub fn face_fate(p: &AssembleParams, faces: &[u32], projected: &[ProjectedVertex], f: u32) -> FaceFate {
+pub fn face_fate(p: &AssembleParams, faces: &[u32], materials: &[FaceMaterial], projected: &[ProjectedVertex], f: u32) -> FaceFate {
     if f >= p.faces {
         return FaceFate { t: Snapped { dropped: NO_FACE, ..Snapped::default() }, ..FaceFate::default() };
     }
     let tri = face_vertices(p, faces, f);
     let corners = [projected[tri[0] as usize], projected[tri[1] as usize], projected[tri[2] as usize]];
-    FaceFate { tri, corners, t: assemble_face(corners, &assembly_of(p)) }
+    let material = face_material(p, materials, f);
+    FaceFate { tri, corners, t: assemble_face(corners, &assembly_for(assembly_of(p), &material)), material }
 }
 
 /// Whether a kept triangle of rectangle `rect` goes to the small list.
@@ -265,8 +284,8 @@ pub fn goes_small(p: &AssembleParams, rect: &PixelRect) -> bool {
 /// [`CLIPPED_ON_HOST`] or [`NO_FACE`]) and, where kept, the packed output it puts out (1 listed
 /// or 1 small).
 #[inline]
-pub fn count_face(p: &AssembleParams, faces: &[u32], projected: &[ProjectedVertex], f: u32) -> (u32, u32) {
-    let t = face_fate(p, faces, projected, f).t;
+pub fn count_face(p: &AssembleParams, faces: &[u32], materials: &[FaceMaterial], projected: &[ProjectedVertex], f: u32) -> (u32, u32) {
+    let t = face_fate(p, faces, materials, projected, f).t;
     (t.dropped, kept_output(p, &t))
 }
 
@@ -392,7 +411,7 @@ pub fn fill_ranks(lid: u32, shared: &mut [u32; FACE_GROUP as usize]) {
 /// `attributes` (empty where `AssembleParams::attributes` is 0), lit as `AssembleParams::lighting`
 /// says (per vertex of the frame, its colour as the light stage lit it: `lit`; per face of the
 /// frame, its normal under flat shading, `normals`, lit with the frame's `shade` parameters),
-/// and per face its texture (`textures`); a clipped face's pieces
+/// and its surface as [`face_fate`] found it; a clipped face's pieces
 /// copied from `piece_inputs` and `piece_shading` in their order. (Slices apart, not structs
 /// of them: the kernels' compiler keeps no reference in a struct.) Slot = listed rank + small rank: the frame's records are in
 /// face order, and each list in slot order.
@@ -404,7 +423,6 @@ pub fn fill_face<I: Slots<TriangleInput> + ?Sized, S: Slots<TriangleShading> + ?
     lit: &[[f32; 4]],
     normals: &[FaceNormal],
     shade: &ShadeParams,
-    textures: &[u32],
     patches: &[AssemblyPatch],
     piece_inputs: &[TriangleInput],
     piece_shading: &[TriangleShading],
@@ -428,7 +446,7 @@ pub fn fill_face<I: Slots<TriangleInput> + ?Sized, S: Slots<TriangleShading> + ?
         let attributes = face_attributes(p, attributes, lit, normals, shade, tri, f);
         let depth = [corners[0].depth, corners[1].depth, corners[2].depth];
         let inv_w = [corners[0].inverse_w, corners[1].inverse_w, corners[2].inverse_w];
-        let (mut input, shading) = triangle_records(t, &depth, &inv_w, &attributes, p.first_face + f, face_texture(p, textures, f));
+        let (mut input, shading) = triangle_records(t, &depth, &inv_w, &attributes, p.first_face + f, face.material);
         let slot = listed + small;
         input.index = slot;
         out_inputs.store(slot as usize, input);
@@ -513,14 +531,14 @@ fn set_colour(a: &mut [f32; ATTRIBUTES], colour: [f32; 4]) {
     }
 }
 
-/// Face `f`'s texture in the frame's textures.
+/// Face `f`'s surface, its texture in the frame's textures.
 #[inline]
-fn face_texture(p: &AssembleParams, textures: &[u32], f: u32) -> u32 {
-    if p.face_textures == 0 {
-        return p.texture;
+pub fn face_material(p: &AssembleParams, materials: &[FaceMaterial], f: u32) -> FaceMaterial {
+    if p.face_materials == 0 {
+        return p.material;
     }
-    let t = textures[f as usize];
-    if t == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + t }
+    let m = materials[f as usize];
+    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + m.texture }, ..m }
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]
@@ -599,13 +617,36 @@ mod tests {
         assert_eq!(t.order, [0, 2, 1], "counter-clockwise as given: turned");
         let mut attributes = [[0.0; ATTRIBUTES]; 3];
         (0..3).for_each(|k| attributes[k][0] = k as f32);
-        let (input, shading) = triangle_records(&t, &[0.0, 0.5, 1.0], &[1.0, 2.0, 3.0], &attributes, 7, 9);
+        let (input, shading) = triangle_records(&t, &[0.0, 0.5, 1.0], &[1.0, 2.0, 3.0], &attributes, 7, FaceMaterial::plain(9, 0));
         // Entry k belongs to the corner opposite edge k: oriented corners 2, 0, 1, given ones
         // 1, 0, 2.
         assert_eq!(input.coeffs.c[..3], [0.5, 0.0, 1.0]);
         assert_eq!(input.coeffs.c[3], (1.0 / t.area as f64) as f32);
-        assert_eq!(shading.inv_w, [2.0, 1.0, 3.0, 0.0]);
+        assert_eq!(shading.inv_w, [2.0, 1.0, 3.0]);
         assert_eq!(shading.attributes.map(|a| a[0]), [1.0, 0.0, 2.0]);
-        assert_eq!((shading.face, shading.texture, input.x, input.y), (7, 9, t.x, t.y));
+        assert_eq!((shading.face, shading.material, input.x, input.y), (7, FaceMaterial::plain(9, 0), t.x, t.y));
+    }
+
+    #[test]
+    fn a_double_sided_face_is_never_culled_and_its_back_is_marked() {
+        // Top left, top right, bottom left: clockwise on the screen, a back face.
+        let (x, y) = ([UNIT, 5 * UNIT, UNIT], [UNIT, UNIT, 5 * UNIT]);
+        let double = FaceMaterial::plain(NO_TEXTURE, SHADING_DOUBLE_SIDED);
+        let single = FaceMaterial::plain(NO_TEXTURE, 0);
+        for cull in [CULL_BACK, CULL_FRONT, CULL_NONE] {
+            let t = snap_triangle(x, y, &assembly_for(frame(cull, 0), &double));
+            assert_eq!((t.dropped, t.back), (KEPT, 1), "cull {cull}");
+            let shown = triangle_records(&t, &[0.0; 3], &[1.0; 3], &[[0.0; ATTRIBUTES]; 3], 0, double).1.material;
+            assert_eq!(shown.flags, SHADING_DOUBLE_SIDED | SHADING_BACK);
+        }
+        assert_eq!(snap_triangle(x, y, &assembly_for(frame(CULL_BACK, 0), &single)).dropped, DROPPED_BACK);
+        // A single-sided face kept with its back to the viewer is not marked: only a
+        // double-sided surface turns its normal round.
+        let t = snap_triangle(x, y, &assembly_for(frame(CULL_NONE, 0), &single));
+        assert_eq!(triangle_records(&t, &[0.0; 3], &[1.0; 3], &[[0.0; ATTRIBUTES]; 3], 0, single).1.material.flags, 0);
+        // Its front is not marked either.
+        let (x, y) = ([UNIT, UNIT, 5 * UNIT], [UNIT, 5 * UNIT, UNIT]);
+        let t = snap_triangle(x, y, &assembly_for(frame(CULL_BACK, 0), &double));
+        assert_eq!(triangle_records(&t, &[0.0; 3], &[1.0; 3], &[[0.0; ATTRIBUTES]; 3], 0, double).1.material.flags, SHADING_DOUBLE_SIDED);
     }
 }

@@ -22,10 +22,12 @@ use super::viewport::{Target, Viewport};
 use crate::Error;
 use rayon::prelude::*;
 use tileraster_kernels::abi::NO_TEXTURE;
-use tileraster_kernels::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceNormal, ProjectedVertex, ShadeParams, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{
+    ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, ProjectedVertex, ShadeParams, TriangleInput, TriangleShading,
+};
 use tileraster_kernels::abi::{LIGHT_FACES, LIGHT_NONE, LIGHT_VERTICES};
 use tileraster_kernels::stages::assemble::{
-    ASSEMBLY_COUNTERS, DROPPED_BACK, DROPPED_FRONT, DROPPED_FRUSTUM, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, FACE_GROUP, goes_small,
+    ASSEMBLY_COUNTERS, DROPPED_BACK, DROPPED_FRONT, DROPPED_FRUSTUM, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, FACE_GROUP, face_material, goes_small,
 };
 use tileraster_kernels::stages::vertex::UNASSEMBLED;
 
@@ -36,7 +38,7 @@ use tileraster_kernels::stages::vertex::UNASSEMBLED;
 /// vertex of the frame its colour as the light stage lit it (Gouraud shading; empty where the
 /// backend keeps the colours on its device), per face of the frame its normal under flat
 /// shading and the frame's lights (`shade`, read where `params.lighting` lights faces), and per
-/// face its texture.
+/// face its surface (where the faces name theirs: `params.face_materials`).
 pub struct AssemblyMesh<'a> {
     pub params: AssembleParams,
     pub faces: &'a [u32],
@@ -45,7 +47,7 @@ pub struct AssemblyMesh<'a> {
     pub lit: &'a [[f32; 4]],
     pub face_normals: &'a [FaceNormal],
     pub shade: &'a ShadeParams,
-    pub textures: &'a [u32],
+    pub materials: &'a [FaceMaterial],
     /// Which of these a backend may keep between calls (as it keeps a mesh's positions).
     pub kept: KeptInputs,
 }
@@ -54,7 +56,8 @@ pub struct AssemblyMesh<'a> {
 /// arrays in every call that names the key.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct KeptInputs {
-    /// The faces and the face textures (a prepared mesh's: its positions' key).
+    /// The faces and their surfaces (a prepared mesh's: its positions' key with the frame's
+    /// surface).
     pub faces: Option<u64>,
     /// The frame's vertex attributes and face normals (the same for each of its placements, and
     /// for the frames of a prepared mesh at one placement).
@@ -75,7 +78,7 @@ impl AssemblyMesh<'_> {
         }
         bytes += size(patches.patches.as_slice()) + size(patches.inputs.as_slice()) + size(patches.shading.as_slice());
         if handed.faces {
-            bytes += size(self.faces) + size(self.textures);
+            bytes += size(self.faces) + size(self.materials);
         }
         if handed.attributes {
             bytes += size(self.attributes) + size(self.face_normals);
@@ -315,6 +318,10 @@ pub(super) fn assemble_frame(
 /// A mesh's faces as the kernels assemble them.
 pub(super) struct MeshFaces<'a> {
     pub(super) placement: &'a Placement<'a>,
+    /// The surface of every face where they are alike, else each face's (`face_materials`),
+    /// their textures the mesh's.
+    pub(super) material: Option<FaceMaterial>,
+    pub(super) face_materials: Vec<FaceMaterial>,
     /// The frame's vertices through the vertex stage (the placement's from its `first_vertex`).
     pub(super) projected: &'a [ProjectedVertex],
     /// Their attributes in `f32` (empty where none is read).
@@ -336,13 +343,9 @@ pub(super) struct MeshFaces<'a> {
 impl<'a> MeshFaces<'a> {
     /// The mesh's faces as the assembly stages take them, their records' slots after
     /// `first_listed` and `first_small` of the frame's earlier placements'.
-    fn assembly(&self, target: &Target, split_small: bool, first: (u32, u32)) -> AssemblyMesh<'a> {
+    fn assembly(&self, target: &Target, split_small: bool, first: (u32, u32)) -> AssemblyMesh<'_> {
         let (p, a) = (self.placement, &target.assembly);
         let faces = p.mesh.triangles.len() as u32;
-        let (face_textures, textures) = match &p.mesh.face_textures {
-            Some(t) => (1, &t[..]),
-            None => (0, &[][..]),
-        };
         let params = AssembleParams {
             faces,
             first_face: p.first_face,
@@ -360,9 +363,12 @@ impl<'a> MeshFaces<'a> {
                 Shading::Flat => LIGHT_FACES,
                 _ => LIGHT_NONE,
             },
-            face_textures,
+            face_materials: u32::from(self.material.is_none()),
             first_texture: p.first_texture,
-            texture: if p.mesh.textures.is_empty() { NO_TEXTURE } else { p.first_texture },
+            material: self.material.map_or(FaceMaterial::default(), |m| FaceMaterial {
+                texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + m.texture },
+                ..m
+            }),
             split_small: u32::from(split_small),
             patches: 0,
             groups: faces.div_ceil(FACE_GROUP),
@@ -371,11 +377,11 @@ impl<'a> MeshFaces<'a> {
             first_small: first.1,
             first_vertex: p.first_vertex as u32,
             first_face_normal: self.first_face_normal,
-            _pad: 0,
+            _pad: [0; 2],
         };
         let faces = bytemuck::cast_slice(&p.mesh.triangles);
         let (projected, attributes, face_normals, shade) = (self.projected, self.attributes, self.face_normals, self.shaded.lighting.params());
-        AssemblyMesh { params, faces, projected, attributes, lit: &[], face_normals, shade, textures, kept: self.kept }
+        AssemblyMesh { params, faces, projected, attributes, lit: &[], face_normals, shade, materials: &self.face_materials, kept: self.kept }
     }
 
     /// Face `k`'s vertices in drawing order.
@@ -390,8 +396,8 @@ impl<'a> MeshFaces<'a> {
         let pieces: Vec<(Vec<TriangleInput>, Vec<TriangleShading>, GeometryCounts)> = clipped
             .par_iter()
             .map(|&f| {
-                let (k, tri) = (f as usize, self.drawn(f as usize));
-                let tag = FaceTag { id: p.first_face + f, texture: super::face_texture(p.mesh, k, p.first_texture) };
+                let tri = self.drawn(f as usize);
+                let tag = FaceTag { id: p.first_face + f, material: face_material(&mesh.params, mesh.materials, f) };
                 let mut counts = GeometryCounts::default();
                 let mut emit = Emit::Count(0);
                 self.clip_on_host(tri, tag, viewport, target, &mut emit, &mut counts);

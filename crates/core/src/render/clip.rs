@@ -28,7 +28,7 @@ pub(super) fn geometry(
     if corners.iter().all(|c| c.outside == 0) {
         if out.counting() {
             let (x, y) = (corners.map(|c| c.screen.0), corners.map(|c| c.screen.1));
-            if kept(x, y, target, counts).is_some() {
+            if kept(x, y, &face.material, target, counts).is_some() {
                 out.put(|| unreachable!("counting builds no triangle"));
             }
             return;

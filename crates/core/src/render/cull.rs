@@ -6,28 +6,31 @@ use super::params::{GeometryCounts, RENDER_SNAP_BITS};
 use super::vertex::Projected;
 use super::viewport::Target;
 use tileraster_kernels::EXTENT_LIMIT_BITS;
-use tileraster_kernels::stages::assemble::{DROPPED_BACK, DROPPED_FRONT, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, KEPT, Snapped, snap_triangle, triangle_records};
+use tileraster_kernels::abi::FaceMaterial;
+use tileraster_kernels::stages::assemble::{
+    DROPPED_BACK, DROPPED_FRONT, DROPPED_NO_CENTRE, DROPPED_ZERO_AREA, KEPT, Snapped, assembly_for, snap_triangle, triangle_records,
+};
 
 /// Cull, orient and set up the fan of a convex polygon of vertices inside every clipping plane,
 /// and push what reaches the rasteriser.
 pub(super) fn triangles(polygon: &[Projected], face: FaceTag, target: &Target, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     for k in 1..polygon.len() - 1 {
         let corners = [&polygon[0], &polygon[k], &polygon[k + 1]];
-        let Some(t) = kept(corners.map(|p| p.screen.0), corners.map(|p| p.screen.1), target, counts) else {
+        let Some(t) = kept(corners.map(|p| p.screen.0), corners.map(|p| p.screen.1), &face.material, target, counts) else {
             continue;
         };
         out.put(|| {
             let (depth, inv_w, attributes) = (corners.map(|p| p.depth), corners.map(|p| p.inv_w), corners.map(|p| p.attributes));
-            triangle_records(&t, &depth, &inv_w, &attributes, face.id, face.texture)
+            triangle_records(&t, &depth, &inv_w, &attributes, face.id, face.material)
         });
     }
 }
 
-/// The triangle of snapped corners `x`, `y` oriented for the kernels where it reaches the
-/// rasteriser (`stages::assemble`); where it does not (zero area, back or front face, no pixel
-/// centre), `None`, and counted in `counts`.
-pub(super) fn kept(x: [i64; 3], y: [i64; 3], target: &Target, counts: &mut GeometryCounts) -> Option<Snapped> {
-    let t = snap_triangle(x, y, &target.assembly);
+/// The triangle of snapped corners `x`, `y` of a face of surface `material` oriented for the
+/// kernels where it reaches the rasteriser (`stages::assemble`); where it does not (zero area,
+/// back or front face, no pixel centre), `None`, and counted in `counts`.
+pub(super) fn kept(x: [i64; 3], y: [i64; 3], material: &FaceMaterial, target: &Target, counts: &mut GeometryCounts) -> Option<Snapped> {
+    let t = snap_triangle(x, y, &assembly_for(target.assembly, material));
     match t.dropped {
         KEPT => {
             let side = |v: &[i64; 3]| v.iter().max().unwrap() - v.iter().min().unwrap();

@@ -2,14 +2,15 @@
 //! into place (as binning does).
 
 use super::params::RENDER_SNAP_BITS;
-use tileraster_kernels::abi::{TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{FaceMaterial, TriangleInput, TriangleShading};
 use tileraster_kernels::stages::setup::edges_fit_i32;
 
-/// What the kernels keep of a face besides its vertices: its id and its texture.
+/// What the kernels keep of a face besides its vertices: its id and its surface (its texture
+/// in the frame's).
 #[derive(Clone, Copy)]
 pub(super) struct FaceTag {
     pub(super) id: u32,
-    pub(super) texture: u32,
+    pub(super) material: FaceMaterial,
 }
 
 /// Where the geometry stages put the triangles that reach the rasteriser: the first pass

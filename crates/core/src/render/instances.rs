@@ -9,7 +9,7 @@
 //! no bit of a frame; it only saves the vertex work, and `GeometryCounts::instances_culled`
 //! counts it.
 
-use super::params::{IDENTITY, Mesh};
+use super::params::{IDENTITY, Material, Mesh};
 use super::vector::multiply;
 use crate::Error;
 use rayon::prelude::*;
@@ -98,6 +98,15 @@ impl World {
             out.textures.extend(mesh.textures.iter().cloned());
         }
         let mut face_textures = Vec::new();
+        // The placed meshes' materials once each, as their textures; a mesh without takes the
+        // default frame's surface where another has materials.
+        let with_materials = self.instances.iter().any(|i| !self.meshes[i.mesh as usize].materials.is_empty());
+        let mut first_material = vec![0u32; self.meshes.len()];
+        for (k, mesh) in self.meshes.iter().enumerate().filter(|(k, _)| placed[*k] && with_materials) {
+            first_material[k] = out.materials.len() as u32;
+            out.materials.extend(if mesh.materials.is_empty() { &[Material::PLAIN][..] } else { &mesh.materials[..] });
+        }
+        let mut face_materials = Vec::new();
         let any = |f: fn(&Mesh) -> bool| self.instances.iter().any(|i| f(&self.meshes[i.mesh as usize]));
         let (colours, uvs) = (any(|m| m.colours.is_some()), any(|m| m.uvs.is_some()));
         let (mut n, mut c, mut t) = (Vec::new(), Vec::new(), Vec::new());
@@ -112,6 +121,11 @@ impl World {
             match &mesh.face_textures {
                 Some(f) => face_textures.extend(f.iter().map(|&t| if t == NO_TEXTURE { t } else { base_texture + t })),
                 None => face_textures.extend(std::iter::repeat_n(if mesh.textures.is_empty() { NO_TEXTURE } else { base_texture }, mesh.triangles.len())),
+            }
+            let base_material = first_material[instance.mesh as usize];
+            match &mesh.face_materials {
+                Some(f) => face_materials.extend(f.iter().map(|&m| base_material + m)),
+                None => face_materials.extend(std::iter::repeat_n(base_material, mesh.triangles.len())),
             }
             // As the vertex stage turns them: the mesh's normals, or its face normals, by the
             // instance's normal matrix (unchanged where the instance is where its mesh is).
@@ -140,6 +154,7 @@ impl World {
         out.colours = colours.then_some(c);
         out.uvs = uvs.then_some(t);
         out.face_textures = (!out.textures.is_empty()).then_some(face_textures);
+        out.face_materials = with_materials.then_some(face_materials);
         Ok(out)
     }
 }

@@ -108,7 +108,6 @@ fn shade_params(params: &RenderParams, lights: &[Light], eye: [f64; 4]) -> Shade
         samples: params.samples,
         layer_sample: params.layer_sample,
         constants: params.fragment_constants,
-        material: [params.metallic as f32, params.roughness as f32, 0.0, 0.0],
         output: match params.tone_map {
             ToneMap::None => TONE_NONE,
             ToneMap::Neutral => TONE_NEUTRAL,

@@ -22,7 +22,7 @@ use super::viewport::{Target, Viewport};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use tileraster_kernels::EXTENT_LIMIT_BITS;
-use tileraster_kernels::abi::{ATTR_COLOUR, ATTRIBUTES, FloatCoeffs, NO_TEXTURE, SHADING_UNLIT, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{ATTR_COLOUR, ATTRIBUTES, FaceMaterial, FloatCoeffs, NO_TEXTURE, SHADING_UNLIT, TriangleInput, TriangleShading};
 use tileraster_kernels::math::float::recip_u64;
 
 impl LineRule {
@@ -335,11 +335,9 @@ fn band(p0: &End<'_>, p1: &End<'_>, rule: LineRule, id: u32, target: &Target, ou
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
                 TriangleShading {
                     attributes: opposite.map(attributes),
-                    inv_w: [1.0, 1.0, 1.0, 0.0],
+                    inv_w: [1.0, 1.0, 1.0],
                     face: id,
-                    texture: NO_TEXTURE,
-                    flags: SHADING_UNLIT,
-                    _pad: 0,
+                    material: FaceMaterial::plain(NO_TEXTURE, SHADING_UNLIT),
                 },
             )
         });

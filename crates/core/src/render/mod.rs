@@ -64,8 +64,8 @@ use lighting::Lighting;
 pub use lines::edges;
 pub(crate) use params::GREY;
 pub use params::{
-    Cull, Eye, FrontFace, GUARD_PX, GeometryCounts, IDENTITY, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MIN_POINT_SIZE, Mesh, RENDER_SNAP_BITS,
-    RenderParams, Shading, ToneMap, Wireframe, centre_of_projection, face_normals,
+    AlphaMode, Cull, Eye, FrontFace, GUARD_PX, GeometryCounts, IDENTITY, Light, LineRule, MAX_POINT_SIZE, MAX_RENDER_DIM, MIN_POINT_SIZE, Material, Mesh,
+    RENDER_SNAP_BITS, RenderParams, Shading, ToneMap, Wireframe, centre_of_projection, face_normals,
 };
 use points::{point, surface_bias};
 pub use program::{FragmentConstants, FragmentStage, ProgramStage, ShaderModules, VertexConstants, VertexStage, VertexTexture};
@@ -82,7 +82,7 @@ use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{DepthTest, Interpolation, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{DepthTest, FaceMaterial, Interpolation, TriangleInput, TriangleShading};
 use tileraster_kernels::stages::setup::edges_fit_i32;
 
 /// Faces per task of the geometry stages; tasks keep face order.
@@ -385,8 +385,13 @@ pub(crate) fn prepare_instances_in(
     match kernel_stage {
         Some(bytes) => {
             counts.bytes_uploaded = bytes;
-            // A prepared mesh's faces are the same in each of its frames: kept by its positions'.
-            let faces_key = kept.as_deref().and_then(|k| k.positions.as_ref()).filter(|_| placements.len() == 1).map(MeshPositions::key);
+            // A prepared mesh's faces are the same in each of its frames: kept by its positions'
+            // (and the frame's surface, which a mesh without materials takes).
+            let plain = plain_material(params);
+            let faces_key = kept.as_deref().and_then(|k| k.positions.as_ref()).filter(|_| placements.len() == 1).map(|positions| {
+                let surface = (u64::from(plain.metallic.to_bits()) << 32) | u64::from(plain.roughness.to_bits());
+                positions.key() ^ surface.wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            });
             let (slot, keeps) = match kept {
                 // (A posed mesh's attributes are kept for as long as its pose is the same.)
                 Some(k) if placements.len() == 1 => (&mut k.attributes, true),
@@ -406,6 +411,11 @@ pub(crate) fn prepare_instances_in(
                     }
                     MeshFaces {
                         placement: p,
+                        material: mesh_material(p.mesh, &plain),
+                        face_materials: match mesh_material(p.mesh, &plain) {
+                            Some(_) => Vec::new(),
+                            None => (0..p.mesh.triangles.len()).map(|k| mesh_face_material(p.mesh, k, &plain)).collect(),
+                        },
                         projected,
                         attributes: &attributes.values,
                         face_normals: &attributes.face_normals,
@@ -447,6 +457,7 @@ pub(crate) fn prepare_instances_in(
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
     let target = Target::new(&grid, params);
+    let plain = plain_material(params);
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
     // lines and the points likewise.
     let face_chunks = placements
@@ -490,7 +501,7 @@ pub(crate) fn prepare_instances_in(
             let size = params.points.expect("point chunks only with points");
             for v in start..(start + CHUNK).min(p.mesh.positions.len()) {
                 let bias = point_bias.get(p.first_vertex + v).copied().unwrap_or(0.0);
-                point(&vertices[p.first_vertex + v], size, bias, p.first_point + v as u32, &target, emit, counts);
+                point(&vertices[p.first_vertex + v], size, bias, FaceTag { id: p.first_point + v as u32, material: plain }, &target, emit, counts);
             }
             return;
         }
@@ -515,8 +526,8 @@ pub(crate) fn prepare_instances_in(
                 flat_corners = corners;
                 vertex = flat_corners.each_ref();
             }
-            let texture = face_texture(mesh, start + k, p.first_texture);
-            geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, texture }, &viewport, &target, emit, counts);
+            let material = face_material(mesh, start + k, p.first_texture, &plain);
+            geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, material }, &viewport, &target, emit, counts);
         }
     };
     let (triangles, shading, faces, small_edges, records_held) = match kernel_stage {
@@ -636,15 +647,42 @@ pub(crate) fn prepare_instances_in(
     Ok((prepared, counts))
 }
 
-/// Face `k`'s texture in the frame's textures (its mesh's start at `first_texture`), or
-/// [`NO_TEXTURE`].
-fn face_texture(mesh: &Mesh, k: usize, first_texture: u32) -> u32 {
+/// Face `k`'s surface, its texture an index into the mesh's textures (or [`NO_TEXTURE`]):
+/// its material's, or the frame's `plain` surface where the mesh has none.
+fn mesh_face_material(mesh: &Mesh, k: usize, plain: &FaceMaterial) -> FaceMaterial {
     let texture = match &mesh.face_textures {
         Some(t) => t[k],
         None if mesh.textures.is_empty() => NO_TEXTURE,
         None => 0,
     };
-    if texture == NO_TEXTURE { NO_TEXTURE } else { first_texture + texture }
+    match mesh.materials.is_empty() {
+        true => FaceMaterial { texture, ..*plain },
+        false => mesh.materials[mesh.face_materials.as_ref().map_or(0, |m| m[k] as usize)].face_material(texture),
+    }
+}
+
+/// Face `k`'s surface, its texture in the frame's textures (its mesh's start at
+/// `first_texture`).
+fn face_material(mesh: &Mesh, k: usize, first_texture: u32, plain: &FaceMaterial) -> FaceMaterial {
+    let m = mesh_face_material(mesh, k, plain);
+    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { first_texture + m.texture }, ..m }
+}
+
+/// The surface of every face of `mesh` where they are alike (`None` where each face needs its
+/// own: the mesh names its faces' textures or materials), its texture an index into the
+/// mesh's textures.
+fn mesh_material(mesh: &Mesh, plain: &FaceMaterial) -> Option<FaceMaterial> {
+    let alike = mesh.face_textures.is_none() && (mesh.face_materials.is_none() || mesh.materials.len() <= 1);
+    alike.then(|| match mesh.triangles.is_empty() {
+        true => FaceMaterial { texture: NO_TEXTURE, ..*plain },
+        false => mesh_face_material(mesh, 0, plain),
+    })
+}
+
+/// The frame's surface of a mesh without materials: its metallic and roughness, single-sided,
+/// its alpha kept and lit, without texture.
+fn plain_material(params: &RenderParams) -> FaceMaterial {
+    FaceMaterial { texture: NO_TEXTURE, flags: 0, metallic: params.metallic as f32, roughness: params.roughness as f32 }
 }
 
 /// What a chunk of the geometry stages takes.

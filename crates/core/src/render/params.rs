@@ -5,7 +5,7 @@ use super::program::{FragmentConstants, FragmentStage, VertexConstants, VertexSt
 use super::texture::Texture;
 use super::vector::{cross, dot, sub, unit};
 use crate::Skips;
-use tileraster_kernels::abi::{Address, DepthFunc, Filter, Interpolation};
+use tileraster_kernels::abi::{Address, DepthFunc, FaceMaterial, Filter, Interpolation, SHADING_DOUBLE_SIDED, SHADING_NOT_LIT, SHADING_OPAQUE};
 
 /// The colour of a mesh without colours: linear light grey.
 pub(crate) const GREY: [f32; 4] = [0.8, 0.8, 0.8, 1.0];
@@ -44,6 +44,59 @@ pub struct Mesh {
     /// Each face's texture, an index into `textures` or [`NO_TEXTURE`]; `None`: every face
     /// takes texture 0 where there is one.
     pub face_textures: Option<Vec<u32>>,
+    /// How the faces' surfaces are drawn and lit besides their colour. None: the frame's
+    /// (`RenderParams::metallic`, `roughness`, culling, alpha as the colours give it).
+    pub materials: Vec<Material>,
+    /// Each face's material, an index into `materials`; `None`: every face takes material 0
+    /// where there is one.
+    pub face_materials: Option<Vec<u32>>,
+}
+
+/// How a surface is drawn and lit besides its colour (the vertex colours times the base-colour
+/// texture): glTF 2.0's metallic-roughness material, as far as the renderer reads it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Material {
+    /// How metallic, and how rough (perceptual roughness), in `[0, 1]` (`Shading::Pbr`).
+    pub metallic: f32,
+    pub roughness: f32,
+    /// Kept whichever way it faces, whatever the frame culls; its back is lit with the normal
+    /// turned round (`Shading::Phong` and `Shading::Pbr`, and a fragment program's normal).
+    pub double_sided: bool,
+    pub alpha: AlphaMode,
+    /// Drawn in its base colour, not lit (glTF's `KHR_materials_unlit`), in the shadings that
+    /// light per pixel.
+    pub unlit: bool,
+}
+
+/// What a material's alpha means (glTF's `alphaMode`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum AlphaMode {
+    /// Opaque: the alpha is taken as 1.
+    #[default]
+    Opaque,
+    /// The alpha is kept, so that a frame that blends (`RenderParams::blend`) blends the
+    /// surface over what lies behind it.
+    Blend,
+}
+
+impl Default for Material {
+    /// glTF's default material: fully metallic and rough, single-sided, opaque and lit.
+    fn default() -> Material {
+        Material { metallic: 1.0, roughness: 1.0, double_sided: false, alpha: AlphaMode::Opaque, unlit: false }
+    }
+}
+
+impl Material {
+    /// The surface of a mesh without materials in a frame of default `RenderParams`: a
+    /// dielectric of medium roughness, single-sided, its alpha kept.
+    pub const PLAIN: Material = Material { metallic: 0.0, roughness: 0.5, double_sided: false, alpha: AlphaMode::Blend, unlit: false };
+
+    /// The kernels' surface of a face of this material with `texture`.
+    pub(crate) fn face_material(&self, texture: u32) -> FaceMaterial {
+        let flag = |on: bool, flag: u32| if on { flag } else { 0 };
+        let flags = flag(self.double_sided, SHADING_DOUBLE_SIDED) | flag(self.alpha == AlphaMode::Opaque, SHADING_OPAQUE) | flag(self.unlit, SHADING_NOT_LIT);
+        FaceMaterial { texture, flags, metallic: self.metallic, roughness: self.roughness }
+    }
 }
 
 /// Which faces are dropped.

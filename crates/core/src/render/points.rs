@@ -1,13 +1,13 @@
 //! The vertices view: a square per vertex, offset towards the camera by the slope of the
 //! faces around it.
 
-use super::emit::Emit;
+use super::emit::{Emit, FaceTag};
 use super::instances::Placement;
 use super::params::{GeometryCounts, RENDER_SNAP_BITS};
 use super::vertex::ClipVertex;
 use super::viewport::Target;
 use super::viewport::W_MIN;
-use tileraster_kernels::abi::{FloatCoeffs, NO_TEXTURE, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{FloatCoeffs, TriangleInput, TriangleShading};
 
 /// The depth offset of each vertex's point (or line end) drawn over the faces: the steepest
 /// depth slope (per pixel, in either screen direction) of the faces around the vertex, times
@@ -46,7 +46,7 @@ pub(super) fn surface_bias(placements: &[Placement], vertices: &[ClipVertex], si
 /// triangles (the top-left rule then covers exactly `size²` pixel centres of a square of whole
 /// pixels wherever it lies), at the vertex's depth less `bias`, in its attributes; dropped
 /// where the vertex lies outside the view volume.
-pub(super) fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, target: &Target, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
+pub(super) fn point(v: &ClipVertex, size: f32, bias: f64, tag: FaceTag, target: &Target, out: &mut Emit<'_>, counts: &mut GeometryCounts) {
     let c = &v.clip;
     if !(c[3] > W_MIN && c[0].abs() <= c[3] && c[1].abs() <= c[3] && c[2] >= 0.0 && c[2] <= c[3]) {
         counts.points_culled += 1;
@@ -68,7 +68,7 @@ pub(super) fn point(v: &ClipVertex, size: f32, bias: f64, id: u32, target: &Targ
             let coeffs = FloatCoeffs { c: [depth, depth, depth, (1.0 / area) as f32] };
             (
                 TriangleInput { x, y, rect, coeffs, ..Default::default() },
-                TriangleShading { attributes: [q.attributes; 3], inv_w: [q.inv_w, q.inv_w, q.inv_w, 0.0], face: id, texture: NO_TEXTURE, flags: 0, _pad: 0 },
+                TriangleShading { attributes: [q.attributes; 3], inv_w: [q.inv_w; 3], face: tag.id, material: tag.material },
             )
         });
     }

@@ -92,13 +92,28 @@ pub fn validate_mesh(mesh: &Mesh) -> Result<(), Error> {
     }
     if let Some(faces) = &mesh.face_textures {
         if faces.len() != mesh.triangles.len() {
-            return Err(Error::AttributeLength { attribute: "face textures", len: faces.len(), vertex_count: mesh.triangles.len() });
+            return Err(Error::FaceListLength { what: "face textures", len: faces.len(), faces: mesh.triangles.len() });
         }
         if let Some((face, &t)) = faces.iter().enumerate().find(|&(_, &t)| t != NO_TEXTURE && t as usize >= mesh.textures.len()) {
             return Err(Error::InvalidTexture {
                 texture: t as usize,
                 reason: format!("face {face} takes it, but the mesh has {} textures", mesh.textures.len()),
             });
+        }
+    }
+    for (material, m) in mesh.materials.iter().enumerate() {
+        for (what, value) in [("metallic factor", m.metallic), ("roughness", m.roughness)] {
+            if !(0.0..=1.0).contains(&value) {
+                return Err(Error::InvalidMeshMaterial { material, what, value: value as f64 });
+            }
+        }
+    }
+    if let Some(faces) = &mesh.face_materials {
+        if faces.len() != mesh.triangles.len() {
+            return Err(Error::FaceListLength { what: "face materials", len: faces.len(), faces: mesh.triangles.len() });
+        }
+        if let Some((face, &m)) = faces.iter().enumerate().find(|&(_, &m)| m as usize >= mesh.materials.len()) {
+            return Err(Error::InvalidFaceMaterial { face, material: m as usize, materials: mesh.materials.len() });
         }
     }
     Ok(())

@@ -28,7 +28,7 @@ pub fn assemble_count(mesh: &AssemblyMesh<'_>) -> AssemblyCount {
             let first = (task * TASK_GROUPS) as u32 * FACE_GROUP;
             let end = (first + (counts.len() / 2) as u32 * FACE_GROUP).min(params.faces);
             for f in first..end {
-                let (fate, out) = count_face(params, faces, projected, f);
+                let (fate, out) = count_face(params, faces, mesh.materials, projected, f);
                 match fate {
                     KEPT => counts[count_word(f, out) - 2 * task * TASK_GROUPS] += 1,
                     CLIPPED_ON_HOST => {
@@ -105,7 +105,7 @@ pub fn assemble_fill(mesh: &AssemblyMesh<'_>, offsets: &[u32], patches: &Assembl
         let first_group = task * TASK_GROUPS;
         for g in first_group..(first_group + TASK_GROUPS).min(groups) {
             let first = g as u32 * FACE_GROUP;
-            let fates: [FaceFate; FACE_GROUP as usize] = std::array::from_fn(|lid| face_fate(params, faces, projected, first + lid as u32));
+            let fates: [FaceFate; FACE_GROUP as usize] = std::array::from_fn(|lid| face_fate(params, faces, mesh.materials, projected, first + lid as u32));
             let mut shared = [0u32; FACE_GROUP as usize];
             for lid in 0..FACE_GROUP {
                 shared[lid as usize] = fill_output(params, &patches.patches, first + lid, &fates[lid as usize]);
@@ -113,11 +113,9 @@ pub fn assemble_fill(mesh: &AssemblyMesh<'_>, offsets: &[u32], patches: &Assembl
             fill_ranks(0, &mut shared);
             for lid in 0..FACE_GROUP {
                 let (f, rank, face) = (first + lid, shared[lid as usize], &fates[lid as usize]);
-                let (a, normals, textures) = (mesh.attributes, mesh.face_normals, mesh.textures);
+                let (a, normals) = (mesh.attributes, mesh.face_normals);
                 let (entries, pieces) = (&patches.patches, (&patches.inputs[..], &patches.shading[..]));
-                fill_face(
-                    params, a, mesh.lit, normals, mesh.shade, textures, entries, pieces.0, pieces.1, f, face, offsets, rank, &mut i, &mut s, &mut l, &mut sm,
-                );
+                fill_face(params, a, mesh.lit, normals, mesh.shade, entries, pieces.0, pieces.1, f, face, offsets, rank, &mut i, &mut s, &mut l, &mut sm);
             }
         }
     });

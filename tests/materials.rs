@@ -1,0 +1,164 @@
+//! Materials: each face's surface (its metallic and roughness factors, double-sided, its alpha
+//! mode, unlit) the same bits on both backends, through the kernels' assembly and the host's
+//! clipping, and each doing what it says.
+
+mod common;
+
+use common::assert_frame_parity;
+use tileraster::render::{AlphaMode, Camera, Cull, Frame, Light, Material, Mesh, NO_FACE, Projection, RenderParams, Shading, World};
+use tileraster_testkit::meshes;
+
+/// A camera on the +z axis looking at the origin.
+fn from_above(width: u32, height: u32) -> [[f64; 4]; 4] {
+    Camera { eye: [0.0, 0.0, 3.0], target: [0.0; 3], up: [0.0, 1.0, 0.0], projection: Projection::Perspective { fov_deg: 60.0 }, near: 0.5, far: 10.0 }
+        .view_projection(width, height)
+        .unwrap()
+}
+
+/// A square in the plane z = 0 seen from above: facing the camera (counter-clockwise, normals
+/// +z), or its back (clockwise, normals −z: the side away from the camera).
+fn square(facing: bool) -> Mesh {
+    let (triangles, normal) = match facing {
+        true => (vec![[0, 1, 2], [0, 2, 3]], [0.0, 0.0, 1.0]),
+        false => (vec![[0, 2, 1], [0, 3, 2]], [0.0, 0.0, -1.0]),
+    };
+    Mesh {
+        positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+        triangles,
+        normals: Some(vec![normal; 4]),
+        colours: Some(vec![[0.9, 0.6, 0.3, 1.0]; 4]),
+        ..Default::default()
+    }
+}
+
+fn with_material(mut mesh: Mesh, material: Material) -> Mesh {
+    mesh.materials = vec![material];
+    mesh
+}
+
+/// A light over the square, a little to one side so that the frame is not uniform.
+fn lit(shading: Shading) -> RenderParams {
+    let light = Light { direction: [0.3, 0.2, 1.0], colour: [1.0, 1.0, 1.0] };
+    RenderParams { shading, lights: vec![light], ambient: [0.1, 0.1, 0.1], ..RenderParams::new(64, 48, from_above(64, 48)) }
+}
+
+fn drawn(frame: &Frame) -> usize {
+    frame.ids.iter().filter(|&&id| id != NO_FACE).count()
+}
+
+fn brightness(frame: &Frame) -> u64 {
+    frame.colour.iter().map(|&c| (c & 0xff) as u64 + (c >> 8 & 0xff) as u64 + (c >> 16 & 0xff) as u64).sum()
+}
+
+/// A double-sided material's faces are kept whatever the frame culls, and their backs are lit
+/// with the normal turned round: the square's back, whose normals point away from the camera,
+/// looks as its front does (to a unit of rounding: the corners come in another order). A
+/// single-sided back face is culled, or drawn dark with `Cull::None`.
+#[test]
+fn a_double_sided_material_keeps_its_back_faces_and_lights_them_turned_round() {
+    let single = Material { double_sided: false, ..Material::PLAIN };
+    let double = Material { double_sided: true, ..Material::PLAIN };
+    for shading in [Shading::Phong, Shading::Pbr] {
+        let params = lit(shading);
+        let front = assert_frame_parity(&format!("{shading:?}, front"), &with_material(square(true), single), &params);
+        assert!(drawn(&front) > 500, "{shading:?}: the square covers {} pixels", drawn(&front));
+        let culled = assert_frame_parity(&format!("{shading:?}, single-sided back"), &with_material(square(false), single), &params);
+        assert_eq!(drawn(&culled), 0, "{shading:?}: a single-sided back face is culled");
+        for cull in [Cull::Back, Cull::Front, Cull::None] {
+            let params = RenderParams { cull, ..params.clone() };
+            let back = assert_frame_parity(&format!("{shading:?}, double-sided back, {cull:?}"), &with_material(square(false), double), &params);
+            assert_eq!(back.ids.iter().map(|&id| id != NO_FACE).collect::<Vec<_>>(), front.ids.iter().map(|&id| id != NO_FACE).collect::<Vec<_>>());
+            for (k, (&b, &f)) in back.colour.iter().zip(&front.colour).enumerate() {
+                let close = (0..4).all(|c| ((b >> (8 * c) & 0xff) as i32 - (f >> (8 * c) & 0xff) as i32).abs() <= 1);
+                assert!(close, "{shading:?}, {cull:?}: pixel {k} is {b:08x} on the back, {f:08x} on the front");
+            }
+        }
+        let params = RenderParams { cull: Cull::None, ..params.clone() };
+        let dark = assert_frame_parity(&format!("{shading:?}, single-sided back drawn"), &with_material(square(false), single), &params);
+        assert_eq!(drawn(&dark), drawn(&front));
+        assert!(brightness(&dark) * 2 < brightness(&front), "{shading:?}: a single-sided back is lit with its own normal, away from the light");
+    }
+}
+
+/// Four materials on the faces of one sphere: each face looks exactly as it does where every
+/// face takes its material. Opaque surfaces take alpha 1, blended ones keep the colours'; an
+/// unlit surface shows its base colour; the factors change the light.
+#[test]
+fn each_face_takes_its_own_material() {
+    let mut sphere = meshes::sphere([0.0, 0.0, 0.0], 1.0, 16, 24);
+    sphere.colours = Some(vec![[0.8, 0.5, 0.2, 0.5]; sphere.positions.len()]);
+    let materials = [
+        Material { metallic: 0.0, roughness: 0.5, ..Material::default() },
+        Material { metallic: 1.0, roughness: 0.2, ..Material::default() },
+        Material { unlit: true, alpha: AlphaMode::Blend, ..Material::default() },
+        Material { metallic: 0.3, roughness: 0.9, alpha: AlphaMode::Blend, ..Material::default() },
+    ];
+    let params = RenderParams { width: 96, height: 96, view_projection: from_above(96, 96), ..lit(Shading::Pbr) };
+    let faces = sphere.triangles.len();
+    let mixed = Mesh { materials: materials.to_vec(), face_materials: Some((0..faces as u32).map(|f| f % 4).collect()), ..sphere.clone() };
+    let frame = assert_frame_parity("four materials", &mixed, &params);
+    let alone: Vec<Frame> =
+        materials.iter().enumerate().map(|(k, m)| assert_frame_parity(&format!("material {k} alone"), &with_material(sphere.clone(), *m), &params)).collect();
+    let unlit = assert_frame_parity("unlit shading", &sphere, &RenderParams { shading: Shading::Unlit, ..params.clone() });
+    let mut seen = [0usize; 4];
+    for (k, &id) in frame.ids.iter().enumerate().filter(|(_, id)| **id != NO_FACE) {
+        let m = id as usize % 4;
+        seen[m] += 1;
+        assert_eq!(frame.colour[k], alone[m].colour[k], "pixel {k} of face {id} (material {m})");
+        let alpha = frame.colour[k] >> 24;
+        assert_eq!(alpha == 255, materials[m].alpha == AlphaMode::Opaque, "pixel {k}, material {m}: alpha {alpha}");
+        if materials[m].unlit {
+            assert_eq!(frame.colour[k], unlit.colour[k], "pixel {k}: an unlit material shows its base colour");
+        }
+    }
+    assert!(seen.iter().all(|&n| n > 200), "pixels of each material: {seen:?}");
+    let differing = (0..frame.colour.len()).filter(|&k| alone[0].colour[k] != alone[1].colour[k]).count();
+    assert!(differing > 1000, "metallic and roughness change the light: {differing} pixels differ");
+}
+
+/// Faces the host clips (across the near plane) and faces the kernels assemble take their
+/// materials alike: a terrain seen from inside it, its faces single- and double-sided, the
+/// same bits on both backends and the same frame as the faces drawn without the kernels'
+/// assembly (a frame that draws a placed world in two instances).
+#[test]
+fn clipped_faces_and_instances_take_their_materials() {
+    let mut terrain = meshes::terrain(24, 100.0, 12.0);
+    terrain.materials = vec![
+        Material { double_sided: true, ..Material::PLAIN },
+        Material { metallic: 0.7, roughness: 0.3, ..Material::PLAIN },
+        Material { unlit: true, ..Material::PLAIN },
+    ];
+    terrain.face_materials = Some((0..terrain.triangles.len() as u32).map(|f| (f * 7 / 3) % 3).collect());
+    let camera = Camera {
+        eye: [50.0, 50.0, 3.0],
+        target: [90.0, 70.0, -2.0],
+        up: [0.0, 0.0, 1.0],
+        projection: Projection::Perspective { fov_deg: 70.0 },
+        near: 0.3,
+        far: 60.0,
+    };
+    let params = RenderParams { shading: Shading::Pbr, cull: Cull::Back, ..RenderParams::new(160, 120, camera.view_projection(160, 120).unwrap()) };
+    let frame = assert_frame_parity("terrain from inside", &terrain, &params);
+    assert!(frame.stats.geometry.clipped > 0, "faces cross the near plane");
+    assert!(drawn(&frame) > 5000);
+    // Two instances: a world the frame flattens takes each mesh's materials in turn.
+    let world = World::instanced(terrain.clone(), &[tileraster::render::IDENTITY; 2]);
+    let flat = world.flattened().unwrap();
+    assert_eq!(flat.materials, terrain.materials, "a mesh's materials once");
+    assert_eq!(flat.face_materials.as_ref().unwrap()[..terrain.triangles.len()], terrain.face_materials.as_ref().unwrap()[..]);
+    assert_eq!(flat.face_materials.as_ref().unwrap()[terrain.triangles.len()..], terrain.face_materials.as_ref().unwrap()[..]);
+}
+
+/// Bad materials are typed errors naming the material or the face.
+#[test]
+fn bad_materials_are_typed_errors() {
+    let mesh = with_material(square(true), Material { roughness: 1.5, ..Material::PLAIN });
+    let error = tileraster::render::render(&mesh, &lit(Shading::Pbr), tileraster::Backend::Cpu).map(|_| ()).unwrap_err();
+    assert_eq!(error.to_string(), "material 0's roughness is 1.5: give a number from 0 to 1");
+    let mesh = Mesh { face_materials: Some(vec![0, 1]), ..with_material(square(true), Material::PLAIN) };
+    let error = tileraster::render::render(&mesh, &lit(Shading::Pbr), tileraster::Backend::Cpu).map(|_| ()).unwrap_err();
+    assert!(error.to_string().starts_with("face 1 takes material 1, but the mesh has 1"), "{error}");
+    let mesh = Mesh { face_materials: Some(vec![0]), ..with_material(square(true), Material::PLAIN) };
+    let error = tileraster::render::render(&mesh, &lit(Shading::Pbr), tileraster::Backend::Cpu).map(|_| ()).unwrap_err();
+    assert_eq!(error.to_string(), "the mesh has 1 face materials for 2 faces; give one per face, or none");
+}

@@ -699,7 +699,7 @@ impl FaceMaterial {
     }
 }
 
-const _: () = assert!(core::mem::size_of::<AssembleParams>() % 16 == 0 && core::mem::offset_of!(AssembleParams, material) % 16 == 0);
+const _: () = assert!(core::mem::size_of::<AssembleParams>().is_multiple_of(16) && core::mem::offset_of!(AssembleParams, material).is_multiple_of(16));
 
 /// 16-byte words per [`TriangleShading`].
 pub const SHADING_VEC4S: u32 = (core::mem::size_of::<TriangleShading>() / 16) as u32;

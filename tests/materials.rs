@@ -116,6 +116,63 @@ fn each_face_takes_its_own_material() {
     assert!(differing > 1000, "metallic and roughness change the light: {differing} pixels differ");
 }
 
+/// A masked material (glTF's `MASK`) in a frame that blends: where its alpha falls short of the
+/// cutoff its fragments are discarded, colour and depth, and the square behind it shows; where
+/// it reaches the cutoff it is opaque. Drawn first, so that a depth it wrote would hide the
+/// square behind. A blended material instead covers the whole square, partly transparent; a
+/// frame that does not blend keeps the masked fragments, transparent.
+#[test]
+fn a_masked_material_discards_what_its_cutoff_cuts() {
+    // The masked square at z = 0.5, its alpha 0 at the left and 1 at the right; then an
+    // opaque one at z = 0.
+    let mut mesh = square(true);
+    mesh.positions.iter_mut().for_each(|p| p[2] = 0.5);
+    mesh.colours = Some(vec![[0.9, 0.6, 0.3, 0.0], [0.9, 0.6, 0.3, 1.0], [0.9, 0.6, 0.3, 1.0], [0.9, 0.6, 0.3, 0.0]]);
+    let behind = square(true);
+    mesh.positions.extend(&behind.positions);
+    mesh.triangles.extend(behind.triangles.iter().map(|t| t.map(|v| v + 4)));
+    mesh.normals.as_mut().unwrap().extend(behind.normals.as_ref().unwrap());
+    mesh.colours.as_mut().unwrap().extend([[0.1, 0.2, 0.9, 1.0]; 4]);
+    let masked = Material { alpha: AlphaMode::Mask { cutoff: 0.5 }, ..Material::PLAIN };
+    mesh.materials = vec![masked, Material { alpha: AlphaMode::Opaque, ..Material::PLAIN }];
+    mesh.face_materials = Some(vec![0, 0, 1, 1]);
+    let params = RenderParams { blend: true, ..lit(Shading::Pbr) };
+    let frame = assert_frame_parity("masked over opaque, blended", &mesh, &params);
+    let blended = Mesh { materials: vec![Material { alpha: AlphaMode::Blend, ..Material::PLAIN }, mesh.materials[1]], ..mesh.clone() };
+    let through = assert_frame_parity("blended over opaque", &blended, &params);
+    // (The nearer square is the larger on the screen: where it is cut, the background may show.)
+    let (mut cut, mut kept) = (0, 0);
+    for k in (0..frame.ids.len()).filter(|&k| through.ids[k] < 2) {
+        if frame.ids[k] < 2 {
+            kept += 1;
+            assert_eq!(frame.colour[k] >> 24, 255, "pixel {k}: a masked fragment kept is opaque");
+        } else {
+            cut += 1;
+        }
+    }
+    assert!((0..frame.ids.len()).all(|k| through.ids[k] < 2 || frame.ids[k] == through.ids[k]), "the mask changes only its own pixels");
+    assert!(cut > 100 && kept > 100, "{cut} pixels cut, {kept} kept");
+    let unblended = assert_frame_parity("masked over opaque, not blended", &mesh, &RenderParams { blend: false, ..params.clone() });
+    let transparent = (0..unblended.ids.len()).filter(|&k| unblended.ids[k] < 2 && unblended.colour[k] >> 24 == 0).count();
+    assert_eq!(transparent, cut, "without blending the cut fragments stay, transparent");
+}
+
+/// A material's emission adds to the light: without lights a sphere is black but for it.
+#[test]
+fn emission_adds_to_the_light() {
+    let sphere = meshes::sphere([0.0, 0.0, 0.0], 1.0, 12, 16);
+    let dark = RenderParams { lights: Vec::new(), ambient: [0.0; 3], ..lit(Shading::Pbr) };
+    let glowing = with_material(sphere.clone(), Material { emissive: [0.2, 0.4, 0.0], ..Material::PLAIN });
+    let frame = assert_frame_parity("emissive sphere in the dark", &glowing, &dark);
+    let unlit = assert_frame_parity("sphere in the dark", &with_material(sphere, Material::PLAIN), &dark);
+    let covered: Vec<usize> = (0..frame.ids.len()).filter(|&k| frame.ids[k] != NO_FACE).collect();
+    assert!(covered.len() > 500);
+    for &k in &covered {
+        assert_eq!(unlit.colour[k] & 0xffffff, 0, "pixel {k}: no light, no colour");
+        assert_eq!(frame.colour[k] & 0xffffff, 51 | 102 << 8, "pixel {k}: the emission, 0.2 and 0.4 of 255");
+    }
+}
+
 /// Faces the host clips (across the near plane) and faces the kernels assemble take their
 /// materials alike: a terrain seen from inside it, its faces single- and double-sided, the
 /// same bits on both backends and the same frame as the faces drawn without the kernels'
@@ -158,6 +215,13 @@ fn bad_materials_are_typed_errors() {
     let mesh = Mesh { face_materials: Some(vec![0, 1]), ..with_material(square(true), Material::PLAIN) };
     let error = tileraster::render::render(&mesh, &lit(Shading::Pbr), tileraster::Backend::Cpu).map(|_| ()).unwrap_err();
     assert!(error.to_string().starts_with("face 1 takes material 1, but the mesh has 1"), "{error}");
+    for (material, what) in [
+        (Material { alpha: AlphaMode::Mask { cutoff: -0.5 }, ..Material::PLAIN }, "material 0's alpha cutoff is -0.5"),
+        (Material { emissive: [0.0, f32::NAN, 0.0], ..Material::PLAIN }, "material 0's emission is NaN"),
+    ] {
+        let error = tileraster::render::render(&with_material(square(true), material), &lit(Shading::Pbr), tileraster::Backend::Cpu).map(|_| ()).unwrap_err();
+        assert_eq!(error.to_string(), format!("{what}: give a number finite and not negative"));
+    }
     let mesh = Mesh { face_materials: Some(vec![0]), ..with_material(square(true), Material::PLAIN) };
     let error = tileraster::render::render(&mesh, &lit(Shading::Pbr), tileraster::Backend::Cpu).map(|_| ()).unwrap_err();
     assert_eq!(error.to_string(), "the mesh has 1 face materials for 2 faces; give one per face, or none");

@@ -545,6 +545,7 @@ fn blending_is_in_submission_order_on_both_backends() {
                                     render.triangles[slot].face,
                                     &render.textures,
                                     &render.texels,
+                                    &render.materials,
                                     d,
                                     i,
                                     j,

@@ -474,7 +474,7 @@ pub enum ShadeMode {
     /// A colour per input face id.
     Ids = 4,
     /// glTF's metallic-roughness BRDF per pixel (`programs::brdf`), from the interpolated
-    /// normal, the frame's lights and each triangle's `FaceMaterial`.
+    /// normal, the frame's lights and each triangle's material (`MaterialRecord`).
     Pbr = 5,
 }
 
@@ -672,31 +672,46 @@ pub struct TriangleShading {
     /// The input face this triangle comes from (clipping may cut a face into several).
     pub face: u32,
     /// Its surface: its texture an index into the frame's `TextureInfo`s (or [`NO_TEXTURE`]),
-    /// its flags `SHADING_*`.
+    /// its flags `SHADING_*`, its material an index into the frame's [`MaterialRecord`]s.
     pub material: FaceMaterial,
 }
 
 /// A face's surface besides its colour: its base-colour texture, how it is drawn and lit
-/// (`SHADING_*` flags), and glTF's metallic and roughness factors in `[0, 1]`. One per face of
-/// a mesh that names its faces' (`FaceMaterials`, the texture an index into the mesh's
-/// textures), else the mesh's `AssembleParams::material`; the assembly copies it into each of
-/// the face's triangles' [`TriangleShading`] (the texture then an index into the frame's).
+/// (`SHADING_*` flags), and its material. One per face of a mesh that names its faces'
+/// (`FaceMaterials`, the texture an index into the mesh's textures, the material into its
+/// materials), else the mesh's `AssembleParams::material` (indices into the frame's); the
+/// assembly copies it into each of the face's triangles' [`TriangleShading`] (the indices then
+/// the frame's).
 #[repr(C)]
 #[derive(Copy, Clone, Default)]
-#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq, Eq))]
 pub struct FaceMaterial {
     pub texture: u32,
     pub flags: u32,
-    pub metallic: f32,
-    pub roughness: f32,
+    pub material: u32,
+    pub _pad: u32,
 }
 
 impl FaceMaterial {
-    /// A surface of `texture` and `flags` with the BRDF's default factors (a dielectric of
-    /// medium roughness), for lines and points, which are not lit with them.
+    /// A surface of `texture` and `flags` of the frame's first material (its own surface, for
+    /// meshes without materials, lines and points).
     pub const fn plain(texture: u32, flags: u32) -> FaceMaterial {
-        FaceMaterial { texture, flags, metallic: 0.0, roughness: 0.5 }
+        FaceMaterial { texture, flags, material: 0, _pad: 0 }
     }
+}
+
+/// One material of a frame as the shade stage reads it (`Materials`: the frame's own surface
+/// first, then its meshes' materials): glTF's metallic and roughness factors in `[0, 1]`, the
+/// cutoff of a masked surface's alpha (`SHADING_MASK`), and the light it emits, linear RGB.
+#[repr(C)]
+#[derive(Copy, Clone, Default)]
+#[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
+pub struct MaterialRecord {
+    pub metallic: f32,
+    pub roughness: f32,
+    pub alpha_cutoff: f32,
+    pub _pad: u32,
+    pub emissive: [f32; 4],
 }
 
 const _: () = assert!(core::mem::size_of::<AssembleParams>().is_multiple_of(16) && core::mem::offset_of!(AssembleParams, material).is_multiple_of(16));
@@ -786,12 +801,7 @@ impl ShadingRecords for [spirv_std::glam::UVec4] {
             ],
             inv_w: [f32::from_bits(self[at + 9].x), f32::from_bits(self[at + 9].y), f32::from_bits(self[at + 9].z)],
             face: self[at + 9].w,
-            material: FaceMaterial {
-                texture: self[at + 10].x,
-                flags: self[at + 10].y,
-                metallic: f32::from_bits(self[at + 10].z),
-                roughness: f32::from_bits(self[at + 10].w),
-            },
+            material: FaceMaterial { texture: self[at + 10].x, flags: self[at + 10].y, material: self[at + 10].z, _pad: self[at + 10].w },
         })
     }
     #[inline(always)]
@@ -830,6 +840,9 @@ pub const SHADING_OPAQUE: u32 = 8;
 /// `FaceMaterial::flags`: the surface is not lit: its base colour (textured), through the
 /// frame's output transform, in the modes that light (glTF's `KHR_materials_unlit`).
 pub const SHADING_NOT_LIT: u32 = 16;
+/// `FaceMaterial::flags`: the surface is masked: its alpha is 1 where it reaches the material's
+/// `alpha_cutoff`, else 0, and a frame that blends discards such a fragment (glTF's `MASK`).
+pub const SHADING_MASK: u32 = 32;
 
 /// `TriangleShading::texture` of an untextured triangle.
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -1056,10 +1069,11 @@ pub struct AssembleParams {
     /// over every corner), with the frame's `ShadeParams`.
     pub lighting: u32,
     /// 1 where each face names its surface (`FaceMaterials`, its texture offset by
-    /// `first_texture` unless `NO_TEXTURE`); else every face takes `material`, whose texture is
-    /// the frame's.
+    /// `first_texture` unless `NO_TEXTURE`, its material by `first_material`); else every face
+    /// takes `material`, whose indices are the frame's.
     pub face_materials: u32,
     pub first_texture: u32,
+    pub first_material: u32,
     /// 1 where small triangles go to their own list (`Plan::small`, `stages::small`).
     pub split_small: u32,
     /// Faces the host clipped (`AssemblyPatch` entries), and workgroups of faces.
@@ -1077,7 +1091,7 @@ pub struct AssembleParams {
     /// The mesh's first face in the frame's `FaceNormal`s (the placements' one after the
     /// other), under flat shading.
     pub first_face_normal: u32,
-    pub _pad: [u32; 2],
+    pub _pad: u32,
     /// Every face's surface where they do not name theirs.
     pub material: FaceMaterial,
 }

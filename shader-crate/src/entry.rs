@@ -7,7 +7,7 @@
 //! Each entry point binds the buffers its row of the stage table (`crate::pipeline`) lists, in
 //! that order; a test compares the compiled SPIR-V with the table.
 
-use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, LightParams, TriangleShading};
+use crate::abi::{ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, LightParams, MaterialRecord, TriangleShading};
 use crate::abi::{
     Counter, Coverage, FrameParams, OutputSet, ProjectedVertex, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleInput, TriangleSetup,
 };
@@ -344,6 +344,7 @@ pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     shading: &R,
     textures: &[TextureInfo],
     texels: &[u64],
+    materials: &[MaterialRecord],
     offsets: &[u32],
     bins: &[u32],
     pixel_keys: &[u64],
@@ -376,7 +377,8 @@ pub fn shade_pixels<F: FragmentProgram, R: ShadingRecords + ?Sized>(
             } else {
                 ((0, 0), (owners[k], values[k]))
             };
-            let out = shaded_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, owner, depth, i, j);
+            let out =
+                shaded_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, materials, bins, bin_start, bin_len, owner, depth, i, j);
             colours[k] = out.colour;
             faces[k] = out.face;
         }
@@ -410,6 +412,7 @@ pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     shading: &R,
     textures: &[TextureInfo],
     texels: &[u64],
+    materials: &[MaterialRecord],
     colours: &mut [u32],
     faces: &mut [u32],
     shared: &mut FineShared<TriangleSetup, u64>,
@@ -456,7 +459,7 @@ pub fn fine_samples_workgroup<F: FragmentProgram, R: ShadingRecords + ?Sized>(
     }
     fine::write_tile_stats(lid, tile, bin_len, 0, frame, tile_stats);
     if inside {
-        let out = multisample::resolve_samples(fragment, params, program, setups, shading, textures, texels, &states, params.samples, i, j);
+        let out = multisample::resolve_samples(fragment, params, program, setups, shading, textures, texels, materials, &states, params.samples, i, j);
         let k = fine::window_index(i, j, frame);
         values[k] = out.depth;
         colours[k] = out.colour;

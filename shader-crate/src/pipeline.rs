@@ -174,6 +174,8 @@ pub enum Buffer {
     Faces,
     /// `TextureInfo` per texture of the frame (uploaded once per scene; render pipeline).
     Textures,
+    /// `MaterialRecord` per material of the frame (uploaded once per scene; render pipeline).
+    Materials,
     /// The textures' texels, two words each (uploaded once per scene; render pipeline).
     Texels,
 }
@@ -636,6 +638,7 @@ pub const STAGES: [StageInfo; 14] = [
             write(Buffer::Faces),
             read(Buffer::PixelKeys),
             write(Buffer::Coverage),
+            read(Buffer::Materials),
         ],
         pipelines: &[Pipeline::Render],
     },
@@ -663,6 +666,7 @@ pub const STAGES: [StageInfo; 14] = [
             write(Buffer::Colours),
             write(Buffer::Faces),
             read(Buffer::SetupWords),
+            read(Buffer::Materials),
         ],
         pipelines: &[Pipeline::RenderMultisampled],
     },

@@ -230,7 +230,9 @@ pub struct Model {
     up: Up,
     /// Whether the frames may draw points (see [`ModelOptions::points`]).
     points: bool,
-    /// Whether the meshes have materials, and whether one of them is blended (glTF's `BLEND`).
+    /// Whether the meshes have materials, and whether one of them is blended or masked (glTF's
+    /// `BLEND`, `MASK`: a frame of one sample per pixel blends, and so discards masked
+    /// fragments).
     materials: bool,
     blended: bool,
 }
@@ -262,7 +264,7 @@ impl Model {
             }
         };
         let materials = world.meshes.iter().any(|m| !m.materials.is_empty());
-        let blended = world.meshes.iter().flat_map(|m| &m.materials).any(|m| m.alpha == AlphaMode::Blend);
+        let blended = world.meshes.iter().flat_map(|m| &m.materials).any(|m| matches!(m.alpha, AlphaMode::Blend | AlphaMode::Mask { .. }));
         let mut model = Model { world, path, time, framing: None, model: IDENTITY, pose, up, points, materials, blended };
         model.place(z_scale)?;
         Ok(model)

@@ -121,8 +121,8 @@ pub enum Error {
     #[error("the surface's {what} is {value}: give a number from 0 to 1")]
     InvalidMaterial { what: &'static str, value: f64 },
 
-    #[error("material {material}'s {what} is {value}: give a number from 0 to 1")]
-    InvalidMeshMaterial { material: usize, what: &'static str, value: f64 },
+    #[error("material {material}'s {what} is {value}: give a number {range}")]
+    InvalidMeshMaterial { material: usize, what: &'static str, value: f64, range: &'static str },
 
     #[error("face {face} takes material {material}, but the mesh has {materials}: give each face an index into the mesh's materials")]
     InvalidFaceMaterial { face: usize, material: usize, materials: usize },

@@ -16,7 +16,9 @@
 
 use crate::{Error, Grid, Mode, Params, Scene};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{DepthTest, FloatCoeffs, OutputSet, PixelRect, Plane, RecordsAndFaces, ShadeParams, TextureInfo, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{
+    DepthTest, FloatCoeffs, MaterialRecord, OutputSet, PixelRect, Plane, RecordsAndFaces, ShadeParams, TextureInfo, TriangleInput, TriangleShading,
+};
 use tileraster_kernels::math::edge::Side;
 use tileraster_kernels::pipeline::{Layer, Pipeline};
 use tileraster_kernels::stages::fine::side;
@@ -108,6 +110,8 @@ pub struct RenderInputs {
     /// Whether the backend holds these texels from an earlier frame (a prepared mesh's): the
     /// call hands it none of them (`Stats::bytes_uploaded`).
     pub texels_resident: bool,
+    /// The frame's materials (`Materials`): its own surface, then its meshes' materials.
+    pub materials: Vec<MaterialRecord>,
     /// Where the kernels' assembly wrote the frame's records and lists where its backend's
     /// raster stages read them (the host's arrays on the CPU, the device's buffers on the GPU),
     /// the key the backend gave them (`GeometryKernels::hold_records`): the GPU's raster call

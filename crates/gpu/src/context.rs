@@ -15,8 +15,8 @@ use tileraster_build::Role;
 use tileraster_core::render::{Positions, ShaderModules};
 use tileraster_core::{Error, Layers, Mode, Plan, Prepared, Raster, Window};
 use tileraster_kernels::abi::{
-    Counter, FrameFlags, FrameParams, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup, TriangleShading,
-    VertexParams,
+    Counter, FrameFlags, FrameParams, MaterialRecord, ProjectedVertex, RelativePosition, ShadeParams, ShadeVariant, TextureInfo, TriangleInput, TriangleSetup,
+    TriangleShading, VertexParams,
 };
 use tileraster_kernels::memory::LANE_GROUP;
 use tileraster_kernels::pipeline::{Access, Buffer, Cells, Dispatch, LAYERS, Layer, LayerInfo, Pipeline, STAGES, Scope, Stage, StageBuffers, StageInfo};
@@ -306,6 +306,7 @@ struct Buffers {
     layers: [Grown; LAYERS.len()],
     shade_params: Grown,
     textures: Grown,
+    materials: Grown,
     texels: Grown,
     readback: Grown,
     vertex_params: Grown,
@@ -437,6 +438,7 @@ impl GpuContext {
             layers: LAYERS.map(|info| Grown::storage(info.name)),
             shade_params: Grown::storage("shade parameters"),
             textures: Grown::storage("textures"),
+            materials: Grown::storage("materials"),
             texels: Grown::storage("texels"),
             readback: Grown::readback("readback"),
             vertex_params: Grown::storage("vertex parameters"),
@@ -725,8 +727,9 @@ impl GpuContext {
             self.recorder.upload(&self.gpu.queue, &buf, bytemuck::bytes_of(&s.params));
             buf
         });
-        // The frame's textures, once for all its windows (bindings hold at least one element).
-        let materials = match prepared.render.as_ref() {
+        // The frame's textures and materials, once for all its windows (bindings hold at least
+        // one element).
+        let surfaces = match prepared.render.as_ref() {
             Some(s) => {
                 let texel_bytes = (s.texels.len() as u64 * 8).max(8);
                 if texel_bytes > self.max_binding() {
@@ -766,7 +769,12 @@ impl GpuContext {
                         texels
                     }
                 };
-                Some((infos, texels))
+                let materials = self
+                    .buffers
+                    .materials
+                    .get(&self.gpu.device, (std::mem::size_of_val(s.materials.as_slice()) as u64).max(std::mem::size_of::<MaterialRecord>() as u64));
+                self.recorder.upload(&self.gpu.queue, &materials, bytemuck::cast_slice(&s.materials));
+                Some((infos, texels, materials))
             }
             None => None,
         };
@@ -809,13 +817,13 @@ impl GpuContext {
             let window_counters = match &part {
                 None => {
                     let r = resident.as_ref().expect("a whole scene is set up before its windows");
-                    let scene = SceneBuffers::of(prepared, &rows, r, shade_params.as_ref(), materials.as_ref());
+                    let scene = SceneBuffers::of(prepared, &rows, r, shade_params.as_ref(), surfaces.as_ref());
                     let lists = (listed_buf.as_ref().expect("listed with the whole scene"), small_buf.as_ref().expect("listed with the whole scene"));
                     self.rasterise_window(&frame, entries, &scene, lists, None, raster)?
                 }
                 Some(part) => {
                     let r = self.upload_and_setup(prepared, &rows, Some(&part.slots), None)?;
-                    let scene = SceneBuffers::of(prepared, &rows, &r, shade_params.as_ref(), materials.as_ref());
+                    let scene = SceneBuffers::of(prepared, &rows, &r, shade_params.as_ref(), surfaces.as_ref());
                     // The part's setups are its own slots 0, 1, ...: the stages take them by those.
                     let listed_buf = self.upload_list(ListBuffer::Listed, &part.local_listed);
                     let small_buf = self.upload_list(ListBuffer::Small, &part.local_small);
@@ -1231,8 +1239,9 @@ impl GpuContext {
                 Buffer::TileStats => layer_buffer(Layer::Tiles),
                 Buffer::ShadeParams => scene.shade_params?.clone(),
                 Buffer::Shading => scene.shading?.clone(),
-                Buffer::Textures => scene.materials?.0.clone(),
-                Buffer::Texels => scene.materials?.1.clone(),
+                Buffer::Textures => scene.surfaces?.0.clone(),
+                Buffer::Texels => scene.surfaces?.1.clone(),
+                Buffer::Materials => scene.surfaces?.2.clone(),
                 Buffer::Colours => layer_buffer(Layer::Colours),
                 Buffer::Faces => layer_buffer(Layer::Faces),
             })
@@ -1351,8 +1360,8 @@ struct SceneBuffers<'a> {
     /// The render pipeline's: per-triangle attributes, and the frame's shade parameters.
     shading: Option<&'a wgpu::Buffer>,
     shade_params: Option<&'a wgpu::Buffer>,
-    /// The render pipeline's textures and texels.
-    materials: Option<&'a (wgpu::Buffer, wgpu::Buffer)>,
+    /// The render pipeline's textures, texels and materials.
+    surfaces: Option<&'a (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer)>,
 }
 
 impl<'a> SceneBuffers<'a> {
@@ -1362,9 +1371,9 @@ impl<'a> SceneBuffers<'a> {
         rows: &'a [Option<usize>],
         resident: &'a Resident,
         shade_params: Option<&'a wgpu::Buffer>,
-        materials: Option<&'a (wgpu::Buffer, wgpu::Buffer)>,
+        surfaces: Option<&'a (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer)>,
     ) -> Self {
-        SceneBuffers { pipeline: prepared.pipeline(), rows, setups: &resident.setups, shading: resident.shading.as_ref(), shade_params, materials }
+        SceneBuffers { pipeline: prepared.pipeline(), rows, setups: &resident.setups, shading: resident.shading.as_ref(), shade_params, surfaces }
     }
 }
 

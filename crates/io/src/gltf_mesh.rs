@@ -210,7 +210,7 @@ pub fn read_gltf_cameras(path: &Path, time: Option<f64>) -> Result<Vec<GltfCamer
 }
 
 /// The extensions a file may require: the reader implements them.
-const IMPLEMENTED_EXTENSIONS: [&str; 2] = ["KHR_texture_transform", "KHR_materials_unlit"];
+const IMPLEMENTED_EXTENSIONS: [&str; 3] = ["KHR_texture_transform", "KHR_materials_unlit", "KHR_materials_emissive_strength"];
 
 /// The document and its buffers, with required extensions it does not implement refused.
 fn open(path: &Path) -> Result<(gltf::Gltf, Vec<gltf::buffer::Data>), IoError> {
@@ -480,22 +480,30 @@ fn add_primitive(
 }
 
 /// A glTF material as the renderer draws it: its metallic and roughness factors, whether it is
-/// double-sided and unlit, and its alpha mode (`MASK` is drawn as `BLEND`: its alpha kept, the
-/// cutoff not applied).
+/// double-sided and unlit, its alpha mode (with `MASK`'s cutoff) and its emission
+/// (`emissiveFactor` times `KHR_materials_emissive_strength`).
 fn surface(material: &gltf::Material) -> Result<Material, String> {
+    let which = || material.index().map_or("the default material".to_owned(), |k| format!("material {k}"));
     let pbr = material.pbr_metallic_roughness();
     let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
     for (what, value) in [("metallicFactor", metallic), ("roughnessFactor", roughness)] {
         if !(0.0..=1.0).contains(&value) {
-            let which = material.index().map_or("the default material".to_owned(), |k| format!("material {k}"));
-            return Err(format!("{which}'s {what} is {value}, outside [0, 1]"));
+            return Err(format!("{}'s {what} is {value}, outside [0, 1]", which()));
         }
     }
     let alpha = match material.alpha_mode() {
         gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-        gltf::material::AlphaMode::Mask | gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: material.alpha_cutoff().unwrap_or(0.5) },
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
     };
-    Ok(Material { metallic, roughness, double_sided: material.double_sided(), alpha, unlit: material.unlit() })
+    let strength = material.emissive_strength().unwrap_or(1.0);
+    let emissive = material.emissive_factor().map(|e| e * strength);
+    let cutoff = material.alpha_cutoff().unwrap_or(0.5);
+    let not_negative = [("alphaCutoff", cutoff), ("emissiveFactor", emissive[0]), ("emissiveFactor", emissive[1]), ("emissiveFactor", emissive[2])];
+    if let Some((what, value)) = not_negative.into_iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+        return Err(format!("{}'s {what} is {value}, not a finite number of at least 0", which()));
+    }
+    Ok(Material { metallic, roughness, double_sided: material.double_sided(), alpha, unlit: material.unlit(), emissive })
 }
 
 /// `uv` moved by a `KHR_texture_transform`: scaled, rotated (counter-clockwise in the image as
@@ -762,26 +770,29 @@ pub(crate) mod tests {
     }
 
     /// Each primitive's material as the renderer draws it (its factors, `doubleSided`,
-    /// `alphaMode`, `KHR_materials_unlit`; the default material where it names none), the
-    /// faces of blended materials after the rest, and factors outside [0, 1] refused.
+    /// `alphaMode` and `alphaCutoff`, `KHR_materials_unlit`, the emission times
+    /// `KHR_materials_emissive_strength`), the faces of blended materials after the rest, and
+    /// factors outside [0, 1] refused.
     #[test]
     fn materials_are_read_and_blended_faces_come_last() {
         let dir = scratch("materials");
         let one = r#""materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1]}}]"#;
         let two = r#""materials": [
-    {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1]}},
+    {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1]}, "alphaMode": "MASK", "alphaCutoff": 0.25, "emissiveFactor": [1, 0.5, 0],
+     "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2}}},
     {"pbrMetallicRoughness": {"metallicFactor": 0.25, "roughnessFactor": 0.75}, "alphaMode": "BLEND", "doubleSided": true,
      "extensions": {"KHR_materials_unlit": {}}}
   ]"#;
-        let doc = document(None, 4, r#""extensionsUsed": ["KHR_materials_unlit"],"#).replace(one, two).replacen(
+        let doc = document(None, 4, r#""extensionsUsed": ["KHR_materials_unlit", "KHR_materials_emissive_strength"],"#).replace(one, two).replacen(
             r#""indices": 3}]"#,
             r#""indices": 3, "material": 1}]"#,
             1,
         );
         std::fs::write(dir.join("materials.glb"), glb(&doc, &quad_buffer())).unwrap();
         let mesh = read_gltf(&dir.join("materials.glb"), None).unwrap();
-        let blended = Material { metallic: 0.25, roughness: 0.75, double_sided: true, alpha: AlphaMode::Blend, unlit: true };
-        assert_eq!(mesh.materials, vec![blended, Material::default()], "in the order the primitives name them");
+        let blended = Material { metallic: 0.25, roughness: 0.75, double_sided: true, alpha: AlphaMode::Blend, unlit: true, emissive: [0.0; 3] };
+        let masked = Material { alpha: AlphaMode::Mask { cutoff: 0.25 }, emissive: [2.0, 1.0, 0.0], ..Material::default() };
+        assert_eq!(mesh.materials, vec![blended, masked], "in the order the primitives name them");
         // The root's primitive (blended) is drawn after its child's.
         assert_eq!(mesh.triangles, vec![[4, 5, 6], [4, 6, 7], [0, 1, 2], [0, 2, 3]]);
         assert_eq!(mesh.face_materials, Some(vec![1, 1, 0, 0]));

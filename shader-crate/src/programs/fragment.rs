@@ -15,7 +15,7 @@
 //! module that divides floats with the device's division, or calls a transcendental function,
 //! whose bits differ between devices.
 
-use crate::abi::{ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
+use crate::abi::{ATTR_NORMAL, ATTR_POSITION, ATTR_UV, MaterialRecord, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
 use crate::programs::shade::{base_colour, colour_at, facing_normal, fragment_colour, interpolate, interpolate3, normalise, rgba8, weights};
 
 /// How the shade stage colours a fragment: triangle `(s, t)` at pixel `(i, j)`, of depth
@@ -31,6 +31,7 @@ pub trait FragmentProgram {
         face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
+        materials: &[MaterialRecord],
         depth_bits: u32,
         i: i32,
         j: i32,
@@ -51,11 +52,12 @@ impl FragmentProgram for Builtin {
         face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
+        materials: &[MaterialRecord],
         depth_bits: u32,
         i: i32,
         j: i32,
     ) -> u32 {
-        fragment_colour(params, s, t, face, textures, texels, depth_bits, i, j)
+        fragment_colour(params, s, t, face, textures, texels, materials, depth_bits, i, j)
     }
 }
 
@@ -73,11 +75,10 @@ pub struct Fragment {
     /// Its surface's `SHADING_*` flags: `SHADING_UNLIT` where the triangle is part of a line
     /// drawn in its own colour (the wireframe's), which the built-in shadings neither light nor
     /// texture; `SHADING_BACK` on the back of a double-sided surface; the material's
-    /// `SHADING_DOUBLE_SIDED`, `SHADING_OPAQUE` and `SHADING_NOT_LIT`.
+    /// `SHADING_DOUBLE_SIDED`, `SHADING_OPAQUE`, `SHADING_MASK` and `SHADING_NOT_LIT`.
     pub flags: u32,
-    /// Its surface's metallic and roughness factors.
-    pub metallic: f32,
-    pub roughness: f32,
+    /// Its surface's material: metallic and roughness factors, alpha cutoff, emission.
+    pub material: MaterialRecord,
     /// The point in the world.
     pub position: [f32; 3],
     /// The interpolated normal, of unit length (zero where it has no direction), turned round
@@ -104,6 +105,7 @@ impl Fragment {
         face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
+        materials: &[MaterialRecord],
         depth_bits: u32,
         i: i32,
         j: i32,
@@ -114,8 +116,7 @@ impl Fragment {
             depth: f32::from_bits(depth_bits),
             face,
             flags: t.material.flags,
-            metallic: t.material.metallic,
-            roughness: t.material.roughness,
+            material: materials[t.material.material as usize],
             position: interpolate3(t, &b, ATTR_POSITION),
             normal: facing_normal(t.material.flags, normalise(interpolate3(t, &b, ATTR_NORMAL))),
             colour: colour_at(t, &b),
@@ -145,11 +146,12 @@ impl<S: FragmentShader> FragmentProgram for Programmed<S> {
         face: u32,
         textures: &[TextureInfo],
         texels: &[u64],
+        materials: &[MaterialRecord],
         depth_bits: u32,
         i: i32,
         j: i32,
     ) -> u32 {
-        rgba8(self.0.shade(&Fragment::at(params, s, t, face, textures, texels, depth_bits, i, j), params))
+        rgba8(self.0.shade(&Fragment::at(params, s, t, face, textures, texels, materials, depth_bits, i, j), params))
     }
 }
 
@@ -168,7 +170,7 @@ macro_rules! shading_entry_points {
         pub mod shading_entry_points {
             #[allow(unused_imports)]
             use super::*;
-            use $crate::abi::{FrameParams, ShadeParams, ShadeVariant, TextureInfo, TriangleSetup};
+            use $crate::abi::{FrameParams, MaterialRecord, ShadeParams, ShadeVariant, TextureInfo, TriangleSetup};
             use $crate::entry::{UVec3, spirv};
             use $crate::stages::fine::FineShared;
 
@@ -195,6 +197,7 @@ macro_rules! shading_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] faces: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] pixel_keys: &[u64],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] coverage: &mut [u32],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] materials: &[MaterialRecord],
                 #[spirv(spec_constant(id = 0, default = 0))] variant: u32,
                 #[spirv(spec_constant(id = 1, default = 0))] way: u32,
             ) {
@@ -211,6 +214,7 @@ macro_rules! shading_entry_points {
                     shading,
                     textures,
                     texels,
+                    materials,
                     offsets,
                     bins,
                     pixel_keys,
@@ -244,6 +248,7 @@ macro_rules! shading_entry_points {
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] colours: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] faces: &mut [u32],
                 #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] setup_words: &[u64],
+                #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] materials: &[MaterialRecord],
                 #[spirv(subgroup_local_invocation_id)] subgroup_lane: u32,
                 #[spirv(workgroup)] shared: &mut FineShared<TriangleSetup, u64>,
                 #[spirv(spec_constant(id = 0, default = 0))] variant: u32,
@@ -271,6 +276,7 @@ macro_rules! shading_entry_points {
                     shading,
                     textures,
                     texels,
+                    materials,
                     colours,
                     faces,
                     shared,

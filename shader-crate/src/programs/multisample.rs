@@ -13,7 +13,7 @@
 //! by default, as OpenGL resolves integer targets); the coverage layer counts the triangles
 //! that cover at least one sample of the pixel.
 
-use crate::abi::{Coverage, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleSetup};
+use crate::abi::{Coverage, MaterialRecord, SetupPart, ShadeParams, ShadingRecords, TextureInfo, TriangleSetup};
 use crate::math::edge::{Side, side_of};
 use crate::memory::{LANE_GROUP, Lanes};
 use crate::programs::depth::{DepthProgram, depth_bits};
@@ -232,6 +232,7 @@ pub fn resolve_samples<F: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
     shading: &R,
     textures: &[TextureInfo],
     texels: &[u64],
+    materials: &[MaterialRecord],
     states: &[SampleState; MAX_SAMPLES],
     samples: u32,
     i: i32,
@@ -239,7 +240,7 @@ pub fn resolve_samples<F: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
 ) -> Resolved {
     let shade = |slot: u32| {
         let setup = &setups[slot as usize];
-        fragment.colour(params, setup, &shading.record(slot), shading.face(slot), textures, texels, depth_bits(setup, i, j), i, j)
+        fragment.colour(params, setup, &shading.record(slot), shading.face(slot), textures, texels, materials, depth_bits(setup, i, j), i, j)
     };
     let colours = sample_colours(shade, params.background, states, samples);
     let (mut r, mut g, mut b, mut a) = (0u32, 0u32, 0u32, 0u32);

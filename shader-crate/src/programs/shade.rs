@@ -9,8 +9,8 @@
 //! rounding addition (`math::fixed::i64_to_f32`). So the colour is the same on every device.
 
 use crate::abi::{
-    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, FaceMaterial, Interpolation, MAX_LIGHTS, NO_TEXTURE, SHADING_BACK, SHADING_NOT_LIT,
-    SHADING_OPAQUE, SHADING_UNLIT, ShadeMode, ShadeParams, ShadingRecords, TextureInfo, TriangleSetup, TriangleShading,
+    ATTR_COLOUR, ATTR_NORMAL, ATTR_POSITION, ATTR_UV, ATTRIBUTES, Interpolation, MAX_LIGHTS, MaterialRecord, NO_TEXTURE, SHADING_BACK, SHADING_MASK,
+    SHADING_NOT_LIT, SHADING_OPAQUE, SHADING_UNLIT, ShadeMode, ShadeParams, ShadingRecords, TextureInfo, TriangleSetup, TriangleShading,
 };
 use crate::math::edge::Side;
 use crate::math::fixed::{i32_to_f32, i64_to_f32};
@@ -226,7 +226,7 @@ pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> 
 /// the ambient light lights the base colour as in [`phong`], until image-based lighting
 /// replaces it.
 #[inline]
-pub fn pbr(params: &ShadeParams, material: &FaceMaterial, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
+pub fn pbr(params: &ShadeParams, material: &MaterialRecord, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
     let v = normalise(params.towards_viewer(p));
     let surface = Surface { base: [base[0], base[1], base[2]], metallic: material.metallic, roughness: material.roughness };
     let a = &params.ambient;
@@ -276,13 +276,14 @@ pub fn shade_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
     shading: &R,
     textures: &[TextureInfo],
     texels: &[u64],
+    materials: &[MaterialRecord],
     slot: u32,
     depth_bits: u32,
     i: i32,
     j: i32,
 ) -> Shaded {
     let unblended = ShadeParams { blend: 0, ..*params };
-    shaded_pixel(program, &unblended, 0, setups, shading, textures, texels, &[], 0, 0, slot, depth_bits, i, j)
+    shaded_pixel(program, &unblended, 0, setups, shading, textures, texels, materials, &[], 0, 0, slot, depth_bits, i, j)
 }
 
 /// The texture coordinates of triangle `(s, t)` at pixel `(i, j)`.
@@ -354,6 +355,7 @@ pub fn fragment_colour(
     face: u32,
     textures: &[TextureInfo],
     texels: &[u64],
+    materials: &[MaterialRecord],
     depth_bits: u32,
     i: i32,
     j: i32,
@@ -380,15 +382,20 @@ pub fn fragment_colour(
     if mode == ShadeMode::Normals {
         return rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0]);
     }
+    let material = &materials[t.material.material as usize];
     let mut base = base_colour(params, s, t, textures, texels, &b, i, j);
     if flags & SHADING_OPAQUE != 0 {
         base[3] = 1.0;
+    } else if flags & SHADING_MASK != 0 {
+        base[3] = if base[3] >= material.alpha_cutoff { 1.0 } else { 0.0 };
     }
     let lit = if mode == ShadeMode::Colour || flags & SHADING_NOT_LIT != 0 {
         base
     } else {
         let p = interpolate3(t, &b, ATTR_POSITION);
-        if mode == ShadeMode::Pbr { pbr(params, &t.material, base, n, p) } else { phong(params, base, n, p) }
+        let lit = if mode == ShadeMode::Pbr { pbr(params, material, base, n, p) } else { phong(params, base, n, p) };
+        let e = &material.emissive;
+        [lit[0] + e[0], lit[1] + e[1], lit[2] + e[2], lit[3]]
     };
     encoded(params, lit)
 }
@@ -428,6 +435,7 @@ pub fn shaded_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
     shading: &R,
     textures: &[TextureInfo],
     texels: &[u64],
+    materials: &[MaterialRecord],
     bin: &[u32],
     bin_start: u32,
     bin_len: u32,
@@ -473,7 +481,12 @@ pub fn shaded_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
         }
         // The face from where the backend keeps it: a face-id frame reads no more of the record.
         let face = shading.face(next);
-        let colour = program.colour(params, s, &shading.record(next), face, textures, texels, d, i, j);
+        let record = shading.record(next);
+        let colour = program.colour(params, s, &record, face, textures, texels, materials, d, i, j);
+        // A masked surface's transparent fragment is discarded: no colour, no depth.
+        if blend && record.material.flags & SHADING_MASK != 0 && colour >> 24 == 0 {
+            continue;
+        }
         out = Shaded { colour: if blend { source_over(colour, out.colour) } else { colour }, face };
         if blend && write {
             running = f32::from_bits(d);

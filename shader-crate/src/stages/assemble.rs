@@ -531,14 +531,14 @@ fn set_colour(a: &mut [f32; ATTRIBUTES], colour: [f32; 4]) {
     }
 }
 
-/// Face `f`'s surface, its texture in the frame's textures.
+/// Face `f`'s surface, its texture and material the frame's.
 #[inline]
 pub fn face_material(p: &AssembleParams, materials: &[FaceMaterial], f: u32) -> FaceMaterial {
     if p.face_materials == 0 {
         return p.material;
     }
     let m = materials[f as usize];
-    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + m.texture }, ..m }
+    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + m.texture }, material: p.first_material + m.material, ..m }
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]

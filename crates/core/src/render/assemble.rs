@@ -365,8 +365,10 @@ impl<'a> MeshFaces<'a> {
             },
             face_materials: u32::from(self.material.is_none()),
             first_texture: p.first_texture,
+            first_material: p.first_material,
             material: self.material.map_or(FaceMaterial::default(), |m| FaceMaterial {
                 texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + m.texture },
+                material: p.first_material + m.material,
                 ..m
             }),
             split_small: u32::from(split_small),
@@ -377,7 +379,7 @@ impl<'a> MeshFaces<'a> {
             first_small: first.1,
             first_vertex: p.first_vertex as u32,
             first_face_normal: self.first_face_normal,
-            _pad: [0; 2],
+            _pad: 0,
         };
         let faces = bytemuck::cast_slice(&p.mesh.triangles);
         let (projected, attributes, face_normals, shade) = (self.projected, self.attributes, self.face_normals, self.shaded.lighting.params());

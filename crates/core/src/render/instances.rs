@@ -264,8 +264,10 @@ pub(super) struct Placement<'a> {
     pub(super) first_vertex: usize,
     /// The id of its first face.
     pub(super) first_face: u32,
-    /// Its mesh's first texture in the frame's textures.
+    /// Its mesh's first texture in the frame's textures, and first material in its materials
+    /// (0, the frame's own, for a mesh without).
     pub(super) first_texture: u32,
+    pub(super) first_material: u32,
     /// The id of its first vertex's point: after every instance's faces, vertices numbered
     /// over every instance in order.
     pub(super) first_point: u32,

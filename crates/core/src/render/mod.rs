@@ -82,7 +82,7 @@ use viewport::{Target, Viewport};
 
 use crate::{Error, Grid, Mode, Outputs, Params, Prepared, RenderInputs, Skips, Window};
 use rayon::prelude::*;
-use tileraster_kernels::abi::{DepthTest, FaceMaterial, Interpolation, TriangleInput, TriangleShading};
+use tileraster_kernels::abi::{DepthTest, FaceMaterial, Interpolation, MaterialRecord, TriangleInput, TriangleShading};
 use tileraster_kernels::stages::setup::edges_fit_i32;
 
 /// Faces per task of the geometry stages; tasks keep face order.
@@ -307,6 +307,14 @@ pub(crate) fn prepare_instances_in(
         kept.textures = Some(laid_out.clone());
     }
     let LaidOutTextures { infos: texture_infos, texels, .. } = laid_out;
+    // The frame's materials: its own surface (for meshes without materials), then every placed
+    // mesh's, once.
+    let mut first_materials = vec![0u32; meshes.len()];
+    let mut materials = vec![plain_record(params)];
+    for (k, mesh) in meshes.iter().enumerate().filter(|(k, _)| placed[*k] && !meshes[*k].materials.is_empty()) {
+        first_materials[k] = materials.len() as u32;
+        materials.extend(mesh.materials.iter().map(Material::record));
+    }
     let mut placements = Vec::with_capacity(instances.len());
     let (mut first_vertex, mut first_face) = (0, 0u32);
     let all_faces: u64 = instances.iter().map(|i| meshes[i.mesh as usize].triangles.len() as u64).sum();
@@ -336,7 +344,7 @@ pub(crate) fn prepare_instances_in(
         if culled {
             counts.instances_culled += 1;
         } else {
-            let first_texture = first_textures[instance.mesh as usize];
+            let (first_texture, first_material) = (first_textures[instance.mesh as usize], first_materials[instance.mesh as usize]);
             placements.push(Placement {
                 mesh,
                 mesh_index: instance.mesh as usize,
@@ -350,6 +358,7 @@ pub(crate) fn prepare_instances_in(
                 first_vertex,
                 first_face,
                 first_texture,
+                first_material,
                 first_point,
                 first_line,
             });
@@ -385,13 +394,8 @@ pub(crate) fn prepare_instances_in(
     match kernel_stage {
         Some(bytes) => {
             counts.bytes_uploaded = bytes;
-            // A prepared mesh's faces are the same in each of its frames: kept by its positions'
-            // (and the frame's surface, which a mesh without materials takes).
-            let plain = plain_material(params);
-            let faces_key = kept.as_deref().and_then(|k| k.positions.as_ref()).filter(|_| placements.len() == 1).map(|positions| {
-                let surface = (u64::from(plain.metallic.to_bits()) << 32) | u64::from(plain.roughness.to_bits());
-                positions.key() ^ surface.wrapping_mul(0x9e37_79b9_7f4a_7c15)
-            });
+            // A prepared mesh's faces are the same in each of its frames: kept by its positions'.
+            let faces_key = kept.as_deref().and_then(|k| k.positions.as_ref()).filter(|_| placements.len() == 1).map(MeshPositions::key);
             let (slot, keeps) = match kept {
                 // (A posed mesh's attributes are kept for as long as its pose is the same.)
                 Some(k) if placements.len() == 1 => (&mut k.attributes, true),
@@ -411,10 +415,10 @@ pub(crate) fn prepare_instances_in(
                     }
                     MeshFaces {
                         placement: p,
-                        material: mesh_material(p.mesh, &plain),
-                        face_materials: match mesh_material(p.mesh, &plain) {
+                        material: mesh_material(p.mesh),
+                        face_materials: match mesh_material(p.mesh) {
                             Some(_) => Vec::new(),
-                            None => (0..p.mesh.triangles.len()).map(|k| mesh_face_material(p.mesh, k, &plain)).collect(),
+                            None => (0..p.mesh.triangles.len()).map(|k| mesh_face_material(p.mesh, k)).collect(),
                         },
                         projected,
                         attributes: &attributes.values,
@@ -457,7 +461,6 @@ pub(crate) fn prepare_instances_in(
 
     let grid = Grid::new(0.0, w as f64, 0.0, h as f64, w, h);
     let target = Target::new(&grid, params);
-    let plain = plain_material(params);
     // The faces in chunks of at most `CHUNK` of one instance each, in drawing order, then the
     // lines and the points likewise.
     let face_chunks = placements
@@ -501,7 +504,15 @@ pub(crate) fn prepare_instances_in(
             let size = params.points.expect("point chunks only with points");
             for v in start..(start + CHUNK).min(p.mesh.positions.len()) {
                 let bias = point_bias.get(p.first_vertex + v).copied().unwrap_or(0.0);
-                point(&vertices[p.first_vertex + v], size, bias, FaceTag { id: p.first_point + v as u32, material: plain }, &target, emit, counts);
+                point(
+                    &vertices[p.first_vertex + v],
+                    size,
+                    bias,
+                    FaceTag { id: p.first_point + v as u32, material: FaceMaterial::plain(NO_TEXTURE, 0) },
+                    &target,
+                    emit,
+                    counts,
+                );
             }
             return;
         }
@@ -526,7 +537,7 @@ pub(crate) fn prepare_instances_in(
                 flat_corners = corners;
                 vertex = flat_corners.each_ref();
             }
-            let material = face_material(mesh, start + k, p.first_texture, &plain);
+            let material = face_material(mesh, start + k, p.first_texture, p.first_material);
             geometry(tri.map(|v| &corners[v]), vertex, FaceTag { id: face, material }, &viewport, &target, emit, counts);
         }
     };
@@ -637,6 +648,7 @@ pub(crate) fn prepare_instances_in(
             textures: texture_infos,
             texels,
             texels_resident: false,
+            materials,
             records_held,
             fragment: params.fragment,
             returns_colour: params.return_colour,
@@ -647,42 +659,43 @@ pub(crate) fn prepare_instances_in(
     Ok((prepared, counts))
 }
 
-/// Face `k`'s surface, its texture an index into the mesh's textures (or [`NO_TEXTURE`]):
-/// its material's, or the frame's `plain` surface where the mesh has none.
-fn mesh_face_material(mesh: &Mesh, k: usize, plain: &FaceMaterial) -> FaceMaterial {
+/// Face `k`'s surface, its texture and material indices into the mesh's (a mesh without
+/// materials takes the frame's own, 0, single-sided, its alpha kept and lit).
+fn mesh_face_material(mesh: &Mesh, k: usize) -> FaceMaterial {
     let texture = match &mesh.face_textures {
         Some(t) => t[k],
         None if mesh.textures.is_empty() => NO_TEXTURE,
         None => 0,
     };
     match mesh.materials.is_empty() {
-        true => FaceMaterial { texture, ..*plain },
-        false => mesh.materials[mesh.face_materials.as_ref().map_or(0, |m| m[k] as usize)].face_material(texture),
+        true => FaceMaterial::plain(texture, 0),
+        false => {
+            let material = mesh.face_materials.as_ref().map_or(0, |m| m[k]);
+            FaceMaterial { material, ..mesh.materials[material as usize].face_material(texture) }
+        }
     }
 }
 
-/// Face `k`'s surface, its texture in the frame's textures (its mesh's start at
-/// `first_texture`).
-fn face_material(mesh: &Mesh, k: usize, first_texture: u32, plain: &FaceMaterial) -> FaceMaterial {
-    let m = mesh_face_material(mesh, k, plain);
-    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { first_texture + m.texture }, ..m }
+/// Face `k`'s surface, its texture and material the frame's (its mesh's start at
+/// `first_texture` and `first_material`).
+fn face_material(mesh: &Mesh, k: usize, first_texture: u32, first_material: u32) -> FaceMaterial {
+    let m = mesh_face_material(mesh, k);
+    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { first_texture + m.texture }, material: first_material + m.material, ..m }
 }
 
 /// The surface of every face of `mesh` where they are alike (`None` where each face needs its
-/// own: the mesh names its faces' textures or materials), its texture an index into the
-/// mesh's textures.
-fn mesh_material(mesh: &Mesh, plain: &FaceMaterial) -> Option<FaceMaterial> {
+/// own: the mesh names its faces' textures or materials), its indices into the mesh's.
+fn mesh_material(mesh: &Mesh) -> Option<FaceMaterial> {
     let alike = mesh.face_textures.is_none() && (mesh.face_materials.is_none() || mesh.materials.len() <= 1);
     alike.then(|| match mesh.triangles.is_empty() {
-        true => FaceMaterial { texture: NO_TEXTURE, ..*plain },
-        false => mesh_face_material(mesh, 0, plain),
+        true => FaceMaterial::plain(NO_TEXTURE, 0),
+        false => mesh_face_material(mesh, 0),
     })
 }
 
-/// The frame's surface of a mesh without materials: its metallic and roughness, single-sided,
-/// its alpha kept and lit, without texture.
-fn plain_material(params: &RenderParams) -> FaceMaterial {
-    FaceMaterial { texture: NO_TEXTURE, flags: 0, metallic: params.metallic as f32, roughness: params.roughness as f32 }
+/// The frame's own material, which meshes without materials take: its metallic and roughness.
+fn plain_record(params: &RenderParams) -> MaterialRecord {
+    MaterialRecord { metallic: params.metallic as f32, roughness: params.roughness as f32, ..Default::default() }
 }
 
 /// What a chunk of the geometry stages takes.

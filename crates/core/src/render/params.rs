@@ -5,7 +5,9 @@ use super::program::{FragmentConstants, FragmentStage, VertexConstants, VertexSt
 use super::texture::Texture;
 use super::vector::{cross, dot, sub, unit};
 use crate::Skips;
-use tileraster_kernels::abi::{Address, DepthFunc, FaceMaterial, Filter, Interpolation, SHADING_DOUBLE_SIDED, SHADING_NOT_LIT, SHADING_OPAQUE};
+use tileraster_kernels::abi::{
+    Address, DepthFunc, FaceMaterial, Filter, Interpolation, MaterialRecord, SHADING_DOUBLE_SIDED, SHADING_MASK, SHADING_NOT_LIT, SHADING_OPAQUE,
+};
 
 /// The colour of a mesh without colours: linear light grey.
 pub(crate) const GREY: [f32; 4] = [0.8, 0.8, 0.8, 1.0];
@@ -66,36 +68,58 @@ pub struct Material {
     /// Drawn in its base colour, not lit (glTF's `KHR_materials_unlit`), in the shadings that
     /// light per pixel.
     pub unlit: bool,
+    /// The light it emits, linear RGB (glTF's `emissiveFactor` times
+    /// `KHR_materials_emissive_strength`), added to the lit colour in the shadings that light
+    /// per pixel.
+    pub emissive: [f32; 3],
 }
 
 /// What a material's alpha means (glTF's `alphaMode`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub enum AlphaMode {
     /// Opaque: the alpha is taken as 1.
     #[default]
     Opaque,
-    /// The alpha is kept, so that a frame that blends (`RenderParams::blend`) blends the
-    /// surface over what lies behind it.
+    /// The alpha is 1 where it reaches `cutoff`, else 0; a frame that blends
+    /// (`RenderParams::blend`) discards such fragments (no colour, no depth), one that does not
+    /// keeps them, transparent.
+    Mask { cutoff: f32 },
+    /// The alpha is kept, so that a frame that blends blends the surface over what lies behind
+    /// it.
     Blend,
 }
 
 impl Default for Material {
     /// glTF's default material: fully metallic and rough, single-sided, opaque and lit.
     fn default() -> Material {
-        Material { metallic: 1.0, roughness: 1.0, double_sided: false, alpha: AlphaMode::Opaque, unlit: false }
+        Material { metallic: 1.0, roughness: 1.0, double_sided: false, alpha: AlphaMode::Opaque, unlit: false, emissive: [0.0; 3] }
     }
 }
 
 impl Material {
     /// The surface of a mesh without materials in a frame of default `RenderParams`: a
     /// dielectric of medium roughness, single-sided, its alpha kept.
-    pub const PLAIN: Material = Material { metallic: 0.0, roughness: 0.5, double_sided: false, alpha: AlphaMode::Blend, unlit: false };
+    pub const PLAIN: Material = Material { metallic: 0.0, roughness: 0.5, double_sided: false, alpha: AlphaMode::Blend, unlit: false, emissive: [0.0; 3] };
 
-    /// The kernels' surface of a face of this material with `texture`.
+    /// The kernels' surface of a face of this material with `texture` (its material index 0).
     pub(crate) fn face_material(&self, texture: u32) -> FaceMaterial {
         let flag = |on: bool, flag: u32| if on { flag } else { 0 };
-        let flags = flag(self.double_sided, SHADING_DOUBLE_SIDED) | flag(self.alpha == AlphaMode::Opaque, SHADING_OPAQUE) | flag(self.unlit, SHADING_NOT_LIT);
-        FaceMaterial { texture, flags, metallic: self.metallic, roughness: self.roughness }
+        let alpha = match self.alpha {
+            AlphaMode::Opaque => SHADING_OPAQUE,
+            AlphaMode::Mask { .. } => SHADING_MASK,
+            AlphaMode::Blend => 0,
+        };
+        FaceMaterial::plain(texture, flag(self.double_sided, SHADING_DOUBLE_SIDED) | alpha | flag(self.unlit, SHADING_NOT_LIT))
+    }
+
+    /// The shade stage's record of this material.
+    pub(crate) fn record(&self) -> MaterialRecord {
+        let alpha_cutoff = match self.alpha {
+            AlphaMode::Mask { cutoff } => cutoff,
+            _ => 0.0,
+        };
+        let [r, g, b] = self.emissive;
+        MaterialRecord { metallic: self.metallic, roughness: self.roughness, alpha_cutoff, _pad: 0, emissive: [r, g, b, 0.0] }
     }
 }
 

@@ -1,7 +1,7 @@
 //! Bad input as typed errors before any stage runs: a frame's size and choices, a mesh's
 //! indices, coordinates and attributes.
 
-use super::params::{MAX_POINT_SIZE, MAX_RENDER_DIM, MIN_POINT_SIZE, Mesh, RenderParams};
+use super::params::{AlphaMode, MAX_POINT_SIZE, MAX_RENDER_DIM, MIN_POINT_SIZE, Mesh, RenderParams};
 use crate::Error;
 use tileraster_kernels::abi::NO_TEXTURE;
 
@@ -102,10 +102,18 @@ pub fn validate_mesh(mesh: &Mesh) -> Result<(), Error> {
         }
     }
     for (material, m) in mesh.materials.iter().enumerate() {
+        let cutoff = match m.alpha {
+            AlphaMode::Mask { cutoff } => cutoff,
+            _ => 0.0,
+        };
         for (what, value) in [("metallic factor", m.metallic), ("roughness", m.roughness)] {
             if !(0.0..=1.0).contains(&value) {
-                return Err(Error::InvalidMeshMaterial { material, what, value: value as f64 });
+                return Err(Error::InvalidMeshMaterial { material, what, value: value as f64, range: "from 0 to 1" });
             }
+        }
+        let not_negative = [("alpha cutoff", cutoff), ("emission", m.emissive[0]), ("emission", m.emissive[1]), ("emission", m.emissive[2])];
+        if let Some(&(what, value)) = not_negative.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+            return Err(Error::InvalidMeshMaterial { material, what, value: value as f64, range: "finite and not negative" });
         }
     }
     if let Some(faces) = &mesh.face_materials {

@@ -83,6 +83,7 @@ fn fine_samples_with<F: FragmentProgram + Sync + ?Sized>(
                             &records,
                             &inputs.textures,
                             &inputs.texels,
+                            &inputs.materials,
                             &states[lid as usize],
                             params.samples,
                             i,

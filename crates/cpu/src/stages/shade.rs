@@ -43,7 +43,7 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(
     raster: &mut Raster,
 ) {
     let (params, shading) = (&inputs.params, &inputs.records());
-    let (textures, texels) = (&inputs.textures[..], &inputs.texels[..]);
+    let (textures, texels, materials) = (&inputs.textures[..], &inputs.texels[..], &inputs.materials[..]);
     let stride = raster.window.width as usize;
     let (x0, y0) = (raster.window.x0, raster.window.y0);
     let owners = raster.owner.as_deref().expect("the render pipeline writes the owner layer");
@@ -64,7 +64,9 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(
                     let owner = owners[k];
                     let out = match last {
                         Some((o, out)) if o == owner => out,
-                        _ => shade_pixel(program, params, setups, shading, textures, texels, owner, depths[k].to_bits(), (x0 as usize + x) as i32, j),
+                        _ => {
+                            shade_pixel(program, params, setups, shading, textures, texels, materials, owner, depths[k].to_bits(), (x0 as usize + x) as i32, j)
+                        }
                     };
                     last = Some((owner, out));
                     colour_row[x] = out.colour;
@@ -82,7 +84,23 @@ fn shade_with<P: FragmentProgram + Sync + ?Sized>(
                 } else {
                     ((0, 0), (owners[k], depths[k].to_bits()))
                 };
-                let out = shaded_pixel(program, params, frame.nodata_bits, setups, shading, textures, texels, bins, bin_start, bin_len, owner, depth, i, j);
+                let out = shaded_pixel(
+                    program,
+                    params,
+                    frame.nodata_bits,
+                    setups,
+                    shading,
+                    textures,
+                    texels,
+                    materials,
+                    bins,
+                    bin_start,
+                    bin_len,
+                    owner,
+                    depth,
+                    i,
+                    j,
+                );
                 colour_row[x] = out.colour;
                 face_row[x] = out.face;
             }

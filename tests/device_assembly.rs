@@ -145,7 +145,8 @@ fn the_device_keeps_the_records() {
     let mut device = tileraster_gpu::GeometryDevice::default();
     let (prepared, _) = tileraster_core::render::prepare_render(&mesh, &params, &mut device).unwrap();
     let plan = prepared.plan(prepared.window, false).unwrap();
-    let textures = std::mem::size_of_val(prepared.render.as_ref().unwrap().textures.as_slice()) as u64;
+    let render = prepared.render.as_ref().unwrap();
+    let textures = (std::mem::size_of_val(render.textures.as_slice()) + std::mem::size_of_val(render.materials.as_slice())) as u64;
     let raster = std::mem::size_of::<ShadeParams>() as u64 + textures + 2 * std::mem::size_of::<FrameParams>() as u64;
     let (held, profile) = tileraster_gpu::rasterise_profiled(&prepared, &plan, &mut None, false, Some(&device)).unwrap();
     assert_eq!(profile.bytes_up, raster, "{profile:?}");

@@ -878,7 +878,8 @@ fn a_frames_upload_is_counted_whole() {
     let camera = camera_facing_the_square();
     let params = RenderParams { eye: Some(camera.viewer()), ..RenderParams::new(64, 64, camera.view_projection(64, 64).unwrap()) };
     assert_eq!(std::mem::size_of::<FrameParams>(), 72, "the README's figure");
-    let raster = std::mem::size_of::<ShadeParams>() as u64;
+    // The shade parameters and the frame's one material (its own surface).
+    let raster = (std::mem::size_of::<ShadeParams>() + std::mem::size_of::<tileraster_kernels::abi::MaterialRecord>()) as u64;
     // The vertex stage's (its parameters and the square's four positions), and the assembly's.
     let vertex = (std::mem::size_of::<VertexParams>() + 4 * std::mem::size_of::<RelativePosition>()) as u64;
     let faces = 2 * 3 * 4;

@@ -119,8 +119,8 @@ pub struct Stats {
     pub passes: Vec<Pass>,
     /// Bytes of scene and frame data the call hands the device: the prepared triangles (and a
     /// render's shading records) the first time a prepared scene is rasterised, and on every
-    /// call the lists of the window's triangles and a render's shade parameters, textures and
-    /// texels (those a prepared mesh's earlier frame left on the backend excepted). A frame the
+    /// call the lists of the window's triangles and a render's shade parameters, textures,
+    /// materials and texels (those a prepared mesh's earlier frame left on the backend excepted). A frame the
     /// kernels assembled (`RenderInputs::records_held`) hands over neither its records nor, in
     /// a call over its whole window, its lists: the assembly wrote them where setup and
     /// binning read them. The GPU backend
@@ -286,7 +286,8 @@ impl Prepared {
             }
             bytes_uploaded += self.render.as_ref().map_or(0, |r| {
                 let texels = if r.texels_resident { 0 } else { std::mem::size_of_val(r.texels.as_slice()) };
-                (std::mem::size_of::<ShadeParams>() + std::mem::size_of_val(r.textures.as_slice()) + texels) as u64
+                (std::mem::size_of::<ShadeParams>() + std::mem::size_of_val(r.textures.as_slice()) + std::mem::size_of_val(r.materials.as_slice()) + texels)
+                    as u64
             });
         }
         if self.params.outputs.owner {

@@ -173,6 +173,70 @@ fn emission_adds_to_the_light() {
     }
 }
 
+/// A material's textures besides the base colour's, sampled where the base colour's is: the
+/// metallic-roughness texture scales the factors by its blue and green (a frame of a material
+/// without it and the texel's factors gives the same pixels), the occlusion texture's red the
+/// ambient light (strength 0.5 over a black texel: the ambient light halved), the emissive
+/// texture the emission.
+#[test]
+fn a_materials_textures_scale_its_factors_occlusion_and_emission() {
+    use tileraster::render::{Address, Filter, Texture};
+    use tileraster_kernels::programs::texture::unit;
+    let texture = |width: u32, rgba: Vec<u8>, srgb: bool| Texture {
+        width,
+        height: 1,
+        rgba,
+        srgb,
+        filter: Filter::Nearest,
+        address_u: Address::ClampToEdge,
+        address_v: Address::ClampToEdge,
+    };
+    let mut mesh = square(true);
+    mesh.uvs = Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    // Metallic-roughness: the left half rough and not metallic, the right half smoother and
+    // metallic; occlusion: no ambient light; emission: white.
+    mesh.textures = vec![texture(2, vec![0, 255, 0, 255, 0, 50, 255, 255], false), texture(1, vec![0, 0, 0, 255], false), texture(1, vec![255; 4], true)];
+    // (None of them the faces' base colour, which would be texture 0 by default.)
+    mesh.face_textures = Some(vec![tileraster::render::NO_TEXTURE; 2]);
+    let params = lit(Shading::Pbr);
+    let textured = Material { metallic: 1.0, roughness: 0.8, metallic_roughness_texture: Some(0), ..Material::PLAIN };
+    let frame = assert_frame_parity("metallic-roughness texture", &with_material(mesh.clone(), textured), &params);
+    let halves = [(unit(0), unit(255 * 257)), (unit(255 * 257), unit(50 * 257))];
+    let [left, right] = halves.map(|(metallic, roughness)| {
+        let factors = Material { metallic: 1.0 * metallic, roughness: 0.8 * roughness, ..Material::PLAIN };
+        assert_frame_parity("the texel's factors", &with_material(mesh.clone(), factors), &params)
+    });
+    let centre = params.width as usize / 2;
+    let mut compared = 0;
+    for k in (0..frame.ids.len()).filter(|&k| frame.ids[k] != NO_FACE) {
+        let x = k % params.width as usize;
+        if x + 2 < centre || x > centre + 1 {
+            let reference = if x < centre { &left } else { &right };
+            assert_eq!(frame.colour[k], reference.colour[k], "pixel {k}");
+            compared += 1;
+        }
+    }
+    assert!(compared > 500 && left.colour != right.colour, "{compared} pixels compared");
+    // Occlusion.
+    let dim = RenderParams { lights: Vec::new(), ..params.clone() };
+    let occluded = Material { occlusion_texture: Some(1), occlusion_strength: 0.5, ..Material::PLAIN };
+    let frame = assert_frame_parity("occlusion texture", &with_material(mesh.clone(), occluded), &dim);
+    let halved = RenderParams { ambient: dim.ambient.map(|a| a * 0.5), ..dim.clone() };
+    let reference = assert_frame_parity("ambient halved", &with_material(mesh.clone(), Material::PLAIN), &halved);
+    assert_eq!(frame.colour, reference.colour, "strength 0.5 of a black occlusion texel halves the ambient light");
+    assert!(frame.colour.iter().any(|&c| c & 0xff != 0), "some ambient light remains");
+    // Emission.
+    let dark = RenderParams { ambient: [0.0; 3], ..dim };
+    let glowing = Material { emissive: [0.2, 0.4, 0.0], ..Material::PLAIN };
+    let frame = assert_frame_parity("emissive texture", &with_material(mesh.clone(), Material { emissive_texture: Some(2), ..glowing }), &dark);
+    let reference = assert_frame_parity("emission alone", &with_material(mesh.clone(), glowing), &dark);
+    assert_eq!(frame.colour, reference.colour, "a white emissive texture keeps the emission");
+    // A texture index beyond the mesh's is refused.
+    let bad = with_material(mesh, Material { emissive_texture: Some(3), ..Material::PLAIN });
+    let error = tileraster::render::render(&bad, &params, tileraster::Backend::Cpu).map(|_| ()).unwrap_err();
+    assert_eq!(error.to_string(), "texture 3: material 0's emissive texture, but the mesh has 3 textures");
+}
+
 /// Faces the host clips (across the near plane) and faces the kernels assemble take their
 /// materials alike: a terrain seen from inside it, its faces single- and double-sided, the
 /// same bits on both backends and the same frame as the faces drawn without the kernels'

@@ -702,16 +702,40 @@ impl FaceMaterial {
 
 /// One material of a frame as the shade stage reads it (`Materials`: the frame's own surface
 /// first, then its meshes' materials): glTF's metallic and roughness factors in `[0, 1]`, the
-/// cutoff of a masked surface's alpha (`SHADING_MASK`), and the light it emits, linear RGB.
+/// cutoff of a masked surface's alpha (`SHADING_MASK`), the strength of its occlusion texture,
+/// the light it emits (linear RGB), and its textures besides the base colour's (indices into
+/// the frame's `TextureInfo`s, or `NO_TEXTURE`): metallic-roughness (metallic in blue,
+/// roughness in green), occlusion (red) and emission (sRGB).
 #[repr(C)]
-#[derive(Copy, Clone, Default)]
+#[derive(Copy, Clone)]
 #[cfg_attr(not(target_arch = "spirv"), derive(Pod, Zeroable, Debug, PartialEq))]
 pub struct MaterialRecord {
     pub metallic: f32,
     pub roughness: f32,
     pub alpha_cutoff: f32,
-    pub _pad: u32,
+    pub occlusion_strength: f32,
     pub emissive: [f32; 4],
+    pub metallic_roughness_texture: u32,
+    pub occlusion_texture: u32,
+    pub emissive_texture: u32,
+    pub _pad: u32,
+}
+
+impl Default for MaterialRecord {
+    /// A dielectric of medium roughness without textures or emission.
+    fn default() -> MaterialRecord {
+        MaterialRecord {
+            metallic: 0.0,
+            roughness: 0.5,
+            alpha_cutoff: 0.0,
+            occlusion_strength: 1.0,
+            emissive: [0.0; 4],
+            metallic_roughness_texture: NO_TEXTURE,
+            occlusion_texture: NO_TEXTURE,
+            emissive_texture: NO_TEXTURE,
+            _pad: 0,
+        }
+    }
 }
 
 const _: () = assert!(core::mem::size_of::<AssembleParams>().is_multiple_of(16) && core::mem::offset_of!(AssembleParams, material).is_multiple_of(16));

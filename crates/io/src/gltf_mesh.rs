@@ -2,8 +2,11 @@
 //! nodes (or, without scenes, every root node), each node's mesh placed by its world transform
 //! (the product of its ancestors' matrices), every triangle primitive's positions, normals
 //! (transformed by the inverse transpose and normalised), `COLOR_0` times the material's base
-//! colour factor, and `TEXCOORD_0` (moved by the texture's `KHR_texture_transform`). Faces count the triangles in that order: nodes depth first
-//! in document order, primitives in order, triangles in index order (strips and fans unrolled).
+//! colour factor, and `TEXCOORD_0` (moved by the textures' `KHR_texture_transform`), with each
+//! primitive's material (its factors and textures, `doubleSided`, `alphaMode`,
+//! `KHR_materials_unlit`, `KHR_materials_emissive_strength`). Faces count the triangles in that
+//! order: nodes depth first in document order, primitives in order, triangles in index order
+//! (strips and fans unrolled), then those of blended materials move after the rest.
 //!
 //! The nodes stand in a pose (`gltf_pose`): at rest, or at a time of the file's first
 //! animation. Morph targets add their weighted offsets to positions and normals; a skinned
@@ -236,9 +239,10 @@ struct Parts {
     with_colours: usize,
     with_uvs: usize,
     coloured_materials: usize,
-    /// Base-colour textures, by glTF texture index, and each face's (`NO_TEXTURE`: none).
+    /// Textures, by glTF texture index and whether they hold sRGB colours (base colour,
+    /// emission) or linear values, and each face's base-colour texture (`NO_TEXTURE`: none).
     textures: Vec<Texture>,
-    texture_of: std::collections::HashMap<usize, u32>,
+    texture_of: std::collections::HashMap<(usize, bool), u32>,
     face_textures: Vec<u32>,
     /// Materials, by glTF material index (`None`: the default material), and each face's.
     materials: Vec<Material>,
@@ -253,8 +257,8 @@ struct Sources<'a> {
 }
 
 impl Sources<'_> {
-    /// Texture `texture` as a base-colour texture (sRGB), with its sampler.
-    fn texture(&self, texture: &gltf::Texture) -> Result<Texture, String> {
+    /// Texture `texture`, of sRGB colours or linear values, with its sampler.
+    fn texture(&self, texture: &gltf::Texture, srgb: bool) -> Result<Texture, String> {
         use gltf::image::Format;
         use gltf::texture::{MagFilter, MinFilter, WrappingMode};
         let image = texture.source();
@@ -288,19 +292,24 @@ impl Sources<'_> {
             (None, Some(MagFilter::Nearest)) => Filter::Nearest,
             _ => Filter::Trilinear,
         };
-        Ok(Texture {
-            width: data.width,
-            height: data.height,
-            rgba,
-            srgb: true,
-            filter,
-            address_u: address(sampler.wrap_s()),
-            address_v: address(sampler.wrap_t()),
-        })
+        Ok(Texture { width: data.width, height: data.height, rgba, srgb, filter, address_u: address(sampler.wrap_s()), address_v: address(sampler.wrap_t()) })
     }
 }
 
 impl Parts {
+    /// The index of `texture` (of sRGB colours or linear values) in the mesh's textures, read
+    /// the first time.
+    fn texture(&mut self, sources: &Sources, texture: &gltf::Texture, srgb: bool) -> Result<u32, String> {
+        let key = (texture.index(), srgb);
+        if let Some(&k) = self.texture_of.get(&key) {
+            return Ok(k);
+        }
+        self.textures.push(sources.texture(texture, srgb)?);
+        let k = self.textures.len() as u32 - 1;
+        self.texture_of.insert(key, k);
+        Ok(k)
+    }
+
     /// The mesh the primitives add up to; `None` without triangles. The faces of blended
     /// materials come after the others (each in the file's order), so that a frame that draws
     /// in order blends them over the opaque surfaces.
@@ -408,32 +417,21 @@ fn add_primitive(
         None => out.positions.extend(positions.iter().map(|p| place(m, p))),
     }
     let material = primitive.material();
-    let base_colour = material.pbr_metallic_roughness().base_color_texture();
-    let transform = base_colour.as_ref().and_then(|info| info.texture_transform());
-    let tex_coord = |info: &gltf::texture::Info| transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
-    let texture = match &base_colour {
-        Some(info) if tex_coord(info) != 0 => {
-            return Err(format!("unsupported glTF feature: {}'s base colour texture reads TEXCOORD_{}", name(), tex_coord(info)));
-        }
-        Some(info) => {
-            let t = info.texture();
-            match out.texture_of.get(&t.index()) {
-                Some(&k) => k,
-                None => {
-                    out.textures.push(sources.texture(&t)?);
-                    let k = out.textures.len() as u32 - 1;
-                    out.texture_of.insert(t.index(), k);
-                    k
-                }
-            }
-        }
+    let maps = material_textures(&material).map_err(|e| format!("unsupported glTF feature: {}'s {e}", name()))?;
+    let transform = maps.transform;
+    let texture = match maps.base_colour {
+        Some(t) => out.texture(sources, &t, true)?,
         None => NO_TEXTURE,
     };
     out.face_textures.extend(std::iter::repeat_n(texture, triangles.len()));
     let material_index = match out.material_of.get(&material.index()) {
         Some(&k) => k,
         None => {
-            out.materials.push(surface(&material).map_err(|e| format!("{}: {e}", name()))?);
+            let mut surface = surface(&material).map_err(|e| format!("{}: {e}", name()))?;
+            surface.metallic_roughness_texture = maps.metallic_roughness.map(|t| out.texture(sources, &t, false)).transpose()?;
+            surface.occlusion_texture = maps.occlusion.map(|t| out.texture(sources, &t, false)).transpose()?;
+            surface.emissive_texture = maps.emissive.map(|t| out.texture(sources, &t, true)).transpose()?;
+            out.materials.push(surface);
             let k = out.materials.len() as u32 - 1;
             out.material_of.insert(material.index(), k);
             k
@@ -479,6 +477,44 @@ fn add_primitive(
     Ok(())
 }
 
+/// A material's textures, and the `KHR_texture_transform` they share.
+struct MaterialTextures<'a> {
+    base_colour: Option<gltf::Texture<'a>>,
+    metallic_roughness: Option<gltf::Texture<'a>>,
+    occlusion: Option<gltf::Texture<'a>>,
+    emissive: Option<gltf::Texture<'a>>,
+    transform: Option<gltf::texture::TextureTransform<'a>>,
+}
+
+/// `material`'s textures (an error says which does not): each must read `TEXCOORD_0`, and the base-colour, metallic-roughness
+/// and emissive textures must take the same texture transform (which moves the primitive's
+/// coordinates, and so the occlusion texture's too) or none.
+fn material_textures<'a>(material: &gltf::Material<'a>) -> Result<MaterialTextures<'a>, String> {
+    let pbr = material.pbr_metallic_roughness();
+    let infos =
+        [("base colour", pbr.base_color_texture()), ("metallic-roughness", pbr.metallic_roughness_texture()), ("emissive", material.emissive_texture())];
+    let transform = infos.iter().find_map(|(_, info)| info.as_ref().and_then(|i| i.texture_transform()));
+    let moves = |t: &Option<gltf::texture::TextureTransform>| t.as_ref().map(|t| (t.offset(), t.rotation(), t.scale()));
+    let shared = moves(&transform);
+    let occlusion = material.occlusion_texture();
+    let uses = infos
+        .iter()
+        .filter_map(|(what, info)| {
+            info.as_ref().map(|i| (*what, i.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(i.tex_coord()), moves(&i.texture_transform())))
+        })
+        .chain(occlusion.as_ref().map(|o| ("occlusion", o.tex_coord(), shared)));
+    for (what, tex_coord, moved) in uses {
+        if tex_coord != 0 {
+            return Err(format!("{what} texture reads TEXCOORD_{tex_coord}"));
+        }
+        if moved != shared {
+            return Err(format!("{what} texture takes another texture transform than its other textures"));
+        }
+    }
+    let [base_colour, metallic_roughness, emissive] = infos.map(|(_, info)| info.map(|i| i.texture()));
+    Ok(MaterialTextures { base_colour, metallic_roughness, occlusion: occlusion.map(|o| o.texture()), emissive, transform })
+}
+
 /// A glTF material as the renderer draws it: its metallic and roughness factors, whether it is
 /// double-sided and unlit, its alpha mode (with `MASK`'s cutoff) and its emission
 /// (`emissiveFactor` times `KHR_materials_emissive_strength`).
@@ -503,7 +539,11 @@ fn surface(material: &gltf::Material) -> Result<Material, String> {
     if let Some((what, value)) = not_negative.into_iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
         return Err(format!("{}'s {what} is {value}, not a finite number of at least 0", which()));
     }
-    Ok(Material { metallic, roughness, double_sided: material.double_sided(), alpha, unlit: material.unlit(), emissive })
+    let occlusion_strength = material.occlusion_texture().map_or(1.0, |o| o.strength());
+    if !(0.0..=1.0).contains(&occlusion_strength) {
+        return Err(format!("{}'s occlusion strength is {occlusion_strength}, outside [0, 1]", which()));
+    }
+    Ok(Material { metallic, roughness, double_sided: material.double_sided(), alpha, unlit: material.unlit(), emissive, occlusion_strength, ..Material::PLAIN })
 }
 
 /// `uv` moved by a `KHR_texture_transform`: scaled, rotated (counter-clockwise in the image as
@@ -790,7 +830,7 @@ pub(crate) mod tests {
         );
         std::fs::write(dir.join("materials.glb"), glb(&doc, &quad_buffer())).unwrap();
         let mesh = read_gltf(&dir.join("materials.glb"), None).unwrap();
-        let blended = Material { metallic: 0.25, roughness: 0.75, double_sided: true, alpha: AlphaMode::Blend, unlit: true, emissive: [0.0; 3] };
+        let blended = Material { metallic: 0.25, roughness: 0.75, double_sided: true, alpha: AlphaMode::Blend, unlit: true, ..Material::PLAIN };
         let masked = Material { alpha: AlphaMode::Mask { cutoff: 0.25 }, emissive: [2.0, 1.0, 0.0], ..Material::default() };
         assert_eq!(mesh.materials, vec![blended, masked], "in the order the primitives name them");
         // The root's primitive (blended) is drawn after its child's.
@@ -884,6 +924,22 @@ pub(crate) mod tests {
             let want = [3.0 * v as f64 + 0.5, -2.0 * u as f64 + 0.25];
             assert!((got[0] as f64 - want[0]).abs() < 1e-6 && (got[1] as f64 - want[1]).abs() < 1e-6, "{got:?} against {want:?}");
         }
+        // A metallic-roughness material's other textures: the same image read once as sRGB
+        // colours (base colour, emission) and once as linear values (metallic-roughness,
+        // occlusion).
+        let maps =
+            r#"{"index": 0}, "metallicRoughnessTexture": {"index": 0}}, "occlusionTexture": {"index": 0, "strength": 0.5}, "emissiveTexture": {"index": 0"#;
+        std::fs::write(dir.join("maps.glb"), glb(&document_with(r#"{"uri": "tex.png"}"#, maps, ""), &bin)).unwrap();
+        let mesh = read_gltf(&dir.join("maps.glb"), None).unwrap();
+        assert_eq!(mesh.textures.iter().map(|t| t.srgb).collect::<Vec<_>>(), vec![true, false]);
+        let m = &mesh.materials[0];
+        assert_eq!((m.metallic_roughness_texture, m.occlusion_texture, m.occlusion_strength, m.emissive_texture), (Some(1), Some(1), 0.5, Some(0)));
+        // One of them under another transform than the others is refused.
+        let scaled = r#""metallicRoughnessTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"scale": [2, 2]}}}"#;
+        let apart = maps.replace(r#""metallicRoughnessTexture": {"index": 0}"#, scaled);
+        std::fs::write(dir.join("apart.glb"), glb(&document_with(r#"{"uri": "tex.png"}"#, &apart, required), &bin)).unwrap();
+        let e = read_gltf(&dir.join("apart.glb"), None).unwrap_err().to_string();
+        assert!(e.contains("unsupported glTF feature") && e.contains("texture takes another texture transform than its other textures"), "{e}");
         std::fs::remove_file(dir.join("tex.png")).unwrap();
         let e = read_gltf(&dir.join("file.glb"), None).unwrap_err().to_string();
         assert!(e.contains("image 0 of texture 0") && e.contains("file.glb"), "{e}");

@@ -194,8 +194,15 @@ pub fn id_colour(id: u32) -> u32 {
 /// own colour with it.
 #[inline]
 pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
+    occluded_phong(params, base, 1.0, n, p)
+}
+
+/// [`phong`] with the share `occlusion` of the ambient light reaching the point.
+#[inline]
+pub fn occluded_phong(params: &ShadeParams, base: [f32; 4], occlusion: f32, n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
     let v = normalise(params.towards_viewer(p));
-    let mut diffuse = [params.ambient[0], params.ambient[1], params.ambient[2]];
+    let a = &params.ambient;
+    let mut diffuse = [a[0] * occlusion, a[1] * occlusion, a[2] * occlusion];
     let mut specular = [0.0f32; 3];
     let mut k = 0;
     while k < MAX_LIGHTS {
@@ -220,17 +227,18 @@ pub fn phong(params: &ShadeParams, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> 
 }
 
 /// glTF's metallic-roughness BRDF (`programs::brdf`) under the frame's lights at a point with
-/// unit normal `n` on the base colour `base` (its alpha kept), with `material`'s metallic and
-/// roughness; `p` is the point in the world. Each light's colour is what it gives a white
-/// Lambertian surface facing it (the BRDF times `π`: the same diffuse light as [`phong`]);
-/// the ambient light lights the base colour as in [`phong`], until image-based lighting
+/// unit normal `n` of the surface `at` (its base colour's alpha kept); `p` is the point in the
+/// world. Each light's colour is what it gives a white Lambertian surface facing it (the BRDF
+/// times `π`: the same diffuse light as [`phong`]); the ambient light, its share that the
+/// occlusion lets through, lights the base colour as in [`phong`], until image-based lighting
 /// replaces it.
 #[inline]
-pub fn pbr(params: &ShadeParams, material: &MaterialRecord, base: [f32; 4], n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
+pub fn pbr(params: &ShadeParams, at: &SurfaceAt, n: [f32; 3], p: [f32; 3]) -> [f32; 4] {
     let v = normalise(params.towards_viewer(p));
-    let surface = Surface { base: [base[0], base[1], base[2]], metallic: material.metallic, roughness: material.roughness };
+    let base = at.base;
+    let surface = Surface { base: [base[0], base[1], base[2]], metallic: at.metallic, roughness: at.roughness };
     let a = &params.ambient;
-    let mut out = [base[0] * a[0], base[1] * a[1], base[2] * a[2]];
+    let mut out = [base[0] * a[0] * at.occlusion, base[1] * a[1] * at.occlusion, base[2] * a[2] * at.occlusion];
     let n_v = dot(&n, &v);
     let mut k = 0;
     while k < MAX_LIGHTS {
@@ -294,11 +302,7 @@ fn uv_at(s: &TriangleSetup, t: &TriangleShading, params: &ShadeParams, i: i32, j
 }
 
 /// The fragment's base colour: the interpolated vertex colour, times the triangle's texture
-/// sampled at the interpolated coordinates where it has one. The level of detail comes from
-/// the coordinates' differences across the pixel's 2×2 quad (its top-left pixel to the one
-/// right of it and the one below: every pixel of a quad takes the same, as graphics APIs'
-/// coarse derivatives do), the triangle's attributes evaluated at those centres whether or not
-/// they lie inside it.
+/// sampled at the interpolated coordinates where it has one ([`sampled`]).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn base_colour(
@@ -312,34 +316,131 @@ pub(crate) fn base_colour(
     j: i32,
 ) -> [f32; 4] {
     let colour = colour_at(t, b);
-    if params.textured == 0 || t.material.texture == NO_TEXTURE {
-        return colour;
-    }
-    let info = &textures[t.material.texture as usize];
-    let (u, v) = (interpolate(t, b, ATTR_UV), interpolate(t, b, ATTR_UV + 1));
-    let level = if info.filter() == crate::abi::Filter::Trilinear && info.levels > 1 {
-        // The quad's top-left pixel, the one right of it and the one below, in one loop (one
-        // copy of the weights' division).
-        // (Named values, not an array indexed by the loop: a CPU implementation of Vulkan
-        // keeps such an array in memory and reaches it one lane at a time.)
-        let (qx, qy) = (i & !1, j & !1);
-        let (mut at, mut right, mut below) = ([0.0f32; 2], [0.0f32; 2], [0.0f32; 2]);
-        let mut k = 0;
-        while k < 3 {
-            let uv = uv_at(s, t, params, qx + (k == 1) as i32, qy + (k == 2) as i32);
-            match k {
-                0 => at = uv,
-                1 => right = uv,
-                _ => below = uv,
-            }
-            k += 1;
+    let uv = [interpolate(t, b, ATTR_UV), interpolate(t, b, ATTR_UV + 1)];
+    let c = sampled(params, s, t, textures, texels, t.material.texture, uv, &mut Quad::default(), i, j);
+    [colour[0] * c[0], colour[1] * c[1], colour[2] * c[2], colour[3] * c[3]]
+}
+
+/// A fragment's surface as its material and textures give it (glTF's metallic-roughness
+/// material): the base colour (the vertex colour times the base-colour texture), the metallic
+/// and roughness factors times the metallic-roughness texture's blue and green, the share of
+/// the ambient light that reaches it (`1 + strength·(occlusion − 1)`, the occlusion texture's
+/// red), and the emission times the emissive texture. Without textures, the colour and the
+/// factors as they are.
+#[derive(Copy, Clone)]
+pub struct SurfaceAt {
+    pub base: [f32; 4],
+    pub metallic: f32,
+    pub roughness: f32,
+    pub occlusion: f32,
+    pub emissive: [f32; 3],
+}
+
+/// Triangle `(s, t)`'s surface of `material` at pixel `(i, j)` (weights `b`): the base colour
+/// alone unless it `lights` (the other textures are read only where a light needs them).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn surface_at(
+    params: &ShadeParams,
+    s: &TriangleSetup,
+    t: &TriangleShading,
+    material: &MaterialRecord,
+    textures: &[TextureInfo],
+    texels: &[u64],
+    b: &[f32; 3],
+    lights: bool,
+    i: i32,
+    j: i32,
+) -> SurfaceAt {
+    let colour = colour_at(t, b);
+    let uv = [interpolate(t, b, ATTR_UV), interpolate(t, b, ATTR_UV + 1)];
+    let mut quad = Quad::default();
+    // The textures in one loop, so that the stage holds one copy of the filter (named values,
+    // not an array indexed by the loop: see `per_component`).
+    let (mut base, mut metal_rough, mut occlusion, mut emission) = ([1.0f32; 4], [1.0f32; 4], [1.0f32; 4], [1.0f32; 4]);
+    let textures_read = if lights { 4 } else { 1 };
+    let mut k = 0;
+    while k < textures_read {
+        let texture = match k {
+            0 => t.material.texture,
+            1 => material.metallic_roughness_texture,
+            2 => material.occlusion_texture,
+            _ => material.emissive_texture,
+        };
+        let c = sampled(params, s, t, textures, texels, texture, uv, &mut quad, i, j);
+        match k {
+            0 => base = c,
+            1 => metal_rough = c,
+            2 => occlusion = c,
+            _ => emission = c,
         }
-        lod(info.width, info.height, [right[0] - at[0], right[1] - at[1], below[0] - at[0], below[1] - at[1]])
+        k += 1;
+    }
+    let e = &material.emissive;
+    SurfaceAt {
+        base: [colour[0] * base[0], colour[1] * base[1], colour[2] * base[2], colour[3] * base[3]],
+        metallic: material.metallic * metal_rough[2],
+        roughness: material.roughness * metal_rough[1],
+        occlusion: 1.0 + material.occlusion_strength * (occlusion[0] - 1.0),
+        emissive: [e[0] * emission[0], e[1] * emission[1], e[2] * emission[2]],
+    }
+}
+
+/// The texture coordinates' differences across a pixel's 2×2 quad, once found.
+#[derive(Copy, Clone, Default)]
+pub struct Quad {
+    known: bool,
+    d: [f32; 4],
+}
+
+/// Texture `texture` of the frame (white where `NO_TEXTURE`) at the coordinates `uv`, unit
+/// RGBA. The level of detail comes from the coordinates' differences across the pixel's 2×2
+/// quad (its top-left pixel to the one right of it and the one below: every pixel of a quad
+/// takes the same, as graphics APIs' coarse derivatives do), the triangle's attributes
+/// evaluated at those centres whether or not they lie inside it; found the first time a
+/// trilinear texture needs them and kept in `quad`.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn sampled(
+    params: &ShadeParams,
+    s: &TriangleSetup,
+    t: &TriangleShading,
+    textures: &[TextureInfo],
+    texels: &[u64],
+    texture: u32,
+    uv: [f32; 2],
+    quad: &mut Quad,
+    i: i32,
+    j: i32,
+) -> [f32; 4] {
+    if params.textured == 0 || texture == NO_TEXTURE {
+        return [1.0; 4];
+    }
+    let info = &textures[texture as usize];
+    let level = if info.filter() == crate::abi::Filter::Trilinear && info.levels > 1 {
+        if !quad.known {
+            // The quad's top-left pixel, the one right of it and the one below, in one loop
+            // (one copy of the weights' division).
+            let (qx, qy) = (i & !1, j & !1);
+            let (mut at, mut right, mut below) = ([0.0f32; 2], [0.0f32; 2], [0.0f32; 2]);
+            let mut k = 0;
+            while k < 3 {
+                let uv = uv_at(s, t, params, qx + (k == 1) as i32, qy + (k == 2) as i32);
+                match k {
+                    0 => at = uv,
+                    1 => right = uv,
+                    _ => below = uv,
+                }
+                k += 1;
+            }
+            *quad = Quad { known: true, d: [right[0] - at[0], right[1] - at[1], below[0] - at[0], below[1] - at[1]] };
+        }
+        lod(info.width, info.height, quad.d)
     } else {
         0
     };
-    let texel = texture::filtered(texels, info, u, v, level);
-    [colour[0] * texture::unit(texel[0]), colour[1] * texture::unit(texel[1]), colour[2] * texture::unit(texel[2]), colour[3] * texture::unit(texel[3])]
+    let texel = texture::filtered(texels, info, uv[0], uv[1], level);
+    [texture::unit(texel[0]), texture::unit(texel[1]), texture::unit(texel[2]), texture::unit(texel[3])]
 }
 
 /// The colour, RGBA8, of triangle `(s, t)`'s fragment at pixel `(i, j)`, of depth `depth_bits`,
@@ -383,18 +484,19 @@ pub fn fragment_colour(
         return rgba8([n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5, 1.0]);
     }
     let material = &materials[t.material.material as usize];
-    let mut base = base_colour(params, s, t, textures, texels, &b, i, j);
+    let lights = mode != ShadeMode::Colour && flags & SHADING_NOT_LIT == 0;
+    let mut at = surface_at(params, s, t, material, textures, texels, &b, lights, i, j);
     if flags & SHADING_OPAQUE != 0 {
-        base[3] = 1.0;
+        at.base[3] = 1.0;
     } else if flags & SHADING_MASK != 0 {
-        base[3] = if base[3] >= material.alpha_cutoff { 1.0 } else { 0.0 };
+        at.base[3] = if at.base[3] >= material.alpha_cutoff { 1.0 } else { 0.0 };
     }
-    let lit = if mode == ShadeMode::Colour || flags & SHADING_NOT_LIT != 0 {
-        base
+    let lit = if !lights {
+        at.base
     } else {
         let p = interpolate3(t, &b, ATTR_POSITION);
-        let lit = if mode == ShadeMode::Pbr { pbr(params, material, base, n, p) } else { phong(params, base, n, p) };
-        let e = &material.emissive;
+        let lit = if mode == ShadeMode::Pbr { pbr(params, &at, n, p) } else { occluded_phong(params, at.base, at.occlusion, n, p) };
+        let e = &at.emissive;
         [lit[0] + e[0], lit[1] + e[1], lit[2] + e[2], lit[3]]
     };
     encoded(params, lit)

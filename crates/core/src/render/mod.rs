@@ -313,7 +313,7 @@ pub(crate) fn prepare_instances_in(
     let mut materials = vec![plain_record(params)];
     for (k, mesh) in meshes.iter().enumerate().filter(|(k, _)| placed[*k] && !meshes[*k].materials.is_empty()) {
         first_materials[k] = materials.len() as u32;
-        materials.extend(mesh.materials.iter().map(Material::record));
+        materials.extend(mesh.materials.iter().map(|m| m.record(first_textures[k])));
     }
     let mut placements = Vec::with_capacity(instances.len());
     let (mut first_vertex, mut first_face) = (0, 0u32);

@@ -6,7 +6,7 @@ use super::texture::Texture;
 use super::vector::{cross, dot, sub, unit};
 use crate::Skips;
 use tileraster_kernels::abi::{
-    Address, DepthFunc, FaceMaterial, Filter, Interpolation, MaterialRecord, SHADING_DOUBLE_SIDED, SHADING_MASK, SHADING_NOT_LIT, SHADING_OPAQUE,
+    Address, DepthFunc, FaceMaterial, Filter, Interpolation, MaterialRecord, NO_TEXTURE, SHADING_DOUBLE_SIDED, SHADING_MASK, SHADING_NOT_LIT, SHADING_OPAQUE,
 };
 
 /// The colour of a mesh without colours: linear light grey.
@@ -72,6 +72,15 @@ pub struct Material {
     /// `KHR_materials_emissive_strength`), added to the lit colour in the shadings that light
     /// per pixel.
     pub emissive: [f32; 3],
+    /// Its textures besides the base colour's, indices into the mesh's `textures` (which they
+    /// sample as they sample theirs, at the same coordinates): metallic-roughness (the factors
+    /// times its blue and green), occlusion (the share of the ambient light that reaches the
+    /// surface, `1 + occlusion_strength · (red − 1)`) and emission (the emission times it); read
+    /// in the shadings that light per pixel.
+    pub metallic_roughness_texture: Option<u32>,
+    pub occlusion_texture: Option<u32>,
+    pub occlusion_strength: f32,
+    pub emissive_texture: Option<u32>,
 }
 
 /// What a material's alpha means (glTF's `alphaMode`).
@@ -92,14 +101,25 @@ pub enum AlphaMode {
 impl Default for Material {
     /// glTF's default material: fully metallic and rough, single-sided, opaque and lit.
     fn default() -> Material {
-        Material { metallic: 1.0, roughness: 1.0, double_sided: false, alpha: AlphaMode::Opaque, unlit: false, emissive: [0.0; 3] }
+        Material { metallic: 1.0, roughness: 1.0, alpha: AlphaMode::Opaque, ..Material::PLAIN }
     }
 }
 
 impl Material {
     /// The surface of a mesh without materials in a frame of default `RenderParams`: a
     /// dielectric of medium roughness, single-sided, its alpha kept.
-    pub const PLAIN: Material = Material { metallic: 0.0, roughness: 0.5, double_sided: false, alpha: AlphaMode::Blend, unlit: false, emissive: [0.0; 3] };
+    pub const PLAIN: Material = Material {
+        metallic: 0.0,
+        roughness: 0.5,
+        double_sided: false,
+        alpha: AlphaMode::Blend,
+        unlit: false,
+        emissive: [0.0; 3],
+        metallic_roughness_texture: None,
+        occlusion_texture: None,
+        occlusion_strength: 1.0,
+        emissive_texture: None,
+    };
 
     /// The kernels' surface of a face of this material with `texture` (its material index 0).
     pub(crate) fn face_material(&self, texture: u32) -> FaceMaterial {
@@ -112,14 +132,31 @@ impl Material {
         FaceMaterial::plain(texture, flag(self.double_sided, SHADING_DOUBLE_SIDED) | alpha | flag(self.unlit, SHADING_NOT_LIT))
     }
 
-    /// The shade stage's record of this material.
-    pub(crate) fn record(&self) -> MaterialRecord {
+    /// The shade stage's record of this material, its mesh's textures from `first_texture` in
+    /// the frame's.
+    pub(crate) fn record(&self, first_texture: u32) -> MaterialRecord {
         let alpha_cutoff = match self.alpha {
             AlphaMode::Mask { cutoff } => cutoff,
             _ => 0.0,
         };
         let [r, g, b] = self.emissive;
-        MaterialRecord { metallic: self.metallic, roughness: self.roughness, alpha_cutoff, _pad: 0, emissive: [r, g, b, 0.0] }
+        let texture = |t: Option<u32>| t.map_or(NO_TEXTURE, |t| first_texture + t);
+        MaterialRecord {
+            metallic: self.metallic,
+            roughness: self.roughness,
+            alpha_cutoff,
+            occlusion_strength: self.occlusion_strength,
+            emissive: [r, g, b, 0.0],
+            metallic_roughness_texture: texture(self.metallic_roughness_texture),
+            occlusion_texture: texture(self.occlusion_texture),
+            emissive_texture: texture(self.emissive_texture),
+            _pad: 0,
+        }
+    }
+
+    /// Its textures besides the base colour's, with what each is.
+    pub(crate) fn textures(&self) -> [(&'static str, Option<u32>); 3] {
+        [("metallic-roughness", self.metallic_roughness_texture), ("occlusion", self.occlusion_texture), ("emissive", self.emissive_texture)]
     }
 }
 

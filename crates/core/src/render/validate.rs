@@ -111,6 +111,15 @@ pub fn validate_mesh(mesh: &Mesh) -> Result<(), Error> {
                 return Err(Error::InvalidMeshMaterial { material, what, value: value as f64, range: "from 0 to 1" });
             }
         }
+        if !(0.0..=1.0).contains(&m.occlusion_strength) {
+            return Err(Error::InvalidMeshMaterial { material, what: "occlusion strength", value: m.occlusion_strength as f64, range: "from 0 to 1" });
+        }
+        if let Some((what, t)) = m.textures().into_iter().find_map(|(what, t)| t.filter(|&t| t as usize >= mesh.textures.len()).map(|t| (what, t))) {
+            return Err(Error::InvalidTexture {
+                texture: t as usize,
+                reason: format!("material {material}'s {what} texture, but the mesh has {} textures", mesh.textures.len()),
+            });
+        }
         let not_negative = [("alpha cutoff", cutoff), ("emission", m.emissive[0]), ("emission", m.emissive[1]), ("emission", m.emissive[2])];
         if let Some(&(what, value)) = not_negative.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
             return Err(Error::InvalidMeshMaterial { material, what, value: value as f64, range: "finite and not negative" });

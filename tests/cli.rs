@@ -1317,3 +1317,33 @@ fn render_poses_an_animated_gltf_file_at_a_time() {
     assert!(e.contains("glTF") && e.contains("square.obj"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The README's materials frame: `examples/materials_scene.py` writes the glTF scene, and
+/// `tileraster render` draws it with its materials (pbr, blended and masked faces, emission)
+/// to the colour the README quotes, the same bits on both backends.
+#[test]
+fn the_readmes_materials_frame_is_the_same_on_both_backends() {
+    let dir = scratch("materials-scene");
+    let glb = dir.join("materials.glb");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/materials_scene.py");
+    let out = Command::new("python3").arg(&script).arg(&glb).output().expect("python3 runs examples/materials_scene.py");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut checksums = Vec::new();
+    for backend in ["cpu", "gpu"] {
+        if backend == "gpu" && !common::gpu_or_skip("the_readmes_materials_frame_is_the_same_on_both_backends") {
+            continue;
+        }
+        let png = dir.join(format!("{backend}.png"));
+        let out = bin()
+            .args(["render", glb.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "960", "720", "--tone-map", "neutral", "--srgb"])
+            .args(["--background", "30,34,42,255", "--backend", backend, "--stats", "-q"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{backend}: {stderr}");
+        let json: serde_json::Value = serde_json::from_str(stderr.trim()).unwrap_or_else(|e| panic!("--stats is not JSON ({e}): {stderr}"));
+        checksums.push(json["checksums"].clone());
+    }
+    assert_eq!(checksums[0]["colour"], "688ec3ad", "the README's figure");
+    assert!(checksums.iter().all(|c| *c == checksums[0]), "{checksums:?}");
+}

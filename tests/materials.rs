@@ -73,6 +73,10 @@ fn a_double_sided_material_keeps_its_back_faces_and_lights_them_turned_round() {
                 assert!(close, "{shading:?}, {cull:?}: pixel {k} is {b:08x} on the back, {f:08x} on the front");
             }
         }
+        // A frame that culls every face as it says culls the double-sided back too.
+        let every = RenderParams { double_sided: false, ..params.clone() };
+        let culled = assert_frame_parity(&format!("{shading:?}, double-sided back, culled"), &with_material(square(false), double), &every);
+        assert_eq!(drawn(&culled), 0, "{shading:?}: double_sided false culls a double-sided back face");
         let params = RenderParams { cull: Cull::None, ..params.clone() };
         let dark = assert_frame_parity(&format!("{shading:?}, single-sided back drawn"), &with_material(square(false), single), &params);
         assert_eq!(drawn(&dark), drawn(&front));

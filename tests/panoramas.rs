@@ -31,7 +31,7 @@ fn view(lens: Lens, size: [u32; 2]) -> ViewOptions {
         camera: CameraChoice::LookAt { eye: [0.5, -0.3, 1.5], target: [10.0, 2.0, 1.0], up: [0.0, 0.0, 1.0] },
         lens,
         shading: Some(Shading::Phong),
-        cull: tileraster::render::Cull::None,
+        cull: Some(tileraster::render::Cull::None),
         ..Default::default()
     }
 }

@@ -113,7 +113,7 @@ fn choice<T: Copy>(what: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T>
 impl View {
     #[new]
     #[pyo3(signature = (*, size = None, camera = None, mvp = None, camera_node = None, fov = None, ortho = None, up = None, background = [0.0; 4],
-        cull = "back", shading = None, metallic = 0.0, roughness = 0.5, tone_map = "none", srgb = false, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
+        cull = None, shading = None, metallic = 0.0, roughness = 0.5, tone_map = "none", srgb = false, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
         filter = None, address = None, blend = false, no_skip = Vec::new(), count_fragments = false, projection = None, jitter = 1, backend = "auto"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -125,7 +125,7 @@ impl View {
         ortho: Option<&Bound<'_, PyAny>>,
         up: Option<&str>,
         background: [f64; 4],
-        cull: &str,
+        cull: Option<&str>,
         shading: Option<&str>,
         metallic: f64,
         roughness: f64,
@@ -185,7 +185,7 @@ impl View {
             lens,
             up: up.map(|up| choice("up", up, &[("y", Up::Y), ("z", Up::Z)])).transpose()?,
             background,
-            cull: choice("cull", cull, &[("back", Cull::Back), ("front", Cull::Front), ("none", Cull::None)])?,
+            cull: cull.map(|c| choice("cull", c, &[("back", Cull::Back), ("front", Cull::Front), ("none", Cull::None)])).transpose()?,
             shading: shading.map(|s| choice("shading", s, &Shading::ALL.map(|s| (s.name(), s)))).transpose()?,
             metallic,
             roughness,

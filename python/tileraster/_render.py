@@ -32,10 +32,11 @@ _VIEW_OPTIONS = """
     - ``shading=None`` (``"pbr"`` for a glTF file, whose materials it draws, else
       ``"smooth"``): ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"pbr"``,
       ``"depth"``, ``"normals"`` or ``"ids"``; ``metallic=0.0`` and ``roughness=0.5`` for
-      ``"pbr"`` (glTF's metallic-roughness BRDF) where a mesh has no materials; ``tone_map="none"`` (or ``"neutral"``,
-      ``"aces"``) and ``srgb=False`` (``True``: lit colours sRGB-encoded, as files and screens
-      expect); ``interpolation="perspective"`` (or ``"screen"``,
-      ``"flat"``); ``cull="back"`` (or ``"front"``, ``"none"``); ``msaa=1`` (or 4, 8);
+      ``"pbr"`` (glTF's metallic-roughness BRDF) where a mesh has no materials;
+      ``tone_map="none"`` (or ``"neutral"``, ``"aces"``) and ``srgb=False`` (``True``: lit
+      colours sRGB-encoded, as files and screens expect); ``interpolation="perspective"`` (or
+      ``"screen"``, ``"flat"``); ``cull=None`` (back faces, but not a double-sided material's;
+      ``"back"``, ``"front"`` or ``"none"``: every face as it says); ``msaa=1`` (or 4, 8);
       ``background=(r, g, b, a)`` 0..255.
     - ``points=PIXELS`` (the vertices as squares), ``wireframe=True`` (or ``"bresenham"``,
       ``"rectangle"``), ``wire_colour=(r, g, b, a)``, ``faces=False``; ``filter=``,

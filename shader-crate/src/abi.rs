@@ -1115,7 +1115,9 @@ pub struct AssembleParams {
     /// The mesh's first face in the frame's `FaceNormal`s (the placements' one after the
     /// other), under flat shading.
     pub first_face_normal: u32,
-    pub _pad: u32,
+    /// 1 where a double-sided surface's faces are kept whichever way they face
+    /// (`stages::assemble::Assembly::double_sided`).
+    pub double_sided: u32,
     /// Every face's surface where they do not name theirs.
     pub material: FaceMaterial,
 }

@@ -105,8 +105,10 @@ pub struct FrameArgs {
     /// Colour of pixels no triangle covers, RGBA, each 0..255.
     #[arg(long, value_name = "R,G,B,A", value_parser = numbers::<4>, default_value = "0,0,0,0")]
     background: [f64; 4],
-    #[arg(long, value_enum, default_value = "back")]
-    cull: CullArg,
+    /// Which faces are dropped by facing; by default back faces, but not those of a glTF
+    /// file's double-sided materials. Given, every face is culled as it says.
+    #[arg(long, value_enum)]
+    cull: Option<CullArg>,
     /// How pixels are coloured; by default pbr for a glTF file (its materials), else smooth.
     #[arg(long, value_enum)]
     shading: Option<ShadingArg>,
@@ -342,7 +344,7 @@ impl FrameArgs {
             lens: Lens::of(projection.map(value_name).as_deref(), fov, ortho).map_err(|e| e.to_string())?,
             up: up.map(|up| library(&UPS, up)),
             background,
-            cull: library(&CULLS, cull),
+            cull: cull.map(|c| library(&CULLS, c)),
             shading: shading.map(|s| library(&SHADINGS, s)),
             metallic,
             roughness,
@@ -413,8 +415,8 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
     if view.background != [0.0; 4] {
         flag("background", &[joined(&view.background)]);
     }
-    if view.cull != Cull::Back {
-        flag("cull", &[named(&CULLS, view.cull)]);
+    if let Some(cull) = view.cull {
+        flag("cull", &[named(&CULLS, cull)]);
     }
     if let Some(shading) = view.shading {
         flag("shading", &[named(&SHADINGS, shading)]);

@@ -128,8 +128,9 @@ pub struct ViewOptions {
     pub up: Option<Up>,
     /// RGBA of pixels no triangle covers, whole numbers 0..=255.
     pub background: [f64; 4],
-    /// Which faces are dropped by facing (a double-sided material's faces never are).
-    pub cull: Cull,
+    /// Which faces are dropped by facing; `None`: back faces, but not those of a double-sided
+    /// material (glTF's `doubleSided`). Given, every face is culled as it says.
+    pub cull: Option<Cull>,
     /// `None`: `Shading::Pbr` where the meshes have materials (a glTF file), else
     /// `Shading::Smooth` ([`Model::shading`]).
     pub shading: Option<Shading>,
@@ -170,7 +171,7 @@ impl Default for ViewOptions {
             lens: Lens::Perspective { fov_deg: 45.0 },
             up: None,
             background: [0.0; 4],
-            cull: Cull::Back,
+            cull: None,
             shading: None,
             metallic: 0.0,
             roughness: 0.5,
@@ -403,7 +404,8 @@ impl Model {
         (params.metallic, params.roughness, params.tone_map, params.srgb) = (view.metallic, view.roughness, view.tone_map, view.srgb);
         params.eye = viewer;
         params.background = view.background.map(|c| c as u8);
-        (params.cull, params.shading, params.interpolation) = (view.cull, self.shading(view), view.interpolation);
+        (params.cull, params.double_sided) = (view.cull.unwrap_or(Cull::Back), view.cull.is_none());
+        (params.shading, params.interpolation) = (self.shading(view), view.interpolation);
         // Blended materials blend where a frame can (one sample per pixel).
         params.blend = view.blend || (view.msaa <= 1 && self.blended);
         (params.count_fragments, params.count_tiles, params.return_depth) = (view.count_fragments, view.count_tiles, view.return_depth);

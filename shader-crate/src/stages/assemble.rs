@@ -44,6 +44,9 @@ pub struct Assembly {
     /// How far beyond its snapped box a triangle's samples reach, in snapped units (0 with one
     /// sample per pixel).
     pub reach: i64,
+    /// 1 where a double-sided surface's faces are kept whichever way they face; 0 where every
+    /// face is culled as `cull` says.
+    pub double_sided: u32,
 }
 
 /// The triangle reaches the rasteriser.
@@ -165,10 +168,11 @@ fn shown(material: FaceMaterial, t: &Snapped) -> FaceMaterial {
     FaceMaterial { flags: material.flags | if back { SHADING_BACK } else { 0 }, ..material }
 }
 
-/// The frame's assembly for a face of `material`: a double-sided one is never culled.
+/// The frame's assembly for a face of `material`: a double-sided one is never culled, where
+/// the frame keeps double-sided faces.
 #[inline]
 pub fn assembly_for(a: Assembly, material: &FaceMaterial) -> Assembly {
-    if material.flags & SHADING_DOUBLE_SIDED != 0 { Assembly { cull: CULL_NONE, ..a } } else { a }
+    if a.double_sided == 1 && material.flags & SHADING_DOUBLE_SIDED != 0 { Assembly { cull: CULL_NONE, ..a } } else { a }
 }
 
 /// Entry `k` (0, 1 or 2) of `v`, chosen rather than indexed: a private array indexed by a
@@ -236,6 +240,7 @@ pub fn assembly_of(p: &AssembleParams) -> Assembly {
         height: p.height,
         snap_bits: p.snap_bits,
         reach: p.reach as i64,
+        double_sided: p.double_sided,
     }
 }
 
@@ -548,7 +553,7 @@ mod tests {
     const UNIT: i64 = 256;
 
     fn frame(cull: u32, reach: i64) -> Assembly {
-        Assembly { cull, front_counter_clockwise: 1, width: 16, height: 16, snap_bits: 8, reach }
+        Assembly { cull, front_counter_clockwise: 1, width: 16, height: 16, snap_bits: 8, reach, double_sided: 1 }
     }
 
     /// Edge `k` (from corner `k` to the next) at the point `(px, py)`, positive inside.
@@ -640,6 +645,9 @@ mod tests {
             assert_eq!(shown.flags, SHADING_DOUBLE_SIDED | SHADING_BACK);
         }
         assert_eq!(snap_triangle(x, y, &assembly_for(frame(CULL_BACK, 0), &single)).dropped, DROPPED_BACK);
+        // A frame that culls every face as it says culls the double-sided one too.
+        let every = Assembly { double_sided: 0, ..frame(CULL_BACK, 0) };
+        assert_eq!(snap_triangle(x, y, &assembly_for(every, &double)).dropped, DROPPED_BACK);
         // A single-sided face kept with its back to the viewer is not marked: only a
         // double-sided surface turns its normal round.
         let t = snap_triangle(x, y, &assembly_for(frame(CULL_NONE, 0), &single));

@@ -379,7 +379,7 @@ impl<'a> MeshFaces<'a> {
             first_small: first.1,
             first_vertex: p.first_vertex as u32,
             first_face_normal: self.first_face_normal,
-            _pad: 0,
+            double_sided: a.double_sided,
         };
         let faces = bytemuck::cast_slice(&p.mesh.triangles);
         let (projected, attributes, face_normals, shade) = (self.projected, self.attributes, self.face_normals, self.shaded.lighting.params());

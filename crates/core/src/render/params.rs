@@ -269,7 +269,12 @@ pub struct RenderParams {
     /// ([`Eye::of`]: its centre of projection, or for an orthographic matrix its viewing
     /// direction).
     pub eye: Option<Eye>,
+    /// Which faces are dropped by facing: those whose material is double-sided only where
+    /// `double_sided` is false.
     pub cull: Cull,
+    /// Whether a double-sided material's faces are kept whichever way they face (true, as glTF
+    /// says), or culled as `cull` says like every other face.
+    pub double_sided: bool,
     pub front_face: FrontFace,
     pub shading: Shading,
     pub interpolation: Interpolation,
@@ -358,6 +363,7 @@ impl RenderParams {
             view_projection,
             eye: None,
             cull: Cull::Back,
+            double_sided: true,
             front_face: FrontFace::CounterClockwise,
             shading: Shading::Smooth,
             interpolation: Interpolation::Perspective,

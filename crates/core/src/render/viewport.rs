@@ -86,6 +86,7 @@ impl Target {
             height: grid.height,
             snap_bits: RENDER_SNAP_BITS,
             reach,
+            double_sided: u32::from(params.double_sided),
         };
         Target { assembly }
     }

@@ -29,7 +29,7 @@ _VIEW_OPTIONS = """
       frame (``fov`` is then the cylinder's height, 90, or the fisheye's width, 180);
       ``up="y"`` or ``"z"`` for the default camera (default: the format's; ``"y"`` for a
       ``Mesh``).
-    - ``shading=None`` (``"pbr"`` for a glTF file, whose materials it draws, else
+    - ``shading=None`` (``"pbr"`` for a file with materials, glTF or OBJ with MTL, else
       ``"smooth"``): ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"pbr"``,
       ``"depth"``, ``"normals"`` or ``"ids"``; ``metallic=0.0`` and ``roughness=0.5`` for
       ``"pbr"`` (glTF's metallic-roughness BRDF) where a mesh has no materials;

@@ -109,7 +109,8 @@ pub struct FrameArgs {
     /// file's double-sided materials. Given, every face is culled as it says.
     #[arg(long, value_enum)]
     cull: Option<CullArg>,
-    /// How pixels are coloured; by default pbr for a glTF file (its materials), else smooth.
+    /// How pixels are coloured; by default pbr for a file with materials (glTF, an OBJ with
+    /// an MTL file), else smooth.
     #[arg(long, value_enum)]
     shading: Option<ShadingArg>,
     /// How metallic the surface is, 0 (a dielectric) to 1, for --shading pbr.

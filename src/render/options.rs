@@ -131,8 +131,8 @@ pub struct ViewOptions {
     /// Which faces are dropped by facing; `None`: back faces, but not those of a double-sided
     /// material (glTF's `doubleSided`). Given, every face is culled as it says.
     pub cull: Option<Cull>,
-    /// `None`: `Shading::Pbr` where the meshes have materials (a glTF file), else
-    /// `Shading::Smooth` ([`Model::shading`]).
+    /// `None`: `Shading::Pbr` where the meshes have materials (a glTF file, an OBJ with an MTL
+    /// file), else `Shading::Smooth` ([`Model::shading`]).
     pub shading: Option<Shading>,
     /// The surface of `Shading::Pbr` where a mesh has no materials: how metallic, and its
     /// perceptual roughness, each 0..=1.

@@ -2,7 +2,7 @@ use crate::{IoError, write_atomically};
 use std::io::Write as _;
 use std::path::Path;
 use tileraster_core::Scene;
-use tileraster_core::render::{Mesh, NO_TEXTURE, Texture};
+use tileraster_core::render::{AlphaMode, Material, Mesh, NO_TEXTURE, Texture};
 
 /// Read a Wavefront OBJ mesh: `v x y z` vertices (world x, y and height z) and `f` faces
 /// (1-based or negative indices, `v/vt/vn` forms accepted; polygons are fanned into
@@ -140,12 +140,25 @@ pub fn parse_obj_mesh(
 ) -> Result<Mesh, IoError> {
     let err = |line: usize, message: String| IoError::Parse { path: path.to_owned(), line, message };
     let (mut positions, mut normals, mut uvs) = (Vec::<[f64; 3]>::new(), Vec::<[f32; 3]>::new(), Vec::<[f32; 2]>::new());
-    let mut colours: std::collections::HashMap<String, Material> = Default::default();
+    let mut colours: std::collections::HashMap<String, MtlMaterial> = Default::default();
     let mut material: Option<[f32; 4]> = None;
     // The current material's texture (an index into the mesh's), and the textures by path.
     let mut texture = NO_TEXTURE;
     let mut texture_of: std::collections::HashMap<String, u32> = Default::default();
     let mut face_textures = Vec::new();
+    // The current material (an index into the mesh's), the materials by name, and each face's.
+    let mut surface: Option<u32> = None;
+    let mut surface_of: std::collections::HashMap<String, u32> = Default::default();
+    let mut face_surfaces: Vec<Option<u32>> = Vec::new();
+    let mut texture_at = |file: &str, mesh: &mut Mesh| -> Result<u32, IoError> {
+        if let Some(&k) = texture_of.get(file) {
+            return Ok(k);
+        }
+        mesh.textures.push(images(file)?);
+        let k = mesh.textures.len() as u32 - 1;
+        texture_of.insert(file.to_owned(), k);
+        Ok(k)
+    };
     let mut corners: std::collections::HashMap<(u32, u32, u32, [u32; 4]), u32> = Default::default();
     let mut mesh = Mesh::default();
     let (mut out_normals, mut out_uvs, mut out_colours) = (Vec::new(), Vec::new(), Vec::new());
@@ -192,16 +205,18 @@ pub fn parse_obj_mesh(
                 any_colour = true;
                 texture = match &m.texture {
                     None => NO_TEXTURE,
-                    Some(file) => match texture_of.get(file) {
-                        Some(&k) => k,
-                        None => {
-                            mesh.textures.push(images(file)?);
-                            let k = mesh.textures.len() as u32 - 1;
-                            texture_of.insert(file.clone(), k);
-                            k
-                        }
-                    },
+                    Some(file) => texture_at(file, &mut mesh)?,
                 };
+                surface = Some(match surface_of.get(name) {
+                    Some(&k) => k,
+                    None => {
+                        let emissive_texture = m.emissive_texture.as_deref().map(|file| texture_at(file, &mut mesh)).transpose()?;
+                        mesh.materials.push(Material { emissive_texture, ..m.surface() });
+                        let k = mesh.materials.len() as u32 - 1;
+                        surface_of.insert(name.to_owned(), k);
+                        k
+                    }
+                });
             }
             Some("f") => {
                 let resolve = |w: &str, count: usize, what: &str| resolve_index(w, count, what).map_err(|m| err(line_no, m));
@@ -237,6 +252,7 @@ pub fn parse_obj_mesh(
                 }
                 mesh.triangles.extend((1..ids.len() - 1).map(|k| [ids[0], ids[k], ids[k + 1]]));
                 face_textures.resize(mesh.triangles.len(), texture);
+                face_surfaces.resize(mesh.triangles.len(), surface);
             }
             _ => {}
         }
@@ -251,6 +267,14 @@ pub fn parse_obj_mesh(
     mesh.uvs = any_uv.then_some(out_uvs);
     mesh.colours = any_colour.then_some(out_colours);
     mesh.face_textures = (!mesh.textures.is_empty()).then_some(face_textures);
+    // Faces before any `usemtl` take MTL's default surface.
+    if !mesh.materials.is_empty() {
+        let default = mesh.materials.len() as u32;
+        if face_surfaces.iter().any(Option::is_none) {
+            mesh.materials.push(MtlMaterial::default().surface());
+        }
+        mesh.face_materials = Some(face_surfaces.iter().map(|s| s.unwrap_or(default)).collect());
+    }
     Ok(mesh)
 }
 
@@ -264,15 +288,51 @@ fn local_path(folder: &Path, name: &str) -> std::path::PathBuf {
     folder.join(name.replace('\\', "/"))
 }
 
-/// An MTL material: its diffuse colour and texture (a path from the OBJ's folder).
-struct Material {
+/// An MTL material: its diffuse colour (`Kd`, with `d` or `1 − Tr` as alpha) and texture
+/// (`map_Kd`, a path from the OBJ's folder), its specular colour (`Ks`) and exponent (`Ns`),
+/// its emission (`Ke`, `map_Ke`).
+struct MtlMaterial {
     colour: [f32; 4],
     texture: Option<String>,
+    specular: [f32; 3],
+    shininess: f32,
+    emissive: [f32; 3],
+    emissive_texture: Option<String>,
 }
 
-/// The diffuse colours of an MTL file's materials: `Kd r g b`, and `d` (dissolve) as alpha;
-/// and their diffuse textures (`map_Kd`, its last word the file, from the MTL's `folder`).
-fn parse_mtl(text: &str, folder: &Path, colours: &mut std::collections::HashMap<String, Material>) {
+impl Default for MtlMaterial {
+    fn default() -> MtlMaterial {
+        MtlMaterial { colour: [0.8, 0.8, 0.8, 1.0], texture: None, specular: [0.0; 3], shininess: 0.0, emissive: [0.0; 3], emissive_texture: None }
+    }
+}
+
+impl MtlMaterial {
+    /// Its metallic-roughness surface as the common converters (obj2gltf) map Blinn-Phong:
+    /// not metallic; roughness `1 − Ns/1000` clamped to `[0, 1]`, and times `1 − I` where the
+    /// specular colour's luminance `I` is below 0.1 (a dim highlight is a rough surface); a
+    /// dissolved one (alpha below 1) blended and double-sided; its emission.
+    fn surface(&self) -> Material {
+        let [r, g, b] = self.specular;
+        let intensity = 0.2125 * r + 0.7154 * g + 0.0721 * b;
+        let mut roughness = (1.0 - self.shininess / 1000.0).clamp(0.0, 1.0);
+        if intensity < 0.1 {
+            roughness *= 1.0 - intensity.max(0.0);
+        }
+        let dissolved = self.colour[3] < 1.0;
+        Material {
+            metallic: 0.0,
+            roughness,
+            double_sided: dissolved,
+            alpha: if dissolved { AlphaMode::Blend } else { AlphaMode::Opaque },
+            emissive: self.emissive.map(|e| e.max(0.0)),
+            ..Material::PLAIN
+        }
+    }
+}
+
+/// An MTL file's materials ([`MtlMaterial`]), textures from the MTL's `folder` (the last word
+/// of `map_Kd` and `map_Ke`).
+fn parse_mtl(text: &str, folder: &Path, colours: &mut std::collections::HashMap<String, MtlMaterial>) {
     let mut current: Option<String> = None;
     for raw in text.lines() {
         let mut words = raw.split('#').next().unwrap_or("").split_whitespace();
@@ -280,7 +340,7 @@ fn parse_mtl(text: &str, folder: &Path, colours: &mut std::collections::HashMap<
         match words.next() {
             Some("newmtl") => {
                 let name = words.next().unwrap_or("").to_string();
-                colours.insert(name.clone(), Material { colour: [0.8, 0.8, 0.8, 1.0], texture: None });
+                colours.insert(name.clone(), MtlMaterial::default());
                 current = Some(name);
             }
             Some("Kd") => {
@@ -291,7 +351,28 @@ fn parse_mtl(text: &str, folder: &Path, colours: &mut std::collections::HashMap<
             }
             Some("d") => {
                 if let (Some(name), Some(a)) = (&current, number(words.next())) {
-                    colours.get_mut(name).expect("inserted at newmtl").colour[3] = a;
+                    colours.get_mut(name).expect("inserted at newmtl").colour[3] = a.clamp(0.0, 1.0);
+                }
+            }
+            Some("Tr") => {
+                if let (Some(name), Some(t)) = (&current, number(words.next())) {
+                    colours.get_mut(name).expect("inserted at newmtl").colour[3] = (1.0 - t).clamp(0.0, 1.0);
+                }
+            }
+            Some(key @ ("Ks" | "Ke")) => {
+                if let (Some(name), Some(r), Some(g), Some(b)) = (&current, number(words.next()), number(words.next()), number(words.next())) {
+                    let m = colours.get_mut(name).expect("inserted at newmtl");
+                    *(if key == "Ks" { &mut m.specular } else { &mut m.emissive }) = [r, g, b];
+                }
+            }
+            Some("Ns") => {
+                if let (Some(name), Some(n)) = (&current, number(words.next())) {
+                    colours.get_mut(name).expect("inserted at newmtl").shininess = n;
+                }
+            }
+            Some("map_Ke") => {
+                if let (Some(name), Some(file)) = (&current, words.last()) {
+                    colours.get_mut(name).expect("inserted at newmtl").emissive_texture = Some(folder.join(file).to_string_lossy().into_owned());
                 }
             }
             Some("map_Kd") => {
@@ -341,6 +422,29 @@ mod tests {
         let e =
             parse_obj_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//2 2 3\n", Path::new("m.obj"), &|_| unreachable!(), &|_| unreachable!()).unwrap_err().to_string();
         assert!(e.starts_with("m.obj:4:") && e.contains("normal index 2 is out of range"), "{e}");
+    }
+
+    /// MTL's Blinn-Phong materials as metallic-roughness ones, as obj2gltf maps them: `Ns` and
+    /// `Ks` to roughness, `d` (or `Tr`) below 1 blended and double-sided, `Ke` and `map_Ke` to
+    /// emission; each face its `usemtl`'s, the faces before any the default material's.
+    #[test]
+    fn mtl_materials_map_to_metallic_roughness() {
+        let mtl = "newmtl shiny\nKs 1 1 1\nNs 250\nnewmtl dim\nKs 0.05 0.05 0.05\nNs 500\nTr 0.25\nKe 0.5 0.25 0\nmap_Ke glow.png\n";
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nusemtl shiny\nf 1 3 4\nusemtl dim\nf 1 2 4\nusemtl shiny\nf 2 3 4\n";
+        let texture = Texture::srgb(1, 1, vec![255; 4]);
+        let mesh = parse_obj_mesh(obj, Path::new("m.obj"), &|_| Ok(mtl.to_string()), &|file| {
+            assert_eq!(file, "glow.png");
+            Ok(texture.clone())
+        })
+        .unwrap();
+        let [shiny, dim, default] = [&mesh.materials[0], &mesh.materials[1], &mesh.materials[2]];
+        assert_eq!((shiny.metallic, shiny.roughness, shiny.alpha, shiny.double_sided), (0.0, 0.75, AlphaMode::Opaque, false));
+        // A dim highlight roughens: (1 − 0.5)·(1 − 0.05).
+        assert!((dim.roughness - 0.5 * 0.95).abs() < 1e-6, "{}", dim.roughness);
+        assert_eq!((dim.alpha, dim.double_sided, dim.emissive, dim.emissive_texture), (AlphaMode::Blend, true, [0.5, 0.25, 0.0], Some(0)));
+        assert_eq!((default.roughness, default.alpha), (1.0, AlphaMode::Opaque));
+        assert_eq!(mesh.face_materials, Some(vec![2, 0, 1, 0]));
+        assert_eq!(mesh.colours.as_ref().unwrap()[mesh.triangles[2][0] as usize][3], 0.75, "1 − Tr as the colour's alpha");
     }
 
     /// `map_Kd` textures: loaded once per file, from the MTL's folder, each face taking its

@@ -1346,4 +1346,9 @@ fn the_readmes_materials_frame_is_the_same_on_both_backends() {
     }
     assert_eq!(checksums[0]["colour"], "688ec3ad", "the README's figure");
     assert!(checksums.iter().all(|c| *c == checksums[0]), "{checksums:?}");
+    // The frame's surface is for meshes without materials: given for this file, it is refused.
+    let out = bin().args(["render", glb.to_str().unwrap(), "-o", dir.join("no.png").to_str().unwrap(), "--metallic", "0.5", "-q"]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("--metallic: the file's materials give each surface its own factors"), "{stderr}");
+    assert!(!dir.join("no.png").exists(), "no partial output");
 }

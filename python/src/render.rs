@@ -113,7 +113,7 @@ fn choice<T: Copy>(what: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T>
 impl View {
     #[new]
     #[pyo3(signature = (*, size = None, camera = None, mvp = None, camera_node = None, fov = None, ortho = None, up = None, background = [0.0; 4],
-        cull = None, shading = None, metallic = 0.0, roughness = 0.5, tone_map = "none", srgb = false, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
+        cull = None, shading = None, metallic = None, roughness = None, tone_map = "none", srgb = false, interpolation = "perspective", points = None, faces = true, wireframe = None, wire_colour = None, msaa = 1,
         filter = None, address = None, blend = false, no_skip = Vec::new(), count_fragments = false, projection = None, jitter = 1, backend = "auto"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -127,8 +127,8 @@ impl View {
         background: [f64; 4],
         cull: Option<&str>,
         shading: Option<&str>,
-        metallic: f64,
-        roughness: f64,
+        metallic: Option<f64>,
+        roughness: Option<f64>,
         tone_map: &str,
         srgb: bool,
         interpolation: &str,

@@ -31,8 +31,9 @@ _VIEW_OPTIONS = """
       ``Mesh``).
     - ``shading=None`` (``"pbr"`` for a file with materials, glTF or OBJ with MTL, else
       ``"smooth"``): ``"unlit"``, ``"flat"``, ``"smooth"``, ``"phong"``, ``"pbr"``,
-      ``"depth"``, ``"normals"`` or ``"ids"``; ``metallic=0.0`` and ``roughness=0.5`` for
-      ``"pbr"`` (glTF's metallic-roughness BRDF) where a mesh has no materials;
+      ``"depth"``, ``"normals"`` or ``"ids"``; ``metallic=None`` (0) and ``roughness=None``
+      (0.5) for ``"pbr"`` (glTF's metallic-roughness BRDF) where the meshes have no materials
+      (refused for a file whose materials give their own);
       ``tone_map="none"`` (or ``"neutral"``, ``"aces"``) and ``srgb=False`` (``True``: lit
       colours sRGB-encoded, as files and screens expect); ``interpolation="perspective"`` (or
       ``"screen"``, ``"flat"``); ``cull=None`` (back faces, but not a double-sided material's;

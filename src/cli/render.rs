@@ -113,12 +113,14 @@ pub struct FrameArgs {
     /// an MTL file), else smooth.
     #[arg(long, value_enum)]
     shading: Option<ShadingArg>,
-    /// How metallic the surface is, 0 (a dielectric) to 1, for --shading pbr.
-    #[arg(long, value_name = "FACTOR", default_value_t = 0.0)]
-    metallic: f64,
-    /// The surface's perceptual roughness, 0 (a mirror; shaded as 0.045) to 1, for --shading pbr.
-    #[arg(long, value_name = "FACTOR", default_value_t = 0.5)]
-    roughness: f64,
+    /// How metallic the surface of a mesh without materials is, 0 (a dielectric; the default)
+    /// to 1, for --shading pbr.
+    #[arg(long, value_name = "FACTOR")]
+    metallic: Option<f64>,
+    /// The perceptual roughness of a mesh without materials, 0 (a mirror; shaded as 0.045) to 1
+    /// (0.5 by default), for --shading pbr.
+    #[arg(long, value_name = "FACTOR")]
+    roughness: Option<f64>,
     /// Bring lit colours into range so: clamped (none), Khronos PBR Neutral, or ACES.
     #[arg(long, value_enum, default_value = "none")]
     tone_map: ToneMapArg,
@@ -422,11 +424,11 @@ pub fn command_line(input: &Path, output: &str, instances: Option<&Path>, model:
     if let Some(shading) = view.shading {
         flag("shading", &[named(&SHADINGS, shading)]);
     }
-    if view.metallic != 0.0 {
-        flag("metallic", &[view.metallic.to_string()]);
+    if let Some(metallic) = view.metallic {
+        flag("metallic", &[metallic.to_string()]);
     }
-    if view.roughness != 0.5 {
-        flag("roughness", &[view.roughness.to_string()]);
+    if let Some(roughness) = view.roughness {
+        flag("roughness", &[roughness.to_string()]);
     }
     if view.tone_map != ToneMap::None {
         flag("tone-map", &[named(&TONE_MAPS, view.tone_map)]);

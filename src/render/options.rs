@@ -134,10 +134,11 @@ pub struct ViewOptions {
     /// `None`: `Shading::Pbr` where the meshes have materials (a glTF file, an OBJ with an MTL
     /// file), else `Shading::Smooth` ([`Model::shading`]).
     pub shading: Option<Shading>,
-    /// The surface of `Shading::Pbr` where a mesh has no materials: how metallic, and its
-    /// perceptual roughness, each 0..=1.
-    pub metallic: f64,
-    pub roughness: f64,
+    /// The surface of `Shading::Pbr` where the meshes have no materials: how metallic (`None`:
+    /// 0), and its perceptual roughness (`None`: 0.5), each 0..=1. Refused for meshes with
+    /// materials, which give their own.
+    pub metallic: Option<f64>,
+    pub roughness: Option<f64>,
     /// The tone map of lit colours, and whether they are stored sRGB-encoded.
     pub tone_map: ToneMap,
     pub srgb: bool,
@@ -173,8 +174,8 @@ impl Default for ViewOptions {
             background: [0.0; 4],
             cull: None,
             shading: None,
-            metallic: 0.0,
-            roughness: 0.5,
+            metallic: None,
+            roughness: None,
             tone_map: ToneMap::None,
             srgb: false,
             interpolation: Interpolation::Perspective,
@@ -395,13 +396,21 @@ impl Model {
             }
         }
         for (option, value) in [("metallic", view.metallic), ("roughness", view.roughness)] {
-            if !(0.0..=1.0).contains(&value) {
-                return Err(option_error(option, format!("{value} is not a number from 0 to 1")));
+            match value {
+                Some(value) if !(0.0..=1.0).contains(&value) => return Err(option_error(option, format!("{value} is not a number from 0 to 1"))),
+                Some(_) if self.materials => {
+                    return Err(option_error(
+                        option,
+                        "the file's materials give each surface its own factors; this sets the surface of a mesh without materials",
+                    ));
+                }
+                _ => {}
             }
         }
         let mut params = RenderParams::new(width, height, view_projection);
         params.model = self.model;
-        (params.metallic, params.roughness, params.tone_map, params.srgb) = (view.metallic, view.roughness, view.tone_map, view.srgb);
+        (params.metallic, params.roughness) = (view.metallic.unwrap_or(params.metallic), view.roughness.unwrap_or(params.roughness));
+        (params.tone_map, params.srgb) = (view.tone_map, view.srgb);
         params.eye = viewer;
         params.background = view.background.map(|c| c as u8);
         (params.cull, params.double_sided) = (view.cull.unwrap_or(Cull::Back), view.cull.is_none());

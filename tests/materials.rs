@@ -274,6 +274,25 @@ fn clipped_faces_and_instances_take_their_materials() {
     assert_eq!(flat.face_materials.as_ref().unwrap()[terrain.triangles.len()..], terrain.face_materials.as_ref().unwrap()[..]);
 }
 
+/// A flattened world's materials name their textures in the flattened mesh's list: each mesh's
+/// textures follow the meshes' before it.
+#[test]
+fn a_flattened_worlds_materials_keep_their_textures() {
+    use tileraster::render::{IDENTITY, Instance, Texture};
+    let textured = |value: u8| Mesh {
+        textures: vec![Texture::srgb(1, 1, vec![value; 4])],
+        face_textures: Some(vec![tileraster::render::NO_TEXTURE; 2]),
+        ..with_material(square(true), Material { emissive: [1.0; 3], emissive_texture: Some(0), ..Material::PLAIN })
+    };
+    let world = World {
+        meshes: vec![textured(10), textured(200)],
+        instances: vec![Instance { mesh: 0, transform: IDENTITY }, Instance { mesh: 1, transform: IDENTITY }],
+    };
+    let flat = world.flattened().unwrap();
+    assert_eq!(flat.materials.iter().map(|m| m.emissive_texture).collect::<Vec<_>>(), vec![Some(0), Some(1)]);
+    assert_eq!(flat.textures[1].rgba[0], 200);
+}
+
 /// Bad materials are typed errors naming the material or the face.
 #[test]
 fn bad_materials_are_typed_errors() {

@@ -118,7 +118,49 @@ pub fn read_gltf_world(path: &Path, time: Option<f64>) -> Result<World, IoError>
     if world.instances.is_empty() {
         return Err(format("the file has no triangles in its scene".into()));
     }
-    Ok(world)
+    Ok(blended_last(world))
+}
+
+/// `world` with every blended face drawn after every other one, as `read_gltf` orders them: a
+/// mesh with both is cut in two (its blended faces, which `Parts::into_mesh` put last, a mesh
+/// of their own), and the instances of blended meshes follow the rest, each in file order.
+fn blended_last(world: World) -> World {
+    let mut out = World::default();
+    // Each mesh's opaque and blended parts in `out`.
+    let mut parts: Vec<[Option<u32>; 2]> = Vec::with_capacity(world.meshes.len());
+    let push = |mesh: Mesh, out: &mut World| {
+        out.meshes.push(mesh);
+        Some(out.meshes.len() as u32 - 1)
+    };
+    for mut mesh in world.meshes {
+        let blended = |f: usize| mesh.materials.get(mesh.face_materials.as_ref().map_or(0, |m| m[f] as usize)).is_some_and(|m| m.alpha == AlphaMode::Blend);
+        let first = (0..mesh.triangles.len()).find(|&f| blended(f)).unwrap_or(mesh.triangles.len());
+        parts.push(match first {
+            0 => [None, push(mesh, &mut out)],
+            k if k == mesh.triangles.len() => [push(mesh, &mut out), None],
+            k => {
+                let tail = |v: &Option<Vec<u32>>| v.as_ref().map(|v| v[k..].to_vec());
+                let glass = Mesh {
+                    triangles: mesh.triangles[k..].to_vec(),
+                    face_textures: tail(&mesh.face_textures),
+                    face_materials: tail(&mesh.face_materials),
+                    ..mesh.clone()
+                };
+                mesh.triangles.truncate(k);
+                mesh.face_textures.iter_mut().for_each(|v| v.truncate(k));
+                mesh.face_materials.iter_mut().for_each(|v| v.truncate(k));
+                [push(mesh, &mut out), push(glass, &mut out)]
+            }
+        });
+    }
+    for part in 0..2 {
+        for instance in &world.instances {
+            if let Some(mesh) = parts[instance.mesh as usize][part] {
+                out.instances.push(Instance { mesh, transform: instance.transform });
+            }
+        }
+    }
+    out
 }
 
 /// The file's pose at `time`, or at rest.
@@ -325,9 +367,10 @@ impl Parts {
             self.triangles = order.iter().map(|&f| self.triangles[f]).collect();
         }
         let vertex_count = self.positions.len();
-        let textured = self.face_textures.iter().any(|&t| t != NO_TEXTURE);
+        // Named whenever there are textures: some may not be base colours (a face without a
+        // base-colour texture would otherwise take texture 0).
         Some(Mesh {
-            face_textures: textured.then_some(self.face_textures),
+            face_textures: (!self.textures.is_empty()).then_some(self.face_textures),
             textures: self.textures,
             face_materials: (self.materials.len() > 1).then_some(self.face_materials),
             materials: self.materials,
@@ -836,10 +879,36 @@ pub(crate) mod tests {
         // The root's primitive (blended) is drawn after its child's.
         assert_eq!(mesh.triangles, vec![[4, 5, 6], [4, 6, 7], [0, 1, 2], [0, 2, 3]]);
         assert_eq!(mesh.face_materials, Some(vec![1, 1, 0, 0]));
+        // As a world too: the blended mesh's instance after the other's.
+        let world = read_gltf_world(&dir.join("materials.glb"), None).unwrap();
+        let blends = |i: &Instance| world.meshes[i.mesh as usize].materials.iter().all(|m| m.alpha == AlphaMode::Blend);
+        assert_eq!(world.instances.iter().map(blends).collect::<Vec<_>>(), vec![false, true]);
         let bad = doc.replace(r#""metallicFactor": 0.25"#, r#""metallicFactor": 1.5"#);
         std::fs::write(dir.join("bad.glb"), glb(&bad, &quad_buffer())).unwrap();
         let message = read_gltf(&dir.join("bad.glb"), None).unwrap_err().to_string();
         assert!(message.contains("material 1's metallicFactor is 1.5, outside [0, 1]"), "{message}");
+    }
+
+    /// A world's mesh with blended faces (last, as `Parts::into_mesh` leaves them) is cut in two,
+    /// and every instance of a blended part follows every other instance.
+    #[test]
+    fn a_worlds_blended_faces_are_drawn_last() {
+        let glass = Material { alpha: AlphaMode::Blend, ..Material::PLAIN };
+        let mesh = Mesh {
+            positions: vec![[0.0; 3]; 3],
+            triangles: vec![[0, 1, 2]; 4],
+            materials: vec![Material::default(), glass],
+            face_materials: Some(vec![0, 0, 1, 1]),
+            face_textures: Some(vec![NO_TEXTURE, 0, 1, 2]),
+            ..Default::default()
+        };
+        let moved = |x: f64| [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+        let world = blended_last(World::instanced(mesh, &[moved(1.0), moved(2.0)]));
+        assert_eq!(world.meshes.len(), 2);
+        assert_eq!((world.meshes[0].face_materials.clone(), world.meshes[0].face_textures.clone()), (Some(vec![0, 0]), Some(vec![NO_TEXTURE, 0])));
+        assert_eq!((world.meshes[1].face_materials.clone(), world.meshes[1].face_textures.clone()), (Some(vec![1, 1]), Some(vec![1, 2])));
+        let order: Vec<(u32, f64)> = world.instances.iter().map(|i| (i.mesh, i.transform[0][3])).collect();
+        assert_eq!(order, vec![(0, 1.0), (0, 2.0), (1, 1.0), (1, 2.0)]);
     }
 
     /// As a world, each mesh is read once in its own coordinates and each node places one:

@@ -104,7 +104,13 @@ impl World {
         let mut first_material = vec![0u32; self.meshes.len()];
         for (k, mesh) in self.meshes.iter().enumerate().filter(|(k, _)| placed[*k] && with_materials) {
             first_material[k] = out.materials.len() as u32;
-            out.materials.extend(if mesh.materials.is_empty() { &[Material::PLAIN][..] } else { &mesh.materials[..] });
+            let moved = |t: Option<u32>| t.map(|t| first_texture[k] + t);
+            out.materials.extend(if mesh.materials.is_empty() { &[Material::PLAIN][..] } else { &mesh.materials[..] }.iter().map(|m| Material {
+                metallic_roughness_texture: moved(m.metallic_roughness_texture),
+                occlusion_texture: moved(m.occlusion_texture),
+                emissive_texture: moved(m.emissive_texture),
+                ..*m
+            }));
         }
         let mut face_materials = Vec::new();
         let any = |f: fn(&Mesh) -> bool| self.instances.iter().any(|i| f(&self.meshes[i.mesh as usize]));

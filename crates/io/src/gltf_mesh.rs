@@ -153,13 +153,9 @@ fn blended_last(world: World) -> World {
             }
         });
     }
-    for part in 0..2 {
-        for instance in &world.instances {
-            if let Some(mesh) = parts[instance.mesh as usize][part] {
-                out.instances.push(Instance { mesh, transform: instance.transform });
-            }
-        }
-    }
+    let parts = &parts;
+    let placed = |part: usize| world.instances.iter().filter_map(move |i| parts[i.mesh as usize][part].map(|mesh| Instance { mesh, transform: i.transform }));
+    out.instances = placed(0).chain(placed(1)).collect();
     out
 }
 

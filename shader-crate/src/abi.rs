@@ -698,6 +698,14 @@ impl FaceMaterial {
     pub const fn plain(texture: u32, flags: u32) -> FaceMaterial {
         FaceMaterial { texture, flags, material: 0, _pad: 0 }
     }
+
+    /// A mesh's face surface in the frame: its texture and material indices after the mesh's
+    /// first texture and material (no texture stays none).
+    #[inline]
+    pub fn placed(self, first_texture: u32, first_material: u32) -> FaceMaterial {
+        let texture = if self.texture == NO_TEXTURE { NO_TEXTURE } else { first_texture + self.texture };
+        FaceMaterial { texture, material: first_material + self.material, ..self }
+    }
 }
 
 /// One material of a frame as the shade stage reads it (`Materials`: the frame's own surface

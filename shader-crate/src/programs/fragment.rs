@@ -16,7 +16,7 @@
 //! whose bits differ between devices.
 
 use crate::abi::{ATTR_NORMAL, ATTR_POSITION, ATTR_UV, MaterialRecord, ShadeParams, TextureInfo, TriangleSetup, TriangleShading};
-use crate::programs::shade::{base_colour, colour_at, facing_normal, fragment_colour, interpolate, interpolate3, normalise, rgba8, weights};
+use crate::programs::shade::{colour_at, facing_normal, fragment_colour, interpolate, interpolate3, normalise, rgba8, surface_at, weights};
 
 /// How the shade stage colours a fragment: triangle `(s, t)` at pixel `(i, j)`, of depth
 /// `depth_bits`, as RGBA8 (red in the low byte). `face` is `t.face` as the backend keeps it
@@ -111,17 +111,18 @@ impl Fragment {
         j: i32,
     ) -> Fragment {
         let b = weights(s, t, params, i, j);
+        let material = materials[t.material.material as usize];
         Fragment {
             pixel: [i, j],
             depth: f32::from_bits(depth_bits),
             face,
             flags: t.material.flags,
-            material: materials[t.material.material as usize],
+            material,
             position: interpolate3(t, &b, ATTR_POSITION),
             normal: facing_normal(t.material.flags, normalise(interpolate3(t, &b, ATTR_NORMAL))),
             colour: colour_at(t, &b),
             uv: [interpolate(t, &b, ATTR_UV), interpolate(t, &b, ATTR_UV + 1)],
-            base: base_colour(params, s, t, textures, texels, &b, i, j),
+            base: surface_at(params, s, t, &material, textures, texels, &b, false, i, j).base,
         }
     }
 }

@@ -106,7 +106,7 @@ pub fn normalise(v: [f32; 3]) -> [f32; 3] {
 
 /// `[f(v₀), f(v₁), f(v₂)]` with one copy of `f`: a loop over named components (a driver
 /// reads each inlined copy of a body; and a CPU implementation of Vulkan keeps an array indexed
-/// by the loop in memory and reaches it one lane at a time, see `base_colour`).
+/// by the loop in memory and reaches it one lane at a time, see `sampled`).
 #[inline]
 pub(crate) fn per_component(v: [f32; 3], f: impl Fn(f32) -> f32) -> [f32; 3] {
     let (mut x, mut y, mut z) = (0.0, 0.0, 0.0);
@@ -299,26 +299,6 @@ pub fn shade_pixel<P: FragmentProgram + ?Sized, R: ShadingRecords + ?Sized>(
 fn uv_at(s: &TriangleSetup, t: &TriangleShading, params: &ShadeParams, i: i32, j: i32) -> [f32; 2] {
     let b = weights(s, t, params, i, j);
     [interpolate(t, &b, ATTR_UV), interpolate(t, &b, ATTR_UV + 1)]
-}
-
-/// The fragment's base colour: the interpolated vertex colour, times the triangle's texture
-/// sampled at the interpolated coordinates where it has one ([`sampled`]).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn base_colour(
-    params: &ShadeParams,
-    s: &TriangleSetup,
-    t: &TriangleShading,
-    textures: &[TextureInfo],
-    texels: &[u64],
-    b: &[f32; 3],
-    i: i32,
-    j: i32,
-) -> [f32; 4] {
-    let colour = colour_at(t, b);
-    let uv = [interpolate(t, b, ATTR_UV), interpolate(t, b, ATTR_UV + 1)];
-    let c = sampled(params, s, t, textures, texels, t.material.texture, uv, &mut Quad::default(), i, j);
-    [colour[0] * c[0], colour[1] * c[1], colour[2] * c[2], colour[3] * c[3]]
 }
 
 /// A fragment's surface as its material and textures give it (glTF's metallic-roughness

@@ -8,8 +8,8 @@
 //! differences stay below `2^29` and the doubled area below `2^59`.
 
 use crate::abi::{
-    ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, FloatCoeffs, NO_TEXTURE, PixelRect, ProjectedVertex,
-    SHADING_BACK, SHADING_DOUBLE_SIDED, ShadeParams,
+    ATTR_COLOUR, ATTR_NORMAL, ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, FloatCoeffs, PixelRect, ProjectedVertex, SHADING_BACK,
+    SHADING_DOUBLE_SIDED, ShadeParams,
 };
 use crate::abi::{LIGHT_FACES, LIGHT_VERTICES};
 use crate::abi::{TriangleInput, TriangleShading};
@@ -542,13 +542,13 @@ pub fn face_material(p: &AssembleParams, materials: &[FaceMaterial], f: u32) -> 
     if p.face_materials == 0 {
         return p.material;
     }
-    let m = materials[f as usize];
-    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + m.texture }, material: p.first_material + m.material, ..m }
+    materials[f as usize].placed(p.first_texture, p.first_material)
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]
 mod tests {
     use super::*;
+    use crate::abi::NO_TEXTURE;
 
     const UNIT: i64 = 256;
 

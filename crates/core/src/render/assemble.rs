@@ -21,7 +21,6 @@ use super::vertex::{GeometryKernels, PoseKey, Posing};
 use super::viewport::{Target, Viewport};
 use crate::Error;
 use rayon::prelude::*;
-use tileraster_kernels::abi::NO_TEXTURE;
 use tileraster_kernels::abi::{
     ATTRIBUTES, AssembleParams, AssemblyPatch, FaceMaterial, FaceNormal, ProjectedVertex, ShadeParams, TriangleInput, TriangleShading,
 };
@@ -366,11 +365,7 @@ impl<'a> MeshFaces<'a> {
             face_materials: u32::from(self.material.is_none()),
             first_texture: p.first_texture,
             first_material: p.first_material,
-            material: self.material.map_or(FaceMaterial::default(), |m| FaceMaterial {
-                texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { p.first_texture + m.texture },
-                material: p.first_material + m.material,
-                ..m
-            }),
+            material: self.material.map_or(FaceMaterial::default(), |m| m.placed(p.first_texture, p.first_material)),
             split_small: u32::from(split_small),
             patches: 0,
             groups: faces.div_ceil(FACE_GROUP),

@@ -413,10 +413,11 @@ pub(crate) fn prepare_instances_in(
                     if !attributes.face_normals.is_empty() {
                         first_face_normal += p.mesh.triangles.len() as u32;
                     }
+                    let material = mesh_material(p.mesh);
                     MeshFaces {
                         placement: p,
-                        material: mesh_material(p.mesh),
-                        face_materials: match mesh_material(p.mesh) {
+                        material,
+                        face_materials: match material {
                             Some(_) => Vec::new(),
                             None => (0..p.mesh.triangles.len()).map(|k| mesh_face_material(p.mesh, k)).collect(),
                         },
@@ -679,8 +680,7 @@ fn mesh_face_material(mesh: &Mesh, k: usize) -> FaceMaterial {
 /// Face `k`'s surface, its texture and material the frame's (its mesh's start at
 /// `first_texture` and `first_material`).
 fn face_material(mesh: &Mesh, k: usize, first_texture: u32, first_material: u32) -> FaceMaterial {
-    let m = mesh_face_material(mesh, k);
-    FaceMaterial { texture: if m.texture == NO_TEXTURE { NO_TEXTURE } else { first_texture + m.texture }, material: first_material + m.material, ..m }
+    mesh_face_material(mesh, k).placed(first_texture, first_material)
 }
 
 /// The surface of every face of `mesh` where they are alike (`None` where each face needs its

@@ -338,7 +338,14 @@ pub fn surface_at(
     // The textures in one loop, so that the stage holds one copy of the filter (named values,
     // not an array indexed by the loop: see `per_component`).
     let (mut base, mut metal_rough, mut occlusion, mut emission) = ([1.0f32; 4], [1.0f32; 4], [1.0f32; 4], [1.0f32; 4]);
-    let textures_read = if lights { 4 } else { 1 };
+    // (A frame without textures reads none: every sample would be white.)
+    let textures_read = if params.textured == 0 {
+        0
+    } else if lights {
+        4
+    } else {
+        1
+    };
     let mut k = 0;
     while k < textures_read {
         let texture = match k {
